@@ -1,0 +1,100 @@
+"""The nine aerodynamic coefficients of the rolling airframe (paper, section 1).
+
+The estimated vector is always ordered ``Cx, Cza, Czd, Czq, Cl0, Clp, Cma, Cmd, Cmq``.
+The lateral (y, yaw) coefficients are not estimated: the cruciform symmetry of
+eq. 1 ties them to the pitch-plane ones (:func:`lateral_from_pitch`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+#: Coefficient names, in the order of every coefficient vector in aeroid.
+NAMES: tuple[str, ...] = ("Cx", "Cza", "Czd", "Czq", "Cl0", "Clp", "Cma", "Cmd", "Cmq")
+CX, CZA, CZD, CZQ, CL0, CLP, CMA, CMD, CMQ = range(9)
+N_COEFFICIENTS = len(NAMES)
+
+#: Nominal values of the paper (section 4) and of the reference scenario.
+NOMINAL: dict[str, float] = {
+    "Cx": -0.98,
+    "Cza": -11.8,
+    "Czd": -1.27,
+    "Czq": -172.0,
+    "Cl0": 0.041,
+    "Clp": -5.13,
+    "Cma": -33.8,
+    "Cmd": -20.9,
+    "Cmq": -2227.0,
+}
+
+#: Labels for tables and figures (matplotlib mathtext).
+LABELS: dict[str, str] = {
+    "Cx": r"$C_x$",
+    "Cza": r"$C_{z\alpha}$",
+    "Czd": r"$C_{z\delta}$",
+    "Czq": r"$C_{zq}$",
+    "Cl0": r"$C_{l0}$",
+    "Clp": r"$C_{lp}$",
+    "Cma": r"$C_{m\alpha}$",
+    "Cmd": r"$C_{m\delta}$",
+    "Cmq": r"$C_{mq}$",
+}
+
+
+def nominal() -> np.ndarray:
+    """Return the nominal coefficient vector, shape (9,)."""
+    return np.array([NOMINAL[n] for n in NAMES])
+
+
+def as_vector(coefficients: Mapping[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
+    """Return coefficients as a float vector of shape (..., 9) in :data:`NAMES` order.
+
+    Parameters
+    ----------
+    coefficients : mapping or array_like
+        A mapping with exactly the nine names, or an array whose last axis has length 9.
+
+    Raises
+    ------
+    ValueError
+        If a name is missing or unknown, or the last axis is not of length 9.
+    """
+    if isinstance(coefficients, Mapping):
+        unknown = sorted(set(coefficients) - set(NAMES))
+        missing = [n for n in NAMES if n not in coefficients]
+        if unknown or missing:
+            raise ValueError(
+                f"coefficients: missing {missing or 'none'}, unknown {unknown or 'none'}; "
+                f"expected {', '.join(NAMES)}"
+            )
+        return np.array([float(coefficients[n]) for n in NAMES])
+    array = np.asarray(coefficients, dtype=float)
+    if array.ndim == 0 or array.shape[-1] != N_COEFFICIENTS:
+        raise ValueError(f"coefficients: expected last axis of length 9, got shape {array.shape}")
+    return array
+
+
+def as_dict(vector: np.ndarray) -> dict[str, float]:
+    """Return a (9,) coefficient vector as a name -> value dict."""
+    vector = as_vector(vector)
+    return {n: float(v) for n, v in zip(NAMES, vector, strict=True)}
+
+
+def lateral_from_pitch(vector: np.ndarray) -> dict[str, np.ndarray]:
+    """Apply the symmetry ties of eq. 1.
+
+    ``Cyb = Cza, Cyr = -Czq, Cydr = Czd, Cnb = -Cma, Cnr = Cmq, Cndr = -Cmd``.
+    The reference airframe has one fin pair acting in pitch only, so the simulator
+    uses no rudder term (``Cydr``, ``Cndr`` are given for completeness).
+    """
+    c = as_vector(vector)
+    return {
+        "Cyb": c[..., CZA],
+        "Cyr": -c[..., CZQ],
+        "Cydr": c[..., CZD],
+        "Cnb": -c[..., CMA],
+        "Cnr": c[..., CMQ],
+        "Cndr": -c[..., CMD],
+    }

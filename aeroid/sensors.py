@@ -1,0 +1,222 @@
+"""Sensors: lever-arm accelerometers (eq. 28) and measurement-noise models (eq. 43).
+
+Accelerometers measure specific force (no gravity): at position ``R`` from the c.g.,
+``a_R = (F_A + F_T) / m + wdot x R + w x (w x R)`` (eq. 28, notes), with ``wdot`` from
+eqs. 5-7.
+
+Noise models
+------------
+* :class:`PaperNoise` (eq. 43): multiplicative uniform, ``s_m = s (1 + xi (2U - 1))``,
+  ``xi`` per channel group (accelerations; rates), other channels clean; and the
+  estimator's copy of each accelerometer-position component perturbed once per flight
+  with ``xi_pos`` (a position error; the simulator itself uses the true positions).
+* :class:`GaussianNoise`: additive zero-mean Gaussian, one standard deviation per
+  channel (a realistic IMU); optional Gaussian position error [m].
+* :class:`NoNoise`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from aeroid.dynamics import P, Q, R, Constants, aero_forces_moments, derivative_from_forces
+
+ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
+RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
+
+
+def lever_arm_acceleration(
+    specific_force: np.ndarray, omega: np.ndarray, omega_dot: np.ndarray, position: np.ndarray
+) -> np.ndarray:
+    """Return ``f + wdot x R + w x (w x R)`` (eq. 28), shape (..., 3) [m/s^2].
+
+    Parameters
+    ----------
+    specific_force : ndarray, shape (..., 3)
+        ``(F_A + F_T) / m`` [m/s^2].
+    omega, omega_dot : ndarray, shape (..., 3)
+        Body rates [rad/s] and their derivatives [rad/s^2].
+    position : ndarray, shape (..., 3) or (3,)
+        Sensor position from the c.g. [m].
+    """
+    position = np.broadcast_to(np.asarray(position, dtype=float), omega.shape)
+    return (specific_force + np.cross(omega_dot, position)
+            + np.cross(omega, np.cross(omega, position)))
+
+
+def accelerometers(
+    state: np.ndarray,
+    delta: np.ndarray | float,
+    coefficients: np.ndarray,
+    const: Constants,
+    positions: np.ndarray,
+) -> np.ndarray:
+    """Return the readings of accelerometer triads, shape (..., n_triads, 3) [m/s^2].
+
+    Parameters
+    ----------
+    state : ndarray, shape (..., 9)
+    delta : ndarray or float [rad]
+    coefficients : ndarray, shape (..., 9)
+    const : Constants
+    positions : ndarray, shape (n_triads, 3)
+        Triad positions from the c.g. [m].
+    """
+    fm = aero_forces_moments(state, delta, coefficients, const)
+    xdot = derivative_from_forces(state, fm, const)
+    force = fm[..., :3].copy()
+    force[..., 0] += const.thrust
+    specific = force / const.mass
+    omega = state[..., [P, Q, R]]
+    omega_dot = xdot[..., [P, Q, R]]
+    positions = np.asarray(positions, dtype=float)
+    return np.stack(
+        [lever_arm_acceleration(specific, omega, omega_dot, pos) for pos in positions], axis=-2
+    )
+
+
+class NoiseModel(Protocol):
+    """What the simulator needs from a noise model."""
+
+    name: str
+
+    def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
+                ) -> dict[str, np.ndarray]:
+        """Return noisy copies of the measured channels (others unchanged)."""
+        ...
+
+    def perturb_positions(self, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Return the estimator's copy of the triad positions, shape (2, 3)."""
+        ...
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the model's settings (for flight metadata and reports)."""
+        ...
+
+
+@dataclass(frozen=True, kw_only=True)
+class PaperNoise:
+    """Eq. 43: ``s_m = s (1 + xi (2U - 1))``, U ~ U[0, 1] per sample and channel.
+
+    Draw order (fixed, so a seed gives the same flight everywhere): the six
+    accelerations (one (n, 6) block), then p, q, r ((n, 3)), then the position error.
+    """
+
+    accelerations_xi: float = 0.05
+    rates_xi: float = 0.05
+    accel_position_xi: float = 0.1
+    name: str = field(default="paper", init=False)
+
+    def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
+                ) -> dict[str, np.ndarray]:
+        """Apply multiplicative uniform noise to the accelerations and rates."""
+        out = dict(channels)
+        for names, xi in ((ACCEL_CHANNELS, self.accelerations_xi),
+                          (RATE_CHANNELS, self.rates_xi)):
+            n = len(channels[names[0]])
+            u = rng.random((n, len(names)))
+            for j, name in enumerate(names):
+                out[name] = channels[name] * (1.0 + xi * (2.0 * u[:, j] - 1.0))
+        return out
+
+    def perturb_positions(self, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Perturb each position component multiplicatively with ``accel_position_xi``."""
+        positions = np.asarray(positions, dtype=float)
+        u = rng.random(positions.shape)
+        return positions * (1.0 + self.accel_position_xi * (2.0 * u - 1.0))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the settings."""
+        return {"model": self.name, "accelerations_xi": self.accelerations_xi,
+                "rates_xi": self.rates_xi, "accel_position_xi": self.accel_position_xi}
+
+
+@dataclass(frozen=True, kw_only=True)
+class GaussianNoise:
+    """Additive zero-mean Gaussian noise with one standard deviation per channel group.
+
+    Defaults describe a tactical-grade IMU sampled at 500 Hz: 0.05 m/s^2 on each
+    acceleration, 0.005 rad/s on each rate; positions known to 1 mm.
+    """
+
+    accel_sd_mps2: float = 0.05
+    rate_sd_radps: float = 0.005
+    position_sd_m: float = 0.001
+    name: str = field(default="gaussian", init=False)
+
+    def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
+                ) -> dict[str, np.ndarray]:
+        """Add Gaussian noise to the accelerations and rates."""
+        out = dict(channels)
+        for names, sd in ((ACCEL_CHANNELS, self.accel_sd_mps2),
+                          (RATE_CHANNELS, self.rate_sd_radps)):
+            n = len(channels[names[0]])
+            e = rng.standard_normal((n, len(names)))
+            for j, name in enumerate(names):
+                out[name] = channels[name] + sd * e[:, j]
+        return out
+
+    def perturb_positions(self, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Add Gaussian position error with ``position_sd_m``."""
+        positions = np.asarray(positions, dtype=float)
+        return positions + self.position_sd_m * rng.standard_normal(positions.shape)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the settings."""
+        return {"model": self.name, "accel_sd_mps2": self.accel_sd_mps2,
+                "rate_sd_radps": self.rate_sd_radps, "position_sd_m": self.position_sd_m}
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoNoise:
+    """Perfect sensors and perfectly known positions."""
+
+    name: str = field(default="none", init=False)
+
+    def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
+                ) -> dict[str, np.ndarray]:
+        """Return the channels unchanged."""
+        return dict(channels)
+
+    def perturb_positions(self, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Return the positions unchanged."""
+        return np.asarray(positions, dtype=float).copy()
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the settings."""
+        return {"model": self.name}
+
+
+NOISE_MODELS = {"paper": PaperNoise, "gaussian": GaussianNoise, "none": NoNoise}
+
+
+def make_noise(name: str, **options: Any) -> NoiseModel:
+    """Return a noise model by name (``paper``, ``gaussian`` or ``none``) and options.
+
+    Raises
+    ------
+    ValueError
+        One line naming the unknown model or option.
+    """
+    try:
+        cls = NOISE_MODELS[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown noise model {name!r} (expected one of {', '.join(NOISE_MODELS)})"
+        ) from None
+    try:
+        return cls(**options)  # type: ignore[no-any-return]
+    except TypeError:
+        allowed = [f for f in cls.__dataclass_fields__ if f != "name"]
+        raise ValueError(
+            f"noise model {name!r}: unknown option(s) {sorted(options)}; allowed {allowed}"
+        ) from None
+
+
+def noise_from_dict(data: dict[str, Any]) -> NoiseModel:
+    """Rebuild a noise model from :meth:`to_dict` output."""
+    data = dict(data)
+    return make_noise(data.pop("model"), **data)
