@@ -86,68 +86,116 @@ def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, delta: np.nda
     return out
 
 
+#: numba fast-math flags of the compiled kernel: reassociation, contraction (FMA),
+#: reciprocals, approximate functions, signed zeros; NOT ``nnan``/``ninf``, so a diverging
+#: trajectory still yields inf/NaN (the estimators' costs rely on it). Agreement with the
+#: numpy backend is tested to 1e-12 relative.
+FASTMATH_FLAGS = {"nsz", "arcp", "contract", "afn", "reassoc"}
+#: Below this many coefficient sets :func:`propagate` uses the serial compiled kernel:
+#: starting the thread pool costs ~0.1-1 ms per call, more than integrating a few sets
+#: (the simulator calls propagate once per sample with one set).
+PARALLEL_MIN_SETS = 16
+
 if HAVE_NUMBA:
 
-    @numba.njit(cache=True, fastmath=False)
-    def _rhs_scalar(x, c, delta, k, out):  # pragma: no cover - compiled
-        # k = (rho, area, diameter, mass, ix, iy, iz, thrust, gravity): Constants order
-        u, v, w, p, q, r, phi, theta = x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7]
-        speed = math.sqrt(u * u + v * v + w * w)
+    @numba.njit(cache=True, inline="always", fastmath=FASTMATH_FLAGS)
+    def _rhs_scalar(u, v, w, p, q, r, phi, theta, delta, cx, cza, czd, czq, cl0, clp, cma,
+                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g):  # pragma: no cover
+        # Eqs. 2-10 on scalars, the same algebra as aeroid.dynamics.state_derivative.
+        speed2 = u * u + v * v + w * w
+        speed = math.sqrt(speed2)
         alpha = math.atan2(w, u)
         beta = math.asin(v / speed)
-        qs = 0.5 * k[0] * speed * speed * k[1]
-        qsd = qs * k[2]
-        kd = k[2] / (2.0 * speed)
-        fax = qs * c[0]
-        fay = qs * (c[1] * beta - c[3] * kd * r)
-        faz = qs * (c[1] * alpha + c[2] * delta + c[3] * kd * q)
-        mx = qsd * (c[4] + c[5] * kd * p)
-        my = qsd * (c[6] * alpha + c[7] * delta + c[8] * kd * q)
-        mz = qsd * (-c[6] * beta + c[8] * kd * r)
-        g = k[8]
-        sphi, cphi = math.sin(phi), math.cos(phi)
-        sth, cth = math.sin(theta), math.cos(theta)
-        out[0] = r * v - q * w - g * sth + (fax + k[7]) / k[3]
-        out[1] = -r * u + p * w + g * cth * sphi + fay / k[3]
-        out[2] = q * u - p * v + g * cth * cphi + faz / k[3]
-        out[3] = mx / k[4]
-        out[4] = (k[6] - k[4]) / k[5] * p * r + my / k[5]
-        out[5] = (k[4] - k[5]) / k[6] * p * q + mz / k[6]
-        out[6] = p + (q * sphi + r * cphi) * sth / cth
-        out[7] = q * cphi - r * sphi
-        out[8] = (q * sphi + r * cphi) / cth
+        qs = half_rho_s * speed2
+        qsd = qs * diam
+        kd = diam / (2.0 * speed)
+        fax = qs * cx
+        fay = qs * (cza * beta - czq * kd * r)
+        faz = qs * (cza * alpha + czd * delta + czq * kd * q)
+        mx = qsd * (cl0 + clp * kd * p)
+        my = qsd * (cma * alpha + cmd * delta + cmq * kd * q)
+        mz = qsd * (-cma * beta + cmq * kd * r)
+        sphi = math.sin(phi)
+        cphi = math.cos(phi)
+        sth = math.sin(theta)
+        cth = math.cos(theta)
+        qr = q * sphi + r * cphi
+        return (r * v - q * w - g * sth + (fax + thrust) / mass,
+                -r * u + p * w + g * cth * sphi + fay / mass,
+                q * u - p * v + g * cth * cphi + faz / mass,
+                mx / ix,
+                (iz - ix) / iy * p * r + my / iy,
+                (ix - iy) / iz * p * q + mz / iz,
+                p + qr * sth / cth,
+                q * cphi - r * sphi,
+                qr / cth)
 
-    @numba.njit(cache=True, parallel=True, fastmath=False)
-    def _propagate_numba(state0, coefficients, delta, dt, k, substeps):  # pragma: no cover
+    @numba.njit(cache=True, fastmath=FASTMATH_FLAGS)
+    def _integrate_set(x, c, delta, h, substeps, k, out):  # pragma: no cover - compiled
+        # One coefficient set over all samples; the state lives in 9 scalars (registers),
+        # no per-set allocation. k = Constants as a tuple (rho, area, diameter, mass, ix,
+        # iy, iz, thrust, gravity).
+        half_rho_s = 0.5 * k[0] * k[1]
+        diam, mass, ix, iy, iz, thrust, g = k[2], k[3], k[4], k[5], k[6], k[7], k[8]
+        cx, cza, czd, czq, cl0, clp, cma, cmd, cmq = (c[0], c[1], c[2], c[3], c[4], c[5],
+                                                     c[6], c[7], c[8])
+        x0, x1, x2, x3, x4, x5, x6, x7, x8 = (x[0], x[1], x[2], x[3], x[4], x[5], x[6],
+                                               x[7], x[8])
+        hh = 0.5 * h
+        h6 = h / 6.0
+        for j in range(9):
+            out[0, j] = x[j]
+        for s in range(delta.shape[0]):
+            d = delta[s]
+            for _ in range(substeps):
+                a0, a1, a2, a3, a4, a5, a6, a7, a8 = _rhs_scalar(
+                    x0, x1, x2, x3, x4, x5, x6, x7, d, cx, cza, czd, czq, cl0, clp, cma, cmd,
+                    cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                b0, b1, b2, b3, b4, b5, b6, b7, b8 = _rhs_scalar(
+                    x0 + hh * a0, x1 + hh * a1, x2 + hh * a2, x3 + hh * a3, x4 + hh * a4,
+                    x5 + hh * a5, x6 + hh * a6, x7 + hh * a7, d, cx, cza, czd, czq, cl0, clp,
+                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                e0, e1, e2, e3, e4, e5, e6, e7, e8 = _rhs_scalar(
+                    x0 + hh * b0, x1 + hh * b1, x2 + hh * b2, x3 + hh * b3, x4 + hh * b4,
+                    x5 + hh * b5, x6 + hh * b6, x7 + hh * b7, d, cx, cza, czd, czq, cl0, clp,
+                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                f0, f1, f2, f3, f4, f5, f6, f7, f8 = _rhs_scalar(
+                    x0 + h * e0, x1 + h * e1, x2 + h * e2, x3 + h * e3, x4 + h * e4,
+                    x5 + h * e5, x6 + h * e6, x7 + h * e7, d, cx, cza, czd, czq, cl0, clp,
+                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                x0 = x0 + h6 * (a0 + 2.0 * b0 + 2.0 * e0 + f0)
+                x1 = x1 + h6 * (a1 + 2.0 * b1 + 2.0 * e1 + f1)
+                x2 = x2 + h6 * (a2 + 2.0 * b2 + 2.0 * e2 + f2)
+                x3 = x3 + h6 * (a3 + 2.0 * b3 + 2.0 * e3 + f3)
+                x4 = x4 + h6 * (a4 + 2.0 * b4 + 2.0 * e4 + f4)
+                x5 = x5 + h6 * (a5 + 2.0 * b5 + 2.0 * e5 + f5)
+                x6 = x6 + h6 * (a6 + 2.0 * b6 + 2.0 * e6 + f6)
+                x7 = x7 + h6 * (a7 + 2.0 * b7 + 2.0 * e7 + f7)
+                x8 = x8 + h6 * (a8 + 2.0 * b8 + 2.0 * e8 + f8)
+            out[s + 1, 0] = x0
+            out[s + 1, 1] = x1
+            out[s + 1, 2] = x2
+            out[s + 1, 3] = x3
+            out[s + 1, 4] = x4
+            out[s + 1, 5] = x5
+            out[s + 1, 6] = x6
+            out[s + 1, 7] = x7
+            out[s + 1, 8] = x8
+
+    @numba.njit(cache=True, parallel=True)
+    def _propagate_parallel(state0, coefficients, delta, h, substeps, k):  # pragma: no cover
         n_sets = state0.shape[0]
-        n_samples = delta.shape[0] + 1
-        out = np.empty((n_sets, n_samples, 9))
-        h = dt / substeps
+        out = np.empty((n_sets, delta.shape[0] + 1, 9))
         for i in numba.prange(n_sets):
-            c = coefficients[i]
-            x = state0[i].copy()
-            k1 = np.empty(9)
-            k2 = np.empty(9)
-            k3 = np.empty(9)
-            k4 = np.empty(9)
-            tmp = np.empty(9)
-            out[i, 0] = x
-            for s in range(n_samples - 1):
-                d = delta[s]
-                for _ in range(substeps):
-                    _rhs_scalar(x, c, d, k, k1)
-                    for j in range(9):
-                        tmp[j] = x[j] + 0.5 * h * k1[j]
-                    _rhs_scalar(tmp, c, d, k, k2)
-                    for j in range(9):
-                        tmp[j] = x[j] + 0.5 * h * k2[j]
-                    _rhs_scalar(tmp, c, d, k, k3)
-                    for j in range(9):
-                        tmp[j] = x[j] + h * k3[j]
-                    _rhs_scalar(tmp, c, d, k, k4)
-                    for j in range(9):
-                        x[j] = x[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-                out[i, s + 1] = x
+            _integrate_set(state0[i], coefficients[i], delta, h, substeps, k, out[i])
+        return out
+
+    @numba.njit(cache=True)
+    def _propagate_serial(state0, coefficients, delta, h, substeps, k):  # pragma: no cover
+        n_sets = state0.shape[0]
+        out = np.empty((n_sets, delta.shape[0] + 1, 9))
+        for i in range(n_sets):
+            _integrate_set(state0[i], coefficients[i], delta, h, substeps, k, out[i])
         return out
 
 
@@ -177,21 +225,39 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
         The state at every sample. A set whose trajectory diverges gives non-finite
         values (never an exception), which the estimators' costs treat as +inf.
     """
-    coefficients = np.atleast_2d(np.asarray(coefficients, dtype=float))
+    coefficients = np.asarray(coefficients, dtype=float)
     state0 = np.asarray(state0, dtype=float)
+    if coefficients.ndim not in (1, 2) or coefficients.shape[-1] != 9:
+        raise ValueError(f"propagate: coefficients must have shape (9,) or (n_sets, 9), "
+                         f"got {coefficients.shape}")
+    if state0.ndim not in (1, 2) or state0.shape[-1] != N_STATE:
+        raise ValueError(f"propagate: state0 must have shape (9,) or (n_sets, 9), "
+                         f"got {state0.shape}")
+    coefficients = np.atleast_2d(coefficients)
     n_sets = max(coefficients.shape[0], 1 if state0.ndim == 1 else state0.shape[0])
+    if (coefficients.shape[0] not in (1, n_sets)
+            or (state0.ndim == 2 and state0.shape[0] not in (1, n_sets))):
+        raise ValueError(f"propagate: {state0.shape[0]} initial states and "
+                         f"{coefficients.shape[0]} coefficient sets do not broadcast")
     state0 = np.ascontiguousarray(np.broadcast_to(state0, (n_sets, N_STATE)))
     coefficients = np.ascontiguousarray(np.broadcast_to(coefficients, (n_sets, 9)))
     delta = np.ascontiguousarray(delta, dtype=float).reshape(-1)
+    substeps = int(substeps)
+    dt = float(dt)
+    if substeps < 1:
+        raise ValueError(f"propagate: substeps must be >= 1, got {substeps}")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"propagate: dt must be a positive number of seconds, got {dt}")
     if backend == "auto":
         backend = "numba" if HAVE_NUMBA else "numpy"
     if backend == "numba":
         if not HAVE_NUMBA:
             raise ValueError("propagate: backend 'numba' requested but numba is not installed")
+        kernel = _propagate_parallel if n_sets >= PARALLEL_MIN_SETS else _propagate_serial
         with np.errstate(all="ignore"):
-            return _propagate_numba(state0, coefficients, delta, float(dt),
-                                    tuple(float(v) for v in const), int(substeps))
+            return kernel(state0, coefficients, delta, dt / substeps, substeps,
+                          tuple(float(v) for v in const))
     if backend == "numpy":
         with np.errstate(all="ignore"):
-            return _propagate_numpy(state0, coefficients, delta, float(dt), const, int(substeps))
+            return _propagate_numpy(state0, coefficients, delta, dt, const, substeps)
     raise ValueError(f"propagate: unknown backend {backend!r} (expected auto, numba or numpy)")
