@@ -1,0 +1,388 @@
+"""The paper's cost functions (eqs. 23, 34, 39-42), vectorised over a swarm.
+
+Every cost takes ``theta`` of shape (P, k) (or (k,)) and returns (P,) costs (a float
+for a single vector), so one call evaluates a whole PSO swarm.
+
+Weighting (notes, "Objectives")
+-------------------------------
+``"noise"`` (default)
+    Maximum likelihood for Gaussian noise: each channel's residual is divided by the
+    channel's noise sd, estimated from the data with
+    :func:`aeroid.reconstruct.noise_sd` (robust spread of the residual of the 7-point
+    SG smoother; for the EBM's reconstructed forces, of the *unsmoothed* series). One
+    constant per channel.
+``"relative"``
+    The paper's form: each residual divided by the measured value. Rates, lateral
+    accelerations, F_AZ and M_Y pass through zero in a rolling airframe, so samples
+    whose ``|denominator| < guard_fraction * RMS(channel)`` are left out of that
+    channel's sum (default ``guard_fraction`` = :data:`GUARD_FRACTION` = 0.05: drops
+    the ~4 % of a sinusoid's samples nearest zero, where the weight would exceed 400
+    times the channel's typical weight).
+
+Both forms are ``J = (1/N) sum_k sum_c w_kc (z_kc - zhat_kc)^2`` with ``N`` the number
+of samples (the guard only removes terms, as in the paper's 1/N normalisation).
+
+Equation-error costs (EBM, SEBM) are quadratic in the coefficients, so
+:class:`QuadraticCost` evaluates them exactly as ``J_min + (theta - theta*)^T H
+(theta - theta*)`` (microseconds per swarm) and gives the closed-form optimum
+``theta*``, the yardstick for the PSO's answer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from aeroid.dynamics import P, Q, R, constants
+from aeroid.flight import Flight
+from aeroid.integrate import propagate
+from aeroid.reconstruct import Reconstruction, ebm_regression, noise_sd, smooth
+
+try:
+    import numba
+
+    HAVE_NUMBA = True
+except ImportError:  # pragma: no cover
+    HAVE_NUMBA = False
+
+__all__ = [
+    "EAM_OUTPUTS",
+    "EBM_ROWS",
+    "GUARD_FRACTION",
+    "SEBM_PROBLEMS",
+    "WEIGHTINGS",
+    "OutputErrorCost",
+    "QuadraticCost",
+    "channel_weights",
+    "ebm_cost",
+    "sebm_costs",
+]
+
+WEIGHTINGS: tuple[str, ...] = ("noise", "relative")
+#: Guard of the relative weighting: samples with |measured| below this fraction of the
+#: channel RMS are left out (module docstring).
+GUARD_FRACTION = 0.05
+#: Rows of the EBM cost (eq. 34): F_AX, F_AZ, M_X, M_Y in the (FAX..MZ) layout.
+EBM_ROWS: tuple[int, ...] = (0, 2, 3, 4)
+#: SEBM sub-problems (eqs. 39-42): (label, row, coefficient indices, paper's particles).
+SEBM_PROBLEMS: tuple[tuple[str, int, tuple[int, ...], int], ...] = (
+    ("FAX", 0, (0,), 50),
+    ("FAZ", 2, (1, 2, 3), 150),
+    ("MX", 3, (4, 5), 100),
+    ("MY", 4, (6, 7, 8), 150),
+)
+#: EAM outputs (eq. 23): triad-1 accelerations and the body rates.
+EAM_OUTPUTS: tuple[str, ...] = ("ax1", "ay1", "az1", "p", "q", "r")
+
+
+def _check_weighting(weighting: str, guard_fraction: float) -> None:
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {', '.join(WEIGHTINGS)}, got {weighting!r}")
+    if not (np.isfinite(guard_fraction) and 0.0 <= guard_fraction < 1.0):
+        raise ValueError(f"guard_fraction must be in [0, 1), got {guard_fraction!r}")
+
+
+def channel_weights(z: np.ndarray, weighting: str = "noise", *,
+                    sd: np.ndarray | None = None,
+                    guard_fraction: float = GUARD_FRACTION) -> np.ndarray:
+    """Return per-sample, per-channel weights ``w`` of ``J = (1/N) sum w (z - zhat)^2``.
+
+    Parameters
+    ----------
+    z : ndarray, shape (n, m)
+        Measured channels (the denominators of the relative form).
+    weighting : {"noise", "relative"}
+    sd : ndarray, shape (m,), optional
+        Noise sd per channel for ``"noise"`` (default :func:`noise_sd` of ``z``).
+    guard_fraction : float
+        Relative form only: samples with ``|z| < guard_fraction * RMS`` get weight 0.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        ``1 / sd^2`` (noise) or ``1 / z^2`` with guarded samples 0 (relative).
+    """
+    _check_weighting(weighting, guard_fraction)
+    z = np.asarray(z, dtype=float)
+    if weighting == "noise":
+        sd = noise_sd(z) if sd is None else np.asarray(sd, dtype=float)
+        return np.broadcast_to(1.0 / sd**2, z.shape).copy()
+    rms = np.sqrt(np.mean(z * z, axis=0))
+    keep = np.abs(z) >= guard_fraction * rms
+    keep &= z != 0.0
+    w = np.zeros_like(z)
+    w[keep] = 1.0 / z[keep] ** 2
+    return w
+
+
+class QuadraticCost:
+    """``J(theta) = (1/N) sum_k sum_c w_kc (y_kc - X_kc theta)^2`` for linear models.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, m, k)
+        Regressors per sample and channel.
+    y : ndarray, shape (n, m)
+        Targets.
+    weights : ndarray, shape (n, m)
+        Non-negative weights (:func:`channel_weights`).
+
+    Attributes
+    ----------
+    hessian : ndarray, shape (k, k)
+        ``H = (1/N) sum w X^T X`` (half the Hessian of J).
+    theta_opt : ndarray, shape (k,)
+        Closed-form minimiser (weighted least squares, columns scaled for conditioning;
+        minimum norm if rank deficient).
+    cost_min : float
+        ``J(theta_opt)`` from the residual form.
+    """
+
+    def __init__(self, X: np.ndarray, y: np.ndarray, weights: np.ndarray) -> None:
+        X = np.asarray(X, dtype=float)
+        y = np.asarray(y, dtype=float)
+        weights = np.asarray(weights, dtype=float)
+        if X.ndim != 3 or y.shape != X.shape[:2] or weights.shape != y.shape:
+            raise ValueError(f"QuadraticCost: shapes X {X.shape}, y {y.shape}, "
+                             f"weights {weights.shape} do not fit (n, m, k), (n, m), (n, m)")
+        if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))
+                and np.all(np.isfinite(weights)) and np.all(weights >= 0)):
+            raise ValueError("QuadraticCost: non-finite regressors, targets or weights")
+        self.X, self.y, self.weights = X, y, weights
+        self.n_samples = X.shape[0]
+        sw = np.sqrt(weights).reshape(-1)
+        A = X.reshape(-1, X.shape[2]) * sw[:, None]
+        b = y.reshape(-1) * sw
+        scale = np.sqrt(np.sum(A * A, axis=0))
+        scale[scale == 0] = 1.0
+        sol = np.linalg.lstsq(A / scale, b, rcond=None)[0]
+        self.theta_opt = sol / scale
+        self.hessian = (A.T @ A) / self.n_samples
+        self.cost_min = float(self.direct(self.theta_opt))
+
+    @property
+    def n_params(self) -> int:
+        """Number of coefficients k."""
+        return int(self.X.shape[2])
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray | float:
+        """Return J for ``theta`` of shape (P, k) -> (P,) or (k,) -> float (quadratic form)."""
+        t = np.asarray(theta, dtype=float)
+        d = np.atleast_2d(t) - self.theta_opt
+        quad = np.einsum("pi,ij,pj->p", d, self.hessian, d)
+        cost = self.cost_min + np.maximum(quad, 0.0)
+        return float(cost[0]) if t.ndim == 1 else cost
+
+    def direct(self, theta: np.ndarray) -> np.ndarray | float:
+        """Return J from the residuals (the definition); same shapes as :meth:`__call__`."""
+        t = np.asarray(theta, dtype=float)
+        pred = np.einsum("nmk,pk->pnm", self.X, np.atleast_2d(t))
+        cost = np.sum(self.weights * (self.y - pred) ** 2, axis=(1, 2)) / self.n_samples
+        return float(cost[0]) if t.ndim == 1 else cost
+
+
+def ebm_cost(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
+             smoothing: str = "both", rows: Sequence[int] = EBM_ROWS,
+             guard_fraction: float = GUARD_FRACTION) -> QuadraticCost:
+    """Return the EBM second-step cost (eq. 34) over the nine coefficients.
+
+    Parameters
+    ----------
+    flight : Flight
+    rec : Reconstruction
+        EBM step 1 (:func:`aeroid.reconstruct.reconstruct`).
+    weighting : {"noise", "relative"}
+        Noise sd of each channel from the unsmoothed reconstruction ``rec.fm``;
+        the relative form divides by the (smoothed, per ``smoothing``) target.
+    smoothing : {"both", "forces", "none"}
+        See :func:`aeroid.reconstruct.ebm_regression`.
+    rows : sequence of int
+        Channels of (F_AX, F_AY, F_AZ, M_X, M_Y, M_Z) used; default the paper's four.
+    guard_fraction : float
+
+    Returns
+    -------
+    QuadraticCost
+        Over ``theta`` of shape (P, 9).
+    """
+    rows = _check_rows(rows)
+    X, y = ebm_regression(flight, rec, smoothing=smoothing)
+    X, y = X[:, rows], y[:, rows]
+    w = channel_weights(y, weighting, sd=noise_sd(rec.fm[:, rows]),
+                        guard_fraction=guard_fraction)
+    return QuadraticCost(X, y, w)
+
+
+def sebm_costs(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
+               smoothing: str = "both", guard_fraction: float = GUARD_FRACTION
+               ) -> list[tuple[str, tuple[int, ...], QuadraticCost]]:
+    """Return the four SEBM costs (eqs. 39-42) as ``(label, coefficient indices, cost)``.
+
+    Each cost takes only its own coefficients (1, 3, 2 and 3 of them): F_AX -> Cx;
+    F_AZ -> Cza, Czd, Czq; M_X -> Cl0, Clp; M_Y -> Cma, Cmd, Cmq. Weighting and
+    smoothing as in :func:`ebm_cost` (with one channel, the noise weighting only
+    scales each cost).
+    """
+    X, y = ebm_regression(flight, rec, smoothing=smoothing)
+    sd = noise_sd(rec.fm)
+    out = []
+    for label, row, cols, _ in SEBM_PROBLEMS:
+        yr = y[:, [row]]
+        w = channel_weights(yr, weighting, sd=sd[[row]], guard_fraction=guard_fraction)
+        out.append((label, cols, QuadraticCost(X[:, [row]][:, :, list(cols)], yr, w)))
+    return out
+
+
+def _check_rows(rows: Sequence[int]) -> list[int]:
+    rows = [int(r) for r in rows]
+    if not rows or len(set(rows)) != len(rows) or not all(0 <= r < 6 for r in rows):
+        raise ValueError(f"rows must be distinct indices in 0..5 (FAX..MZ), got {rows}")
+    return rows
+
+
+# --------------------------------------------------------------------------------------
+# EAM: output error
+# --------------------------------------------------------------------------------------
+def _outputs_numpy(states: np.ndarray, delta: np.ndarray, theta: np.ndarray, k: tuple,
+                   pos: np.ndarray) -> np.ndarray:
+    """Triad-1 accelerations (eq. 28) and rates, shape (P, n, 6), from states (P, n, 9)."""
+    from aeroid.dynamics import Constants
+    from aeroid.sensors import accelerometers
+
+    const = Constants(*k)
+    acc = accelerometers(states, delta, theta[:, None, :], const, pos[None, :])[..., 0, :]
+    return np.concatenate([acc, states[..., [P, Q, R]]], axis=-1)
+
+
+if HAVE_NUMBA:
+
+    @numba.njit(cache=True, parallel=True, fastmath=False)
+    def _cost_numba(states, delta, theta, k, pos, z, w):  # pragma: no cover - compiled
+        n_sets, n = states.shape[0], states.shape[1]
+        out = np.empty(n_sets)
+        rho, area, diam, mass, ix, iy, iz, thrust = k[0], k[1], k[2], k[3], k[4], k[5], \
+            k[6], k[7]
+        rx, ry, rz = pos[0], pos[1], pos[2]
+        for i in numba.prange(n_sets):
+            c = theta[i]
+            acc = 0.0
+            for s in range(n):
+                x = states[i, s]
+                u, v, ww, p, q, r = x[0], x[1], x[2], x[3], x[4], x[5]
+                speed = np.sqrt(u * u + v * v + ww * ww)
+                alpha = np.arctan2(ww, u)
+                beta = np.arcsin(v / speed)
+                qs = 0.5 * rho * speed * speed * area
+                qsd = qs * diam
+                kd = diam / (2.0 * speed)
+                d = delta[s]
+                fax = qs * c[0]
+                fay = qs * (c[1] * beta - c[3] * kd * r)
+                faz = qs * (c[1] * alpha + c[2] * d + c[3] * kd * q)
+                mx = qsd * (c[4] + c[5] * kd * p)
+                my = qsd * (c[6] * alpha + c[7] * d + c[8] * kd * q)
+                mz = qsd * (-c[6] * beta + c[8] * kd * r)
+                pd = mx / ix
+                qd = (iz - ix) / iy * p * r + my / iy
+                rd = (ix - iy) / iz * p * q + mz / iz
+                # w x R and w x (w x R)
+                cx = q * rz - r * ry
+                cy = r * rx - p * rz
+                cz = p * ry - q * rx
+                ax = (fax + thrust) / mass + (qd * rz - rd * ry) + (q * cz - r * cy)
+                ay = fay / mass + (rd * rx - pd * rz) + (r * cx - p * cz)
+                az = faz / mass + (pd * ry - qd * rx) + (p * cy - q * cx)
+                e0 = z[s, 0] - ax
+                e1 = z[s, 1] - ay
+                e2 = z[s, 2] - az
+                e3 = z[s, 3] - p
+                e4 = z[s, 4] - q
+                e5 = z[s, 5] - r
+                acc += (w[s, 0] * e0 * e0 + w[s, 1] * e1 * e1 + w[s, 2] * e2 * e2
+                        + w[s, 3] * e3 * e3 + w[s, 4] * e4 * e4 + w[s, 5] * e5 * e5)
+            out[i] = acc / n
+        return out
+
+
+class OutputErrorCost:
+    """EAM output-error cost (eq. 23, or its noise-weighted form), vectorised over a swarm.
+
+    Each coefficient set is simulated by :func:`aeroid.integrate.propagate` (batched
+    RK4, all sets at once) from the measured state at the first sample, with the
+    measured p, q, r smoothed by the SG filter of eq. 32 there (notes, "EAM"), and the
+    measured ``delta`` held over each sample interval. The outputs are triad 1's
+    accelerations at the estimator's position of triad 1, including the lever-arm terms
+    (eq. 28 with eqs. 5-7), and p, q, r. Diverging trajectories cost +inf.
+
+    Parameters
+    ----------
+    flight : Flight
+    weighting : {"noise", "relative"}
+    guard_fraction : float
+    substeps : int
+        RK4 steps per sample interval.
+    backend : {"auto", "numba", "numpy"}
+        Integration and cost backend (same numbers, tested).
+
+    Attributes
+    ----------
+    measured : ndarray, shape (n, 6)
+        ``ax1, ay1, az1`` [m/s^2], ``p, q, r`` [rad/s].
+    weights : ndarray, shape (n, 6)
+    state0 : ndarray, shape (9,)
+    """
+
+    def __init__(self, flight: Flight, *, weighting: str = "noise",
+                 guard_fraction: float = GUARD_FRACTION, substeps: int = 1,
+                 backend: str = "auto") -> None:
+        _check_weighting(weighting, guard_fraction)
+        if int(substeps) < 1:
+            raise ValueError(f"substeps must be >= 1, got {substeps}")
+        if backend not in ("auto", "numba", "numpy"):
+            raise ValueError(f"backend must be auto, numba or numpy, got {backend!r}")
+        self.const = constants(flight.airframe)
+        self.dt = flight.dt
+        self.delta = flight["delta"]
+        self.measured = np.column_stack([flight[c] for c in EAM_OUTPUTS])
+        self.weights = channel_weights(self.measured, weighting, guard_fraction=guard_fraction)
+        states = flight.states()
+        self.state0 = states[0].copy()
+        window = min(7, flight.n_samples - 1 + flight.n_samples % 2)
+        self.state0[[P, Q, R]] = smooth(states[:, [P, Q, R]], window, min(2, window - 1))[0]
+        self.position = np.ascontiguousarray(flight.airframe.accel_positions[0])
+        self.substeps = int(substeps)
+        self.backend = "numba" if backend == "auto" and HAVE_NUMBA else backend
+        if self.backend == "auto":
+            self.backend = "numpy"
+
+    def simulate(self, theta: np.ndarray) -> np.ndarray:
+        """Return the predicted states, shape (P, n, 9)."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        return propagate(self.state0, theta, self.delta[:-1], self.dt, self.const,
+                         substeps=self.substeps, backend=self.backend)
+
+    def predict(self, theta: np.ndarray) -> np.ndarray:
+        """Return predicted outputs ``ax1, ay1, az1, p, q, r``, shape (P, n, 6)."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        with np.errstate(all="ignore"):
+            return _outputs_numpy(self.simulate(theta), self.delta, theta, tuple(self.const),
+                                  self.position)
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray | float:
+        """Return J for ``theta`` (P, 9) -> (P,) or (9,) -> float; non-finite -> +inf."""
+        t = np.asarray(theta, dtype=float)
+        theta2 = np.ascontiguousarray(np.atleast_2d(t))
+        states = self.simulate(theta2)
+        with np.errstate(all="ignore"):
+            if self.backend == "numba":
+                cost = _cost_numba(states, self.delta, theta2, tuple(float(v) for v in self.const),
+                                   self.position, self.measured, self.weights)
+            else:
+                pred = _outputs_numpy(states, self.delta, theta2, tuple(self.const),
+                                      self.position)
+                cost = np.sum(self.weights * (self.measured - pred) ** 2, axis=(1, 2)) / len(
+                    self.delta)
+        cost = np.where(np.isfinite(cost), cost, np.inf)
+        return float(cost[0]) if t.ndim == 1 else cost
+

@@ -1,0 +1,401 @@
+"""EBM step 1: aerodynamic forces and moments from accelerometers and rates (eqs. 28-32).
+
+Eq. 28 for a triad at ``R`` from the c.g., with eqs. 5-7 substituted for ``wdot``
+(``wdot = J^-1 M + g(w)``, ``J = diag(Ix, Iy, Iz)``, gyroscopic terms
+``g = [0, (Iz - Ix)/Iy p r, (Ix - Iy)/Iz p q]``), is linear in the six unknowns
+``FM = [F_AX, F_AY, F_AZ, M_X, M_Y, M_Z]``::
+
+    a_R = [I/m, -[R]x J^-1] FM + (F_T/m e_x - [R]x g(w) + w x (w x R))
+        = A_R FM + B_R(w)
+
+Stacking both triads gives the 6x6 matrix ``A`` of eqs. 29-30, which is the same for
+every sample (it depends on m, J and the positions only); ``B`` varies with the rates.
+``A`` has rank 5 for any geometry (notes, "EBM first step"): two triads cannot see the
+angular acceleration along ``R2 - R1``. Decision (notes): three further rows
+``J^-1 M = wdot_SG - g(w)`` use Savitzky-Golay derivatives of the measured p, q, r, and
+the nine rows are solved per sample by weighted least squares.
+
+Weights (a decision the notes leave open): each row is divided by the noise standard
+deviation of its measurement, estimated from the data (:func:`noise_sd`): for an
+accelerometer channel the robust (MAD) spread of its residual from the 7-point SG
+smoother; for a rate-derivative row the same estimate for p, q or r times the noise gain
+``||h||`` of the SG derivative filter, and the rate rows are further scaled by
+``rate_weight`` (default 1e-3, :data:`RATE_WEIGHT`: measured, the rates then only fix
+the direction the accelerometers cannot see). Derivative windows: 9 points, quartic
+for q and r (they oscillate at the roll frequency, ~62 samples per cycle); 101 points,
+quadratic for p (slow roll-up; the wide window cuts the roll-acceleration noise).
+One constant weight per row, so the weighted matrix is the same for all samples and
+one pseudo-inverse solves the whole flight (no per-sample ``lstsq``). With
+multiplicative noise (eq. 43) the true noise level varies with the signal; a
+per-channel constant is the approximation made here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.signal import savgol_coeffs, savgol_filter
+
+from aeroid.airframe import Airframe
+from aeroid.dynamics import FM_NAMES, Constants, constants, regressors
+from aeroid.flight import Flight
+
+__all__ = [
+    "Reconstruction",
+    "accel_only_matrix",
+    "ebm_regression",
+    "noise_sd",
+    "rate_derivatives",
+    "reconstruct",
+    "smooth",
+]
+
+#: Width of the paper's smoother (eq. 32): 7 points, quadratic.
+SMOOTHING_WINDOW = 7
+SMOOTHING_POLYORDER = 2
+#: Default SG window for the rate derivatives [samples]. The roll-rate noise of the
+#: paper (+-5 %, about 2.5 rad/s) swamps the roll acceleration (~4 rad/s^2); a wider
+#: window lowers the derivative noise as 1/window^1.5 but biases the q, r derivatives
+#: (they oscillate at the roll frequency, ~8 Hz = 62 samples per cycle at 500 Hz).
+#: 15 samples keep the q, r gain error near 1 % (noise-free flight, measured).
+DERIVATIVE_WINDOW = 9
+DERIVATIVE_POLYORDER = 4
+#: The roll rate is slow (time constant ~3 s, no roll-frequency oscillation), so its
+#: derivative takes a wide window: the noise falls as window^-1.5 at no visible bias.
+ROLL_DERIVATIVE_WINDOW = 101
+ROLL_POLYORDER = 2
+#: Factor on the inverse-noise-sd weight of the three rate-derivative rows. Measured on
+#: the reference flight with the paper's noise (8 seeds, second step by least squares):
+#: with factor 1 the q, r derivative rows pull the accelerometer-observable directions
+#: (their error is dominated by the derivative's bias and the paper's position error is
+#: not in the accelerometer sd) and Czq/Cmq errors average 630/370 %; at 1e-2 and below
+#: the result no longer changes (83/49 %): the rates then only complete the direction
+#: the accelerometers cannot see (rank 5 -> 6). 1e-3 sits on that plateau.
+RATE_WEIGHT = 1e-3
+#: Gaussian consistency factor of the median absolute deviation.
+MAD_TO_SD = 1.4826
+#: Floor of an estimated noise level, relative to the channel RMS (a noise-free channel
+#: would otherwise get an infinite weight).
+NOISE_FLOOR_FRACTION = 1e-9
+#: Names of the nine rows of the step-1 system.
+ROW_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "pdot", "qdot", "rdot")
+
+
+def smooth(x: np.ndarray, window: int = SMOOTHING_WINDOW, polyorder: int = SMOOTHING_POLYORDER,
+           axis: int = 0) -> np.ndarray:
+    """Savitzky-Golay smoother of eq. 32 (``scipy.signal.savgol_filter``).
+
+    With the defaults (width 7, quadratic) the interior weights are the paper's
+    ``(-2, 3, 6, 7, 6, 3, -2) / 21``; the ends use scipy's polynomial fit (``mode='interp'``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (..., n, ...)
+        Signal sampled uniformly along ``axis``.
+    window : int
+        Odd window length [samples], ``polyorder < window <= n``.
+    polyorder : int
+    axis : int
+
+    Returns
+    -------
+    ndarray, same shape as ``x``
+    """
+    x = np.asarray(x, dtype=float)
+    _check_window(window, polyorder, x.shape[axis])
+    return savgol_filter(x, window, polyorder, axis=axis, mode="interp")
+
+
+def _check_window(window: int, polyorder: int, n: int) -> None:
+    if window % 2 != 1 or window < 1:
+        raise ValueError(f"Savitzky-Golay window must be a positive odd integer, got {window}")
+    if not 0 <= polyorder < window:
+        raise ValueError(f"Savitzky-Golay polyorder must be in [0, window), got {polyorder}")
+    if window > n:
+        raise ValueError(f"Savitzky-Golay window {window} exceeds the {n} samples")
+
+
+def noise_sd(x: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Robust estimate of the white-noise standard deviation of sampled signals.
+
+    The residual ``e = x - smooth(x)`` of the 7-point quadratic SG smoother removes the
+    smooth signal; for white noise of sd ``s`` its sd is ``s sqrt(1 - h0)`` with
+    ``h0 = 7/21`` the filter's centre weight. The residual's spread is taken as
+    ``1.4826 MAD`` (robust to the jumps of a relay-driven signal), floored at
+    ``NOISE_FLOOR_FRACTION`` times the channel RMS.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, ...) (``axis`` = the time axis)
+
+    Returns
+    -------
+    ndarray, shape of ``x`` without ``axis``
+        Noise sd in the units of ``x``.
+    """
+    x = np.moveaxis(np.asarray(x, dtype=float), axis, 0)
+    resid = x - smooth(x, SMOOTHING_WINDOW, SMOOTHING_POLYORDER, axis=0)
+    h0 = savgol_coeffs(SMOOTHING_WINDOW, SMOOTHING_POLYORDER)[SMOOTHING_WINDOW // 2]
+    mad = np.median(np.abs(resid - np.median(resid, axis=0)), axis=0)
+    sd = MAD_TO_SD * mad / np.sqrt(1.0 - h0)
+    rms = np.sqrt(np.mean(x * x, axis=0))
+    return np.maximum(sd, NOISE_FLOOR_FRACTION * np.maximum(rms, np.finfo(float).tiny))
+
+
+def rate_derivatives(flight: Flight, window: int = DERIVATIVE_WINDOW,
+                     polyorder: int = DERIVATIVE_POLYORDER, *,
+                     roll_window: int | None = None, roll_polyorder: int = ROLL_POLYORDER
+                     ) -> np.ndarray:
+    """Return SG derivatives of the measured p, q, r, shape (n, 3) [rad/s^2].
+
+    ``scipy.signal.savgol_filter(..., deriv=1, delta=dt)``; ends by polynomial fit.
+    ``window``/``polyorder`` apply to q and r; p uses ``roll_window`` (default: the
+    same as ``window``) and ``roll_polyorder`` when a roll window is given.
+    """
+    rates = np.column_stack([flight["p"], flight["q"], flight["r"]])
+    _check_window(window, polyorder, rates.shape[0])
+    out = savgol_filter(rates, window, polyorder, deriv=1, delta=flight.dt, axis=0,
+                        mode="interp")
+    if roll_window is not None:
+        _check_window(roll_window, roll_polyorder, rates.shape[0])
+        out[:, 0] = savgol_filter(rates[:, 0], roll_window, roll_polyorder, deriv=1,
+                                  delta=flight.dt, mode="interp")
+    return out
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """Return ``[v]x`` with ``[v]x y = v x y``, shape (..., 3, 3)."""
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    zero = np.zeros_like(x)
+    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
+                     np.stack([-y, x, zero], -1)], -2)
+
+
+def _inertia_inverse(const: Constants) -> np.ndarray:
+    return np.diag([1.0 / const.ix, 1.0 / const.iy, 1.0 / const.iz])
+
+
+def _accel_matrix(const: Constants, positions: np.ndarray) -> np.ndarray:
+    """Rows of eq. 28 per triad, ``[I/m, -[R]x J^-1]``: shape (3 n_triads, 6)."""
+    blocks = []
+    jinv = _inertia_inverse(const)
+    for pos in np.asarray(positions, dtype=float):
+        blocks.append(np.hstack([np.eye(3) / const.mass, -_skew(pos) @ jinv]))
+    return np.vstack(blocks)
+
+
+def accel_only_matrix(airframe: Airframe) -> np.ndarray:
+    """Return the 6x6 matrix ``A`` of eqs. 29-30 (``a_m = A FM + B``).
+
+    Rows ``ax1, ay1, az1, ax2, ay2, az2``; columns ``F_AX, F_AY, F_AZ, M_X, M_Y, M_Z``;
+    triad positions from ``airframe`` (the estimator's view). Its rank is 5 for any
+    geometry (the angular acceleration along ``R2 - R1`` is unobservable).
+
+    Returns
+    -------
+    ndarray, shape (6, 6) [1/kg, 1/(kg m)]
+    """
+    return _accel_matrix(constants(airframe), airframe.accel_positions)
+
+
+def _gyroscopic(omega: np.ndarray, const: Constants) -> np.ndarray:
+    """``wdot - J^-1 M`` of eqs. 5-7, shape (n, 3) [rad/s^2]."""
+    p, q, r = omega[:, 0], omega[:, 1], omega[:, 2]
+    g = np.zeros_like(omega)
+    g[:, 1] = (const.iz - const.ix) / const.iy * p * r
+    g[:, 2] = (const.ix - const.iy) / const.iz * p * q
+    return g
+
+
+@dataclass(frozen=True, eq=False)
+class Reconstruction:
+    """Forces and moments reconstructed from the sensors (EBM step 1).
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Time [s].
+    fm : ndarray, shape (n, 6)
+        ``F_AX, F_AY, F_AZ`` [N], ``M_X, M_Y, M_Z`` [N m] per sample (the paper's
+        "measured" forces, Figs. 9-12, before smoothing).
+    fm_smooth : ndarray, shape (n, 6)
+        ``fm`` smoothed with the SG filter of eq. 32 (``smoothing_window``).
+    omega_dot : ndarray, shape (n, 3)
+        Angular acceleration implied by the solution, ``J^-1 M + g(w)`` [rad/s^2].
+    omega_dot_sg : ndarray, shape (n, 3) or None
+        SG derivative of the measured rates [rad/s^2] (None without rate rows).
+    row_sd : ndarray, shape (9,)
+        Noise sd assumed for the rows ``ax1..az2`` [m/s^2] and ``pdot, qdot, rdot``
+        [rad/s^2] (weights are ``1 / row_sd``; the rate rows also times ``rate_weight``).
+    residual : ndarray, shape (n, 9)
+        Row residuals ``model - measurement`` of the solved system (rate rows NaN when
+        not used).
+    rate_rows : bool
+    rank : int
+        Rank of the weighted system matrix (5 without rate rows, 6 with).
+    smoothing_window, derivative_window : int
+    """
+
+    t: np.ndarray
+    fm: np.ndarray
+    fm_smooth: np.ndarray
+    omega_dot: np.ndarray
+    omega_dot_sg: np.ndarray | None
+    row_sd: np.ndarray
+    residual: np.ndarray
+    rate_rows: bool
+    rank: int
+    smoothing_window: int
+    derivative_window: int
+
+    def to_frame(self) -> pd.DataFrame:
+        """Return a table: ``t``, ``FAX..MZ``, ``FAX_smooth..MZ_smooth``, ``pdot..rdot``."""
+        data: dict[str, np.ndarray] = {"t": self.t}
+        for j, name in enumerate(FM_NAMES):
+            data[name] = self.fm[:, j]
+        for j, name in enumerate(FM_NAMES):
+            data[f"{name}_smooth"] = self.fm_smooth[:, j]
+        for j, name in enumerate(("pdot", "qdot", "rdot")):
+            data[name] = self.omega_dot[:, j]
+        return pd.DataFrame(data)
+
+
+def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = RATE_WEIGHT,
+                smoothing_window: int = SMOOTHING_WINDOW,
+                derivative_window: int = DERIVATIVE_WINDOW,
+                derivative_polyorder: int = DERIVATIVE_POLYORDER,
+                roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW) -> Reconstruction:
+    """Reconstruct the aerodynamic forces and moments of every sample (EBM step 1).
+
+    Solves, for all samples at once, the weighted least-squares system whose rows are
+    the six accelerometer equations (eq. 28 with eqs. 5-7 substituted, triad positions
+    from ``flight.airframe``) and, with ``rate_rows``, three angular-acceleration rows
+    from SG derivatives of the measured p, q, r (module docstring; notes, "EBM first
+    step"). Thrust, mass and inertia are the airframe's constants.
+
+    Parameters
+    ----------
+    flight : Flight
+    rate_rows : bool
+        Add the rate-derivative rows (full rank). Without them the rank-5 system is
+        solved in the weighted minimum-norm sense (the unobservable combination, mostly
+        ``M_X``, is set to zero): only for studying the paper's formulation.
+    rate_weight : float
+        Factor on the inverse-noise-sd weight of the three rate rows (1 = pure inverse
+        noise sd; default :data:`RATE_WEIGHT`, see there). Must be > 0.
+    smoothing_window : int
+        Width of the SG smoother applied to ``fm`` for ``fm_smooth`` (1 = none).
+    derivative_window, derivative_polyorder : int
+        SG derivative of q and r [samples, polynomial order].
+    roll_derivative_window : int
+        SG derivative width for p (quadratic); clipped to the flight length.
+
+    Returns
+    -------
+    Reconstruction
+
+    Raises
+    ------
+    ValueError
+        On a bad window or weight.
+    """
+    if not (np.isfinite(rate_weight) and rate_weight > 0):
+        raise ValueError(f"rate_weight must be a positive number, got {rate_weight!r}")
+    const = constants(flight.airframe)
+    n = flight.n_samples
+    accel = flight.accelerations().reshape(n, 6)
+    omega = np.column_stack([flight["p"], flight["q"], flight["r"]])
+    positions = flight.airframe.accel_positions
+    gyro = _gyroscopic(omega, const)
+    # B of eq. 30: thrust, gyroscopic part of wdot x R, centripetal w x (w x R).
+    offsets = []
+    for pos in positions:
+        pos_b = np.broadcast_to(pos, omega.shape)
+        b = -np.cross(pos_b, gyro) + np.cross(omega, np.cross(omega, pos_b))
+        b[:, 0] += const.thrust / const.mass
+        offsets.append(b)
+    matrix = _accel_matrix(const, positions)
+    z = accel - np.hstack(offsets)
+    row_sd = np.full(9, np.nan)
+    row_sd[:6] = noise_sd(accel)
+    wdot_sg = None
+    if rate_rows:
+        roll_window = min(roll_derivative_window, n - 1 + n % 2)
+        wdot_sg = rate_derivatives(flight, window=derivative_window,
+                                   polyorder=derivative_polyorder, roll_window=roll_window)
+        gains = [np.linalg.norm(savgol_coeffs(w, o, deriv=1, delta=flight.dt, use="dot"))
+                 for w, o in ((roll_window, ROLL_POLYORDER),
+                              (derivative_window, derivative_polyorder),
+                              (derivative_window, derivative_polyorder))]
+        row_sd[6:] = noise_sd(omega) * np.asarray(gains)
+        matrix = np.vstack([matrix, np.hstack([np.zeros((3, 3)), _inertia_inverse(const)])])
+        z = np.hstack([z, wdot_sg - gyro])
+    weights = 1.0 / row_sd[: matrix.shape[0]]
+    if rate_rows:
+        weights[6:] *= rate_weight
+    weighted = weights[:, None] * matrix
+    fm = (z * weights) @ np.linalg.pinv(weighted).T
+    rank = int(np.linalg.matrix_rank(weighted))
+    model = fm @ matrix.T
+    residual = np.full((n, 9), np.nan)
+    residual[:, : matrix.shape[0]] = model - z
+    omega_dot = fm[:, 3:] @ _inertia_inverse(const) + gyro
+    fm_smooth = smooth(fm, smoothing_window, min(SMOOTHING_POLYORDER, smoothing_window - 1))
+    return Reconstruction(t=flight.t, fm=fm, fm_smooth=fm_smooth, omega_dot=omega_dot,
+                          omega_dot_sg=wdot_sg, row_sd=row_sd, residual=residual,
+                          rate_rows=rate_rows, rank=rank, smoothing_window=smoothing_window,
+                          derivative_window=derivative_window)
+
+
+SMOOTHING_CHOICES: tuple[str, ...] = ("both", "forces", "none")
+
+
+def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "both",
+                   window: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Return the EBM step-2 regression ``y ~ X theta`` (eqs. 33-38).
+
+    ``X`` comes from :func:`aeroid.dynamics.regressors` on the measured states
+    (u, v, w give V_T, alpha, beta as in eqs. 14-16) and the measured ``delta``; ``y``
+    is the reconstructed ``FM``.
+
+    Smoothing (notes, "Smoothing"): ``"forces"`` smooths only ``y`` (the paper's way);
+    ``"both"`` (default) smooths ``y`` and every column of ``X`` with the same SG
+    filter; ``"none"`` smooths neither. Decision: "both" smooths the regressor columns
+    themselves rather than their inputs (alpha, delta, q): the filter is linear, so
+    ``smooth(X theta) = smooth(X) theta`` holds exactly and a noise-free flight keeps
+    an exact fit.
+
+    Parameters
+    ----------
+    flight : Flight
+    rec : Reconstruction
+        From :func:`reconstruct` on the same flight.
+    smoothing : {"both", "forces", "none"}
+    window : int, optional
+        SG width (default ``rec.smoothing_window``).
+
+    Returns
+    -------
+    X : ndarray, shape (n, 6, 9)
+        Rows ``F_AX, F_AY, F_AZ, M_X, M_Y, M_Z``; columns the nine coefficients.
+    y : ndarray, shape (n, 6) [N, N m]
+    """
+    if smoothing not in SMOOTHING_CHOICES:
+        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_CHOICES)}, "
+                         f"got {smoothing!r}")
+    if rec.fm.shape[0] != flight.n_samples:
+        raise ValueError(f"reconstruction has {rec.fm.shape[0]} samples, flight "
+                         f"{flight.n_samples}")
+    window = rec.smoothing_window if window is None else int(window)
+    X = regressors(flight.states(), flight["delta"], constants(flight.airframe))
+    if smoothing == "none" or window == 1:
+        return X, rec.fm.copy()
+    polyorder = min(SMOOTHING_POLYORDER, window - 1)
+    y = rec.fm_smooth.copy() if window == rec.smoothing_window else smooth(rec.fm, window,
+                                                                          polyorder)
+    if smoothing == "both":
+        X = smooth(X, window, polyorder, axis=0)
+    return X, y
+
