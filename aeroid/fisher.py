@@ -1,0 +1,437 @@
+"""The Cramér-Rao floor of the output-error problem: no unbiased estimator beats it.
+
+Model (the output-error problem of EAM, section 3.1, with both triads): the state is
+integrated from the true state at the window start with the recorded fin deflection
+held over each sample interval (:func:`aeroid.integrate.propagate`); the outputs at
+every sample ``t_k`` are the six accelerometer readings (eq. 28, both triads, with the
+recorded ``delta_k``) and the body rates p, q, r::
+
+    y_k(theta) = [ax1, ay1, az1, ax2, ay2, az2, p, q, r]_k,     k = 0..n-1.
+
+With independent zero-mean measurement errors of standard deviation ``sd_kc`` (sample
+k, channel c), the Fisher information of the nine coefficients is::
+
+    F = sum_k sum_c  J_kc^T J_kc / sd_kc^2,      J_kc = d y_kc / d theta   (1 x 9),
+
+and the Cramér-Rao standard deviations are ``sqrt(diag(F^-1))``.
+
+Decisions (the notes leave these open):
+
+* Sensitivities ``J`` are central finite differences of the compiled integrator with a
+  relative step of 1e-6 per coefficient (truncation error ~1e-12, rounding ~1e-10
+  relative; a test compares them with a closed form at k = 0 and with a second step and
+  stencil computed on the numpy backend).
+* The model integrates with ``substeps = 8`` RK4 steps per sample (0.25 ms, the truth's
+  step), so with the true coefficients the model outputs equal the simulated clean flight.
+* Paper noise (eq. 43) is multiplicative uniform: ``s_m = s (1 + xi (2U - 1))`` has
+  standard deviation ``|s| xi / sqrt(3)``. Default (``noise_form="heteroscedastic"``):
+  that per-sample value, with ``s`` the noise-free model output. Alternative
+  (``noise_form="homoscedastic"``): one value per channel, ``xi RMS(s) / sqrt(3)``.
+  Samples whose heteroscedastic standard deviation is exactly zero (a zero signal is
+  measured exactly under eq. 43) carry no usable Gaussian-equivalent weight and are left
+  out (they do not occur in a rolling flight). Gaussian noise: the constant per-channel
+  standard deviation.
+* Uniform noise has a support that depends on the parameters, so its exact Fisher
+  information is not finite (the regularity conditions of the Cramér-Rao theorem fail).
+  What this module returns for paper noise is the bound for Gaussian errors of the same
+  variance, which is also the asymptotic covariance of the (weighted) least-squares
+  output-error estimator: the floor the study compares least-squares-type estimators with.
+* The estimator's position error (``accel_position_xi``) is not a measurement noise: the
+  floor uses the true positions (``positions="true"``), or the estimator's perturbed
+  copy (``positions="estimator"``) when asked; either way the positions are taken as known.
+* The initial state is known by default (the brief: "the true state at the window
+  start"); ``estimate_initial`` names components estimated jointly as nuisance parameters
+  (an output-error fit that starts from measured, noisy rates has to).
+
+Comparison with the reference README (percent of nominal, reference scenario, paper
+noise, true positions; measured with this module)::
+
+                                      Cx    Cza   Czd   Czq   Cl0   Clp   Cma   Cmd   Cmq
+    README (independent prototype)   0.02  0.11  0.34  6.0   11.5  14.4  0.07  0.13  0.86
+    default (heteroscedastic, both)  0.012 0.054 0.106 0.44  0.54  0.69  0.003 0.009 0.070
+    homoscedastic, both, x0 known    0.012 0.104 0.308 5.88  6.06  7.63  0.052 0.115 0.579
+    PROTOTYPE_FLOOR                  0.017 0.112 0.343 5.96  11.5  14.4  0.073 0.132 0.862
+
+The README's figures are reproduced (to their rounding) by :data:`PROTOTYPE_FLOOR`:
+homoscedastic ``xi RMS / sqrt(3)``, triad 1 and the rates, initial p, q, r estimated.
+The heteroscedastic default is 10-20x lower on Czq, Cl0, Clp, Cma: under eq. 43 a
+signal crossing zero (q, r, the lateral accelerations) is measured almost exactly there,
+and those samples pin the roll phase. That is what eq. 43 implies, but not what a real
+sensor does; studies must say which floor they draw.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from aeroid.airframe import Airframe
+from aeroid.coefficients import N_COEFFICIENTS, as_vector
+from aeroid.dynamics import STATE_NAMES, Constants, P, R, constants
+from aeroid.flight import Flight
+from aeroid.integrate import propagate
+from aeroid.scenario import Scenario
+from aeroid.sensors import GaussianNoise, NoiseModel, NoNoise, PaperNoise, accelerometers
+from aeroid.simulate import simulate
+
+#: Output channels of the output-error model, in the column order of every (n, 9) array.
+OUTPUT_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r")
+#: Channel subsets: ``both`` triads and the rates (default), or ``triad1`` and the rates
+#: (the EAM output set: triad 1 at [Rx1, 0, 0] only).
+CHANNEL_SETS: dict[str, tuple[int, ...]] = {
+    "both": tuple(range(9)),
+    "triad1": (0, 1, 2, 6, 7, 8),
+}
+NOISE_FORMS: tuple[str, ...] = ("heteroscedastic", "homoscedastic")
+#: Options of :func:`cramer_rao_sd` that reproduce the reference README's floor (an
+#: independent prototype): one standard deviation per channel, triad 1 and the rates
+#: only, initial rates estimated. Not the default (see the module docstring).
+PROTOTYPE_FLOOR: dict[str, object] = {
+    "noise_form": "homoscedastic", "channels": "triad1", "estimate_initial": ("p", "q", "r"),
+}
+#: Relative central-difference step of the sensitivities (see the module docstring).
+DEFAULT_REL_STEP = 1e-6
+#: RK4 steps per sample interval of the model (0.25 ms at 500 Hz: the truth's step).
+DEFAULT_SUBSTEPS = 8
+
+
+class OutputErrorInputs(NamedTuple):
+    """What the output-error model needs besides the coefficients.
+
+    Attributes
+    ----------
+    state0 : ndarray, shape (9,)
+        State at the first sample [m/s, rad/s, rad].
+    delta : ndarray, shape (n,)
+        Recorded fin deflection at every sample [rad], held over ``[t_k, t_k + dt)``.
+    dt : float
+        Sample interval [s].
+    """
+
+    state0: np.ndarray
+    delta: np.ndarray
+    dt: float
+
+
+def inputs_from_flight(flight: Flight) -> OutputErrorInputs:
+    """Return the model inputs of ``flight``: its first state, recorded delta and dt.
+
+    For a noisy flight the first sample's measured p, q, r are used as they are; for
+    the floor pass the noise-free flight (``cramer_rao_sd`` does).
+    """
+    return OutputErrorInputs(flight.states()[0], flight["delta"], flight.dt)
+
+
+def _as_inputs(flight_or_inputs: Flight | OutputErrorInputs) -> OutputErrorInputs:
+    if isinstance(flight_or_inputs, Flight):
+        return inputs_from_flight(flight_or_inputs)
+    if isinstance(flight_or_inputs, OutputErrorInputs):
+        state0 = np.asarray(flight_or_inputs.state0, dtype=float)
+        delta = np.asarray(flight_or_inputs.delta, dtype=float).reshape(-1)
+        if state0.shape != (9,) or delta.size < 2:
+            raise ValueError("fisher: inputs need state0 of shape (9,) and at least 2 samples")
+        return OutputErrorInputs(state0, delta, float(flight_or_inputs.dt))
+    raise TypeError(
+        f"fisher: expected a Flight or OutputErrorInputs, got {type(flight_or_inputs).__name__}"
+    )
+
+
+def _positions(airframe: Airframe, positions: np.ndarray | None) -> np.ndarray:
+    pos = airframe.accel_positions if positions is None else np.asarray(positions, dtype=float)
+    if pos.shape != (2, 3) or not np.all(np.isfinite(pos)):
+        raise ValueError(f"fisher: positions must be 2 x 3 finite values [m], got {pos.shape}")
+    return pos
+
+
+def model_outputs(
+    airframe: Airframe,
+    coefficients: np.ndarray,
+    flight_or_inputs: Flight | OutputErrorInputs,
+    *,
+    positions: np.ndarray | None = None,
+    substeps: int = DEFAULT_SUBSTEPS,
+) -> np.ndarray:
+    """Return the output-error model's outputs for one or many coefficient sets.
+
+    Parameters
+    ----------
+    airframe : Airframe
+        Mass properties, geometry and (unless ``positions`` is given) triad positions.
+    coefficients : array_like, shape (9,) or (n_sets, 9)
+    flight_or_inputs : Flight or OutputErrorInputs
+        Initial state, recorded delta and sample interval.
+    positions : ndarray, shape (2, 3), optional
+        Triad positions from the c.g. [m]; default ``airframe.accel_positions``.
+    substeps : int
+        RK4 steps per sample interval.
+
+    Returns
+    -------
+    ndarray, shape (n, 9) or (n_sets, n, 9)
+        Columns :data:`OUTPUT_CHANNELS` [m/s^2, rad/s].
+    """
+    inputs = _as_inputs(flight_or_inputs)
+    theta = np.asarray(coefficients, dtype=float)
+    single = theta.ndim == 1
+    theta = np.atleast_2d(as_vector(theta))
+    const = constants(airframe)
+    pos = _positions(airframe, positions)
+    states = propagate(inputs.state0, theta, inputs.delta[:-1], inputs.dt, const,
+                       substeps=substeps)
+    out = _outputs(states, inputs.delta, theta, const, pos)
+    return out[0] if single else out
+
+
+def _outputs(states: np.ndarray, delta: np.ndarray, theta: np.ndarray, const: Constants,
+             pos: np.ndarray) -> np.ndarray:
+    # states (n_sets, n, 9), delta (n,), theta (n_sets, 9) -> (n_sets, n, 9)
+    acc = accelerometers(states, delta[None, :], theta[:, None, :], const, pos)
+    return np.concatenate([acc.reshape(*states.shape[:2], 6), states[..., P:R + 1]], axis=-1)
+
+
+def output_sensitivities(
+    airframe: Airframe,
+    coefficients: np.ndarray,
+    flight_or_inputs: Flight | OutputErrorInputs,
+    *,
+    positions: np.ndarray | None = None,
+    estimate_initial: tuple[str, ...] = (),
+    rel_step: float = DEFAULT_REL_STEP,
+    substeps: int = DEFAULT_SUBSTEPS,
+) -> np.ndarray:
+    """Return ``d y_kc / d (theta, x0)`` by central differences, shape (n, 9, 9 + m).
+
+    Axes: sample k, output channel c (:data:`OUTPUT_CHANNELS`), parameter: the nine
+    coefficients, then the ``m`` initial-state components named in ``estimate_initial``
+    (:data:`aeroid.dynamics.STATE_NAMES`, e.g. ``("p", "q", "r")``). The step of
+    coefficient j is ``rel_step * |theta_j|`` (``rel_step`` when theta_j = 0), that of
+    state component i ``rel_step * max(|x0_i|, 1)``; all perturbed trajectories are
+    integrated in one batched call.
+    """
+    inputs = _as_inputs(flight_or_inputs)
+    theta = as_vector(np.asarray(coefficients, dtype=float))
+    if theta.shape != (N_COEFFICIENTS,):
+        raise ValueError(f"fisher: coefficients must have shape (9,), got {theta.shape}")
+    if not (math.isfinite(rel_step) and 0 < rel_step < 1):
+        raise ValueError(f"fisher: rel_step must be in (0, 1), got {rel_step}")
+    unknown = [name for name in estimate_initial if name not in STATE_NAMES]
+    if unknown:
+        raise ValueError(f"fisher: unknown state name(s) {unknown} in estimate_initial "
+                         f"(expected some of {', '.join(STATE_NAMES)})")
+    idx = [STATE_NAMES.index(name) for name in estimate_initial]
+    x0 = inputs.state0
+    n_par = N_COEFFICIENTS + len(idx)
+    step = np.concatenate([rel_step * np.where(theta != 0, np.abs(theta), 1.0),
+                           rel_step * np.maximum(np.abs(x0[idx]), 1.0)])
+    thetas = np.tile(theta, (2 * n_par, 1))
+    states = np.tile(x0, (2 * n_par, 1))
+    for j in range(n_par):
+        for sign, row in ((1.0, j), (-1.0, n_par + j)):
+            if j < N_COEFFICIENTS:
+                thetas[row, j] += sign * step[j]
+            else:
+                states[row, idx[j - N_COEFFICIENTS]] += sign * step[j]
+    const = constants(airframe)
+    pos = _positions(airframe, positions)
+    traj = propagate(states, thetas, inputs.delta[:-1], inputs.dt, const, substeps=substeps)
+    y = _outputs(traj, inputs.delta, thetas, const, pos)
+    jac = (y[:n_par] - y[n_par:]) / (2.0 * step[:, None, None])
+    return np.moveaxis(jac, 0, -1)
+
+
+def noise_sd(
+    noise_model: NoiseModel,
+    outputs: np.ndarray,
+    *,
+    noise_form: str = "heteroscedastic",
+) -> np.ndarray:
+    """Return the measurement-error standard deviation of every output, shape (n, 9).
+
+    Parameters
+    ----------
+    noise_model : PaperNoise or GaussianNoise
+    outputs : ndarray, shape (n, 9)
+        Noise-free model outputs ``s`` (:func:`model_outputs`) [m/s^2, rad/s].
+    noise_form : {"heteroscedastic", "homoscedastic"}
+        Paper noise only: ``|s_k| xi / sqrt(3)`` per sample (default, what eq. 43 says),
+        or ``xi RMS(s) / sqrt(3)`` per channel. Ignored for Gaussian noise.
+    """
+    outputs = np.asarray(outputs, dtype=float)
+    if outputs.ndim != 2 or outputs.shape[1] != len(OUTPUT_CHANNELS):
+        raise ValueError(f"fisher: outputs must have shape (n, 9), got {outputs.shape}")
+    if noise_form not in NOISE_FORMS:
+        raise ValueError(f"fisher: unknown noise_form {noise_form!r} "
+                         f"(expected {' or '.join(NOISE_FORMS)})")
+    if isinstance(noise_model, PaperNoise):
+        xi = np.array([noise_model.accelerations_xi] * 6 + [noise_model.rates_xi] * 3)
+        if noise_form == "heteroscedastic":
+            return np.abs(outputs) * xi / math.sqrt(3.0)
+        rms = np.sqrt(np.mean(outputs**2, axis=0))
+        return np.broadcast_to(rms * xi / math.sqrt(3.0), outputs.shape).copy()
+    if isinstance(noise_model, GaussianNoise):
+        sd = np.array([noise_model.accel_sd_mps2] * 6 + [noise_model.rate_sd_radps] * 3)
+        return np.broadcast_to(sd, outputs.shape).copy()
+    raise ValueError(
+        f"fisher: no Cramér-Rao floor for noise model {getattr(noise_model, 'name', noise_model)!r}"
+        " (needs 'paper' or 'gaussian': noise-free data have no floor)"
+    )
+
+
+def information_from_sensitivities(
+    sensitivities: np.ndarray, sd: np.ndarray, *, channels: str = "both"
+) -> np.ndarray:
+    """Return ``F = sum_k sum_c J_kc^T J_kc / sd_kc^2``, shape (9, 9).
+
+    Parameters
+    ----------
+    sensitivities : ndarray, shape (n, 9, n_params)
+    sd : ndarray, broadcastable to (n, 9)
+        Error standard deviations; entries that are 0 (exact measurements of a zero
+        signal under eq. 43) are left out; negative or non-finite values are an error.
+    channels : {"both", "triad1"}
+    """
+    jac = np.asarray(sensitivities, dtype=float)
+    sd = np.broadcast_to(np.asarray(sd, dtype=float), jac.shape[:2])
+    if channels not in CHANNEL_SETS:
+        raise ValueError(f"fisher: unknown channels {channels!r} "
+                         f"(expected {' or '.join(CHANNEL_SETS)})")
+    if not np.all(np.isfinite(sd)) or np.any(sd < 0):
+        raise ValueError("fisher: noise standard deviations must be finite and >= 0")
+    if not np.all(np.isfinite(jac)):
+        raise ValueError("fisher: non-finite sensitivities (the model diverged)")
+    cols = list(CHANNEL_SETS[channels])
+    jac, sd = jac[:, cols], sd[:, cols]
+    weight = np.zeros_like(sd)
+    np.divide(1.0, sd**2, out=weight, where=sd > 0)
+    return np.einsum("kci,kc,kcj->ij", jac, weight, jac)
+
+
+def coefficient_information(information: np.ndarray) -> np.ndarray:
+    """Return the information of the nine coefficients with the nuisance parameters removed.
+
+    For a joint information ``[[F_tt, F_tx], [F_xt, F_xx]]`` of the coefficients and
+    ``m`` estimated initial-state components, the Schur complement
+    ``F_tt - F_tx F_xx^-1 F_xt`` (9 x 9), whose inverse is the coefficient block of the
+    joint inverse. With no nuisance parameters it is ``information`` itself.
+    """
+    info = np.asarray(information, dtype=float)
+    n = N_COEFFICIENTS
+    if info.shape[0] == n:
+        return info.copy()
+    f_tt, f_tx, f_xx = info[:n, :n], info[:n, n:], info[n:, n:]
+    return f_tt - f_tx @ np.linalg.solve(f_xx, f_tx.T)
+
+
+def output_error_information(
+    airframe: Airframe,
+    coefficients: np.ndarray,
+    flight_or_inputs: Flight | OutputErrorInputs,
+    noise_sd: np.ndarray | float,
+    *,
+    positions: np.ndarray | None = None,
+    channels: str = "both",
+    estimate_initial: tuple[str, ...] = (),
+    rel_step: float = DEFAULT_REL_STEP,
+    substeps: int = DEFAULT_SUBSTEPS,
+) -> np.ndarray:
+    """Return the Fisher information of the nine coefficients, shape (9, 9).
+
+    Parameters
+    ----------
+    airframe : Airframe
+    coefficients : array_like, shape (9,)
+        The coefficients at which the information is evaluated (the truth).
+    flight_or_inputs : Flight or OutputErrorInputs
+        Initial state, recorded delta, sample interval (:func:`inputs_from_flight`).
+    noise_sd : float or ndarray, broadcastable to (n, 9)
+        Error standard deviation per sample and output channel
+        (:data:`OUTPUT_CHANNELS`) [m/s^2, rad/s] (:func:`noise_sd` builds it).
+    positions : ndarray, shape (2, 3), optional
+        Triad positions [m]; default ``airframe.accel_positions``.
+    channels : {"both", "triad1"}
+        Outputs used: both triads and the rates, or triad 1 and the rates.
+    estimate_initial : tuple of str
+        Initial-state components (:data:`aeroid.dynamics.STATE_NAMES`) estimated jointly
+        with the coefficients as nuisance parameters; default none (the initial state
+        is known). Their effect is removed with :func:`coefficient_information`.
+    rel_step, substeps
+        See :func:`output_sensitivities`.
+
+    Returns
+    -------
+    ndarray, shape (9, 9)
+        In units of 1 / (coefficient units)^2 (all coefficients are dimensionless).
+    """
+    jac = output_sensitivities(airframe, coefficients, flight_or_inputs, positions=positions,
+                               estimate_initial=estimate_initial, rel_step=rel_step,
+                               substeps=substeps)
+    return coefficient_information(
+        information_from_sensitivities(jac, noise_sd, channels=channels))
+
+
+def cramer_rao_sd(
+    scenario_or_flight: Scenario | Flight,
+    noise_model: NoiseModel,
+    *,
+    positions: str = "true",
+    noise_form: str = "heteroscedastic",
+    channels: str = "both",
+    estimate_initial: tuple[str, ...] = (),
+) -> np.ndarray:
+    """Return the Cramér-Rao standard deviations of the nine coefficients, shape (9,).
+
+    Parameters
+    ----------
+    scenario_or_flight : Scenario or Flight
+        A scenario is simulated without noise; a flight must carry
+        ``metadata["true_coefficients"]`` (a simulated flight) and is linearised about
+        its recorded initial state and delta (use a noise-free flight for the exact floor).
+    noise_model : PaperNoise or GaussianNoise
+        The measurement errors (see :func:`noise_sd`; position errors are not noise).
+    positions : {"true", "estimator"}
+        Triad positions of the model: the true ones (default) or the estimator's copy.
+    noise_form : {"heteroscedastic", "homoscedastic"}
+        Paper noise only, see :func:`noise_sd`.
+    channels : {"both", "triad1"}
+        Outputs: both triads and p, q, r (default), or triad 1 and p, q, r.
+    estimate_initial : tuple of str
+        Initial-state components estimated jointly as nuisance parameters (default
+        none). ``**PROTOTYPE_FLOOR`` (homoscedastic, triad 1, initial p, q, r estimated)
+        reproduces the reference README's figures.
+
+    Returns
+    -------
+    ndarray, shape (9,)
+        ``sqrt(diag(F^-1))`` in :data:`aeroid.coefficients.NAMES` order (same units as the
+        coefficients). Divide by ``|theta|`` for a relative floor.
+    """
+    if isinstance(scenario_or_flight, Scenario):
+        flight = simulate(scenario_or_flight.airframe, scenario_or_flight.coefficient_vector,
+                          scenario_or_flight.manoeuvre, NoNoise(), rng=0)
+    elif isinstance(scenario_or_flight, Flight):
+        flight = scenario_or_flight
+    else:
+        raise TypeError("cramer_rao_sd: expected a Scenario or a Flight, "
+                        f"got {type(scenario_or_flight).__name__}")
+    theta = flight.true_coefficients
+    if theta is None:
+        raise ValueError("cramer_rao_sd: the flight has no metadata['true_coefficients']")
+    if positions == "true":
+        truth = flight.metadata.get("true_accel_positions_m")
+        if truth is None:
+            raise ValueError("cramer_rao_sd: the flight has no metadata['true_accel_positions_m']")
+        pos = np.asarray(truth, dtype=float)
+    elif positions == "estimator":
+        pos = flight.airframe.accel_positions
+    else:
+        raise ValueError(
+            f"cramer_rao_sd: positions must be 'true' or 'estimator', got {positions!r}")
+    inputs = inputs_from_flight(flight)
+    outputs = model_outputs(flight.airframe, theta, inputs, positions=pos)
+    sd = noise_sd(noise_model, outputs, noise_form=noise_form)
+    info = output_error_information(flight.airframe, theta, inputs, sd, positions=pos,
+                                    channels=channels, estimate_initial=estimate_initial)
+    cov = np.linalg.inv(info)
+    return np.sqrt(np.diag(cov))
