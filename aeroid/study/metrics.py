@@ -1,0 +1,176 @@
+"""Accuracy, honesty and cost of each estimator in a study (pure pandas/numpy).
+
+:func:`tidy` turns the runner's records into one row per run x noise x estimator x
+coefficient; :func:`summarize` reduces it per noise condition, estimator and
+coefficient. Definitions (``e = estimate - truth``, over *successful* fits only):
+
+- ``bias`` = mean(e); ``bias_pct`` = bias / |truth| * 100
+- ``sd`` = sample standard deviation of the estimates (ddof = 1; NaN for one fit)
+- ``mean_abs_error_pct`` = mean(|e| / |truth|) * 100 — the paper's error figure
+- ``rmse`` = sqrt(mean(e^2)); ``rmse_pct`` = rmse / |truth| * 100
+- ``coverage`` = fraction of fits with a finite standard error whose nominal 95 %
+  interval holds the truth, ``|e| <= COVERAGE_Z * stderr`` (NaN when no fit has one)
+- ``success_rate`` = successful fits / fits; wall time and evaluations are medians
+  over all fits (failures cost time too)
+- ``cr_sd`` = the Cramér-Rao standard deviation of the scenario (the floor no unbiased
+  estimator beats on average), ``cr_sd_pct`` in % of |truth| and ``sd_over_cr``
+  (1 = efficient), when a floor is given.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from aeroid.coefficients import NAMES
+
+COVERAGE_Z = 1.96
+"""Two-sided 95 % normal quantile (rounded as in the brief: |e| <= 1.96 stderr)."""
+
+GROUP = ["noise", "estimator", "coefficient"]
+
+TIDY_COLUMNS = ["run", "noise", "estimator", "method", "coefficient", "truth", "estimate",
+                "stderr", "error", "rel_error_pct", "covered", "success", "message", "cost",
+                "n_evaluations", "n_iterations", "wall_time_s"]
+
+
+def _array(values: Any, n: int) -> np.ndarray:
+    if values is None:
+        return np.full(n, np.nan)
+    return np.array([np.nan if v is None else float(v) for v in values], dtype=float)
+
+
+def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> pd.DataFrame:
+    """Return one row per fit and coefficient.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        Runner records (``run``, ``noise``, ``estimator``, ``method``, ``truth`` (9,),
+        ``theta`` (9,), ``stderr`` (9,) or None, ``success``, ``message``, ``cost``,
+        ``n_evaluations``, ``n_iterations``, ``wall_time_s``; None means NaN).
+    names : sequence of str
+        Coefficient names, in the order of ``truth`` and ``theta``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`TIDY_COLUMNS`; ``error`` = estimate - truth, ``rel_error_pct`` =
+        |error| / |truth| * 100, ``covered`` = |error| <= COVERAGE_Z * stderr (NA where
+        the fit failed or gave no finite standard error).
+    """
+    rows: list[dict[str, Any]] = []
+    n = len(names)
+    for r in records:
+        truth, theta, stderr = (_array(r.get(k), n) for k in ("truth", "theta", "stderr"))
+        for j, name in enumerate(names):
+            rows.append({
+                "run": int(r["run"]), "noise": str(r["noise"]),
+                "estimator": str(r["estimator"]), "method": str(r.get("method", "")),
+                "coefficient": name, "truth": truth[j], "estimate": theta[j],
+                "stderr": stderr[j], "success": bool(r["success"]),
+                "message": str(r.get("message", "")),
+                "cost": np.nan if r.get("cost") is None else float(r["cost"]),
+                "n_evaluations": int(r.get("n_evaluations") or 0),
+                "n_iterations": int(r.get("n_iterations") or 0),
+                "wall_time_s": np.nan if r.get("wall_time_s") is None
+                else float(r["wall_time_s"]),
+            })
+    frame = pd.DataFrame(rows, columns=[c for c in TIDY_COLUMNS
+                                        if c not in ("error", "rel_error_pct", "covered")])
+    frame["error"] = frame["estimate"] - frame["truth"]
+    frame["rel_error_pct"] = frame["error"].abs() / frame["truth"].abs() * 100.0
+    ok = frame["success"] & np.isfinite(frame["stderr"]) & np.isfinite(frame["error"])
+    covered = frame["error"].abs() <= COVERAGE_Z * frame["stderr"]
+    frame["covered"] = pd.array(np.where(ok, covered, False), dtype="boolean")
+    frame.loc[~ok, "covered"] = pd.NA
+    return frame[TIDY_COLUMNS]
+
+
+def _reduce(group: pd.DataFrame) -> pd.Series:
+    good = group[group["success"]]
+    err = good["error"].to_numpy(dtype=float)
+    truth = float(group["truth"].iloc[0])
+    n_good = len(good)
+    covered = good["covered"].dropna()
+    return pd.Series({
+        "method": group["method"].iloc[0],
+        "truth": truth,
+        "n_runs": len(group),
+        "n_success": n_good,
+        "success_rate": n_good / len(group) if len(group) else np.nan,
+        "mean_estimate": good["estimate"].mean() if n_good else np.nan,
+        "bias": err.mean() if n_good else np.nan,
+        "bias_pct": err.mean() / abs(truth) * 100.0 if n_good else np.nan,
+        "sd": good["estimate"].std(ddof=1) if n_good > 1 else np.nan,
+        "mean_abs_error_pct": good["rel_error_pct"].mean() if n_good else np.nan,
+        "rmse": float(np.sqrt(np.mean(err**2))) if n_good else np.nan,
+        "rmse_pct": float(np.sqrt(np.mean(err**2))) / abs(truth) * 100.0 if n_good else np.nan,
+        "n_stderr": len(covered),
+        "coverage": float(covered.astype(float).mean()) if len(covered) else np.nan,
+        "median_wall_time_s": group["wall_time_s"].median(),
+        "median_evaluations": group["n_evaluations"].median(),
+    })
+
+
+def summarize(frame: pd.DataFrame,
+              cramer_rao: Mapping[str, Sequence[float] | None] | None = None,
+              names: Sequence[str] = NAMES) -> pd.DataFrame:
+    """Return the per (noise, estimator, coefficient) summary of a :func:`tidy` table.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Output of :func:`tidy`.
+    cramer_rao : mapping of str to array_like (9,) or None, optional
+        Noise label -> Cramér-Rao standard deviation of each coefficient (same units as
+        the coefficient); missing or None gives NaN floor columns.
+    names : sequence of str
+        Coefficient order of ``cramer_rao`` vectors.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per group, in the order of first appearance, with the columns named in
+        the module docstring.
+    """
+    order = frame[GROUP].drop_duplicates()
+    rows = []
+    for key, group in frame.groupby(GROUP, sort=False):
+        rows.append(pd.concat([pd.Series(dict(zip(GROUP, key, strict=True))),
+                               _reduce(group)]))
+    out = pd.DataFrame(rows)
+    if out.empty:
+        out = pd.DataFrame(columns=[*GROUP, "method", "truth"])
+    out = order.merge(out, on=GROUP, how="left")
+    index = {n: j for j, n in enumerate(names)}
+    cr = []
+    for noise, coef in zip(out["noise"], out["coefficient"], strict=True):
+        floor = (cramer_rao or {}).get(noise)
+        cr.append(np.nan if floor is None else float(floor[index[coef]]))
+    out["cr_sd"] = np.array(cr, dtype=float)
+    out["cr_sd_pct"] = out["cr_sd"] / out["truth"].abs() * 100.0
+    out["sd_over_cr"] = out["sd"] / out["cr_sd"]
+    return out.reset_index(drop=True)
+
+
+def overall(summary: pd.DataFrame) -> pd.DataFrame:
+    """Return one row per (noise, estimator): mean over the coefficients.
+
+    Columns: ``mean_abs_error_pct`` (the paper's "average error"), ``coverage``
+    (mean over coefficients with standard errors), ``success_rate``,
+    ``median_wall_time_s`` and ``median_evaluations``.
+    """
+    grouped = summary.groupby(["noise", "estimator"], sort=False)
+    return grouped.agg(method=("method", "first"),
+                       mean_abs_error_pct=("mean_abs_error_pct", "mean"),
+                       coverage=("coverage", "mean"),
+                       success_rate=("success_rate", "first"),
+                       median_wall_time_s=("median_wall_time_s", "first"),
+                       median_evaluations=("median_evaluations", "first")).reset_index()
+
+
+__all__ = ["COVERAGE_Z", "TIDY_COLUMNS", "overall", "summarize", "tidy"]
