@@ -1,0 +1,49 @@
+"""Shared fixtures: the reference scenario and its simulated flights.
+
+The flights are session-scoped (simulated once per test run): treat them as read-only
+(``flight["p"]`` returns a copy; do not modify ``flight.data`` in place).
+
+* ``reference_scenario``: the embedded reference scenario (``reference-scenario.toml``).
+* ``clean_flight``: its noise-free flight (t = 5..6 s, 501 samples at 500 Hz).
+* ``paper_flight``: the same flight with the paper's noise (eq. 43, xi = 0.05 on the
+  accelerations and rates, 0.1 on the estimator's sensor positions), seed 1.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aeroid.flight import Flight
+from aeroid.scenario import Scenario, load_scenario
+from aeroid.sensors import NoNoise, PaperNoise
+from aeroid.simulate import simulate_scenario
+
+DATA_DIR = Path(__file__).parent / "data"
+#: Seed of the ``paper_flight`` fixture.
+PAPER_FLIGHT_SEED = 1
+
+
+@pytest.fixture(scope="session")
+def reference_scenario() -> Scenario:
+    """The embedded reference scenario."""
+    return load_scenario(None)
+
+
+@pytest.fixture(scope="session")
+def clean_flight(reference_scenario: Scenario) -> Flight:
+    """The reference scenario's noise-free flight (true sensor positions)."""
+    return simulate_scenario(reference_scenario, NoNoise(), rng=0)
+
+
+@pytest.fixture(scope="session")
+def paper_flight(reference_scenario: Scenario) -> Flight:
+    """The reference scenario's flight with the paper's noise, seed 1."""
+    return simulate_scenario(reference_scenario, PaperNoise(), rng=PAPER_FLIGHT_SEED)
+
+
+@pytest.fixture(scope="session")
+def reference_csv_path() -> Path:
+    """Path of the independent reference flight (``tests/data/reference-flight-clean.csv``)."""
+    return DATA_DIR / "reference-flight-clean.csv"
