@@ -1,0 +1,160 @@
+"""The report of a 2-run study: tables, the paper's columns, every figure, the CLI."""
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from aeroid import EstimationResult, Estimator
+from aeroid.cli import main
+from aeroid.coefficients import NAMES
+from aeroid.study import design, loads_study, run_study, write_report
+from aeroid.study.report import paper_condition, paper_errors, paper_results
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+# A drawn 3x3 or 2x3 figure is tens of kB; an empty canvas is a few kB.
+MIN_FIGURE_BYTES = 10_000
+
+
+@dataclass(frozen=True, kw_only=True)
+class FakePSO(Estimator):
+    """A PSO-shaped result: cost history per iteration and an EBM-style forces info."""
+
+    name: ClassVar[str] = "fake-pso"
+
+    def run(self, flight, rng):
+        prior = flight.airframe.prior_vector()
+        theta = prior * (1.0 + 0.02 * rng.standard_normal(9))
+        steps = np.arange(30)
+        path = theta + np.exp(-steps / 5.0)[:, None] * (prior * 0.3)
+        t = flight.t
+        fm_raw = np.column_stack([np.sin(t * k) for k in range(1, 7)])
+        fm_raw += 0.1 * rng.standard_normal(fm_raw.shape)
+        return EstimationResult(
+            estimator=self.name, theta=theta, cost=1.0, n_evaluations=300, n_iterations=30,
+            history={"axis": "iteration", "step": steps, "theta": path,
+                     "cost": 1.0 + np.exp(-steps / 5.0)},
+            info={"t": t, "fm_raw": fm_raw, "fm_smooth": fm_raw * 0.9})
+
+
+@dataclass(frozen=True, kw_only=True)
+class FakeFilter(Estimator):
+    """A filter-shaped result named like the paper's EKF: history against time."""
+
+    name: ClassVar[str] = "ekf"
+
+    def run(self, flight, rng):
+        prior = flight.airframe.prior_vector()
+        theta = prior * (1.0 + 0.01 * rng.standard_normal(9))
+        t = flight.t
+        sd = np.abs(prior)[None, :] * 0.1 / np.sqrt(1.0 + 50 * (t - t[0]))[:, None]
+        return EstimationResult(
+            estimator=self.name, theta=theta, stderr=np.abs(prior) * 0.01,
+            history={"axis": "time", "step": t, "theta": np.tile(theta, (len(t), 1)),
+                     "theta_sd": sd})
+
+
+REGISTRY = {"fake-pso": FakePSO, "ekf": FakeFilter}
+
+STUDY = """
+[study]
+name = "report-test"
+runs = 2
+seed = 5
+
+[[noise]]
+label = "paper xi=0.05"
+model = "paper"
+
+[[estimators]]
+label = "PSO-like"
+method = "fake-pso"
+
+[[estimators]]
+label = "EKF"
+method = "ekf"
+"""
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    study = loads_study(STUDY, registry=REGISTRY)
+    out = tmp_path_factory.mktemp("report")
+    outcome = run_study(study, out, progress=False)
+    path = write_report(study, out, outcome.records, command="aeroid study test.toml")
+    return study, out, path
+
+
+def test_tables_have_the_expected_rows(report):
+    study, out, _ = report
+    results = pd.read_csv(out / "results.csv")
+    assert len(results) == 2 * 1 * 2 * 9
+    assert list(results["coefficient"].iloc[:9]) == list(NAMES)
+    summary = pd.read_csv(out / "summary.csv")
+    assert len(summary) == 2 * 9
+    # the filter has standard errors (coverage defined), the PSO-like one has none
+    assert summary.loc[summary["estimator"] == "EKF", "coverage"].notna().all()
+    assert summary.loc[summary["estimator"] == "PSO-like", "coverage"].isna().all()
+
+
+def test_report_shows_the_paper_figures_labelled_as_the_papers(report):
+    _, _, path = report
+    text = path.read_text()
+    assert "PAPER EKF (Table 5)" in text
+    assert "the paper's published figures, not ours" in text
+    paper = paper_results()
+    cx = paper[(paper["table"] == 5) & (paper["method"] == "EKF")
+               & (paper["coefficient"] == "Cx")]["error_pct"].iloc[0]
+    cx_row = next(line for line in text.splitlines() if line.startswith("| Cx |"))
+    assert cx_row.rstrip(" |").endswith(f"{cx:.2f}")  # the paper's 15 % for the EKF
+    assert "aeroid study test.toml" in text
+
+
+def test_every_figure_is_written(report):
+    _, out, path = report
+    figures = sorted(p.name for p in (out / "figures").iterdir())
+    tag = "paper_xi=0.05"
+    assert figures == sorted([
+        f"coefficients_{tag}__PSO-like.png", f"coefficients_{tag}__EKF.png",
+        f"forces_{tag}__PSO-like.png", f"convergence_{tag}.png", f"errors_{tag}.png",
+        "runtime.png"])
+    for name in figures:
+        data = (out / "figures" / name).read_bytes()
+        assert data.startswith(PNG_MAGIC) and len(data) > MIN_FIGURE_BYTES, name
+        assert f"figures/{name}" in path.read_text()
+
+
+@pytest.mark.parametrize(("method", "options", "noise", "expected"), [
+    ("ekf", {}, {"model": "paper", "accelerations_xi": 0.05, "rates_xi": 0.05},
+     (5, "xi=0.05 100 runs")),
+    ("ebm-pso", {"smoothing": "none"}, {"model": "paper", "accelerations_xi": 0.1,
+                                        "rates_xi": 0.1}, (7, "xi=0.1 no filter")),
+    ("ebm-pso", {"smoothing": "forces"}, {"model": "paper", "accelerations_xi": 0.02,
+                                          "rates_xi": 0.02}, (6, "xi=0.02 with SG filter")),
+    ("sebm-pso", {}, {"model": "paper", "accelerations_xi": 0.1, "rates_xi": 0.1}, None),
+    ("ekf", {}, {"model": "gaussian"}, None),
+    ("ukf", {}, {"model": "paper", "accelerations_xi": 0.05, "rates_xi": 0.05}, None),
+    ("ebm-pso", {}, {"model": "paper", "accelerations_xi": 0.05, "rates_xi": 0.02}, None),
+])
+def test_paper_condition_mapping(method, options, noise, expected):
+    assert paper_condition(method, options, noise) == expected
+    if expected is not None:
+        errors = paper_errors(*expected, method)
+        assert sorted(errors) == sorted(NAMES)
+
+
+def test_cli_runs_a_study_and_prints_where_the_report_is(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(design, "_registry", lambda: REGISTRY)
+    path = tmp_path / "s.toml"
+    path.write_text(STUDY.replace("runs = 2", "runs = 1"))
+    out = tmp_path / "out"
+    assert main(["study", str(path), "--out", str(out), "--no-progress", "--runs", "2"]) == 0
+    printed = capsys.readouterr()
+    assert printed.out.strip() == f"report: {out / 'report.md'}"
+    assert "2 runs x 1 noise x 2 estimators = 4 fits" in printed.err
+    assert (out / "report.md").exists() and len(pd.read_csv(out / "results.csv")) == 36
+    assert main(["study", str(path), "--out", str(out), "--no-progress", "--runs", "2",
+                 "--resume"]) == 0
+    assert "0 new fits" in capsys.readouterr().err
