@@ -1,0 +1,196 @@
+"""Helpers shared by the baselines: measurements, noise levels, the filters' model (private)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+import aeroid
+from aeroid.estimators import EstimationResult, Estimator
+from aeroid.flight import Flight
+from baselines import _kalman, _model
+
+#: Variance of the width-7 quadratic Savitzky-Golay residual ``e - SG(e)`` for white noise
+#: of unit variance: ``1 - 2 w0 + sum w_i^2 = 1 - 2/3 + 1/3`` (weights of eq. 32).
+SG_RESIDUAL_VARIANCE_FACTOR = 2.0 / 3.0
+SG_WINDOW = 7
+#: Default uniform noise amplitude of eq. 43 (the paper's xi on accelerations and rates).
+PAPER_XI = 0.05
+
+
+def measurements(flight: Flight) -> np.ndarray:
+    """Return the measurement matrix ``[ax1, ay1, az1, ax2, ay2, az2, p, q, r]``, (n, 9)."""
+    return np.column_stack([flight[c] for c in _model.MEASUREMENT_NAMES])
+
+
+def noise_sd_from_data(y: np.ndarray, delta: np.ndarray, *, floor_rel: float) -> np.ndarray:
+    """Estimate each channel's white-noise standard deviation from its SG residual.
+
+    ``sd = RMS(y - savgol(y, 7, 2)) / sqrt(2/3)`` over the samples whose 7-point window
+    contains no relay switch (a step in ``delta`` makes the accelerations jump, which the
+    smoother cannot follow), floored at ``floor_rel`` times the channel's RMS.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n, m)
+    delta : ndarray, shape (n,) [rad]
+    floor_rel : float
+
+    Returns
+    -------
+    ndarray, shape (m,)
+    """
+    resid = y - savgol_filter(y, SG_WINDOW, 2, axis=0)
+    n = y.shape[0]
+    half = SG_WINDOW // 2
+    clean = np.ones(n, dtype=bool)
+    for j in np.flatnonzero(np.diff(delta) != 0.0) + 1:  # delta changes between j-1 and j
+        clean[max(j - half - 1, 0): j + half + 1] = False
+    if clean.sum() < max(10, n // 10):  # too many switches: use every sample
+        clean[:] = True
+    sd = np.sqrt(np.mean(resid[clean] ** 2, axis=0) / SG_RESIDUAL_VARIANCE_FACTOR)
+    floor = floor_rel * np.sqrt(np.mean(y * y, axis=0))
+    return np.maximum(sd, np.maximum(floor, np.finfo(float).tiny))
+
+
+def noise_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float) -> np.ndarray:
+    """Return per-channel measurement sd, shape (m,): ``"data"`` or ``"paper"`` (eq. 43).
+
+    ``"paper"``: the sd of multiplicative uniform noise, ``xi / sqrt(3) * RMS(y)`` with
+    ``xi = 0.05``; ``"data"``: :func:`noise_sd_from_data`.
+    """
+    if method == "paper":
+        sd = PAPER_XI / math.sqrt(3.0) * np.sqrt(np.mean(y * y, axis=0))
+        return np.maximum(sd, floor_rel * np.sqrt(np.mean(y * y, axis=0)))
+    if method == "data":
+        return noise_sd_from_data(y, flight["delta"], floor_rel=floor_rel)
+    raise ValueError(f"measurement_noise must be 'data' or 'paper', got {method!r}")
+
+
+def augmented_model(flight: Flight, substeps: int) -> _kalman.DiscreteModel:
+    """Return the 18-state augmented model ``[x, theta]`` of ``flight`` for the filters.
+
+    The transition from sample k to k+1 is the RK4 step (``substeps`` per interval) with
+    the measured ``delta_k`` held; coefficients are constant. Jacobians come from CasADi
+    AD (:func:`baselines._model.augmented_functions`); the batched versions use
+    :func:`aeroid.propagate` and :func:`aeroid.accelerometers`.
+    """
+    const = aeroid.constants(flight.airframe)
+    dt = flight.dt
+    delta = flight["delta"]
+    positions = flight.airframe.accel_positions
+    pos_flat = positions.ravel()
+    f, h = _model.augmented_functions(const, dt, substeps)
+
+    def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        z_next, F = f(z, delta[k])
+        return np.asarray(z_next).ravel(), np.asarray(F)
+
+    def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        y, H = h(z, delta[k], pos_flat)
+        return np.asarray(y).ravel(), np.asarray(H)
+
+    def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
+        # numpy backend: one RK4 step of 37 sets is too little work for numba's parallel
+        # launch, which cost ~5 ms per call on a busy 2-core machine (measured)
+        x_next = aeroid.propagate(Z[:, :9], Z[:, 9:], delta[k:k + 1], dt, const,
+                                  substeps=substeps, backend="numpy")[:, 1]
+        return np.concatenate([x_next, Z[:, 9:]], axis=1)
+
+    def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
+        acc = aeroid.accelerometers(Z[:, :9], delta[k], Z[:, 9:], const, positions)
+        return np.concatenate([acc.reshape(len(Z), 6), Z[:, 3:6]], axis=1)
+
+    return _kalman.DiscreteModel(18, 9, transition, observe, transition_batch, observe_batch)
+
+
+@dataclass(frozen=True, kw_only=True)
+class AugmentedFilterOptions(Estimator):
+    """Options shared by the augmented-state EKF and UKF (not registered itself).
+
+    Attributes
+    ----------
+    substeps : int
+        RK4 steps per sample interval in the prediction (default 1).
+    measurement_noise : {"data", "paper"}
+        Measurement-noise sd per channel: ``"data"`` (default) from the Savitzky-Golay
+        residual of each channel away from relay switches; ``"paper"``:
+        ``0.05 / sqrt(3) * RMS`` (eq. 43's uniform noise).
+    measurement_sd_floor_rel : float
+        Lower bound of each channel's sd as a fraction of its RMS (default 1e-4; keeps
+        R positive definite on noise-free data).
+    initial_coefficient_sd_rel : float
+        Initial sd of each coefficient as a fraction of ``|prior|`` (default 0.3).
+    initial_velocity_sd_mps, initial_angle_sd_rad : float
+        Initial sd of u, v, w [m/s] (default 0.5) and of phi, theta, psi [rad] (default
+        0.01); the initial rates get their measurement sd. The initial state is the first
+        measured sample.
+    process_velocity_sd_mps, process_rate_sd_radps, process_angle_sd_rad : float
+        Process-noise sd per sample interval on u, v, w (default 1e-3 m/s), p, q, r
+        (default 1e-3 rad/s) and the angles (default 1e-5 rad).
+    coefficient_random_walk_rel : float
+        Random-walk sd of the coefficients per sample interval as a fraction of
+        ``|prior|`` (default 0: constant coefficients).
+    """
+
+    substeps: int = 1
+    measurement_noise: Literal["data", "paper"] = "data"
+    measurement_sd_floor_rel: float = 1e-4
+    initial_coefficient_sd_rel: float = 0.3
+    initial_velocity_sd_mps: float = 0.5
+    initial_angle_sd_rad: float = 0.01
+    process_velocity_sd_mps: float = 1e-3
+    process_rate_sd_radps: float = 1e-3
+    process_angle_sd_rad: float = 1e-5
+    coefficient_random_walk_rel: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.substeps < 1:
+            raise ValueError(f"substeps must be >= 1, got {self.substeps}")
+        for name in ("measurement_sd_floor_rel", "initial_coefficient_sd_rel",
+                     "initial_velocity_sd_mps", "initial_angle_sd_rad"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("process_velocity_sd_mps", "process_rate_sd_radps",
+                     "process_angle_sd_rad", "coefficient_random_walk_rel"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+    def setup(self, flight: Flight) -> tuple[np.ndarray, ...]:
+        """Return ``x0 (18,), P0, Q (18, 18), R (9, 9), zs (n, 9), meas_sd (9,)``."""
+        zs = measurements(flight)
+        meas_sd = noise_sd(flight, zs, self.measurement_noise, self.measurement_sd_floor_rel)
+        prior = flight.airframe.prior_vector()
+        x0 = np.concatenate([flight.states()[0], prior])
+        sd0 = np.concatenate([
+            np.full(3, self.initial_velocity_sd_mps), meas_sd[6:9],
+            np.full(3, self.initial_angle_sd_rad),
+            self.initial_coefficient_sd_rel * np.abs(prior),
+        ])
+        sdq = np.concatenate([
+            np.full(3, self.process_velocity_sd_mps), np.full(3, self.process_rate_sd_radps),
+            np.full(3, self.process_angle_sd_rad),
+            self.coefficient_random_walk_rel * np.abs(prior),
+        ])
+        return x0, np.diag(sd0**2), np.diag(sdq**2), np.diag(meas_sd**2), zs, meas_sd
+
+    def result(self, flight: Flight, out: _kalman.FilterOutput, meas_sd: np.ndarray,
+               n_evaluations: int) -> EstimationResult:
+        """Turn a filter pass into an :class:`EstimationResult` (history axis 'time')."""
+        t = flight.t
+        history = {"axis": "time", "step": t, "theta": out.x[:, 9:], "theta_sd": out.sd[:, 9:]}
+        info = {"measurement_sd": meas_sd, "state": out.x[:, :9], "state_sd": out.sd[:, :9]}
+        if out.failed_at is not None:
+            message = f"filter diverged at t = {t[out.failed_at]:.4f} s: {out.reason}"
+            return aeroid.failed_result(self.name, message, history=history, info=info,
+                                        n_iterations=int(out.failed_at))
+        cov = out.P[9:, 9:].copy()
+        return EstimationResult(
+            estimator=self.name, theta=out.x[-1, 9:], stderr=np.sqrt(np.diag(cov)),
+            covariance=cov, cost=math.nan, success=True, message="",
+            n_evaluations=n_evaluations, n_iterations=len(t), history=history, info=info,
+        )

@@ -1,0 +1,233 @@
+"""Generic filter loops on filterpy's EKF and UKF for any discrete-time model (private).
+
+The loops take a :class:`DiscreteModel` (transition ``f``, measurement ``h``, their
+Jacobians, batched versions), so the same code runs the 18-state augmented airframe
+model of :mod:`baselines.ekf` / :mod:`baselines.ukf` and the small linear models the
+tests compare with a hand-written Kalman filter.
+
+How filterpy 2.0 is adapted (its source was read):
+
+* ``ExtendedKalmanFilter.predict`` is linear (``x = F x + B u``, then
+  ``P = F P F^T + Q``). :class:`_NonlinearEKF` overrides ``predict_x`` so the state is
+  propagated by the nonlinear model, and the loop sets ``F`` to the exact Jacobian
+  evaluated at the posterior before calling ``predict``; ``update`` (Joseph form) is
+  filterpy's, given ``Hx``/``HJacobian`` callables evaluated once per step.
+* ``UnscentedKalmanFilter.compute_process_sigmas`` calls ``fx`` once per sigma point.
+  :class:`_BatchedUKF` overrides it to propagate all sigma points in one batched call;
+  for the measurement, ``update`` also loops over sigma points with ``hx``: the loop
+  evaluates the batched measurement once and hands filterpy a callable that returns the
+  precomputed rows in filterpy's iteration order (:class:`_RowFeed`). Mean, covariance,
+  cross-covariance and gain are filterpy's.
+
+After every update the covariance is symmetrised, ``P <- (P + P^T) / 2``, and checked
+by a Cholesky factorisation: the first sample where it fails (or a diagonal entry is not
+positive, or the state is not finite) stops the loop and is reported.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+
+@dataclass(frozen=True)
+class DiscreteModel:
+    """A discrete-time model ``x_{k+1} = f(x_k, k)``, ``z_k = h(x_k, k)``.
+
+    Attributes
+    ----------
+    dim_x, dim_z : int
+    transition : callable ``(x (dim_x,), k) -> (x_next (dim_x,), F (dim_x, dim_x))``
+        State at sample ``k + 1`` from the state at ``k``, and its exact Jacobian.
+    observe : callable ``(x (dim_x,), k) -> (z (dim_z,), H (dim_z, dim_x))``
+    transition_batch : callable ``(X (n, dim_x), k) -> (n, dim_x)``, optional
+        ``transition`` without the Jacobian for many states at once (UKF).
+    observe_batch : callable ``(X (n, dim_x), k) -> (n, dim_z)``, optional
+    """
+
+    dim_x: int
+    dim_z: int
+    transition: Callable[[np.ndarray, int], tuple[np.ndarray, np.ndarray]]
+    observe: Callable[[np.ndarray, int], tuple[np.ndarray, np.ndarray]]
+    transition_batch: Callable[[np.ndarray, int], np.ndarray] | None = None
+    observe_batch: Callable[[np.ndarray, int], np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class FilterOutput:
+    """What a filter pass returns.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, dim_x)
+        Posterior mean at each sample (rows after a failure are NaN).
+    sd : ndarray, shape (n, dim_x)
+        Posterior standard deviations (sqrt of the diagonal of P).
+    P : ndarray, shape (dim_x, dim_x)
+        Posterior covariance at the last good sample.
+    failed_at : int or None
+        Sample index at which the covariance stopped being positive definite.
+    reason : str
+    """
+
+    x: np.ndarray
+    sd: np.ndarray
+    P: np.ndarray
+    failed_at: int | None
+    reason: str
+
+
+class _NonlinearEKF(ExtendedKalmanFilter):
+    """filterpy's EKF whose state prediction is the model's nonlinear transition."""
+
+    def __init__(self, dim_x: int, dim_z: int) -> None:
+        super().__init__(dim_x, dim_z)
+        self.x_next: np.ndarray | None = None
+
+    def predict_x(self, u: object = 0) -> None:
+        """Set the prior mean to the precomputed nonlinear prediction ``x_next``."""
+        self.x = np.asarray(self.x_next, dtype=float).reshape(-1, 1)
+
+
+class _BatchedUKF(UnscentedKalmanFilter):
+    """filterpy's UKF propagating all sigma points in one batched call."""
+
+    batch_fx: Callable[[np.ndarray], np.ndarray]
+
+    def compute_process_sigmas(self, dt: float, fx: object = None, **fx_args: object) -> None:
+        """Propagate every sigma point with one call of ``self.batch_fx``."""
+        sigmas = self.points_fn.sigma_points(self.x, self.P)
+        self.sigmas_f = np.asarray(self.batch_fx(sigmas), dtype=float)
+
+
+class _RowFeed:
+    """Callable returning precomputed rows in call order (filterpy's per-sigma ``hx`` loop)."""
+
+    def __init__(self, rows: np.ndarray) -> None:
+        self.rows = rows
+        self.i = 0
+
+    def __call__(self, _sigma: np.ndarray) -> np.ndarray:
+        row = self.rows[self.i]
+        self.i += 1
+        return row
+
+
+def _check(P: np.ndarray, x: np.ndarray) -> str:
+    """Return '' when P is positive definite and x finite, else the reason."""
+    if not np.all(np.isfinite(x)) or not np.all(np.isfinite(P)):
+        return "non-finite state or covariance"
+    if np.any(np.diag(P) <= 0.0):
+        return "non-positive variance on the diagonal"
+    try:
+        np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        return "covariance not positive definite (Cholesky failed)"
+    return ""
+
+
+def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
+            reason: str) -> FilterOutput:
+    if k is not None:
+        xs[k:] = np.nan
+        sds[k:] = np.nan
+    return FilterOutput(xs, sds, P, k, reason)
+
+
+def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
+            R: np.ndarray, zs: np.ndarray) -> FilterOutput:
+    """Run filterpy's EKF with the model's nonlinear prediction over measurements ``zs``.
+
+    Sample 0 is an update of the prior ``(x0, P0)`` with ``zs[0]``; each later sample
+    is a prediction from the previous one followed by an update.
+
+    Parameters
+    ----------
+    model : DiscreteModel
+    x0 : ndarray, shape (dim_x,)
+    P0, Q : ndarray, shape (dim_x, dim_x)
+        Initial and per-step process-noise covariance.
+    R : ndarray, shape (dim_z, dim_z)
+    zs : ndarray, shape (n, dim_z)
+
+    Returns
+    -------
+    FilterOutput
+    """
+    n = zs.shape[0]
+    ekf = _NonlinearEKF(model.dim_x, model.dim_z)
+    ekf.x = np.asarray(x0, dtype=float).reshape(-1, 1).copy()
+    ekf.P = np.array(P0, dtype=float)
+    ekf.Q = np.asarray(Q, dtype=float)
+    ekf.R = np.asarray(R, dtype=float)
+    xs = np.empty((n, model.dim_x))
+    sds = np.empty((n, model.dim_x))
+    for k in range(n):
+        if k > 0:
+            x_next, F = model.transition(ekf.x.ravel(), k - 1)
+            ekf.F = np.asarray(F, dtype=float)
+            ekf.x_next = x_next
+            ekf.predict()
+        z_hat, H = model.observe(ekf.x.ravel(), k)
+        H = np.asarray(H, dtype=float)
+        z_hat = np.asarray(z_hat, dtype=float).reshape(-1, 1)
+        ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
+                   Hx=lambda _x, z_hat=z_hat: z_hat)
+        ekf.P = 0.5 * (ekf.P + ekf.P.T)
+        reason = _check(ekf.P, ekf.x)
+        if reason:
+            return _finish(xs, sds, ekf.P, k, reason)
+        xs[k] = ekf.x.ravel()
+        sds[k] = np.sqrt(np.diag(ekf.P))
+    return _finish(xs, sds, ekf.P, None, "")
+
+
+def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
+            R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
+            kappa: float = 0.0) -> FilterOutput:
+    """Run filterpy's UKF (Merwe scaled sigma points) with batched sigma-point propagation.
+
+    Same sequence and arguments as :func:`run_ekf`, plus the sigma-point parameters
+    ``alpha``, ``beta``, ``kappa`` of :class:`filterpy.kalman.MerweScaledSigmaPoints`.
+    Needs ``model.transition_batch`` and ``model.observe_batch``.
+    """
+    if model.transition_batch is None or model.observe_batch is None:
+        raise ValueError("run_ukf: the model needs transition_batch and observe_batch")
+    n = zs.shape[0]
+    points = MerweScaledSigmaPoints(model.dim_x, alpha=alpha, beta=beta, kappa=kappa)
+    step = {"k": 0}
+
+    def batch_fx(sigmas: np.ndarray) -> np.ndarray:
+        return model.transition_batch(sigmas, step["k"])
+
+    def unused_fx(x: np.ndarray, dt: float) -> np.ndarray:  # filterpy requires an fx
+        raise AssertionError("per-sigma fx must not be called: propagation is batched")
+
+    ukf = _BatchedUKF(model.dim_x, model.dim_z, 1.0, hx=None, fx=unused_fx, points=points)
+    ukf.batch_fx = batch_fx
+    ukf.x = np.asarray(x0, dtype=float).copy()
+    ukf.P = np.array(P0, dtype=float)
+    ukf.Q = np.asarray(Q, dtype=float)
+    ukf.R = np.asarray(R, dtype=float)
+    ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
+    xs = np.empty((n, model.dim_x))
+    sds = np.empty((n, model.dim_x))
+    for k in range(n):
+        if k > 0:
+            step["k"] = k - 1
+            try:
+                ukf.predict()
+            except np.linalg.LinAlgError:
+                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed")
+        rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
+        ukf.update(zs[k], hx=_RowFeed(rows))
+        ukf.P = 0.5 * (ukf.P + ukf.P.T)
+        reason = _check(ukf.P, ukf.x)
+        if reason:
+            return _finish(xs, sds, ukf.P, k, reason)
+        xs[k] = ukf.x
+        sds[k] = np.sqrt(np.diag(ukf.P))
+    return _finish(xs, sds, ukf.P, None, "")

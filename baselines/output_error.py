@@ -1,0 +1,469 @@
+"""Output-error maximum-likelihood baseline (Klein & Morelli's output-error method, CasADi).
+
+Model: the airframe equations (eqs. 2-10) integrated with RK4 from the initial state,
+``delta`` held over each sample interval; outputs the six accelerations of eq. 28 at the
+estimator's sensor positions and ``p, q, r`` (:mod:`baselines._model`, the same
+equations as :mod:`aeroid.dynamics`). The whole record is one CasADi graph: the RK4 step
+is a CasADi Function, ``mapaccum`` runs it over the record with ``delta`` as an input
+sequence, and the output Jacobian with respect to the parameters comes from CasADi's
+algorithmic differentiation. Built graphs are cached per (constants, dt, substeps,
+n_samples, parameter set).
+
+Estimation (Klein & Morelli, ch. 6): measurement noise Gaussian, white, with unknown
+diagonal covariance ``R``; Gauss-Newton on the weighted least-squares cost
+``1/2 sum_k e_k^T R^-1 e_k`` with Levenberg damping (the damping grows tenfold on a
+rejected step), parameters scaled to order one (``theta / prior``); after every
+iteration ``R`` is re-estimated from the residuals, ``R_jj = mean_k e_kj^2`` (the
+relaxation technique), until the parameter step is below ``tol``. The Cramér-Rao
+covariance is ``(sum_k J_k^T R^-1 J_k)^-1`` (Fisher information) at the optimum.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import casadi as ca
+import numpy as np
+
+import aeroid
+from aeroid.dynamics import Constants
+from aeroid.estimators import EstimationResult, Estimator
+from aeroid.flight import Flight
+from baselines import _common, _model
+
+#: Initial-state components that can be estimated: u, v, w, p, q, r. The attitude
+#: (phi, theta) enters only through gravity and psi not at all, so they are taken from
+#: the first measured sample.
+X0_FREE = 6
+#: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
+#: finite on noise-free data, far below any real noise level.
+R_FLOOR_REL = 1e-24
+#: Largest scaled parameter step per iteration (a trust region in units of the prior
+#: values; inf = none: a cap of 0.5 or 2 made fits from a 20 % wrong prior creep).
+MAX_STEP = math.inf
+#: Gauss-Newton with R held is taken as converged (and R re-estimated) when a step lowers
+#: the cost by less than this fraction.
+R_UPDATE_RTOL = math.inf
+#: At most this many iterations fit the initial state alone before the coefficients join
+#: (0: no such stage).
+STAGE1_ITERATIONS = 0
+#: R has settled when no R_jj changed by more than this fraction at the last update.
+R_SETTLED_RTOL = 1e-3
+#: Largest Levenberg damping tried before an iteration is declared stuck.
+MAX_DAMPING = 1e8
+
+
+@functools.lru_cache(maxsize=16)
+def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
+                     estimate_initial_state: bool, estimate_rx1: bool
+                     ) -> tuple[ca.Function, ca.Function]:
+    """Return the CasADi output model of a record and its parameter Jacobian.
+
+    Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; with
+    ``estimate_initial_state`` the next six are offsets of ``u, v, w, p, q, r`` from the
+    first measured sample (``x0 = x0_meas + p * scale``); with ``estimate_rx1`` the last
+    is the offset of triad 1's x position.
+
+    The Jacobian is propagated with the record (forward sensitivities): the RK4 step
+    ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
+    ``S_k = dx_k/dp`` (``jtimes``), ``S_{k+1} = dF/dx S_k + dF/dtheta dtheta/dp``, and
+    ``mapaccum`` carries ``(x, S)`` over the record; the outputs' Jacobian is
+    ``dh/dx S_k + dh/dtheta dtheta/dp + dh/dpos dpos/dp``. This is exact (the chain rule
+    through the discrete RK4 map) and several times faster than differentiating the
+    ``mapaccum`` graph as a whole.
+
+    Returns
+    -------
+    simulate : Function ``(p, scale, x0_meas (9), delta (1, n), pos (6)) -> Y (n, 9)``
+    jacobian : Function ``(same) -> (Y (n, 9), dY (9, n n_p))``
+        Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
+    """
+    n_x0 = X0_FREE if estimate_initial_state else 0
+    n_p = 9 + n_x0 + (1 if estimate_rx1 else 0)
+    # one step with sensitivities (SX)
+    x = ca.SX.sym("x", 9)
+    sens = ca.SX.sym("S", 9, n_p)
+    p9 = ca.SX.sym("p9", 9)
+    scale9 = ca.SX.sym("scale9", 9)
+    d = ca.SX.sym("delta")
+    theta = p9 * scale9
+    dtheta = ca.horzcat(ca.SX.eye(9), ca.SX.zeros(9, n_p - 9))  # d p9 / d p
+    x_next = _model.rk4_step(x, d, theta, const, dt, substeps)
+    s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
+    step = ca.Function("step_sens", [x, sens, p9, scale9, d], [x_next, s_next])
+    # outputs with sensitivities (SX)
+    prx = ca.SX.sym("prx")
+    scale_rx = ca.SX.sym("scale_rx")
+    pos0 = ca.SX.sym("pos", 6)
+    pos = ca.vertcat(pos0[0] + prx * scale_rx, pos0[1:]) if estimate_rx1 else pos0
+    y = _model.measurement(x, d, theta, pos, const)
+    drx = ca.SX.zeros(1, n_p)
+    if estimate_rx1:
+        drx[0, n_p - 1] = 1.0
+    dy = ca.jtimes(y, ca.vertcat(x, p9, prx), ca.vertcat(sens, dtheta, drx))
+    out = ca.Function("out_sens", [x, sens, p9, scale9, d, pos0, prx, scale_rx], [y, dy])
+    out_plain = ca.Function("out", [x, p9, scale9, d, pos0, prx, scale_rx], [y])
+    step_plain = ca.Function("step", [x, p9, scale9, d], [x_next])
+
+    # the record (MX graph of mapped SX functions)
+    p = ca.MX.sym("p", n_p)
+    scale = ca.MX.sym("scale", n_p)
+    x0_meas = ca.MX.sym("x0_meas", 9)
+    delta = ca.MX.sym("delta", 1, n_samples)
+    pos_given = ca.MX.sym("pos", 6)
+    pm, sm = p[:9], scale[:9]
+    prx_m = p[n_p - 1] if estimate_rx1 else ca.MX(0.0)
+    srx_m = scale[n_p - 1] if estimate_rx1 else ca.MX(0.0)
+    x0 = x0_meas
+    s0 = ca.MX.zeros(9, n_p)
+    if estimate_initial_state:
+        x0 = x0_meas + ca.vertcat(p[9:9 + n_x0] * scale[9:9 + n_x0], ca.MX.zeros(9 - n_x0))
+        s0 = ca.horzcat(ca.MX.zeros(9, 9),
+                        ca.vertcat(ca.diag(scale[9:9 + n_x0]), ca.MX.zeros(9 - n_x0, n_x0)),
+                        ca.MX.zeros(9, n_p - 9 - n_x0))
+    m = n_samples - 1
+
+    def rep(v, k):
+        return ca.repmat(v, 1, k)
+
+    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m), delta[:, :m])
+    states = ca.horzcat(x0, xs)
+    Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples), delta,
+                                 rep(pos_given, n_samples), rep(prx_m, n_samples),
+                                 rep(srx_m, n_samples))
+    inputs = [p, scale, x0_meas, delta, pos_given]
+    simulate = ca.Function("oe_simulate", inputs, [Y.T])
+    xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m), delta[:, :m])
+    states = ca.horzcat(x0, xs)
+    sens_all = ca.horzcat(s0, ss)  # 9 x (n_samples n_p), block k = S_k
+    Y, dY = out.map(n_samples)(states, sens_all, rep(pm, n_samples), rep(sm, n_samples),
+                               delta, rep(pos_given, n_samples), rep(prx_m, n_samples),
+                               rep(srx_m, n_samples))
+    # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
+    jacobian = ca.Function("oe_jacobian", inputs, [Y.T, dY])
+    return simulate, jacobian
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """A flight turned into arrays for the Gauss-Newton loop."""
+
+    z: np.ndarray          # (n, 9) measurements
+    scale: np.ndarray      # (n_p,)
+    x0_meas: np.ndarray    # (9,)
+    delta: np.ndarray      # (1, n)
+    pos: np.ndarray        # (6,)
+    simulate: ca.Function
+    jacobian: ca.Function
+    r_floor: np.ndarray    # (9,)
+    r_start: np.ndarray    # (9,) first R: from the data's SG residuals
+
+    def residuals(self, p: np.ndarray) -> np.ndarray:
+        """Return ``z - y(p)``, shape (n, 9)."""
+        y = self.simulate(p, self.scale, self.x0_meas, self.delta, self.pos)
+        return self.z - np.asarray(y)
+
+    def residuals_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``z - y(p)`` (n, 9) and ``dy/dp`` (9, n, n_p)."""
+        y, dy = self.jacobian(p, self.scale, self.x0_meas, self.delta, self.pos)
+        n = self.z.shape[0]
+        # dy is 9 x (n n_p) with block k = dy_k/dp (9, n_p)
+        J = np.asarray(dy).reshape(9, n, -1)
+        return self.z - np.asarray(y), J
+
+    def noise(self, e: np.ndarray) -> np.ndarray:
+        """Return the ML estimate of diag(R), shape (9,), from residuals (floored)."""
+        return np.maximum(np.mean(e * e, axis=0), self.r_floor)
+
+
+def _cost(e: np.ndarray, r_diag: np.ndarray) -> float:
+    value = 0.5 * float(np.sum(e * e / r_diag))
+    return value if math.isfinite(value) else math.inf
+
+
+def _nll(e: np.ndarray, r_diag: np.ndarray) -> float:
+    """Negative log-likelihood without constants: ``n/2 sum log R_jj + cost``."""
+    return _cost(e, r_diag) + 0.5 * e.shape[0] * float(np.sum(np.log(r_diag)))
+
+
+def _fisher(J: np.ndarray, e: np.ndarray, r_diag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the Fisher information ``sum J^T R^-1 J`` and gradient ``sum J^T R^-1 e``."""
+    w = 1.0 / np.sqrt(r_diag)
+    Jw = (J * w[:, None, None]).reshape(-1, J.shape[-1])
+    ew = (e * w[None, :]).T.reshape(-1)
+    return Jw.T @ Jw, Jw.T @ ew
+
+
+@dataclass(frozen=True)
+class _Fit:
+    p: np.ndarray
+    e: np.ndarray
+    J: np.ndarray
+    r_diag: np.ndarray
+    nll: float
+    history_p: list
+    history_cost: list
+    n_iterations: int
+    n_evaluations: int
+    converged: bool
+    message: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class OutputErrorEstimator(Estimator):
+    """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
+
+    Starts from the airframe's prior coefficients and the first measured sample.
+
+    Attributes
+    ----------
+    estimate_initial_state : bool
+        Also estimate ``u, v, w, p, q, r`` at the first sample (default True: the
+        measured initial rates carry the sensor noise). The attitude is taken as measured.
+    estimate_rx1 : bool
+        Also estimate triad 1's x position (default False). With the paper's 10 %
+        position error the given positions bias Cza, Czd, Czq by several percent.
+    substeps : int
+        RK4 steps per sample interval (default 2: the model then matches the 0.25 ms
+        truth integration to ~1e-6 relative in the outputs, 1 substep to ~1e-5).
+    max_iterations : int
+        Gauss-Newton iterations per start (default 50).
+    tol : float
+        Convergence: largest scaled parameter step (default 1e-7, i.e. 1e-7 of each
+        prior value).
+    n_starts : int
+        Starts: the prior, then ``n_starts - 1`` draws ``prior * (1 + 0.2 N(0, 1))``
+        from ``rng`` (default 1); the start with the lowest likelihood cost wins.
+    pso_warm_start : bool
+        Replace the prior start by the best point of a short run of
+        :func:`aeroid.pso.minimize` on the concentrated likelihood
+        ``sum_j log mean_k e_kj^2`` within :func:`aeroid.prior_bounds` (default False).
+    pso_particles, pso_iterations : int
+        Budget of that warm start (defaults 30 and 40).
+
+    Notes
+    -----
+    ``cost`` is the negative log-likelihood without constants,
+    ``n/2 sum_j log R_jj + 1/2 sum_k e_k^T R^-1 e_k``. ``info`` holds ``R`` (9,),
+    ``fisher`` (n_p, n_p), ``parameter_names``, ``parameters`` and ``parameter_stderr``
+    (initial-state offsets and rx1 included), ``iterations``. Per-sample mass and
+    thrust channels are not used: the airframe's constants are.
+    """
+
+    name: ClassVar[str] = "output-error"
+    description: ClassVar[str] = (
+        "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
+
+    estimate_initial_state: bool = True
+    estimate_rx1: bool = False
+    substeps: int = 2
+    max_iterations: int = 50
+    tol: float = 1e-7
+    n_starts: int = 1
+    pso_warm_start: bool = False
+    pso_particles: int = 30
+    pso_iterations: int = 40
+
+    def __post_init__(self) -> None:
+        for name in ("substeps", "max_iterations", "n_starts", "pso_particles"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.pso_iterations < 0:
+            raise ValueError(f"pso_iterations must be >= 0, got {self.pso_iterations}")
+        if not self.tol > 0:
+            raise ValueError(f"tol must be > 0, got {self.tol}")
+
+    # ----------------------------------------------------------------------------------
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the estimated parameters, in the order of ``info['parameters']``."""
+        names = list(aeroid.NAMES)
+        if self.estimate_initial_state:
+            names += ["u0", "v0", "w0", "p0", "q0", "r0"]
+        if self.estimate_rx1:
+            names.append("rx1")
+        return tuple(names)
+
+    def problem(self, flight: Flight) -> _Problem:
+        """Return the flight's arrays and cached CasADi functions."""
+        const = aeroid.constants(flight.airframe)
+        n = flight.n_samples
+        simulate, jacobian = output_functions(const, flight.dt, self.substeps, n,
+                                              self.estimate_initial_state, self.estimate_rx1)
+        prior = flight.airframe.prior_vector()
+        pos = flight.airframe.accel_positions.ravel()
+        scale = [np.where(prior != 0.0, prior, 1.0)]
+        if self.estimate_initial_state:
+            scale.append(np.ones(X0_FREE))
+        if self.estimate_rx1:
+            scale.append([max(abs(pos[0]), 0.1)])
+        z = _common.measurements(flight)
+        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
+        sd = _common.noise_sd_from_data(z, flight["delta"], floor_rel=1e-6)
+        return _Problem(z=z, scale=np.concatenate(scale), x0_meas=flight.states()[0],
+                        delta=flight["delta"][None, :], pos=pos, simulate=simulate,
+                        jacobian=jacobian, r_floor=r_floor,
+                        r_start=np.maximum(sd * sd, r_floor))
+
+    def gauss_newton(self, prob: _Problem, p0: np.ndarray) -> _Fit:
+        """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``.
+
+        With :data:`STAGE1_ITERATIONS` > 0 a first stage fits only the initial state
+        (off by default: it slowed convergence on the reference flight). ``R`` is
+        re-estimated from the residuals after every accepted step whose relative cost
+        decrease is below :data:`R_UPDATE_RTOL` (``inf``: every step; holding R until
+        Gauss-Newton converged, Klein & Morelli's textbook relaxation, took 2-3x more
+        iterations here); the fit has converged when a step is below ``tol`` and ``R``
+        has settled (relative change below :data:`R_SETTLED_RTOL`).
+        """
+        p = np.array(p0, dtype=float)
+        n_p = p.size
+        e, J = prob.residuals_jacobian(p)
+        n_eval = 1
+        if not np.all(np.isfinite(e)):
+            raise FloatingPointError("the model diverges at the starting point")
+        r_diag = prob.noise(e)
+        free = np.zeros(n_p, dtype=bool)
+        if self.estimate_initial_state and STAGE1_ITERATIONS > 0:
+            free[9:9 + X0_FREE] = True
+        else:
+            free[:] = True
+        damping = 1e-3
+        history_p = [p.copy()]
+        history_cost = [_nll(e, r_diag)]
+        converged, message, it = False, "", 0
+        for it in range(1, self.max_iterations + 1):
+            cost = _cost(e, r_diag)
+            M, g = _fisher(J, e, r_diag)
+            Mf, gf = M[np.ix_(free, free)], g[free]
+            diag = np.diag(Mf).copy()
+            diag[diag <= 0] = 1.0
+            step = np.zeros(n_p)
+            while True:
+                try:
+                    step[free] = np.linalg.solve(Mf + damping * np.diag(diag), gf)
+                except np.linalg.LinAlgError:
+                    step[:] = np.nan
+                if np.all(np.isfinite(step)):
+                    longest = float(np.max(np.abs(step)))
+                    if longest > MAX_STEP:
+                        step *= MAX_STEP / longest
+                    e_new = prob.residuals(p + step)
+                    n_eval += 1
+                    new_cost = _cost(e_new, r_diag)
+                    if new_cost <= cost:
+                        break
+                damping *= 10.0
+                if damping > MAX_DAMPING:
+                    break
+            if damping > MAX_DAMPING:
+                message = "no cost-decreasing step (damping limit reached)"
+                converged = bool(free.all())
+                break
+            damping = max(damping / 10.0, 1e-12)
+            small = float(np.max(np.abs(step))) < self.tol
+            inner_done = small or (cost - new_cost) < R_UPDATE_RTOL * cost
+            if not small:
+                p = p + step
+                e, J = prob.residuals_jacobian(p)
+                n_eval += 1
+            if inner_done or (not free.all() and it >= STAGE1_ITERATIONS):
+                if not free.all():
+                    free[:] = True  # initial state settled: free the coefficients
+                    damping = 1e-3
+                else:
+                    r_new = prob.noise(e)
+                    settled = bool(np.max(np.abs(r_new / r_diag - 1.0)) < R_SETTLED_RTOL)
+                    r_diag = r_new
+                    if small and settled:
+                        converged = True
+                        message = f"converged after {it} iterations"
+                        break
+            if not small:
+                history_p.append(p.copy())
+                history_cost.append(_nll(e, r_diag))
+        else:
+            message = f"max_iterations ({self.max_iterations}) reached"
+        history_cost[-1] = _nll(e, r_diag)
+        return _Fit(p, e, J, r_diag, history_cost[-1], history_p, history_cost, it, n_eval,
+                    converged, message)
+
+    def warm_start(self, prob: _Problem, flight: Flight, rng: np.random.Generator
+                   ) -> tuple[np.ndarray, int]:
+        """Return the best coefficients of a short PSO run and its evaluation count."""
+        from aeroid.pso import minimize
+
+        const = aeroid.constants(flight.airframe)
+        delta = flight["delta"]
+        positions = flight.airframe.accel_positions
+
+        def cost(thetas: np.ndarray) -> np.ndarray:
+            states = aeroid.propagate(prob.x0_meas, thetas, delta[:-1], flight.dt, const,
+                                      substeps=self.substeps)
+            acc = aeroid.accelerometers(states, delta[None, :], thetas[:, None, :], const,
+                                        positions).reshape(len(thetas), -1, 6)
+            y = np.concatenate([acc, states[:, :, 3:6]], axis=2)
+            ms = np.mean((prob.z[None] - y) ** 2, axis=1)
+            with np.errstate(all="ignore"):
+                out = np.sum(np.log(np.maximum(ms, prob.r_floor)), axis=1)
+            return np.where(np.isfinite(out), out, np.inf)
+
+        res = minimize(cost, aeroid.prior_bounds(flight.airframe),
+                       n_particles=self.pso_particles, n_iterations=self.pso_iterations,
+                       rng=rng, x0=flight.airframe.prior_vector()[None, :])
+        return np.asarray(res.x), int(res.n_evaluations)
+
+    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+        """Fit the flight; random draws only for extra starts and the PSO warm start."""
+        prob = self.problem(flight)
+        n_p = prob.scale.size
+        prior = flight.airframe.prior_vector()
+        first = np.zeros(n_p)
+        first[:9] = prior / prob.scale[:9]
+        extra_evals = 0
+        if self.pso_warm_start:
+            theta_pso, extra_evals = self.warm_start(prob, flight, rng)
+            first[:9] = theta_pso / prob.scale[:9]
+        starts = [first]
+        for _ in range(self.n_starts - 1):
+            p = first.copy()
+            p[:9] = prior * (1.0 + 0.2 * rng.standard_normal(9)) / prob.scale[:9]
+            starts.append(p)
+        fits, failures = [], []
+        for p0 in starts:
+            try:
+                fits.append(self.gauss_newton(prob, p0))
+            except FloatingPointError as exc:
+                failures.append(str(exc))
+        if not fits:
+            return aeroid.failed_result(self.name, failures[0])
+        best = min(fits, key=lambda f: f.nll)
+        n_evals = extra_evals + sum(f.n_evaluations for f in fits)
+        n_iter = sum(f.n_iterations for f in fits)
+        M, _ = _fisher(best.J, best.e, best.r_diag)
+        try:
+            cov_p = np.linalg.inv(M)
+        except np.linalg.LinAlgError:
+            cov_p = np.full_like(M, np.nan)
+        cov_phys = cov_p * np.outer(prob.scale, prob.scale)
+        phys = best.p * prob.scale
+        theta = phys[:9]
+        cov = cov_phys[:9, :9]
+        hist_p = np.array(best.history_p)
+        history = {"axis": "iteration", "step": np.arange(len(hist_p)),
+                   "theta": hist_p[:, :9] * prob.scale[:9],
+                   "cost": np.array(best.history_cost)}
+        stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
+        info = {"R": best.r_diag, "fisher": M, "parameter_names": self.parameter_names(),
+                "parameters": phys, "parameter_stderr": stderr_phys,
+                "parameter_covariance": cov_phys, "iterations": best.n_iterations,
+                "starts": len(starts), "failed_starts": failures,
+                "start_costs": [f.nll for f in fits]}
+        if self.estimate_rx1:
+            info["rx1_m"] = prob.pos[0] + phys[-1]
+        return EstimationResult(
+            estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
+            covariance=cov, cost=best.nll, success=best.converged, message=best.message,
+            n_evaluations=n_evals, n_iterations=n_iter, history=history, info=info)
