@@ -1,0 +1,90 @@
+"""``aeroid estimate`` and ``aeroid methods`` (dispatched from :mod:`aeroid.cli`).
+
+User errors (unreadable or invalid flight, unknown method or option, malformed
+``--option``) raise the classes of :data:`aeroid.errors.USER_ERRORS`; the CLI prints
+them as one line and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from aeroid.airframe import load_airframe, read_toml
+from aeroid.estimators.base import EstimatorError, available, load_errors, make_estimator
+from aeroid.flight import FlightError, read_flight
+
+__all__ = ["estimate", "methods", "parse_options", "read_column_map"]
+
+
+def parse_options(pairs: list[str] | None) -> dict[str, str]:
+    """Return ``{key: value text}`` from ``["key=value", ...]``.
+
+    Raises
+    ------
+    EstimatorError
+        ``--option 'x': expected KEY=VALUE`` for a malformed pair or a repeated key.
+    """
+    options: dict[str, str] = {}
+    for pair in pairs or []:
+        key, sep, value = pair.partition("=")
+        key = key.strip()
+        if not sep or not key or not value.strip():
+            raise EstimatorError(f"--option {pair!r}: expected KEY=VALUE")
+        if key in options:
+            raise EstimatorError(f"--option {key!r} given twice")
+        options[key] = value.strip()
+    return options
+
+
+def read_column_map(path: Path) -> dict[str, str]:
+    """Return ``{name in the file: aeroid channel}`` from a TOML file.
+
+    The mapping is the file's top-level string keys, or its ``[columns]`` table.
+
+    Raises
+    ------
+    FlightError
+        One line naming the file when a value is not a channel-name string.
+    """
+    data: dict[str, Any] = read_toml(path)
+    table = data.get("columns", data) if isinstance(data.get("columns"), dict) else data
+    bad = sorted(k for k, v in table.items() if not isinstance(v, str))
+    if bad:
+        raise FlightError(f"{path}: column map values must be channel names (strings); "
+                          f"check {', '.join(map(repr, bad))}")
+    return dict(table)
+
+
+def estimate(args: argparse.Namespace) -> int:
+    """Run ``aeroid estimate``: read, validate, fit, print a table or JSON; return 0."""
+    options = parse_options(getattr(args, "option", None))
+    estimator = make_estimator(args.method, options)
+    airframe = load_airframe(args.airframe) if getattr(args, "airframe", None) else None
+    columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
+    flight = read_flight(args.flight, airframe=airframe, columns=columns,
+                         angles_in_degrees=bool(getattr(args, "degrees", False)))
+    flight.validate()
+    result = estimator.fit(flight, rng=getattr(args, "seed", None))
+    if getattr(args, "json", False):
+        print(json.dumps(result.to_json_dict(), indent=2))
+    else:
+        print(result.summary(flight.true_coefficients))
+    return 0
+
+
+def methods(args: argparse.Namespace) -> int:
+    """Run ``aeroid methods``: list every estimator and any plug-in that failed to load."""
+    classes = available(refresh=True)
+    width = max((len(n) for n in classes), default=0)
+    for name in sorted(classes):
+        cls = classes[name]
+        print(f"{name:<{width}}  {cls.description or cls.__doc__ or ''}".rstrip())
+    errors = load_errors()
+    if errors:
+        print("\nplug-ins that failed to load:")
+        for name in sorted(errors):
+            print(f"  {name}: {errors[name]}")
+    return 0
