@@ -1,0 +1,192 @@
+"""Equation-error least-squares baseline: the closed-form answer of the EBM second step.
+
+Two-step (default): EBM step 1 (:func:`aeroid.reconstruct.reconstruct`) gives the
+forces and moments per sample, :func:`aeroid.reconstruct.ebm_regression` the regression
+``FM = X theta``; every SEBM sub-problem is then linear least squares
+(:func:`scipy.linalg.lstsq`): F_AX on Cx; F_AZ on Cza, Czd, Czq; M_X on Cl0, Clp; M_Y on
+Cma, Cmd, Cmq. With ``lateral_rows`` the F_AY rows join the F_AZ problem and the M_Z rows
+the M_Y problem through the symmetry ties of eq. 1 (rows weighted by the inverse noise
+sd of their channel). Standard errors ``sigma^2 (X^T X)^-1`` per sub-problem with
+``sigma^2`` the residual variance (``RSS / (n - k)``).
+
+One-step (``one_step=True``): the six accelerations of eq. 28 and the SG derivatives of
+the measured p, q, r are each affine in the coefficients once the measured states are
+given (``a = c(x) + A(x) theta``; ``A`` and ``c`` are read off
+:func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` at the unit vectors),
+so one weighted least-squares problem over all nine coefficients avoids inverting step
+1. Channel weights are the inverse residual sds of a first unweighted-by-channel pass
+(two passes); standard errors from the weighted normal matrix.
+
+Caveat: these standard errors assume white residuals. SG smoothing (option
+``smoothing``) and SG differentiation colour them, so the intervals are too narrow by
+roughly the square root of the smoother's correlation length (see the coverage test).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+import numpy as np
+import scipy.linalg
+
+import aeroid
+from aeroid import reconstruct as rc
+from aeroid.estimators import EstimationResult, Estimator
+from aeroid.flight import Flight
+
+#: Regressor pairs with |correlation| above this are reported as collinear (Cl0/Clp on
+#: the reference flight: 0.9998).
+COLLINEAR_R = 0.99
+#: (label, FM row, coefficient indices) of the SEBM sub-problems (eqs. 39-42).
+SUBPROBLEMS: tuple[tuple[str, int, tuple[int, ...]], ...] = (
+    ("FAX", 0, (0,)), ("FAZ", 2, (1, 2, 3)), ("MX", 3, (4, 5)), ("MY", 4, (6, 7, 8)),
+)
+#: Lateral rows joined with ``lateral_rows``: (target problem, FM row).
+LATERAL = {"FAZ": 1, "MY": 5}
+
+
+def _correlation(A: np.ndarray) -> np.ndarray:
+    """Correlation matrix of the columns of ``A`` (uncentred: the regressions have no
+    intercept, so collinearity is about the angle between columns)."""
+    norms = np.sqrt(np.sum(A * A, axis=0))
+    norms[norms == 0] = 1.0
+    An = A / norms
+    return An.T @ An
+
+
+def _lstsq(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least squares with column scaling; returns (theta, covariance, residual variance)."""
+    scale = np.sqrt(np.sum(A * A, axis=0))
+    scale[scale == 0] = 1.0
+    sol, _, rank, _ = scipy.linalg.lstsq(A / scale, b)
+    theta = sol / scale
+    dof = max(A.shape[0] - A.shape[1], 1)
+    resid = b - A @ theta
+    sigma2 = float(resid @ resid) / dof
+    As = A / scale
+    cov = sigma2 * np.linalg.pinv(As.T @ As) / np.outer(scale, scale)
+    if rank < A.shape[1]:
+        cov[:] = np.nan
+    return theta, cov, sigma2
+
+
+def affine_accelerations(flight: Flight, states: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``c (n, 9)`` and ``A (n, 9, 9)`` with ``[a1, a2, pdot, qdot, rdot] = c + A theta``.
+
+    From :func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` evaluated at
+    ``theta = 0`` and at the nine unit vectors (both are affine in the coefficients).
+    """
+    const = aeroid.constants(flight.airframe)
+    states = flight.states() if states is None else states
+    delta = flight["delta"]
+    basis = np.vstack([np.zeros(9), np.eye(9)])  # (10, 9)
+    acc = aeroid.accelerometers(states[:, None, :], delta[:, None], basis[None], const,
+                                flight.airframe.accel_positions).reshape(len(states), 10, 6)
+    wdot = aeroid.state_derivative(states[:, None, :], delta[:, None], basis[None],
+                                   const)[..., 3:6]
+    out = np.concatenate([acc, wdot], axis=2)  # (n, 10, 9)
+    c = out[:, 0, :]
+    A = np.swapaxes(out[:, 1:, :] - c[:, None, :], 1, 2)  # (n, 9 outputs, 9 coefs)
+    return c, A
+
+
+@dataclass(frozen=True, kw_only=True)
+class EquationErrorEstimator(Estimator):
+    """Closed-form equation-error least squares (EBM step 2 or one step on the sensors).
+
+    Attributes
+    ----------
+    one_step : bool
+        Regress the accelerations and rate derivatives directly (default False: the
+        two-step EBM regression).
+    smoothing : {"both", "forces", "none"}
+        As in EBM (:func:`aeroid.reconstruct.ebm_regression`; default "both"). In the
+        one-step form "forces" smooths the targets only and "both" also the regressors.
+    lateral_rows : bool
+        Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's
+        four sub-problems).
+
+    Notes
+    -----
+    ``info`` holds ``correlation`` (9, 9): the regressor correlation within each
+    sub-problem (NaN across sub-problems; the full matrix in the one-step form),
+    ``collinear`` (pairs of names with ``|r| > 0.99``), ``sigma2`` per sub-problem
+    and ``subproblems``. ``cost`` is the total weighted residual sum of squares.
+    Nothing is random: ``rng`` is unused.
+    """
+
+    name: ClassVar[str] = "equation-error"
+    description: ClassVar[str] = (
+        "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
+
+    one_step: bool = False
+    smoothing: Literal["both", "forces", "none"] = "both"
+    lateral_rows: bool = False
+
+    def __post_init__(self) -> None:
+        if self.smoothing not in rc.SMOOTHING_CHOICES:
+            raise ValueError(f"smoothing must be one of {', '.join(rc.SMOOTHING_CHOICES)}, "
+                             f"got {self.smoothing!r}")
+
+    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+        """Solve the least-squares problems (deterministic)."""
+        if self.one_step:
+            return self._one_step(flight)
+        rec = rc.reconstruct(flight)
+        X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
+        sd = rc.noise_sd(rec.fm)
+        theta = np.full(9, np.nan)
+        cov = np.zeros((9, 9))
+        corr = np.full((9, 9), np.nan)
+        sigma2, cost = {}, 0.0
+        for label, row, cols in SUBPROBLEMS:
+            cols = list(cols)
+            rows = [row] + ([LATERAL[label]] if self.lateral_rows and label in LATERAL else [])
+            A = np.concatenate([X[:, r, cols] / sd[r] for r in rows])
+            b = np.concatenate([y[:, r] / sd[r] for r in rows])
+            th, cv, s2 = _lstsq(A, b)
+            theta[cols] = th
+            cov[np.ix_(cols, cols)] = cv
+            corr[np.ix_(cols, cols)] = _correlation(A)
+            sigma2[label] = s2
+            cost += s2 * max(A.shape[0] - len(cols), 1)
+        info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
+                "reconstruction_rank": rec.rank}
+        return self._result(theta, cov, corr, cost, info)
+
+    def _one_step(self, flight: Flight) -> EstimationResult:
+        c, A = affine_accelerations(flight)
+        n = flight.n_samples
+        meas = np.concatenate([flight.accelerations().reshape(n, 6),
+                               rc.rate_derivatives(flight)], axis=1)
+        target = meas - c
+        if self.smoothing in ("forces", "both"):
+            target = rc.smooth(target)
+        if self.smoothing == "both":
+            A = rc.smooth(A, axis=0)
+        sd = rc.noise_sd(meas)
+        theta = cov = None
+        for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
+            Aw = (A / sd[None, :, None]).reshape(-1, 9)
+            bw = (target / sd[None, :]).reshape(-1)
+            theta, cov, s2 = _lstsq(Aw, bw)
+            resid = target - np.einsum("noc,c->no", A, theta)
+            sd = np.sqrt(np.mean(resid * resid, axis=0))
+            sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
+        corr = _correlation(Aw)
+        info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"]}
+        return self._result(theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
+
+    def _result(self, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray, cost: float,
+                info: dict) -> EstimationResult:
+        names = aeroid.NAMES
+        collinear = [(names[i], names[j], float(corr[i, j])) for i in range(9)
+                     for j in range(i + 1, 9)
+                     if np.isfinite(corr[i, j]) and abs(corr[i, j]) > COLLINEAR_R]
+        info.update(correlation=corr, collinear=collinear)
+        return EstimationResult(
+            estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
+            covariance=cov, cost=float(cost), success=True, message="", n_evaluations=1,
+            n_iterations=1, info=info)

@@ -1,0 +1,149 @@
+"""pyswarms' global-best PSO on the paper's EBM and EAM objectives (a library yardstick).
+
+The objectives are aeroid's (:func:`aeroid.objectives.ebm_cost` on EBM step 1,
+:class:`aeroid.objectives.OutputErrorCost` for EAM), with the same weighting, smoothing
+and default budgets as the paper's estimators (450 particles, 200 iterations). The
+search runs in the unit cube over :func:`aeroid.prior_bounds` (as aeroid's PSO does), so
+one velocity clamp, the paper's ``V_max = 0.2`` of each range, fits every dimension.
+
+Randomness, honestly: pyswarms draws from numpy's GLOBAL random state
+(``np.random.uniform`` and friends) and offers no generator argument. To keep aeroid's
+rule (same ``rng``, same result; no global state leaked to the caller), the initial swarm
+is drawn from ``rng`` (its first particle is the prior), and the global state is seeded
+from ``rng`` inside a context that saves it with ``np.random.get_state()`` and restores
+it with ``np.random.set_state()`` afterwards, even on error. This is not thread-safe: two
+threads running pyswarms at once share the global state (processes are fine).
+pyswarms' progress bar is disabled (``verbose=False``) and its logger silenced.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+import numpy as np
+
+import aeroid
+from aeroid import objectives, reconstruct
+from aeroid.estimators import EstimationResult, Estimator
+from aeroid.flight import Flight
+
+
+@contextlib.contextmanager
+def seeded_global_state(rng: np.random.Generator) -> Iterator[None]:
+    """Seed numpy's global random state from ``rng``; restore the caller's state after."""
+    saved = np.random.get_state()  # noqa: NPY002 - pyswarms draws from the global state
+    np.random.seed(int(rng.integers(0, 2**32 - 1)))  # noqa: NPY002
+    try:
+        yield
+    finally:
+        np.random.set_state(saved)  # noqa: NPY002
+
+
+@contextlib.contextmanager
+def _quiet_pyswarms() -> Iterator[None]:
+    logger = logging.getLogger("pyswarms")
+    level, propagate = logger.level, logger.propagate
+    logger.setLevel(logging.CRITICAL)
+    logger.propagate = False
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+        logger.propagate = propagate
+
+
+@dataclass(frozen=True, kw_only=True)
+class PyswarmsEstimator(Estimator):
+    """pyswarms ``GlobalBestPSO`` on the EBM (default) or EAM objective.
+
+    Attributes
+    ----------
+    objective : {"ebm", "eam"}
+        EBM second-step cost (eq. 34) or EAM output-error cost (eq. 23).
+    n_particles, n_iterations : int
+        Budget (defaults 450 and 200, the paper's estimators' defaults).
+    c1, c2 : float
+        Cognitive and social coefficients (default 1.0 each, the paper's).
+    w : float
+        Inertia weight, constant (default 0.5, the mean of the paper's ``w ~ U[0, 1]``,
+        which pyswarms cannot draw).
+    weighting : {"noise", "relative"}
+        Channel weighting of the objective (default "noise", as EBM-PSO/EAM-PSO).
+    smoothing : {"both", "forces", "none"}
+        EBM smoothing (default "both").
+    v_max : float
+        Velocity clamp as a fraction of each range (default 0.2, eq. 19).
+
+    Notes
+    -----
+    ``history`` (axis "iteration") holds pyswarms' best cost per iteration and the best
+    position after the run only at the last step (pyswarms keeps no position history
+    of the global best; ``theta`` rows before the last repeat the final best).
+    """
+
+    name: ClassVar[str] = "pyswarms"
+    description: ClassVar[str] = "pyswarms global-best PSO on the EBM or EAM objective"
+
+    objective: Literal["ebm", "eam"] = "ebm"
+    n_particles: int = 450
+    n_iterations: int = 200
+    c1: float = 1.0
+    c2: float = 1.0
+    w: float = 0.5
+    weighting: Literal["noise", "relative"] = "noise"
+    smoothing: Literal["both", "forces", "none"] = "both"
+    v_max: float = 0.2
+
+    def __post_init__(self) -> None:
+        if self.objective not in ("ebm", "eam"):
+            raise ValueError(f"objective must be 'ebm' or 'eam', got {self.objective!r}")
+        if self.n_particles < 2 or self.n_iterations < 1:
+            raise ValueError("n_particles must be >= 2 and n_iterations >= 1")
+        if not self.v_max > 0:
+            raise ValueError(f"v_max must be > 0, got {self.v_max}")
+
+    def cost_function(self, flight: Flight):
+        """Return the objective ``theta (P, 9) -> (P,)``."""
+        if self.objective == "ebm":
+            rec = reconstruct.reconstruct(flight)
+            return objectives.ebm_cost(flight, rec, weighting=self.weighting,
+                                       smoothing=self.smoothing)
+        return objectives.OutputErrorCost(flight, weighting=self.weighting)
+
+    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+        """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it)."""
+        from pyswarms.single import GlobalBestPSO
+
+        cost = self.cost_function(flight)
+        bounds = aeroid.prior_bounds(flight.airframe)
+        low, span = bounds[:, 0], bounds[:, 1] - bounds[:, 0]
+        count = {"n": 0}
+
+        def fun(u: np.ndarray) -> np.ndarray:
+            count["n"] += len(u)
+            values = np.asarray(cost(low + u * span), dtype=float)
+            return np.where(np.isfinite(values), values, np.inf)
+
+        init = rng.random((self.n_particles, 9))
+        init[0] = np.clip((flight.airframe.prior_vector() - low) / span, 0.0, 1.0)
+        options = {"c1": self.c1, "c2": self.c2, "w": self.w}
+        with seeded_global_state(rng), _quiet_pyswarms():
+            optimizer = GlobalBestPSO(
+                n_particles=self.n_particles, dimensions=9, options=options,
+                bounds=(np.zeros(9), np.ones(9)), velocity_clamp=(-self.v_max, self.v_max),
+                init_pos=init)
+            best_cost, best_u = optimizer.optimize(fun, iters=self.n_iterations,
+                                                   verbose=False)
+        theta = low + np.asarray(best_u) * span
+        hist_cost = np.asarray(optimizer.cost_history, dtype=float)
+        history = {"axis": "iteration", "step": np.arange(1, len(hist_cost) + 1),
+                   "theta": np.tile(theta, (len(hist_cost), 1)), "cost": hist_cost}
+        return EstimationResult(
+            estimator=self.name, theta=theta, cost=float(best_cost), success=True,
+            message=f"{self.n_iterations} iterations", n_evaluations=count["n"],
+            n_iterations=self.n_iterations, history=history,
+            info={"objective": self.objective, "bounds": bounds})
