@@ -43,7 +43,10 @@ def _save(fig: Any, path: str | Path) -> Path:
 
 def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: str | Path,
                      title: str = "") -> Path:
-    """Plot the best cost against iteration, one line per estimator (log scale).
+    """Plot the best cost against iteration, one panel per estimator (paper Fig. 4).
+
+    Each method minimises its own objective, so each panel has its own y axis (log
+    scale when every cost is positive).
 
     Parameters
     ----------
@@ -53,17 +56,27 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
     path : path-like
         PNG to write.
     """
-    fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
-    for label, h in histories.items():
-        cost = np.asarray(h["cost"], dtype=float)
-        ok = np.isfinite(cost) & (cost > 0)
-        ax.plot(np.asarray(h["step"])[ok], cost[ok], label=label, lw=1.6)
-    ax.set_yscale("log")
-    ax.set_xlabel("iteration")
-    ax.set_ylabel("best cost (each method's own objective)")
-    ax.set_title(title or "Convergence of the cost (run 0)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    n = max(len(histories), 1)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False,
+                             layout="constrained")
+    for ax, (label, h) in zip(axes.flat, histories.items(), strict=False):
+        cost = np.asarray(h["cost"], dtype=float).reshape(-1)
+        step = np.asarray(h["step"], dtype=float).reshape(-1)
+        ok = np.isfinite(cost)
+        ax.plot(step[ok], cost[ok], lw=1.6, color="C0")
+        if ok.any() and np.all(cost[ok] > 0):
+            ax.set_yscale("log")
+            ax.yaxis.set_major_formatter(_PLAIN)
+            ax.yaxis.set_minor_formatter(_PLAIN)
+        ax.set_title(label, fontsize=10)
+        ax.set_xlabel("iteration")
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in list(axes.flat)[len(histories):]:
+        ax.set_visible(False)
+    axes[0, 0].set_ylabel("best cost (own objective)")
+    fig.suptitle(title or "Convergence of the cost (run 0)")
     return _save(fig, path)
 
 
@@ -90,7 +103,7 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
         if sd is not None:
             s = np.asarray(sd, dtype=float).reshape(len(step), -1)[:, j]
             ax.fill_between(step, theta[:, j] - 1.96 * s, theta[:, j] + 1.96 * s,
-                            color="C0", alpha=0.2, lw=0, label="+-1.96 sd")
+                            color="C0", alpha=0.2, lw=0, label="±1.96 sd")
         ax.axhline(truth[j], color="k", ls="--", lw=1, label="truth")
         finite = theta[np.isfinite(theta[:, j]), j]
         if finite.size:  # keep the truth and the last half of the path in view
@@ -166,7 +179,7 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
         if cr_pct is not None and np.isfinite(cr_pct.get(name, np.nan)):
             band = 1.96 * cr_pct[name]
             ax.axhspan(-band, band, color="C2", alpha=0.25, lw=0,
-                       label="+-1.96 Cramér-Rao sd")
+                       label="±1.96 Cramér-Rao sd")
         positions = np.arange(1, len(labels) + 1)
         nonempty = [k for k, d in enumerate(data) if len(d)]
         if nonempty:
