@@ -1,0 +1,168 @@
+"""The paper's estimators: noise-free recovery, PSO vs closed form, history and info."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import scipy.optimize
+
+from aeroid.estimators import EstimatorError, make_estimator, prior_bounds
+from aeroid.flight import Flight
+from aeroid.objectives import ebm_cost, sebm_costs
+from aeroid.reconstruct import reconstruct
+
+#: Noise-free EBM-PSO / SEBM-PSO, |error| in % per coefficient (Cx ... Cmq). The floor is
+#: the PSO's convergence (the reconstruction errs by < 1e-3 %, test_objectives): over
+#: PSO seeds 1-8 the 9-D EBM-PSO (450 x 200) erred at most 0.44/0.62/10.6/0.002/0.004/
+#: 1.2/0.11/1.4 % (Czq, the weakest term of F_AZ at 1.6 % of it, converges last); the
+#: SEBM sub-problems (1-3-D) reach the closed form (<= 0.004 %). Margin x1.5-2.
+EBM_NOISE_FREE_TOL_PCT = np.array([0.01, 1.0, 1.0, 16.0, 0.01, 0.01, 2.0, 0.5, 2.0])
+SEBM_NOISE_FREE_TOL_PCT = np.full(9, 0.01)
+#: Noise-free EAM-PSO at a reduced swarm (100 x 100, random start, no warm start), with
+#: the paper's relative weighting (eq. 23): on noise-free data the noise weighting's
+#: per-channel sd estimates are round-off-level artefacts (p is smooth to 1e-9), so
+#: one channel dominates. The floor is PSO convergence in a 9-D output-error landscape.
+#: Measured over PSO seeds 1-3: Cx <= 0.07 %, Cza, Czd, Cma, Cmd, Cmq <= 2.9 %,
+#: Czq <= 8.3 %, Cl0, Clp <= 6.5 %. Margin x1.5-2.
+EAM_REDUCED_TOL_PCT = np.array([0.2, 5.0, 5.0, 15.0, 10.0, 10.0, 5.0, 5.0, 5.0])
+EAM_REDUCED = {"n_particles": 100, "n_iterations": 100, "weighting": "relative"}
+#: Full paper configuration (slow test): measured 0.004-1.7 % (Czq up to 27 % for one
+#: PSO seed out of two at noise weighting: the 9-D landscape is flat along Czq).
+EAM_FULL_TOL_PCT = np.array([0.1, 2.0, 5.0, 30.0, 1.0, 1.0, 2.0, 2.0, 5.0])
+#: PSO final cost vs the box-constrained least-squares optimum of the same objective.
+CLOSED_FORM_RTOL = 1e-3
+SEED = 1
+
+
+def _bounded_optimum(cost, bounds: np.ndarray) -> float:
+    """Minimum of the weighted least-squares cost over the box (scipy lsq_linear, BVLS)."""
+    sw = np.sqrt(cost.weights.reshape(-1) / cost.n_samples)
+    A = cost.X.reshape(-1, cost.n_params) * sw[:, None]
+    b = cost.y.reshape(-1) * sw
+    scale = np.abs(bounds).max(axis=1)
+    res = scipy.optimize.lsq_linear(A * scale, b, bounds=(bounds[:, 0] / scale,
+                                                          bounds[:, 1] / scale),
+                                    method="bvls", tol=1e-14)
+    return float(cost.direct(res.x * scale))
+
+
+@pytest.fixture(scope="module")
+def paper_results(paper_flight):
+    return {m: make_estimator(m).fit(paper_flight, rng=SEED) for m in ("ebm-pso", "sebm-pso")}
+
+
+@pytest.mark.parametrize(("method", "tol"), [("ebm-pso", EBM_NOISE_FREE_TOL_PCT),
+                                             ("sebm-pso", SEBM_NOISE_FREE_TOL_PCT)])
+def test_noise_free_ebm_recovers_truth(clean_flight, method, tol) -> None:
+    result = make_estimator(method).fit(clean_flight, rng=SEED)
+    assert result.success, result.message
+    err = result.relative_error_pct(clean_flight.true_coefficients)
+    assert np.all(err < tol), err
+
+
+def test_noise_free_eam_recovers_truth_reduced_swarm(clean_flight) -> None:
+    result = make_estimator("eam-pso", EAM_REDUCED).fit(clean_flight, rng=SEED)
+    assert result.success, result.message
+    err = result.relative_error_pct(clean_flight.true_coefficients)
+    assert np.all(err < EAM_REDUCED_TOL_PCT), err
+
+
+@pytest.mark.slow
+def test_noise_free_eam_recovers_truth_paper_config(clean_flight) -> None:
+    result = make_estimator("eam-pso").fit(clean_flight, rng=SEED)
+    err = result.relative_error_pct(clean_flight.true_coefficients)
+    assert np.all(err < EAM_FULL_TOL_PCT), err
+
+
+@pytest.mark.parametrize("weighting", ["noise", "relative"])
+def test_ebm_pso_reaches_the_closed_form_optimum(paper_flight, weighting) -> None:
+    result = make_estimator("ebm-pso", {"weighting": weighting}).fit(paper_flight, rng=SEED)
+    cost = ebm_cost(paper_flight, reconstruct(paper_flight), weighting=weighting)
+    best = _bounded_optimum(cost, prior_bounds(paper_flight.airframe))
+    assert best <= result.cost * (1 + 1e-12)
+    assert result.cost <= best * (1 + CLOSED_FORM_RTOL)
+    # the unconstrained optimum is the info's yardstick; it can only be lower
+    np.testing.assert_allclose(result.info["closed_form_cost"], cost.cost_min)
+    assert cost.cost_min <= best * (1 + 1e-12)
+
+
+def test_sebm_pso_reaches_each_closed_form_optimum(paper_flight, paper_results) -> None:
+    result = paper_results["sebm-pso"]
+    bounds = prior_bounds(paper_flight.airframe)
+    total = 0.0
+    for label, cols, cost in sebm_costs(paper_flight, reconstruct(paper_flight)):
+        best = _bounded_optimum(cost, bounds[list(cols)])
+        got = result.info["subproblems"][label]["cost"]
+        assert got <= best * (1 + CLOSED_FORM_RTOL), label
+        total += got
+    np.testing.assert_allclose(result.cost, total, rtol=1e-12)
+
+
+def test_noise_free_closed_form_is_inside_the_box_and_matches_lstsq(clean_flight) -> None:
+    """Where the optimum is interior, PSO cost ~ scipy.linalg.lstsq optimum (relative)."""
+    result = make_estimator("sebm-pso", {"weighting": "relative"}).fit(clean_flight, rng=SEED)
+    np.testing.assert_allclose(result.cost, result.info["closed_form_cost"],
+                               rtol=CLOSED_FORM_RTOL)
+
+
+@pytest.mark.parametrize("method", ["ebm-pso", "sebm-pso"])
+def test_history_and_info(paper_flight, paper_results, method) -> None:
+    result = paper_results[method]
+    h = result.history
+    n_iter = 200
+    assert h["axis"] == "iteration"
+    assert h["theta"].shape == (n_iter + 1, 9)
+    assert h["cost"].shape == h["step"].shape == (n_iter + 1,)
+    assert np.all(np.diff(h["cost"]) <= 0)
+    np.testing.assert_array_equal(h["theta"][-1], result.theta)
+    n = paper_flight.n_samples
+    assert result.info["fm_raw"].shape == result.info["fm_smooth"].shape == (n, 6)
+    np.testing.assert_array_equal(result.info["t"], paper_flight.t)
+    assert result.info["weighting"] == "noise"
+    assert result.info["smoothing"] == "both"
+
+
+def test_sebm_keeps_each_subproblem_history(paper_results) -> None:
+    sub = paper_results["sebm-pso"].info["subproblems"]
+    assert list(sub) == ["FAX", "FAZ", "MX", "MY"]
+    assert [s["n_particles"] for s in sub.values()] == [50, 150, 100, 150]
+    assert sub["FAZ"]["history_theta"].shape == (201, 3)
+
+
+def test_estimators_never_read_the_truth(paper_flight, paper_results) -> None:
+    meta = copy.deepcopy(paper_flight.metadata)
+    meta["true_coefficients"] = {k: 1e6 for k in meta["true_coefficients"]}
+    meta["true_accel_positions_m"] = [[9.0, 9.0, 9.0], [9.0, 9.0, 9.0]]
+    blind = Flight(paper_flight.data.copy(), paper_flight.airframe, meta)
+    for method, result in paper_results.items():
+        again = make_estimator(method).fit(blind, rng=SEED)
+        np.testing.assert_array_equal(again.theta, result.theta)
+
+
+def test_smoothing_forces_only_differs_from_both(paper_flight, paper_results) -> None:
+    forces = make_estimator("sebm-pso", {"smoothing": "forces"}).fit(paper_flight, rng=SEED)
+    assert forces.info["smoothing"] == "forces"
+    assert not np.array_equal(forces.theta, paper_results["sebm-pso"].theta)
+
+
+@pytest.mark.parametrize(("method", "options", "match"), [
+    ("sebm-pso", {"n_particles": "[50, 150]"}, "4 swarm sizes"),
+    ("ebm-pso", {"weighting": "ml"}, "weighting"),
+    ("eam-pso", {"n_particles": "2"}, "n_particles"),
+    ("ebm-pso", {"box": "[1, 2]"}, "18 numbers"),
+])
+def test_bad_options_are_one_line_errors(method, options, match) -> None:
+    with pytest.raises(EstimatorError, match=match) as info:
+        make_estimator(method, options)
+    assert "\n" not in str(info.value)
+
+
+def test_user_box_is_used(paper_flight) -> None:
+    prior = paper_flight.airframe.prior_vector()
+    box = np.sort(np.stack([prior * 0.9, prior * 1.1], axis=1), axis=1)
+    result = make_estimator("sebm-pso", {"box": box.reshape(-1).tolist(),
+                                         "n_iterations": 30}).fit(paper_flight, rng=SEED)
+    assert np.all(result.theta >= box[:, 0]) and np.all(result.theta <= box[:, 1])
+    np.testing.assert_array_equal(result.info["bounds"], box)
