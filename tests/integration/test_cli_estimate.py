@@ -1,0 +1,204 @@
+"""``aeroid estimate`` and ``aeroid methods``: end to end, errors, and entry-point plug-ins."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aeroid.airframe import save_airframe
+from aeroid.cli import main
+from aeroid.coefficients import NAMES
+from aeroid.flight import Flight
+
+PLUGIN_DIR = Path(__file__).resolve().parents[1] / "plugin"
+#: The CLI run in a fresh interpreter (``python -m aeroid.cli`` would warn: aeroid's
+#: package import already imports aeroid.cli).
+CLI = [sys.executable, "-c", "import sys; from aeroid.cli import main; sys.exit(main())"]
+FAST = ["--option", "n_iterations=20"]
+#: The same flight through degrees and back differs by round-off (1e-16); SEBM-PSO at its
+#: default 200 iterations converges onto the closed form (test_paper_estimators), so the
+#: estimates agree far better than this (a half-converged swarm would amplify round-off).
+DEGREES_RTOL = 1e-6
+
+
+@pytest.fixture(scope="module")
+def flight_csv(tmp_path_factory, paper_flight) -> Path:
+    path = tmp_path_factory.mktemp("cli") / "flight.csv"
+    paper_flight.write(path)
+    return path
+
+
+def _run(args: list[str], env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=300, env=env,
+                          check=False)
+
+
+def _one_line_error(capsys, argv: list[str]) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("aeroid: error: ")
+    return err
+
+
+def test_estimate_json_in_a_subprocess_matches_in_process(flight_csv, capsys) -> None:
+    args = ["estimate", str(flight_csv), "--method", "sebm-pso", "--seed", "1", "--json"]
+    proc = _run(args)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["method"] == "sebm-pso"
+    assert out["success"] is True
+    assert list(out["coefficients"]) == list(NAMES)
+    assert {"stderr", "message", "n_evaluations", "wall_time_s"} <= set(out)
+    assert main(args) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["coefficients"] == out["coefficients"]  # same seed, same numbers
+
+
+def test_estimate_table_shows_truth_when_known(flight_csv, capsys) -> None:
+    assert main(["estimate", str(flight_csv), "--method", "ebm-pso", "--seed", "2", *FAST]) == 0
+    out = capsys.readouterr().out
+    assert "ebm-pso: ok" in out
+    assert "truth" in out and "error %" in out
+    for name in NAMES:
+        assert name in out
+
+
+def test_methods_lists_the_papers_estimators(capsys) -> None:
+    assert main(["methods"]) == 0
+    out = capsys.readouterr().out
+    for name in ("eam-pso", "ebm-pso", "sebm-pso"):
+        assert name in out
+
+
+@pytest.mark.parametrize(("extra", "fragment"), [
+    (["--method", "nope"], "unknown method 'nope'"),
+    (["--method", "ebm-pso", "--option", "colour=red"], "unknown option(s) colour"),
+    (["--method", "ebm-pso", "--option", "n_particles"], "expected KEY=VALUE"),
+    (["--method", "ebm-pso", "--option", "n_particles=many"], "expects an integer"),
+])
+def test_bad_method_or_option_exit_2(flight_csv, capsys, extra, fragment) -> None:
+    assert fragment in _one_line_error(capsys, ["estimate", str(flight_csv), *extra])
+
+
+def _write(tmp_path: Path, flight: Flight, name: str = "f.csv", sidecar: bool = True) -> Path:
+    path = tmp_path / name
+    flight.write(path)
+    if not sidecar:
+        path.with_suffix(".json").unlink()
+    return path
+
+
+def test_missing_file_exit_2(tmp_path, capsys) -> None:
+    missing = tmp_path / "none.csv"
+    err = _one_line_error(capsys, ["estimate", str(missing), "--method", "ebm-pso"])
+    assert str(missing) in err and "no such file" in err
+
+
+def test_unreadable_file_exit_2(tmp_path, capsys) -> None:
+    bad = tmp_path / "bad.parquet"
+    bad.write_bytes(b"\x00\x01 not parquet")
+    err = _one_line_error(capsys, ["estimate", str(bad), "--method", "ebm-pso"])
+    assert str(bad) in err and ("cannot read" in err or "pyarrow" in err)
+
+
+def test_missing_airframe_file_exit_2(flight_csv, tmp_path, capsys) -> None:
+    missing = tmp_path / "x.toml"
+    err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", "ebm-pso",
+                                   "--airframe", str(missing)])
+    assert str(missing) in err
+
+
+def test_nan_in_flight_exit_2_names_file_and_column(tmp_path, capsys, paper_flight) -> None:
+    data = paper_flight.data.copy()
+    data.loc[42, "q"] = np.nan
+    path = _write(tmp_path, Flight(data, paper_flight.airframe, dict(paper_flight.metadata)))
+    err = _one_line_error(capsys, ["estimate", str(path), "--method", "ebm-pso"])
+    assert str(path) in err and "'q'" in err and "row 42" in err
+
+
+def test_missing_column_exit_2(tmp_path, capsys, paper_flight) -> None:
+    data = paper_flight.data.drop(columns=["az2"])
+    path = _write(tmp_path, Flight(data, paper_flight.airframe, dict(paper_flight.metadata)))
+    err = _one_line_error(capsys, ["estimate", str(path), "--method", "sebm-pso"])
+    assert str(path) in err and "az2" in err
+
+
+def test_log_without_sidecar_needs_airframe(tmp_path, capsys, paper_flight) -> None:
+    path = _write(tmp_path, paper_flight, sidecar=False)
+    err = _one_line_error(capsys, ["estimate", str(path), "--method", "ebm-pso"])
+    assert str(path) in err and "--airframe" in err
+
+
+def test_users_own_log_with_airframe_columns_and_degrees(tmp_path, capsys, paper_flight) -> None:
+    """A sidecar-less log with its own column names and angles in degrees."""
+    data = paper_flight.data.copy()
+    for name in ("p", "q", "r", "delta", "alpha", "beta", "phi", "theta", "psi"):
+        data[name] = np.degrees(data[name])
+    data = data.rename(columns={"p": "roll_rate_dps", "az1": "acc_z_front"})
+    path = tmp_path / "log.csv"
+    data.to_csv(path, index=False, float_format="%.17g")
+    airframe = tmp_path / "airframe.toml"
+    save_airframe(paper_flight.airframe, airframe)
+    columns = tmp_path / "columns.toml"
+    columns.write_text('roll_rate_dps = "p"\nacc_z_front = "az1"\n')
+    common = ["--method", "sebm-pso", "--seed", "3", "--json"]
+    assert main(["estimate", str(path), "--airframe", str(airframe), "--columns",
+                 str(columns), "--degrees", *common]) == 0
+    from_log = json.loads(capsys.readouterr().out)
+    reference = _write(tmp_path, paper_flight, "ref.csv")
+    assert main(["estimate", str(reference), *common]) == 0
+    direct = json.loads(capsys.readouterr().out)
+    for name in NAMES:
+        assert from_log["coefficients"][name] == pytest.approx(direct["coefficients"][name],
+                                                               rel=DEGREES_RTOL)
+
+
+# --------------------------------------------------------------------------------------
+# Third-party estimators through the entry-point group (nothing is installed: a
+# *.dist-info folder on PYTHONPATH is what importlib.metadata discovers).
+# --------------------------------------------------------------------------------------
+def _plugin_env(tmp_path: Path, entry_name: str) -> dict[str, str]:
+    site = tmp_path / "site"
+    info = site / "aeroid_test_plugin-0.1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: aeroid-test-plugin\n"
+                                   "Version: 0.1.0\n")
+    (info / "entry_points.txt").write_text(
+        f"[aeroid.estimators]\n{entry_name} = aeroid_test_plugin:PriorMeanEstimator\n")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(site), str(PLUGIN_DIR), *filter(None, [env.get("PYTHONPATH")])])
+    return env
+
+
+def test_plugin_found_by_methods_and_runs_through_estimate(tmp_path, flight_csv,
+                                                          paper_flight) -> None:
+    env = _plugin_env(tmp_path, "test-plugin-mean")
+    listed = _run(["methods"], env)
+    assert listed.returncode == 0, listed.stderr
+    assert "test-plugin-mean" in listed.stdout
+    assert "centre of the prior search box" in listed.stdout
+    ran = _run(["estimate", str(flight_csv), "--method", "test-plugin-mean", "--json",
+                "--option", "scale=0.2"], env)
+    assert ran.returncode == 0, ran.stderr
+    out = json.loads(ran.stdout)
+    assert out["method"] == "test-plugin-mean"
+    prior = paper_flight.airframe.prior_vector()
+    np.testing.assert_allclose([out["coefficients"][n] for n in NAMES], prior, rtol=1e-12)
+
+
+def test_plugin_with_a_builtin_name_is_an_error_naming_both(tmp_path) -> None:
+    proc = _run(["methods"], _plugin_env(tmp_path, "sebm-pso"))
+    assert proc.returncode == 2
+    err = proc.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "'sebm-pso' registered twice" in err
+    assert "aeroid.estimators.sebm.SEBMPSO" in err
+    assert "aeroid_test_plugin:PriorMeanEstimator" in err
