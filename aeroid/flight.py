@@ -257,7 +257,8 @@ def read_flight(
         raise FlightError(f"{path}: no such file") from None
     except ImportError:
         raise FlightError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError,
+            ValueError) as exc:  # ValueError: pyarrow.ArrowInvalid on a corrupt Parquet file
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise FlightError(f"{path}: cannot read flight data ({first})") from None
     if columns:
