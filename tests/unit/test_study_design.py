@@ -174,3 +174,22 @@ def test_cli_unknown_method_exits_2_before_any_run(tmp_path, capsys, monkeypatch
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown method 'zzz'" in err[0]
     assert not out.exists()
+
+
+STUDIES = sorted((design.quick_study_path().parents[2] / "studies").glob("*.toml"))
+
+
+@pytest.mark.parametrize("path", STUDIES, ids=[p.stem for p in STUDIES])
+def test_shipped_studies_load_with_the_installed_estimators(path):
+    study = load_study(path)
+    assert study.name == path.stem and not study.skipped
+    assert study.n_fits == study.runs * len(study.noise) * len(study.estimators)
+
+
+def test_quick_study_runs_every_fast_estimator_and_not_eam():
+    study = load_study(None)
+    methods = {e.method for e in study.estimators}
+    assert methods == {"sebm-pso", "ebm-pso", "equation-error", "output-error", "ekf", "ukf",
+                       "pyswarms"}
+    assert not study.skipped and study.runs == 3
+    assert {p.stem for p in STUDIES} >= {"paper_table5", "noise_sweep", "realistic_imu"}
