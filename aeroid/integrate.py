@@ -7,9 +7,17 @@ Two layers:
   coefficient sets at once with the fin deflection held constant over each sample
   interval (zero-order hold of the measured ``delta``). This is the hot loop of the
   output-error estimators (EAM-PSO: ~400 passes over 450 coefficient sets), so it has a
-  compiled backend (numba, ``parallel=True``: one thread per group of coefficient sets)
-  and a pure-numpy backend that gives the same numbers (tested to 1e-10 relative) for
-  readers and for platforms without numba.
+  compiled backend (numba) and a pure-numpy backend that gives the same numbers (tested
+  to 1e-12 of each channel's range) for readers and for platforms without numba.
+
+The compiled kernel (benchmarks/bench_foundation.py, results/foundation.md): each
+coefficient set is integrated by one thread with its state in nine scalars (no per-set
+allocation); the right-hand side is inlined; the RK4 stages get sin/cos of phi and
+theta from the step's start values by the addition theorem (one libm sin/cos pair per
+angle and step instead of four); fast-math without ``nnan``/``ninf``
+(:data:`FASTMATH_FLAGS`). ``parallel=True`` (``prange`` over the sets, numba's default
+thread count, never changed here) from :data:`PARALLEL_MIN_SETS` sets on; a serial
+kernel below, where starting the threads would cost more than the work.
 """
 
 from __future__ import annotations
@@ -99,9 +107,29 @@ PARALLEL_MIN_SETS = 16
 if HAVE_NUMBA:
 
     @numba.njit(cache=True, inline="always", fastmath=FASTMATH_FLAGS)
-    def _rhs_scalar(u, v, w, p, q, r, phi, theta, delta, cx, cza, czd, czq, cl0, clp, cma,
-                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g):  # pragma: no cover
-        # Eqs. 2-10 on scalars, the same algebra as aeroid.dynamics.state_derivative.
+    def _sincos_shift(s0, c0, d):  # pragma: no cover - compiled
+        # sin(a + d), cos(a + d) from s0 = sin(a), c0 = cos(a) by the addition theorem,
+        # with sin(d), cos(d) from their Taylor series when |d| < 0.1 (terms to d^11 and
+        # d^12: truncation < 1e-19, i.e. rounding-level) and from libm otherwise. The RK4
+        # stages move phi and theta by a small d = h/2 * rate, so this replaces 12 of the
+        # 16 sin/cos calls of a step by a few multiplications.
+        if abs(d) < 0.1:
+            d2 = d * d
+            sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (
+                1.0 - d2 / 72.0 * (1.0 - d2 / 110.0)))))
+            cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0 * (
+                1.0 - d2 / 90.0 * (1.0 - d2 / 132.0)))))
+        else:
+            sd = math.sin(d)
+            cd = math.cos(d)
+        return s0 * cd + c0 * sd, c0 * cd - s0 * sd
+
+    @numba.njit(cache=True, inline="always", fastmath=FASTMATH_FLAGS)
+    def _rhs_scalar(u, v, w, p, q, r, sphi, cphi, sth, cth, delta, cx, cza, czd, czq, cl0,
+                    clp, cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust,
+                    g):  # pragma: no cover - compiled
+        # Eqs. 2-10 on scalars, the algebra of aeroid.dynamics.state_derivative; psi does
+        # not enter, phi and theta enter through their sines and cosines.
         speed2 = u * u + v * v + w * w
         speed = math.sqrt(speed2)
         alpha = math.atan2(w, u)
@@ -115,10 +143,6 @@ if HAVE_NUMBA:
         mx = qsd * (cl0 + clp * kd * p)
         my = qsd * (cma * alpha + cmd * delta + cmq * kd * q)
         mz = qsd * (-cma * beta + cmq * kd * r)
-        sphi = math.sin(phi)
-        cphi = math.cos(phi)
-        sth = math.sin(theta)
-        cth = math.cos(theta)
         qr = q * sphi + r * cphi
         return (r * v - q * w - g * sth + (fax + thrust) / mass,
                 -r * u + p * w + g * cth * sphi + fay / mass,
@@ -148,21 +172,29 @@ if HAVE_NUMBA:
         for s in range(delta.shape[0]):
             d = delta[s]
             for _ in range(substeps):
+                sf, cf = math.sin(x6), math.cos(x6)
+                st, ct = math.sin(x7), math.cos(x7)
                 a0, a1, a2, a3, a4, a5, a6, a7, a8 = _rhs_scalar(
-                    x0, x1, x2, x3, x4, x5, x6, x7, d, cx, cza, czd, czq, cl0, clp, cma, cmd,
-                    cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                    x0, x1, x2, x3, x4, x5, sf, cf, st, ct, d, cx, cza, czd, czq, cl0, clp,
+                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                sf2, cf2 = _sincos_shift(sf, cf, hh * a6)
+                st2, ct2 = _sincos_shift(st, ct, hh * a7)
                 b0, b1, b2, b3, b4, b5, b6, b7, b8 = _rhs_scalar(
                     x0 + hh * a0, x1 + hh * a1, x2 + hh * a2, x3 + hh * a3, x4 + hh * a4,
-                    x5 + hh * a5, x6 + hh * a6, x7 + hh * a7, d, cx, cza, czd, czq, cl0, clp,
-                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                    x5 + hh * a5, sf2, cf2, st2, ct2, d, cx, cza, czd, czq, cl0, clp, cma,
+                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                sf2, cf2 = _sincos_shift(sf, cf, hh * b6)
+                st2, ct2 = _sincos_shift(st, ct, hh * b7)
                 e0, e1, e2, e3, e4, e5, e6, e7, e8 = _rhs_scalar(
                     x0 + hh * b0, x1 + hh * b1, x2 + hh * b2, x3 + hh * b3, x4 + hh * b4,
-                    x5 + hh * b5, x6 + hh * b6, x7 + hh * b7, d, cx, cza, czd, czq, cl0, clp,
-                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                    x5 + hh * b5, sf2, cf2, st2, ct2, d, cx, cza, czd, czq, cl0, clp, cma,
+                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                sf2, cf2 = _sincos_shift(sf, cf, h * e6)
+                st2, ct2 = _sincos_shift(st, ct, h * e7)
                 f0, f1, f2, f3, f4, f5, f6, f7, f8 = _rhs_scalar(
                     x0 + h * e0, x1 + h * e1, x2 + h * e2, x3 + h * e3, x4 + h * e4,
-                    x5 + h * e5, x6 + h * e6, x7 + h * e7, d, cx, cza, czd, czq, cl0, clp,
-                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
+                    x5 + h * e5, sf2, cf2, st2, ct2, d, cx, cza, czd, czq, cl0, clp, cma,
+                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
                 x0 = x0 + h6 * (a0 + 2.0 * b0 + 2.0 * e0 + f0)
                 x1 = x1 + h6 * (a1 + 2.0 * b1 + 2.0 * e1 + f1)
                 x2 = x2 + h6 * (a2 + 2.0 * b2 + 2.0 * e2 + f2)

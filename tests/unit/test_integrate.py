@@ -24,6 +24,8 @@ SOLVE_IVP_RTOL = 1e-10
 #: numba (fast-math: reassociation, FMA) versus numpy: rounding-level differences grown
 #: through 500 steps; measured 7e-14 of each channel's range.
 BACKEND_RTOL = 1e-12
+#: The kernel's shifted sine and cosine versus libm's sin(a + d): a few ulp of 1.
+SINCOS_ATOL = 1e-15
 
 needs_numba = pytest.mark.skipif(not HAVE_NUMBA, reason="numba not installed")
 
@@ -128,6 +130,32 @@ def test_numba_and_numpy_backends_agree(clean_flight, reference_scenario):
     # the serial kernel (few sets) gives the parallel kernel's numbers
     few = propagate(args[0], coefficients[:3], *args[2:], backend="numba")
     assert _scaled_error(few, fast[:3]) < BACKEND_RTOL
+
+
+@needs_numba
+def test_sincos_shift_equals_libm():
+    # the kernel's sin(a + d), cos(a + d) by the addition theorem, both branches
+    from aeroid.integrate import _sincos_shift
+
+    rng = np.random.default_rng(3)
+    steps = np.concatenate([np.geomspace(1e-10, 0.3, 40), [0.0999999, 0.1, 1.0, 3.0]])
+    for a in rng.uniform(-7, 7, 20):
+        for d in np.concatenate([steps, -steps]):
+            s, c = _sincos_shift(math.sin(a), math.cos(a), d)
+            assert abs(s - math.sin(a + d)) < SINCOS_ATOL
+            assert abs(c - math.cos(a + d)) < SINCOS_ATOL
+
+
+@needs_numba
+def test_backends_agree_with_large_steps(clean_flight, reference_scenario):
+    # 20 ms steps: the roll angle moves 0.5 rad per half step (the kernel's libm branch)
+    const = constants(reference_scenario.airframe)
+    args = (clean_flight.states()[0], reference_scenario.coefficient_vector,
+            clean_flight["delta"][:200:10], 10 * clean_flight.dt, const)
+    fast = propagate(*args, backend="numba")
+    slow = propagate(*args, backend="numpy")
+    assert np.all(np.isfinite(slow))
+    assert _scaled_error(fast, slow) < BACKEND_RTOL
 
 
 def test_propagate_broadcasts_states_and_coefficients(clean_flight, reference_scenario):
