@@ -196,3 +196,41 @@ def test_bad_input_raises_one_line(reference_scenario, clean_flight, call, messa
     with pytest.raises(ValueError, match=message) as info:
         call(reference_scenario, clean_flight)
     assert "\n" not in str(info.value)
+
+
+def _gauss_newton(airframe, inputs, measured, sd, theta0, iterations=4):
+    """Weighted least-squares output-error fit (weights 1 / sd^2) by Gauss-Newton."""
+    theta = theta0.copy()
+    weight = 1.0 / sd**2
+    for _ in range(iterations):
+        residual = measured - model_outputs(airframe, theta, inputs)
+        jac = output_sensitivities(airframe, theta, inputs)
+        lhs = np.einsum("kci,kc,kcj->ij", jac, weight, jac)
+        rhs = np.einsum("kci,kc,kc->i", jac, weight, residual)
+        theta = theta + np.linalg.solve(lhs, rhs)
+    return theta
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", [GaussianNoise(), PaperNoise()], ids=["gaussian", "paper"])
+def test_weighted_least_squares_attains_the_floor(reference_scenario, clean_flight, noise):
+    # Monte Carlo: 150 flights' worth of noise on the model outputs (the initial state and
+    # delta known), fitted by weighted least squares; the spread of the estimates must
+    # match cramer_rao_sd (the sd of a sample sd from 150 draws is ~6 %: allow 25 %)
+    rng = np.random.default_rng(2024)
+    airframe, theta = reference_scenario.airframe, nominal()
+    inputs = inputs_from_flight(clean_flight)
+    clean = model_outputs(airframe, theta, inputs)
+    sd = noise_sd(noise, clean)
+    floor = cramer_rao_sd(clean_flight, noise)
+    estimates = []
+    for _ in range(150):
+        if isinstance(noise, PaperNoise):  # eq. 43
+            measured = clean * (1 + 0.05 * (2 * rng.random(clean.shape) - 1))
+        else:
+            measured = clean + sd * rng.standard_normal(clean.shape)
+        estimates.append(_gauss_newton(airframe, inputs, measured, sd, theta))
+    spread = np.std(estimates, axis=0, ddof=1)
+    np.testing.assert_allclose(spread / floor, 1.0, atol=0.25)
+    bias = np.abs(np.mean(estimates, axis=0) - theta)
+    assert np.all(bias < 4 * floor / np.sqrt(150))
