@@ -27,6 +27,13 @@ def measurements(flight: Flight) -> np.ndarray:
     return np.column_stack([flight[c] for c in _model.MEASUREMENT_NAMES])
 
 
+def smoothed_start(y: np.ndarray, window: int = SG_WINDOW) -> np.ndarray:
+    """Return the first sample of ``y`` (n, m) smoothed by a quadratic SG fit of ``window``
+    samples (scipy's ``mode='interp'`` end fit), shape (m,)."""
+    window = min(window, y.shape[0] - 1 + y.shape[0] % 2)
+    return savgol_filter(y, window, min(2, window - 1), axis=0)[0]
+
+
 def noise_sd_from_data(y: np.ndarray, delta: np.ndarray, *, floor_rel: float) -> np.ndarray:
     """Estimate each channel's white-noise standard deviation from its SG residual.
 

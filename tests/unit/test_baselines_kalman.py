@@ -1,0 +1,278 @@
+"""EKF and UKF baselines: the CasADi model, the generic filter loops, the flight fits."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import aeroid
+from aeroid.scenario import reference_scenario
+from aeroid.sensors import NoNoise
+from aeroid.simulate import simulate_scenario
+from baselines import _common, _kalman, _model
+from baselines.ekf import ExtendedKalmanEstimator
+from baselines.ukf import UnscentedKalmanEstimator
+
+#: CasADi and numpy evaluate the same floating-point expressions in a different order.
+MODEL_RTOL = 1e-12
+#: Central differences with step 1e-6 (relative) have truncation + rounding error ~1e-7.
+FD_RTOL = 1e-5
+#: The filterpy loops and the hand-written Kalman filter do the same algebra in a
+#: different order (Joseph form in filterpy's EKF, UT sums in the UKF); 20 steps of a
+#: well-conditioned 3-state model lose a few digits at most.
+LINEAR_KF_TOL = 1e-9
+#: Noise-free reference flight from a prior 20 % off: measured final relative errors were
+#: <= 1.1e-4 except Cl0 and Clp (1.4e-3 and 1.7e-3: their regressors are correlated at
+#: 0.9998, and the filter's own sd of Clp is 2.5 % there). Tolerances: 10x the measured.
+FILTER_RTOL = 1e-3
+FILTER_RTOL_ROLL = 1e-2
+#: Prior used by the flight fits: each coefficient 20 % off, alternating sign.
+PRIOR_FACTOR = np.array([1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2])
+
+
+@pytest.fixture(scope="module")
+def flight():
+    fl = simulate_scenario(reference_scenario(), NoNoise(), rng=0)
+    prior = tuple(aeroid.nominal() * PRIOR_FACTOR)
+    return dataclasses.replace(fl, airframe=fl.airframe.replace(prior=prior))
+
+
+@pytest.fixture(scope="module")
+def const(flight):
+    return aeroid.constants(flight.airframe)
+
+
+# --------------------------------------------------------------------------------------
+# The CasADi model equals aeroid's numpy model
+# --------------------------------------------------------------------------------------
+def _states(flight, rows=(0, 100, 250, 500)):
+    return flight.states()[list(rows)], flight["delta"][list(rows)]
+
+
+def test_casadi_rhs_equals_state_derivative(flight, const):
+    states, deltas = _states(flight)
+    theta = aeroid.nominal() * 1.1
+    for x, d in zip(states, deltas, strict=True):
+        ours = np.array(_model.rhs(x, d, theta, const)[0]).ravel().astype(float)
+        ref = aeroid.state_derivative(x, d, theta, const)
+        np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
+
+
+def test_casadi_step_equals_propagate(flight, const):
+    states, deltas = _states(flight)
+    theta = aeroid.nominal() * 0.9
+    for substeps in (1, 3):
+        step = _model.step_function(const, flight.dt, substeps)
+        for x, d in zip(states, deltas, strict=True):
+            ours = np.asarray(step(x, theta, d)).ravel()
+            ref = aeroid.propagate(x, theta, np.array([d]), flight.dt, const,
+                                   substeps=substeps, backend="numpy")[0, 1]
+            np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
+
+
+def test_casadi_measurement_equals_accelerometers(flight, const):
+    states, deltas = _states(flight)
+    theta = aeroid.nominal() * 1.05
+    positions = np.array([[0.5, 0.02, -0.01], [-0.7, 0.01, 0.03]])
+    meas = _model.measurement_function(const)
+    for x, d in zip(states, deltas, strict=True):
+        ours = np.asarray(meas(x, theta, d, positions.ravel())).ravel()
+        ref = aeroid.accelerometers(x, d, theta, const, positions).ravel()
+        np.testing.assert_allclose(ours[:6], ref, rtol=MODEL_RTOL, atol=1e-10)
+        np.testing.assert_array_equal(ours[6:], x[3:6])
+
+
+def test_augmented_jacobians_equal_finite_differences(flight, const):
+    f, h = _model.augmented_functions(const, flight.dt, 1)
+    z = np.concatenate([flight.states()[200], aeroid.nominal()])
+    d = flight["delta"][200]
+    pos = flight.airframe.accel_positions.ravel()
+    _, F = f(z, d)
+    _, H = h(z, d, pos)
+    F, H = np.asarray(F), np.asarray(H)
+    F_fd, H_fd = np.empty((18, 18)), np.empty((9, 18))
+    for j in range(18):
+        step = 1e-6 * max(abs(z[j]), 1e-2)
+        zp, zm = z.copy(), z.copy()
+        zp[j] += step
+        zm[j] -= step
+        F_fd[:, j] = (np.asarray(f(zp, d)[0]) - np.asarray(f(zm, d)[0])).ravel() / (2 * step)
+        H_fd[:, j] = (np.asarray(h(zp, d, pos)[0]) - np.asarray(h(zm, d, pos)[0])).ravel() / (
+            2 * step)
+    np.testing.assert_allclose(F, F_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(F).max())
+    np.testing.assert_allclose(H, H_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(H).max())
+
+
+def test_batched_augmented_model_equals_casadi(flight):
+    model = _common.augmented_model(flight, 1)
+    rng = np.random.default_rng(3)
+    z0 = np.concatenate([flight.states()[10], aeroid.nominal()])
+    Z = z0 * (1 + 0.05 * rng.standard_normal((5, 18)))
+    batch_f = model.transition_batch(Z, 10)
+    batch_h = model.observe_batch(Z, 10)
+    for i in range(5):
+        np.testing.assert_allclose(batch_f[i], model.transition(Z[i], 10)[0], rtol=MODEL_RTOL,
+                                   atol=1e-12)
+        np.testing.assert_allclose(batch_h[i], model.observe(Z[i], 10)[0], rtol=MODEL_RTOL,
+                                   atol=1e-10)
+
+
+# --------------------------------------------------------------------------------------
+# The filterpy loops equal a hand-written linear Kalman filter
+# --------------------------------------------------------------------------------------
+def _linear_problem():
+    rng = np.random.default_rng(11)
+    A = np.array([[1.0, 0.1, 0.0], [0.0, 0.95, 0.1], [0.0, -0.1, 0.9]])
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    Q = np.diag([1e-3, 2e-3, 1e-3])
+    R = np.diag([0.04, 0.09])
+    n = 20
+    x = np.array([1.0, -0.5, 0.3])
+    zs = np.empty((n, 2))
+    for k in range(n):
+        zs[k] = C @ x + rng.normal(0, [0.2, 0.3])
+        x = A @ x + rng.multivariate_normal(np.zeros(3), Q)
+    x0 = np.array([0.8, 0.0, 0.0])
+    P0 = np.diag([0.5, 0.5, 0.5])
+    model = _kalman.DiscreteModel(
+        3, 2,
+        transition=lambda x, k: (A @ x, A),
+        observe=lambda x, k: (C @ x, C),
+        transition_batch=lambda X, k: X @ A.T,
+        observe_batch=lambda X, k: X @ C.T,
+    )
+    return model, A, C, Q, R, x0, P0, zs
+
+
+def _textbook_kf(A, C, Q, R, x0, P0, zs):
+    """The Kalman filter in its textbook form, written independently of filterpy."""
+    x, P = x0.copy(), P0.copy()
+    xs, Ps = [], []
+    for k, z in enumerate(zs):
+        if k > 0:
+            x = A @ x
+            P = A @ P @ A.T + Q
+        S = C @ P @ C.T + R
+        K = np.linalg.solve(S, C @ P).T
+        x = x + K @ (z - C @ x)
+        P = (np.eye(len(x)) - K @ C) @ P
+        xs.append(x)
+        Ps.append(P)
+    return np.array(xs), np.array(Ps)
+
+
+@pytest.mark.parametrize("loop", [_kalman.run_ekf, _kalman.run_ukf])
+def test_filter_loop_equals_linear_kalman_filter(loop):
+    model, A, C, Q, R, x0, P0, zs = _linear_problem()
+    out = loop(model, x0, P0, Q, R, zs)
+    xs, Ps = _textbook_kf(A, C, Q, R, x0, P0, zs)
+    assert out.failed_at is None
+    np.testing.assert_allclose(out.x, xs, rtol=0, atol=LINEAR_KF_TOL)
+    np.testing.assert_allclose(out.sd, np.sqrt(np.diagonal(Ps, axis1=1, axis2=2)), rtol=0,
+                               atol=LINEAR_KF_TOL)
+    np.testing.assert_allclose(out.P, Ps[-1], rtol=0, atol=LINEAR_KF_TOL)
+
+
+@pytest.mark.parametrize("loop", [_kalman.run_ekf, _kalman.run_ukf])
+def test_filter_loop_reports_loss_of_positive_definiteness(loop):
+    model, A, C, Q, R, x0, P0, zs = _linear_problem()
+    bad_q = -10.0 * np.eye(3)  # makes the predicted covariance negative definite
+    out = loop(model, x0, P0, bad_q, R, zs)
+    assert out.failed_at == 1
+    assert np.all(np.isnan(out.x[1:])) and np.all(np.isfinite(out.x[0]))
+    assert out.reason
+
+
+def test_failure_becomes_result_with_time(flight):
+    est = ExtendedKalmanEstimator()
+    n = flight.n_samples
+    out = _kalman.FilterOutput(np.zeros((n, 18)), np.ones((n, 18)), np.eye(18), 7,
+                               "covariance not positive definite (Cholesky failed)")
+    res = est.result(flight, out, np.ones(9), n_evaluations=7)
+    assert not res.success
+    assert f"t = {flight.t[7]:.4f} s" in res.message
+    assert np.all(np.isnan(res.theta))
+
+
+# --------------------------------------------------------------------------------------
+# Measurement-noise estimate
+# --------------------------------------------------------------------------------------
+def test_noise_sd_from_data_recovers_white_noise_sd():
+    rng = np.random.default_rng(5)
+    n = 20000
+    t = np.arange(n) * 0.002
+    sd_true = np.array([0.1, 2.0])
+    signal = np.column_stack([np.sin(2 * np.pi * 2 * t), 50 + 3 * t])
+    y = signal + sd_true * rng.standard_normal((n, 2))
+    delta = np.zeros(n)
+    sd = _common.noise_sd_from_data(y, delta, floor_rel=1e-6)
+    # sd of an sd estimate from n samples ~ sd / sqrt(2 n) = 0.5 %; the SG residual is a
+    # moving average (correlated), so allow 4x that
+    np.testing.assert_allclose(sd, sd_true, rtol=0.02)
+
+
+def test_noise_sd_from_data_ignores_relay_jumps():
+    rng = np.random.default_rng(6)
+    n = 5000
+    delta = np.where((np.arange(n) // 50) % 2 == 0, 1.0, -1.0)
+    y = (10.0 * delta + 0.05 * rng.standard_normal(n))[:, None]
+    sd = _common.noise_sd_from_data(y, delta, floor_rel=1e-6)
+    np.testing.assert_allclose(sd, [0.05], rtol=0.05)
+
+
+# --------------------------------------------------------------------------------------
+# Fits of the noise-free reference flight
+# --------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def filter_results(flight):
+    return {cls.name: cls().fit(flight, rng=0)
+            for cls in (ExtendedKalmanEstimator, UnscentedKalmanEstimator)}
+
+
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_filters_converge_on_noise_free_flight(filter_results, name):
+    res = filter_results[name]
+    assert res.success, res.message
+    truth = aeroid.nominal()
+    rel = np.abs(res.theta / truth - 1.0)
+    roll = [aeroid.NAMES.index("Cl0"), aeroid.NAMES.index("Clp")]
+    others = [j for j in range(9) if j not in roll]
+    assert np.all(rel[others] < FILTER_RTOL), rel
+    assert np.all(rel[roll] < FILTER_RTOL_ROLL), rel
+    # the filter's own uncertainty covers its error (consistency, 3 sd)
+    assert np.all(np.abs(res.theta - truth) < 3 * res.stderr)
+
+
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_filter_result_layout(filter_results, flight, name):
+    res = filter_results[name]
+    n = flight.n_samples
+    assert res.history["axis"] == "time"
+    np.testing.assert_array_equal(res.history["step"], flight.t)
+    assert res.history["theta"].shape == (n, 9) and res.history["theta_sd"].shape == (n, 9)
+    np.testing.assert_array_equal(res.history["theta"][-1], res.theta)
+    np.testing.assert_allclose(res.history["theta"][0] / flight.airframe.prior_vector(), 1.0,
+                               atol=0.5)
+    assert res.covariance.shape == (9, 9)
+    np.testing.assert_array_equal(res.covariance, res.covariance.T)
+    np.testing.assert_allclose(res.stderr, np.sqrt(np.diag(res.covariance)))
+    # the sd shrinks from the prior's 30 %
+    assert np.all(res.history["theta_sd"][-1] < res.history["theta_sd"][0])
+
+
+def test_ekf_and_ukf_agree(filter_results):
+    ekf, ukf = filter_results["ekf"], filter_results["ukf"]
+    # same model, same data, nearly linear over one step: estimates within a tenth of
+    # their standard errors
+    assert np.all(np.abs(ekf.theta - ukf.theta) < 0.1 * ekf.stderr)
+
+
+def test_filter_options_are_checked():
+    with pytest.raises(aeroid.EstimatorError, match="substeps"):
+        ExtendedKalmanEstimator.from_options({"substeps": "0"})
+    with pytest.raises(aeroid.EstimatorError, match="measurement_noise"):
+        UnscentedKalmanEstimator.from_options({"measurement_noise": "magic"})
+    with pytest.raises(aeroid.EstimatorError, match="alpha"):
+        UnscentedKalmanEstimator.from_options({"alpha": "2.0"})
