@@ -13,13 +13,16 @@ is drawn from ``rng`` (its first particle is the prior), and the global state is
 from ``rng`` inside a context that saves it with ``np.random.get_state()`` and restores
 it with ``np.random.set_state()`` afterwards, even on error. This is not thread-safe: two
 threads running pyswarms at once share the global state (processes are fine).
-pyswarms' progress bar is disabled (``verbose=False``) and its logger silenced.
+pyswarms' progress bar is disabled (``verbose=False``), its logger silenced, and its
+habit of reconfiguring the root logger with a ``./report.log`` file handler at every
+optimizer construction is suppressed (:func:`_quiet_pyswarms`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import logging.config
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import ClassVar, Literal
@@ -45,13 +48,24 @@ def seeded_global_state(rng: np.random.Generator) -> Iterator[None]:
 
 @contextlib.contextmanager
 def _quiet_pyswarms() -> Iterator[None]:
+    """Keep pyswarms from reconfiguring logging and writing ``./report.log``.
+
+    pyswarms' ``Reporter`` (created at import by ``pyswarms.backend`` and by every
+    optimizer) calls ``logging.config.dictConfig`` with a root-logger stream handler and a
+    file handler on ``./report.log``. Inside this context ``logging.config.dictConfig`` is
+    a no-op (pyswarms is imported inside it too) and the ``pyswarms`` loggers are
+    silenced; both are restored on exit. Not thread-safe (it patches a module attribute).
+    """
     logger = logging.getLogger("pyswarms")
     level, propagate = logger.level, logger.propagate
+    original = logging.config.dictConfig
+    logging.config.dictConfig = lambda config: None
     logger.setLevel(logging.CRITICAL)
     logger.propagate = False
     try:
         yield
     finally:
+        logging.config.dictConfig = original
         logger.setLevel(level)
         logger.propagate = propagate
 
@@ -116,8 +130,6 @@ class PyswarmsEstimator(Estimator):
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it)."""
-        from pyswarms.single import GlobalBestPSO
-
         cost = self.cost_function(flight)
         bounds = aeroid.prior_bounds(flight.airframe)
         low, span = bounds[:, 0], bounds[:, 1] - bounds[:, 0]
@@ -132,6 +144,8 @@ class PyswarmsEstimator(Estimator):
         init[0] = np.clip((flight.airframe.prior_vector() - low) / span, 0.0, 1.0)
         options = {"c1": self.c1, "c2": self.c2, "w": self.w}
         with seeded_global_state(rng), _quiet_pyswarms():
+            from pyswarms.single import GlobalBestPSO
+
             optimizer = GlobalBestPSO(
                 n_particles=self.n_particles, dimensions=9, options=options,
                 bounds=(np.zeros(9), np.ones(9)), velocity_clamp=(-self.v_max, self.v_max),
