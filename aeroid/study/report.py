@@ -116,7 +116,9 @@ def cramer_rao_floor(study: Study, noise_index: int) -> tuple[np.ndarray | None,
     sd = np.asarray(sd, dtype=float).reshape(-1)
     if sd.shape != (len(NAMES),):
         return None, f"cramer_rao_sd returned shape {sd.shape}"
-    return sd, "aeroid.fisher.cramer_rao_sd"
+    return sd, ("aeroid.fisher.cramer_rao_sd with its defaults (output-error problem, true "
+                "sensor positions, both triads and p, q, r; paper noise as per-sample "
+                "Gaussian of the same variance)")
 
 
 # --------------------------------------------------------------------------------------
