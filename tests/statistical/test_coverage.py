@@ -1,0 +1,78 @@
+"""Coverage of the baselines' 95 % intervals over seeded noisy flights (slow).
+
+50 flights of the reference scenario with additive Gaussian sensor noise (the
+:class:`aeroid.sensors.GaussianNoise` defaults, sensor positions known exactly), one
+fit per estimator and flight; a coefficient-run is covered when
+``|theta - truth| <= 1.96 stderr``. Correct intervals cover 95 %; with 450
+coefficient-runs (correlated within a run) the accepted band is 88-99 %.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import aeroid
+from aeroid.scenario import reference_scenario
+from aeroid.sensors import GaussianNoise
+from aeroid.simulate import simulate_scenario
+from baselines.equation_error import EquationErrorEstimator
+from baselines.output_error import OutputErrorEstimator
+
+N_FLIGHTS = 50
+SEED = 20261122
+#: Accepted coverage of nominal 95 % intervals (issue: 88-99 %): the binomial sd of a
+#: coverage over 450 independent coefficient-runs is 1 %, and the nine coefficients of
+#: one run are correlated, so the effective count is nearer 50-100 (sd 2-3 %).
+COVERAGE_BAND = (0.88, 0.99)
+Z95 = 1.959963984540054
+
+ESTIMATORS = {
+    "output-error": OutputErrorEstimator(),
+    "equation-error": EquationErrorEstimator(),
+    "equation-error-one-step": EquationErrorEstimator(one_step=True),
+}
+
+
+@pytest.fixture(scope="module")
+def coverage():
+    scenario = reference_scenario()
+    noise = GaussianNoise(position_sd_m=0.0)
+    seeds = np.random.SeedSequence(SEED).spawn(N_FLIGHTS)
+    truth = aeroid.nominal()
+    covered = {name: [] for name in ESTIMATORS}
+    failures = {name: 0 for name in ESTIMATORS}
+    for seed in seeds:
+        flight = simulate_scenario(scenario, noise, rng=np.random.default_rng(seed))
+        for name, est in ESTIMATORS.items():
+            res = est.fit(flight, rng=0)
+            if not res.success:
+                failures[name] += 1
+                covered[name].append(np.zeros(9, dtype=bool))
+                continue
+            covered[name].append(np.abs(res.theta - truth) <= Z95 * res.stderr)
+    out = {name: (np.array(v), failures[name]) for name, v in covered.items()}
+    for name, (cov, fails) in out.items():  # printed with -s: the numbers for the report
+        print(f"\n{name}: coverage {cov.mean():.3f} overall, per coefficient "
+              f"{np.round(cov.mean(axis=0), 2)}, {fails} failed fits")
+    return out
+
+
+@pytest.mark.slow
+def test_output_error_intervals_cover_the_truth(coverage):
+    cov, fails = coverage["output-error"]
+    assert fails == 0
+    assert COVERAGE_BAND[0] <= cov.mean() <= COVERAGE_BAND[1], cov.mean(axis=0)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "known: the equation-error standard errors assume white residuals, but the SG "
+    "rate derivatives and smoothing colour them (and the step-1 reconstruction carries "
+    "the rate noise into M_X), so the intervals are too narrow; kept at the issue's "
+    "band rather than loosened"))
+@pytest.mark.parametrize("name", ["equation-error", "equation-error-one-step"])
+def test_equation_error_intervals_cover_the_truth(coverage, name):
+    cov, fails = coverage[name]
+    assert fails == 0
+    assert COVERAGE_BAND[0] <= cov.mean() <= COVERAGE_BAND[1], cov.mean(axis=0)
