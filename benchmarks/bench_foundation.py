@@ -174,7 +174,12 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if not (args.quick or args.no_write):
         RESULTS.parent.mkdir(parents=True, exist_ok=True)
-        RESULTS.write_text(text)
+        notes = ""
+        if RESULTS.exists():  # keep the hand-written interpretation below the table
+            old_text = RESULTS.read_text()
+            if "\n## Notes" in old_text:
+                notes = old_text[old_text.index("\n## Notes"):]
+        RESULTS.write_text(text + notes)
         print(f"wrote {RESULTS.relative_to(ROOT)}")
     return 0
 
