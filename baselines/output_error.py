@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -57,8 +58,8 @@ MAX_DAMPING = 1e8
 
 @functools.lru_cache(maxsize=16)
 def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
-                     estimate_initial_state: bool, estimate_rx1: bool
-                     ) -> tuple[ca.Function, ca.Function]:
+                     estimate_initial_state: bool, estimate_rx1: bool, compiled: bool = False
+                     ) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record and its parameter Jacobian.
 
     Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; with
@@ -79,6 +80,9 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     simulate : Function ``(p, scale, x0_meas (9), delta (1, n), pos (6)) -> Y (n, 9)``
     jacobian : Function ``(same) -> (Y (n, 9), dY (9, n n_p))``
         Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
+    is_compiled : bool
+        With ``compiled``, the per-step SX functions are compiled to C
+        (:func:`baselines._model.compile_functions`); False when that failed.
     """
     n_x0 = X0_FREE if estimate_initial_state else 0
     n_p = 9 + n_x0 + (1 if estimate_rx1 else 0)
@@ -106,6 +110,13 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     out = ca.Function("out_sens", [x, sens, p9, scale9, d, pos0, prx, scale_rx], [y, dy])
     out_plain = ca.Function("out", [x, p9, scale9, d, pos0, prx, scale_rx], [y])
     step_plain = ca.Function("step", [x, p9, scale9, d], [x_next])
+    is_compiled = False
+    if compiled:
+        built = _model.compile_functions([step, out, step_plain, out_plain],
+                                         f"aeroid_oe_{n_p}")
+        if built is not None:
+            step, out, step_plain, out_plain = built
+            is_compiled = True
 
     # the record (MX graph of mapped SX functions)
     p = ca.MX.sym("p", n_p)
@@ -134,7 +145,7 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
                                  rep(pos_given, n_samples), rep(prx_m, n_samples),
                                  rep(srx_m, n_samples))
     inputs = [p, scale, x0_meas, delta, pos_given]
-    simulate = ca.Function("oe_simulate", inputs, [Y.T])
+    simulate = ca.Function("oe_simulate", inputs, [ca.densify(Y.T)])
     xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m), delta[:, :m])
     states = ca.horzcat(x0, xs)
     sens_all = ca.horzcat(s0, ss)  # 9 x (n_samples n_p), block k = S_k
@@ -142,8 +153,39 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
                                delta, rep(pos_given, n_samples), rep(prx_m, n_samples),
                                rep(srx_m, n_samples))
     # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
-    jacobian = ca.Function("oe_jacobian", inputs, [Y.T, dY])
-    return simulate, jacobian
+    jacobian = ca.Function("oe_jacobian", inputs, [ca.densify(Y.T), ca.densify(dY)])
+    return simulate, jacobian, is_compiled
+
+
+class _Buffered:
+    """Evaluate a CasADi function on numpy buffers bound once (``Function.buffer``).
+
+    Converting CasADi's DM outputs to numpy cost as much as the evaluation itself
+    (measured: 40 % of a fit); here inputs and outputs are numpy arrays shared with
+    CasADi, read and written in place. Every output must be dense.
+    """
+
+    def __init__(self, fun: ca.Function, inputs: Sequence[np.ndarray]) -> None:
+        self.fun = fun
+        self.inputs = [np.ascontiguousarray(np.asarray(a, dtype=float).T.ravel())
+                       for a in inputs]  # column-major nonzeros
+        self.outputs = [np.empty(fun.nnz_out(i)) for i in range(fun.n_out())]
+        for i in range(fun.n_out()):
+            if fun.nnz_out(i) != fun.numel_out(i):
+                raise ValueError(f"{fun.name()}: output {i} is not dense")
+        self.buffer, self.evaluate = fun.buffer()
+        for i, a in enumerate(self.inputs):
+            self.buffer.set_arg(i, memoryview(a))
+        for i, r in enumerate(self.outputs):
+            self.buffer.set_res(i, memoryview(r))
+
+    def __call__(self, p: np.ndarray) -> list[np.ndarray]:
+        """Evaluate with input 0 set to ``p``; returns the output buffers (reused)."""
+        self.inputs[0][:] = p
+        self.evaluate()
+        if self.buffer.ret() != 0:
+            raise RuntimeError(f"{self.fun.name()}: evaluation failed")
+        return self.outputs
 
 
 @dataclass(frozen=True)
@@ -155,23 +197,24 @@ class _Problem:
     x0_meas: np.ndarray    # (9,)
     delta: np.ndarray      # (1, n)
     pos: np.ndarray        # (6,)
-    simulate: ca.Function
-    jacobian: ca.Function
+    simulate: _Buffered
+    jacobian: _Buffered
     r_floor: np.ndarray    # (9,)
-    r_start: np.ndarray    # (9,) first R: from the data's SG residuals
+    compiled: bool         # the per-step functions run as compiled C
 
     def residuals(self, p: np.ndarray) -> np.ndarray:
         """Return ``z - y(p)``, shape (n, 9)."""
-        y = self.simulate(p, self.scale, self.x0_meas, self.delta, self.pos)
-        return self.z - y.full()
+        (y,) = self.simulate(p)
+        n = self.z.shape[0]
+        return self.z - y.reshape(9, n).T
 
     def residuals_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Return ``z - y(p)`` (n, 9) and ``dy/dp`` (9, n, n_p)."""
-        y, dy = self.jacobian(p, self.scale, self.x0_meas, self.delta, self.pos)
+        y, dy = self.jacobian(p)
         n = self.z.shape[0]
-        # dy is 9 x (n n_p) with block k = dy_k/dp (9, n_p)
-        J = dy.full().reshape(9, n, -1)
-        return self.z - y.full(), J
+        # dY (9, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) 9 + j
+        J = dy.reshape(n, -1, 9).transpose(2, 0, 1).copy()
+        return self.z - y.reshape(9, n).T, J
 
     def noise(self, e: np.ndarray) -> np.ndarray:
         """Return the ML estimate of diag(R), shape (9,), from residuals (floored)."""
@@ -243,6 +286,13 @@ class OutputErrorEstimator(Estimator):
         ``sum_j log mean_k e_kj^2`` within :func:`aeroid.prior_bounds` (default False).
     pso_particles, pso_iterations : int
         Budget of that warm start (defaults 30 and 40).
+    compile_model : bool
+        Compile the per-step model and sensitivity functions to C with the system
+        compiler (default True; CasADi code generation, the library cached on disk in
+        ``~/.cache/aeroid/casadi`` or ``$AEROID_CASADI_CACHE``; the first fit of a new
+        parameter set compiles for ~3-5 s, then a Jacobian costs ~4x less). Without a
+        working compiler it falls back to CasADi's virtual machine (same numbers);
+        ``info['compiled']`` says which ran.
 
     Notes
     -----
@@ -266,6 +316,7 @@ class OutputErrorEstimator(Estimator):
     pso_warm_start: bool = False
     pso_particles: int = 30
     pso_iterations: int = 40
+    compile_model: bool = True
 
     def __post_init__(self) -> None:
         for name in ("substeps", "max_iterations", "n_starts", "pso_particles"):
@@ -290,8 +341,9 @@ class OutputErrorEstimator(Estimator):
         """Return the flight's arrays and cached CasADi functions."""
         const = aeroid.constants(flight.airframe)
         n = flight.n_samples
-        simulate, jacobian = output_functions(const, flight.dt, self.substeps, n,
-                                              self.estimate_initial_state, self.estimate_rx1)
+        simulate, jacobian, is_compiled = output_functions(
+            const, flight.dt, self.substeps, n, self.estimate_initial_state,
+            self.estimate_rx1, self.compile_model)
         prior = flight.airframe.prior_vector()
         pos = flight.airframe.accel_positions.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
@@ -301,13 +353,15 @@ class OutputErrorEstimator(Estimator):
             scale.append([max(abs(pos[0]), 0.1)])
         z = _common.measurements(flight)
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
-        sd = _common.noise_sd_from_data(z, flight["delta"], floor_rel=1e-6)
         x0 = flight.states()[0]
         x0[3:6] = _common.smoothed_start(z[:, 6:9])
-        return _Problem(z=z, scale=np.concatenate(scale), x0_meas=x0,
-                        delta=flight["delta"][None, :], pos=pos, simulate=simulate,
-                        jacobian=jacobian, r_floor=r_floor,
-                        r_start=np.maximum(sd * sd, r_floor))
+        scale = np.concatenate(scale)
+        delta = flight["delta"][None, :]
+        inputs = [np.zeros(scale.size), scale, x0, delta, pos]
+        return _Problem(z=z, scale=scale, x0_meas=x0, delta=delta, pos=pos,
+                        simulate=_Buffered(simulate, inputs),
+                        jacobian=_Buffered(jacobian, inputs), r_floor=r_floor,
+                        compiled=is_compiled)
 
     def gauss_newton(self, prob: _Problem, p0: np.ndarray) -> _Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``.
@@ -469,7 +523,7 @@ class OutputErrorEstimator(Estimator):
         info = {"R": best.r_diag, "fisher": M, "parameter_names": self.parameter_names(),
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
-                "starts": len(starts), "failed_starts": failures,
+                "starts": len(starts), "failed_starts": failures, "compiled": prob.compiled,
                 "start_costs": [f.nll for f in fits]}
         if self.estimate_rx1:
             info["rx1_m"] = prob.pos[0] + phys[-1]

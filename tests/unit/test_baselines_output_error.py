@@ -75,6 +75,22 @@ def test_jacobian_equals_finite_differences(noisy_flight, options):
         np.testing.assert_allclose(J[:, :, i], fd, rtol=0, atol=FD_RTOL * np.abs(fd).max())
 
 
+def test_compiled_model_equals_casadi_virtual_machine(noisy_flight):
+    compiled = OutputErrorEstimator(compile_model=True).problem(noisy_flight)
+    vm = OutputErrorEstimator(compile_model=False).problem(noisy_flight)
+    assert not vm.compiled
+    if not compiled.compiled:
+        pytest.skip("no working C compiler: the compiled path is not available here")
+    p = np.concatenate([np.full(9, 1.05), np.full(6, 0.01)])
+    e_c, J_c = compiled.residuals_jacobian(p)
+    e_v, J_v = vm.residuals_jacobian(p)
+    # same floating-point operations, possibly reordered by the C compiler (-O1, no
+    # fast-math): equal to rounding
+    np.testing.assert_allclose(e_c, e_v, rtol=0, atol=1e-9 * np.abs(e_v).max())
+    np.testing.assert_allclose(J_c, J_v, rtol=0, atol=1e-9 * np.abs(J_v).max())
+    np.testing.assert_array_equal(compiled.residuals(p), e_c)
+
+
 def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit):
     """(sum J^T R^-1 J)^-1 with J by finite differences of aeroid.propagate/accelerometers."""
     res = noisy_fit
@@ -89,8 +105,7 @@ def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit
     def outputs(params):
         x0 = prob.x0_meas.copy()
         x0[:6] += params[9:15]
-        states = aeroid.propagate(x0, params[:9], delta[:-1], noisy_flight.dt, const,
-                                  backend="numpy")[0]
+        states = aeroid.propagate(x0, params[:9], delta[:-1], noisy_flight.dt, const)[0]
         acc = aeroid.accelerometers(states, delta, params[:9], const, positions)
         return np.concatenate([acc.reshape(-1, 6), states[:, 3:6]], axis=1)  # (n, 9)
 
