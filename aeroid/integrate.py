@@ -131,12 +131,12 @@ if HAVE_NUMBA:
         # Eqs. 2-10 on scalars, the algebra of aeroid.dynamics.state_derivative; psi does
         # not enter, phi and theta enter through their sines and cosines.
         speed2 = u * u + v * v + w * w
-        speed = math.sqrt(speed2)
-        alpha = math.atan2(w, u)
-        beta = math.asin(v / speed)
+        inv_speed = 1.0 / math.sqrt(speed2)
+        alpha = math.atan(w / u) if u > 0.0 else math.atan2(w, u)  # atan: ~10 % faster
+        beta = math.asin(v * inv_speed)
         qs = half_rho_s * speed2
         qsd = qs * diam
-        kd = diam / (2.0 * speed)
+        kd = 0.5 * diam * inv_speed
         fax = qs * cx
         fay = qs * (cza * beta - czq * kd * r)
         faz = qs * (cza * alpha + czd * delta + czq * kd * q)
@@ -144,15 +144,16 @@ if HAVE_NUMBA:
         my = qsd * (cma * alpha + cmd * delta + cmq * kd * q)
         mz = qsd * (-cma * beta + cmq * kd * r)
         qr = q * sphi + r * cphi
+        inv_cth = 1.0 / cth
         return (r * v - q * w - g * sth + (fax + thrust) / mass,
                 -r * u + p * w + g * cth * sphi + fay / mass,
                 q * u - p * v + g * cth * cphi + faz / mass,
                 mx / ix,
                 (iz - ix) / iy * p * r + my / iy,
                 (ix - iy) / iz * p * q + mz / iz,
-                p + qr * sth / cth,
+                p + qr * sth * inv_cth,
                 q * cphi - r * sphi,
-                qr / cth)
+                qr * inv_cth)
 
     @numba.njit(cache=True, fastmath=FASTMATH_FLAGS)
     def _integrate_set(x, c, delta, h, substeps, k, out):  # pragma: no cover - compiled
