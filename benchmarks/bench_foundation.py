@@ -157,7 +157,8 @@ def main(argv: list[str] | None = None) -> int:
         f"- numba threads: {numba.get_num_threads()}, threading layer: "
         f"{numba.threading_layer()}",
         f"- 1-min load average when started: {load:.2f} (the machine is shared with other "
-        "work: medians and minima both shown)",
+        "work: medians and minima of wall time, and this process's CPU time, which for the "
+        "one-thread rows is the work itself and hardly depends on the load)",
         "",
         "| case | median wall [ms] | min wall [ms] | median CPU [ms] |",
         "|---|---:|---:|---:|",
