@@ -257,6 +257,12 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
     ndarray, shape (n_sets, n_samples, 9)
         The state at every sample. A set whose trajectory diverges gives non-finite
         values (never an exception), which the estimators' costs treat as +inf.
+
+    Raises
+    ------
+    ValueError
+        One line: shapes that are not (9,) / (n_sets, 9) or do not broadcast,
+        ``substeps < 1``, ``dt <= 0``, an unknown backend.
     """
     coefficients = np.asarray(coefficients, dtype=float)
     state0 = np.asarray(state0, dtype=float)
