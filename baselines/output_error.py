@@ -21,6 +21,7 @@ covariance is ``(sum_k J_k^T R^-1 J_k)^-1`` (Fisher information) at the optimum.
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -35,10 +36,13 @@ from aeroid.estimators import EstimationResult, Estimator
 from aeroid.flight import Flight
 from baselines import _common, _model
 
-#: Initial-state components that can be estimated: u, v, w, p, q, r. The attitude
-#: (phi, theta) enters only through gravity and psi not at all, so they are taken from
-#: the first measured sample.
-X0_FREE = 6
+#: Initial-state components that can be estimated: the rates p, q, r
+#: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
+#: The attitude (phi, theta) enters only through gravity and psi not at all, so they are
+#: taken from the first measured sample.
+X0_RATES = (3, 4, 5)
+X0_VELOCITIES = (0, 1, 2)
+X0_NAMES = ("u0", "v0", "w0", "p0", "q0", "r0")
 #: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
 #: finite on noise-free data, far below any real noise level.
 R_FLOOR_REL = 1e-24
@@ -58,14 +62,14 @@ MAX_DAMPING = 1e8
 
 @functools.lru_cache(maxsize=16)
 def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
-                     estimate_initial_state: bool, estimate_rx1: bool, compiled: bool = False
+                     x0_free: tuple[int, ...], estimate_rx1: bool, compiled: bool = False
                      ) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record and its parameter Jacobian.
 
     Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; with
-    ``estimate_initial_state`` the next six are offsets of ``u, v, w, p, q, r`` from the
-    first measured sample (``x0 = x0_meas + p * scale``); with ``estimate_rx1`` the last
-    is the offset of triad 1's x position.
+    the next ``len(x0_free)`` are offsets of those state components (indices into the
+    state, increasing) from the first measured sample (``x0 = x0_meas + p * scale``); with
+    ``estimate_rx1`` the last is the offset of triad 1's x position.
 
     The Jacobian is propagated with the record (forward sensitivities): the RK4 step
     ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
@@ -84,7 +88,7 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
         With ``compiled``, the per-step SX functions are compiled to C
         (:func:`baselines._model.compile_functions`); False when that failed.
     """
-    n_x0 = X0_FREE if estimate_initial_state else 0
+    n_x0 = len(x0_free)
     n_p = 9 + n_x0 + (1 if estimate_rx1 else 0)
     # one step with sensitivities (SX)
     x = ca.SX.sym("x", 9)
@@ -96,7 +100,11 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     dtheta = ca.horzcat(ca.SX.eye(9), ca.SX.zeros(9, n_p - 9))  # d p9 / d p
     x_next = _model.rk4_step(x, d, theta, const, dt, substeps)
     s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
-    step = ca.Function("step_sens", [x, sens, p9, scale9, d], [x_next, s_next])
+    # symbol names unique per configuration: several compiled libraries may be loaded in
+    # one process
+    tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}r{int(estimate_rx1)}s{substeps}h"
+           f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}")
+    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, d], [x_next, s_next])
     # outputs with sensitivities (SX)
     prx = ca.SX.sym("prx")
     scale_rx = ca.SX.sym("scale_rx")
@@ -107,13 +115,13 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     if estimate_rx1:
         drx[0, n_p - 1] = 1.0
     dy = ca.jtimes(y, ca.vertcat(x, p9, prx), ca.vertcat(sens, dtheta, drx))
-    out = ca.Function("out_sens", [x, sens, p9, scale9, d, pos0, prx, scale_rx], [y, dy])
-    out_plain = ca.Function("out", [x, p9, scale9, d, pos0, prx, scale_rx], [y])
-    step_plain = ca.Function("step", [x, p9, scale9, d], [x_next])
+    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, pos0, prx, scale_rx], [y, dy])
+    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, pos0, prx, scale_rx], [y])
+    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, d], [x_next])
     is_compiled = False
     if compiled:
         built = _model.compile_functions([step, out, step_plain, out_plain],
-                                         f"aeroid_oe_{n_p}")
+                                         f"aeroid_oe_{tag}")
         if built is not None:
             step, out, step_plain, out_plain = built
             is_compiled = True
@@ -129,10 +137,13 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     srx_m = scale[n_p - 1] if estimate_rx1 else ca.MX(0.0)
     x0 = x0_meas
     s0 = ca.MX.zeros(9, n_p)
-    if estimate_initial_state:
-        x0 = x0_meas + ca.vertcat(p[9:9 + n_x0] * scale[9:9 + n_x0], ca.MX.zeros(9 - n_x0))
+    if n_x0:
+        select = np.zeros((9, n_x0))
+        select[list(x0_free), np.arange(n_x0)] = 1.0  # state component <- parameter
+        offsets = p[9:9 + n_x0] * scale[9:9 + n_x0]
+        x0 = x0_meas + ca.mtimes(ca.DM(select), offsets)
         s0 = ca.horzcat(ca.MX.zeros(9, 9),
-                        ca.vertcat(ca.diag(scale[9:9 + n_x0]), ca.MX.zeros(9 - n_x0, n_x0)),
+                        ca.mtimes(ca.DM(select), ca.diag(scale[9:9 + n_x0])),
                         ca.MX.zeros(9, n_p - 9 - n_x0))
     m = n_samples - 1
 
@@ -263,15 +274,24 @@ class OutputErrorEstimator(Estimator):
     Attributes
     ----------
     estimate_initial_state : bool
-        Also estimate ``u, v, w, p, q, r`` at the first sample (default True: the
-        measured initial rates carry the sensor noise). The attitude is taken as measured.
+        Also estimate the body rates ``p, q, r`` at the first sample (default True: the
+        measured rates carry the sensor noise; a wrong initial roll rate puts the whole
+        predicted record out of phase).
+    estimate_initial_velocity : bool
+        Also estimate ``u, v, w`` at the first sample (default False: the flight's
+        velocity channels are used as measured, clean in the paper's noise model).
+        Decision: off by default because every force and moment scales with ``V^2``, so
+        a free initial speed trades against all nine coefficients at once; on the
+        reference flight it inflated the Cramér-Rao sd of Cx, Cza, Cma, Cmd from ~0.1 %
+        to ~1.6 % (measured). The attitude is always taken as measured.
     estimate_rx1 : bool
         Also estimate triad 1's x position (default False). With the paper's 10 %
         position error the given positions bias Cza, Czd, Czq by several percent.
     substeps : int
-        RK4 steps per sample interval (default 1: the outputs then match the 0.25 ms
-        truth integration of the reference flight to ~1e-5 relative, 2 substeps to
-        ~1e-6 at twice the cost; noise-free fits recover the coefficients to ~1e-5).
+        RK4 steps per sample interval (default 2: the outputs then match the 0.25 ms
+        truth integration of the reference flight to ~1e-6 relative and a noise-free fit
+        recovers the coefficients to ~5e-6; with 1 substep, ~1e-5 and 1.2e-4 (Clp) at
+        half the cost per iteration, measured).
     max_iterations : int
         Gauss-Newton iterations per start (default 50).
     tol : float
@@ -308,8 +328,9 @@ class OutputErrorEstimator(Estimator):
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
     estimate_initial_state: bool = True
+    estimate_initial_velocity: bool = False
     estimate_rx1: bool = False
-    substeps: int = 1
+    substeps: int = 2
     max_iterations: int = 50
     tol: float = 1e-3
     n_starts: int = 1
@@ -330,25 +351,28 @@ class OutputErrorEstimator(Estimator):
     # ----------------------------------------------------------------------------------
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
-        names = list(aeroid.NAMES)
-        if self.estimate_initial_state:
-            names += ["u0", "v0", "w0", "p0", "q0", "r0"]
+        names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         if self.estimate_rx1:
             names.append("rx1")
         return tuple(names)
+
+    def x0_free(self) -> tuple[int, ...]:
+        """State indices of the estimated initial-state components."""
+        free = (X0_VELOCITIES if self.estimate_initial_velocity else ()) + (
+            X0_RATES if self.estimate_initial_state else ())
+        return tuple(sorted(free))
 
     def problem(self, flight: Flight) -> _Problem:
         """Return the flight's arrays and cached CasADi functions."""
         const = aeroid.constants(flight.airframe)
         n = flight.n_samples
         simulate, jacobian, is_compiled = output_functions(
-            const, flight.dt, self.substeps, n, self.estimate_initial_state,
-            self.estimate_rx1, self.compile_model)
+            const, flight.dt, self.substeps, n, self.x0_free(), self.estimate_rx1,
+            self.compile_model)
         prior = flight.airframe.prior_vector()
         pos = flight.airframe.accel_positions.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
-        if self.estimate_initial_state:
-            scale.append(np.ones(X0_FREE))
+        scale.append(np.ones(len(self.x0_free())))
         if self.estimate_rx1:
             scale.append([max(abs(pos[0]), 0.1)])
         z = _common.measurements(flight)
