@@ -62,14 +62,16 @@ MAX_DAMPING = 1e8
 
 @functools.lru_cache(maxsize=16)
 def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
-                     x0_free: tuple[int, ...], estimate_rx1: bool, compiled: bool = False
+                     x0_free: tuple[int, ...], rx_free: tuple[int, ...] = (),
+                     compiled: bool = False
                      ) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record and its parameter Jacobian.
 
-    Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; with
-    the next ``len(x0_free)`` are offsets of those state components (indices into the
-    state, increasing) from the first measured sample (``x0 = x0_meas + p * scale``); with
-    ``estimate_rx1`` the last is the offset of triad 1's x position.
+    Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; the next
+    ``len(x0_free)`` are offsets of those state components (indices into the state,
+    increasing) from the first measured sample (``x0 = x0_meas + p * scale``); the last
+    ``len(rx_free)`` are offsets of the x positions of those triads (0: triad 1, 1:
+    triad 2).
 
     The Jacobian is propagated with the record (forward sensitivities): the RK4 step
     ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
@@ -89,7 +91,8 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
         (:func:`baselines._model.compile_functions`); False when that failed.
     """
     n_x0 = len(x0_free)
-    n_p = 9 + n_x0 + (1 if estimate_rx1 else 0)
+    n_rx = len(rx_free)
+    n_p = 9 + n_x0 + n_rx
     # one step with sensitivities (SX)
     x = ca.SX.sym("x", 9)
     sens = ca.SX.sym("S", 9, n_p)
@@ -102,18 +105,19 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
     # symbol names unique per configuration: several compiled libraries may be loaded in
     # one process
-    tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}r{int(estimate_rx1)}s{substeps}h"
+    tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}r{''.join(map(str, rx_free)) or 'n'}"
+           f"s{substeps}h"
            f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}")
     step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, d], [x_next, s_next])
     # outputs with sensitivities (SX)
-    prx = ca.SX.sym("prx")
-    scale_rx = ca.SX.sym("scale_rx")
+    prx = ca.SX.sym("prx", 2)  # x-position offsets of triads 1 and 2 (scaled)
+    scale_rx = ca.SX.sym("scale_rx", 2)
     pos0 = ca.SX.sym("pos", 6)
-    pos = ca.vertcat(pos0[0] + prx * scale_rx, pos0[1:]) if estimate_rx1 else pos0
+    pos = pos0 + ca.vertcat(prx[0] * scale_rx[0], 0, 0, prx[1] * scale_rx[1], 0, 0)
     y = _model.measurement(x, d, theta, pos, const)
-    drx = ca.SX.zeros(1, n_p)
-    if estimate_rx1:
-        drx[0, n_p - 1] = 1.0
+    drx = ca.SX.zeros(2, n_p)
+    for j, triad in enumerate(rx_free):
+        drx[triad, 9 + n_x0 + j] = 1.0
     dy = ca.jtimes(y, ca.vertcat(x, p9, prx), ca.vertcat(sens, dtheta, drx))
     out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, pos0, prx, scale_rx], [y, dy])
     out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, pos0, prx, scale_rx], [y])
@@ -133,8 +137,11 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
     delta = ca.MX.sym("delta", 1, n_samples)
     pos_given = ca.MX.sym("pos", 6)
     pm, sm = p[:9], scale[:9]
-    prx_m = p[n_p - 1] if estimate_rx1 else ca.MX(0.0)
-    srx_m = scale[n_p - 1] if estimate_rx1 else ca.MX(0.0)
+    prx_parts, srx_parts = [ca.MX(0.0), ca.MX(0.0)], [ca.MX(0.0), ca.MX(0.0)]
+    for j, triad in enumerate(rx_free):
+        prx_parts[triad] = p[9 + n_x0 + j]
+        srx_parts[triad] = scale[9 + n_x0 + j]
+    prx_m, srx_m = ca.vertcat(*prx_parts), ca.vertcat(*srx_parts)
     x0 = x0_meas
     s0 = ca.MX.zeros(9, n_p)
     if n_x0:
@@ -284,9 +291,16 @@ class OutputErrorEstimator(Estimator):
         a free initial speed trades against all nine coefficients at once; on the
         reference flight it inflated the Cramér-Rao sd of Cx, Cza, Cma, Cmd from ~0.1 %
         to ~1.6 % (measured). The attitude is always taken as measured.
-    estimate_rx1 : bool
-        Also estimate triad 1's x position (default False). With the paper's 10 %
-        position error the given positions bias Cza, Czd, Czq by several percent.
+    estimate_rx1, estimate_rx2 : bool
+        Also estimate the x position of triad 1 / triad 2 (default False); reported in
+        ``info['rx1_m']`` / ``info['rx2_m']``. One position is identifiable when the
+        other is right (tested on noise-free data). Finding: the paper's 10 % error on
+        the given positions biases Cza and Czd (mean |error| over 10 paper-noise
+        flights: Cza 2.6 %, Czd 15 % with the given positions; 0.14 %, 0.25 % with the
+        true ones), and because both x positions are perturbed, estimating rx1 alone
+        barely helps (2.3 %, 13 %) and estimating both does not either (Czd 16 %): at
+        each relay step both triads see ``dAz_i = (Czd Q S / m - Cmd Q S D rx_i / Iy)
+        d_delta``, two equations for Czd, rx1 and rx2 (measured; pitch rate pins Cmd).
     substeps : int
         RK4 steps per sample interval (default 2: the outputs then match the 0.25 ms
         truth integration of the reference flight to ~1e-6 relative and a noise-free fit
@@ -330,6 +344,7 @@ class OutputErrorEstimator(Estimator):
     estimate_initial_state: bool = True
     estimate_initial_velocity: bool = False
     estimate_rx1: bool = False
+    estimate_rx2: bool = False
     substeps: int = 2
     max_iterations: int = 50
     tol: float = 1e-3
@@ -352,9 +367,11 @@ class OutputErrorEstimator(Estimator):
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
-        if self.estimate_rx1:
-            names.append("rx1")
-        return tuple(names)
+        return tuple(names + [f"rx{t + 1}" for t in self.rx_free()])
+
+    def rx_free(self) -> tuple[int, ...]:
+        """Triads (0, 1) whose x position is estimated."""
+        return tuple(t for t, on in enumerate((self.estimate_rx1, self.estimate_rx2)) if on)
 
     def x0_free(self) -> tuple[int, ...]:
         """State indices of the estimated initial-state components."""
@@ -367,14 +384,13 @@ class OutputErrorEstimator(Estimator):
         const = aeroid.constants(flight.airframe)
         n = flight.n_samples
         simulate, jacobian, is_compiled = output_functions(
-            const, flight.dt, self.substeps, n, self.x0_free(), self.estimate_rx1,
+            const, flight.dt, self.substeps, n, self.x0_free(), self.rx_free(),
             self.compile_model)
         prior = flight.airframe.prior_vector()
         pos = flight.airframe.accel_positions.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
-        if self.estimate_rx1:
-            scale.append([max(abs(pos[0]), 0.1)])
+        scale.append([max(abs(pos[3 * t]), 0.1) for t in self.rx_free()])
         z = _common.measurements(flight)
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         x0 = flight.states()[0]
@@ -549,8 +565,9 @@ class OutputErrorEstimator(Estimator):
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
                 "starts": len(starts), "failed_starts": failures, "compiled": prob.compiled,
                 "start_costs": [f.nll for f in fits]}
-        if self.estimate_rx1:
-            info["rx1_m"] = prob.pos[0] + phys[-1]
+        n_rx = len(self.rx_free())
+        for j, t in enumerate(self.rx_free()):
+            info[f"rx{t + 1}_m"] = prob.pos[3 * t] + phys[phys.size - n_rx + j]
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,
