@@ -6,16 +6,21 @@ estimator's sensor positions and ``p, q, r`` (:mod:`baselines._model`, the same
 equations as :mod:`aeroid.dynamics`). The whole record is one CasADi graph: the RK4 step
 is a CasADi Function, ``mapaccum`` runs it over the record with ``delta`` as an input
 sequence, and the output Jacobian with respect to the parameters comes from CasADi's
-algorithmic differentiation. Built graphs are cached per (constants, dt, substeps,
-n_samples, parameter set).
+algorithmic differentiation (forward sensitivities carried through the record). Built
+graphs are cached per (constants, dt, substeps, n_samples, parameter set) and, by
+default, the per-step functions are compiled to C (see ``compile_model``).
 
 Estimation (Klein & Morelli, ch. 6): measurement noise Gaussian, white, with unknown
 diagonal covariance ``R``; Gauss-Newton on the weighted least-squares cost
 ``1/2 sum_k e_k^T R^-1 e_k`` with Levenberg damping (the damping grows tenfold on a
-rejected step), parameters scaled to order one (``theta / prior``); after every
-iteration ``R`` is re-estimated from the residuals, ``R_jj = mean_k e_kj^2`` (the
-relaxation technique), until the parameter step is below ``tol`` standard deviations. The Cramér-Rao
-covariance is ``(sum_k J_k^T R^-1 J_k)^-1`` (Fisher information) at the optimum.
+rejected step), parameters scaled to order one (``theta / prior``); after every accepted
+step ``R`` is re-estimated from the residuals, ``R_jj = mean_k e_kj^2`` (the relaxation
+technique), until the Gauss-Newton step is below ``tol`` standard deviations and ``R``
+has settled. The Cramér-Rao covariance is ``(sum_k J_k^T R^-1 J_k)^-1`` (Fisher
+information) at the optimum; on the reference flight its standard deviations agree with
+the independent prototype's (reference/README.md) to within ~5 %, and over 50
+Gaussian-noise flights the 95 % intervals covered the truth in 96 % of coefficient-runs
+(tests/statistical/test_coverage.py).
 """
 
 from __future__ import annotations
