@@ -33,8 +33,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.signal import savgol_filter
 
-from aeroid.dynamics import P, Q, R, constants
+from aeroid.dynamics import PHI, THETA, P, Q, R, constants
 from aeroid.flight import Flight
 from aeroid.integrate import propagate
 from aeroid.reconstruct import Reconstruction, ebm_regression, noise_sd, smooth
@@ -72,6 +73,10 @@ SEBM_PROBLEMS: tuple[tuple[str, int, tuple[int, ...], int], ...] = (
     ("MX", 3, (4, 5), 100),
     ("MY", 4, (6, 7, 8), 150),
 )
+#: How EAM takes the initial rates (:class:`OutputErrorCost`).
+INITIAL_STATES: tuple[str, ...] = ("smoothed", "kinematic")
+#: SG window for the initial roll rate [samples] (p is slow; see OutputErrorCost).
+EAM_ROLL_WINDOW = 501
 #: EAM outputs (eq. 23): triad-1 accelerations and the body rates.
 EAM_OUTPUTS: tuple[str, ...] = ("ax1", "ay1", "az1", "p", "q", "r")
 
@@ -310,10 +315,25 @@ class OutputErrorCost:
 
     Each coefficient set is simulated by :func:`aeroid.integrate.propagate` (batched
     RK4, all sets at once) from the measured state at the first sample, with the
-    measured p, q, r smoothed by the SG filter of eq. 32 there (notes, "EAM"), and the
-    measured ``delta`` held over each sample interval. The outputs are triad 1's
-    accelerations at the estimator's position of triad 1, including the lever-arm terms
-    (eq. 28 with eqs. 5-7), and p, q, r. Diverging trajectories cost +inf.
+    measured p, q, r smoothed there (notes, "EAM"), and the measured ``delta`` held over
+    each sample interval.
+
+    Initial rates (``initial_state``), a decision the notes leave open in detail:
+
+    * ``"smoothed"`` (default, the notes' decision): q and r are the 7-point quadratic
+      SG fit (eq. 32) evaluated at the first sample; p, which varies slowly (roll time
+      constant ~3 s), is the quadratic SG fit over ``roll_window`` samples (default
+      501, clipped to the record) at the first sample. A 7-point fit leaves ~1 rad/s of
+      the paper's roll-rate noise in p0, and the simulated roll angle then drifts by up
+      to 1 rad over the record: the cost at the true coefficients grows ~50-fold
+      (measured) and the fit bends Cl0, Clp to follow.
+    * ``"kinematic"``: p0 from the roll angle instead, ``p = phidot - (q sin phi + r cos
+      phi) tan theta`` (eq. 8) with phidot the 7-point SG derivative of the measured
+      phi (noise-free in the paper's noise model, so p0 is then nearly exact).
+
+    The outputs are triad 1's accelerations at the estimator's position of triad 1,
+    including the lever-arm terms (eq. 28 with eqs. 5-7), and p, q, r. Diverging
+    trajectories cost +inf.
 
     Parameters
     ----------
@@ -324,6 +344,10 @@ class OutputErrorCost:
         RK4 steps per sample interval.
     backend : {"auto", "numba", "numpy"}
         Integration and cost backend (same numbers, tested).
+    initial_state : {"smoothed", "kinematic"}
+        How the initial rates are taken (above).
+    roll_window : int
+        SG window for p0 with ``"smoothed"`` [samples].
 
     Attributes
     ----------
@@ -335,8 +359,12 @@ class OutputErrorCost:
 
     def __init__(self, flight: Flight, *, weighting: str = "noise",
                  guard_fraction: float = GUARD_FRACTION, substeps: int = 1,
-                 backend: str = "auto") -> None:
+                 backend: str = "auto", initial_state: str = "smoothed",
+                 roll_window: int = EAM_ROLL_WINDOW) -> None:
         _check_weighting(weighting, guard_fraction)
+        if initial_state not in INITIAL_STATES:
+            raise ValueError(f"initial_state must be one of {', '.join(INITIAL_STATES)}, "
+                             f"got {initial_state!r}")
         if int(substeps) < 1:
             raise ValueError(f"substeps must be >= 1, got {substeps}")
         if backend not in ("auto", "numba", "numpy"):
@@ -348,8 +376,19 @@ class OutputErrorCost:
         self.weights = channel_weights(self.measured, weighting, guard_fraction=guard_fraction)
         states = flight.states()
         self.state0 = states[0].copy()
-        window = min(7, flight.n_samples - 1 + flight.n_samples % 2)
+        n_odd = flight.n_samples - 1 + flight.n_samples % 2
+        window = min(7, n_odd)
         self.state0[[P, Q, R]] = smooth(states[:, [P, Q, R]], window, min(2, window - 1))[0]
+        if initial_state == "smoothed":
+            w = min(int(roll_window), n_odd)
+            self.state0[P] = smooth(states[:w, P], w, min(2, w - 1))[0]
+        else:
+            phi, theta = states[0, PHI], states[0, THETA]
+            phidot = savgol_filter(states[:, PHI], window, min(2, window - 1), deriv=1,
+                                   delta=flight.dt, mode="interp")[0]
+            q0, r0 = self.state0[Q], self.state0[R]
+            self.state0[P] = phidot - (q0 * np.sin(phi) + r0 * np.cos(phi)) * np.tan(theta)
+        self.initial_state = initial_state
         self.position = np.ascontiguousarray(flight.airframe.accel_positions[0])
         self.substeps = int(substeps)
         self.backend = "numba" if backend == "auto" and HAVE_NUMBA else backend

@@ -15,7 +15,7 @@ import numpy as np
 from aeroid import pso
 from aeroid.estimators.base import EstimationResult, Estimator, prior_bounds, register
 from aeroid.flight import Flight
-from aeroid.objectives import GUARD_FRACTION, WEIGHTINGS, OutputErrorCost
+from aeroid.objectives import EAM_ROLL_WINDOW, GUARD_FRACTION, WEIGHTINGS, OutputErrorCost
 
 __all__ = ["EAMPSO", "check_common_options", "pso_history"]
 
@@ -67,6 +67,12 @@ class EAMPSO(Estimator):
         RK4 steps per 2 ms sample interval (1 is accurate to ~1e-5 relative here).
     stall_iterations : int or None
         Stop when the best cost has not improved for this many iterations.
+    initial_state : {"smoothed", "kinematic"}
+        Initial rates of the simulation: SG-smoothed measured rates (default, notes
+        "EAM"; p over ``roll_window`` samples) or p0 from the measured roll angle
+        (:class:`aeroid.objectives.OutputErrorCost`).
+    roll_window : int
+        SG window for the initial roll rate [samples] (default 501).
     """
 
     name: ClassVar[str] = "eam-pso"
@@ -83,11 +89,15 @@ class EAMPSO(Estimator):
     warm_start: bool = False
     substeps: int = 1
     stall_iterations: int | None = None
+    initial_state: Literal["smoothed", "kinematic"] = "smoothed"
+    roll_window: int = EAM_ROLL_WINDOW
 
     def __post_init__(self) -> None:
         check_common_options(self)
         if self.n_particles < 3:
             raise ValueError(f"n_particles must be >= 3, got {self.n_particles}")
+        if self.roll_window < 1 or self.roll_window % 2 == 0:
+            raise ValueError(f"roll_window must be a positive odd integer, got {self.roll_window}")
         if self.substeps < 1:
             raise ValueError(f"substeps must be >= 1, got {self.substeps}")
 
@@ -95,7 +105,8 @@ class EAMPSO(Estimator):
         """Estimate the nine coefficients by output error (see class docstring)."""
         bounds = prior_bounds(flight.airframe, self.box)
         cost = OutputErrorCost(flight, weighting=self.weighting,
-                               guard_fraction=self.guard_fraction, substeps=self.substeps)
+                               guard_fraction=self.guard_fraction, substeps=self.substeps,
+                               initial_state=self.initial_state, roll_window=self.roll_window)
         x0 = flight.airframe.prior_vector()[None, :] if self.warm_start else None
         res = pso.minimize(cost, bounds, n_particles=self.n_particles,
                            n_iterations=self.n_iterations, rng=rng, topology=self.topology,
@@ -105,7 +116,7 @@ class EAMPSO(Estimator):
             "weighting": self.weighting, "n_particles": self.n_particles,
             "bounds": bounds, "t": flight.t, "outputs": ("ax1", "ay1", "az1", "p", "q", "r"),
             "measured": cost.measured, "predicted": cost.predict(res.x)[0],
-            "state0": cost.state0,
+            "state0": cost.state0, "initial_state": self.initial_state,
         }
         return EstimationResult(
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,

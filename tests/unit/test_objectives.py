@@ -138,3 +138,23 @@ def test_eam_cost_rejects_bad_options(clean_flight) -> None:
         OutputErrorCost(clean_flight, weighting="paper")
     with pytest.raises(ValueError, match="guard_fraction"):
         OutputErrorCost(clean_flight, weighting="relative", guard_fraction=1.5)
+
+
+#: Kinematic p0 from the (noise-free in the paper's model) roll angle: a 7-point SG
+#: derivative of phi (phi'' ~ 4 rad/s^2 -> error ~ (3 dt)^2 phi''' tiny) vs the truth.
+KINEMATIC_P0_ATOL = 1e-3
+#: Smoothed p0: quadratic SG over 501 samples at the edge of uniform +-5 % noise on
+#: p ~ 49 rad/s (sd 1.42 rad/s): edge-value sd ~ 3 sd / sqrt(501) = 0.19 rad/s; 3 sd.
+SMOOTHED_P0_ATOL = 0.6
+
+
+def test_eam_initial_roll_rate(paper_flight, clean_flight) -> None:
+    true_p0 = clean_flight["p"][0]  # the same trajectory without sensor noise
+    kin = OutputErrorCost(paper_flight, initial_state="kinematic")
+    assert abs(kin.state0[3] - true_p0) < KINEMATIC_P0_ATOL
+    smoothed = OutputErrorCost(paper_flight)
+    assert abs(smoothed.state0[3] - true_p0) < SMOOTHED_P0_ATOL
+    np.testing.assert_array_equal(smoothed.state0[[0, 1, 2, 6, 7, 8]],
+                                  paper_flight.states()[0, [0, 1, 2, 6, 7, 8]])
+    with pytest.raises(ValueError, match="initial_state"):
+        OutputErrorCost(paper_flight, initial_state="zero")
