@@ -21,6 +21,7 @@ from aeroid.estimators.eam import check_common_options, pso_history
 from aeroid.flight import Flight
 from aeroid.objectives import EBM_ROWS, GUARD_FRACTION, ebm_cost
 from aeroid.reconstruct import (
+    DERIVATIVE_POLYORDER,
     DERIVATIVE_WINDOW,
     RATE_WEIGHT,
     ROLL_DERIVATIVE_WINDOW,
@@ -29,13 +30,24 @@ from aeroid.reconstruct import (
     reconstruct,
 )
 
-__all__ = ["EBMPSO", "reconstruction_info"]
+__all__ = ["EBMPSO", "check_step_one_options", "reconstruction_info", "step_one"]
 
 
 def reconstruction_info(rec: Reconstruction) -> dict[str, Any]:
     """Return the step-1 arrays stored in ``info`` (the paper's Figs. 9-12)."""
     return {"t": rec.t, "fm_raw": rec.fm, "fm_smooth": rec.fm_smooth,
             "fm_names": ("FAX", "FAY", "FAZ", "MX", "MY", "MZ"), "row_sd": rec.row_sd}
+
+
+def check_step_one_options(est: Any) -> None:
+    """Raise ValueError (one line) on bad step-1 options (checked at construction)."""
+    if not (np.isfinite(est.rate_weight) and est.rate_weight > 0):
+        raise ValueError(f"rate_weight must be > 0, got {est.rate_weight}")
+    for name, low in (("smoothing_window", 1), ("derivative_window", DERIVATIVE_POLYORDER + 1),
+                      ("roll_derivative_window", 3)):
+        value = getattr(est, name)
+        if value < low or value % 2 == 0:
+            raise ValueError(f"{name} must be an odd integer >= {low}, got {value}")
 
 
 def step_one(est: Any, flight: Flight) -> Reconstruction:
@@ -88,6 +100,7 @@ class EBMPSO(Estimator):
 
     def __post_init__(self) -> None:
         check_common_options(self)
+        check_step_one_options(self)
         if self.n_particles < 3:
             raise ValueError(f"n_particles must be >= 3, got {self.n_particles}")
 

@@ -16,7 +16,7 @@ from aeroid import pso
 from aeroid.coefficients import NAMES
 from aeroid.estimators.base import EstimationResult, Estimator, prior_bounds, register
 from aeroid.estimators.eam import check_common_options
-from aeroid.estimators.ebm import reconstruction_info, step_one
+from aeroid.estimators.ebm import check_step_one_options, reconstruction_info, step_one
 from aeroid.flight import Flight
 from aeroid.objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
 from aeroid.reconstruct import (
@@ -73,6 +73,7 @@ class SEBMPSO(Estimator):
 
     def __post_init__(self) -> None:
         check_common_options(self)
+        check_step_one_options(self)
         if len(self.n_particles) != 4 or min(self.n_particles) < 3:
             raise ValueError(f"n_particles needs 4 swarm sizes >= 3, got {self.n_particles}")
 

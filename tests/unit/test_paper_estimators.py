@@ -155,6 +155,9 @@ def test_smoothing_forces_only_differs_from_both(paper_flight, paper_results) ->
     ("ebm-pso", {"weighting": "ml"}, "weighting"),
     ("eam-pso", {"n_particles": "2"}, "n_particles"),
     ("ebm-pso", {"box": "[1, 2]"}, "18 numbers"),
+    ("sebm-pso", {"derivative_window": "8"}, "derivative_window"),
+    ("ebm-pso", {"rate_weight": "0"}, "rate_weight"),
+    ("eam-pso", {"initial_state": "zero"}, "initial_state"),
 ])
 def test_bad_options_are_one_line_errors(method, options, match) -> None:
     with pytest.raises(EstimatorError, match=match) as info:
