@@ -124,8 +124,16 @@ def main(argv=None) -> int:
         f"{args.eam_runs} runs); the full study with EAM-PSO, {FULL_RUNS} runs: "
         f"**{full / 60:.1f} min** (extrapolated: {fast_100:.0f} s + {FULL_RUNS} x "
         f"{eam_per_run:.1f} s) — target <= 30 min",
-        "",
     ]
+    busy = max(m1["load"], m2["load"])
+    if busy > 0.5 * (os.cpu_count() or 1):
+        text.append(f"- caution: the load average was {busy:.1f} on {os.cpu_count()} cores during "
+                    "the speed-up measurement (other work on the machine): the 2 processes "
+                    "competed with it for the cores, so this speed-up says little about the "
+                    "runner (compare the sum of fit times: each fit ran "
+                    f"{m2['fit_time_s'] / max(m1['fit_time_s'], 1e-9):.2f}x slower with 2 "
+                    "processes)")
+    text.append("")
     report = "\n".join(text)
     print(report)
     if not args.quick:

@@ -460,8 +460,11 @@ def run_study(study: Study, out_dir: str | Path, *, jobs: int = 1,
     records = _prepare(study, out_dir, resume)
     wanted = {(i, n.label, e.label) for i, k, j in all_tasks(study)
               for n, e in [(study.noise[k], study.estimators[j])]}
-    done = {_key(r) for r in records}
-    records = [r for r in records if _key(r) in wanted]
+    unique: dict[tuple[int, str, str], dict[str, Any]] = {}
+    for r in records:  # keep the first record of a fit (a file is never written twice)
+        if _key(r) in wanted:
+            unique.setdefault(_key(r), r)
+    done, records = set(unique), list(unique.values())
     tasks = [t for t in all_tasks(study)
              if (t[0], study.noise[t[1]].label, study.estimators[t[2]].label) not in done]
 
