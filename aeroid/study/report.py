@@ -5,13 +5,13 @@
 matched to the paper's methods by method name (eam-pso, ebm-pso, sebm-pso, ekf) and
 the noise condition by the paper's model with ``accelerations_xi == rates_xi == xi``:
 
-- xi = 0.05, any of the four methods -> Table 5 (100 runs); except
-- ebm-pso with ``smoothing = "none"`` -> Table 7 ("no filter") at its xi, and ebm-pso
-  at xi != 0.05 -> Table 6 ("with SG filter", the paper's forces-only smoothing) unless
-  its smoothing is "none".
+- ebm-pso with ``smoothing = "forces"`` (the paper's SG filter on the reconstructed
+  forces) -> Table 6 ("with SG filter") at its xi;
+- ebm-pso with ``smoothing = "none"`` -> Table 7 ("no filter") at its xi;
+- otherwise, at xi = 0.05, any of the four methods -> Table 5 (100 runs).
 
-Decision: an EBM-PSO run with our default smoothing ("both") is still shown beside
-Table 5/6 (the paper's filtered EBM); its configuration differs and the table says so.
+Decision: an EBM-PSO run with our default smoothing ("both") is shown beside Table 5
+(the paper's EBM-PSO at xi = 0.05); its configuration differs and the table says so.
 The Cramér-Rao floor comes from ``aeroid.fisher.cramer_rao_sd`` when that module is
 installed, and shows "n/a" otherwise.
 """
@@ -77,12 +77,12 @@ def paper_condition(method: str, options: Mapping[str, Any], noise: Mapping[str,
     if xi is None:
         return None
     text = f"{xi:g}"
+    if method == "ebm-pso" and options.get("smoothing") == "forces":
+        return 6, f"xi={text} with SG filter"
     if method == "ebm-pso" and options.get("smoothing") == "none":
         return 7, f"xi={text} no filter"
     if abs(xi - 0.05) <= XI_MATCH_TOL:
         return 5, "xi=0.05 100 runs"
-    if method == "ebm-pso":
-        return 6, f"xi={text} with SG filter"
     return None
 
 
