@@ -330,6 +330,10 @@ def write_report(study: Study, out_dir: str | Path,
     out_dir = Path(out_dir)
     if records is None:
         records = read_results(out_dir / RESULTS_FILE)
+    noise_order = {n.label: k for k, n in enumerate(study.noise)}
+    est_order = {e.label: k for k, e in enumerate(study.estimators)}
+    records = sorted(records, key=lambda r: (int(r["run"]), noise_order.get(r["noise"], -1),
+                                             est_order.get(r["estimator"], -1)))
     tidy = metrics.tidy(records)
     floors: dict[str, str] = {}
     if cramer_rao is None:
