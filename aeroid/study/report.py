@@ -130,7 +130,7 @@ def _fmt(x: Any, digits: int = 3) -> str:
     if isinstance(x, float | np.floating):
         if x == 0:
             return "0"
-        if float(x).is_integer() and abs(x) < 1e6:
+        if float(x).is_integer() and 100 <= abs(x) < 1e7:
             return str(int(x))
         if abs(x) >= 1000 or abs(x) < 0.01:
             return f"{x:.{digits}g}"
