@@ -139,12 +139,22 @@ class GaussianNoise:
     """Additive zero-mean Gaussian noise with one standard deviation per channel group.
 
     Defaults describe a tactical-grade IMU sampled at 500 Hz: 0.05 m/s^2 on each
-    acceleration, 0.005 rad/s on each rate; positions known to 1 mm.
+    acceleration, 0.005 rad/s on each rate; positions known exactly
+    (``position_sd_m = 0``).
+
+    Decision: unlike eq. 43's multiplicative error, which leaves the zero y, z
+    components of triad 1 at zero, an additive position error moves every component.
+    At the reference roll rate (p ~ 50 rad/s) a radial offset of 1 mm adds a
+    centripetal p^2 * 1 mm ~ 2.5 m/s^2 to the lateral channels, fifty times the
+    accelerometer noise, and it ruins every estimator that trusts the positions
+    (measured: EKF Czq errors of thousands of percent). So the default is zero, and a
+    position error is an explicit choice of the study (``studies/realistic_imu.toml``
+    shows its effect).
     """
 
     accel_sd_mps2: float = 0.05
     rate_sd_radps: float = 0.005
-    position_sd_m: float = 0.001
+    position_sd_m: float = 0.0
     name: str = field(default="gaussian", init=False)
 
     def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
