@@ -13,13 +13,16 @@ from aeroid.flight import Flight
 from aeroid.objectives import ebm_cost, sebm_costs
 from aeroid.reconstruct import reconstruct
 
-#: Noise-free EBM-PSO / SEBM-PSO, |error| in % per coefficient (Cx ... Cmq). The floor is
-#: the PSO's convergence (the reconstruction errs by < 1e-3 %, test_objectives): over
-#: PSO seeds 1-8 the 9-D EBM-PSO (450 x 200) erred at most 0.44/0.62/10.6/0.002/0.004/
-#: 1.2/0.11/1.4 % (Czq, the weakest term of F_AZ at 1.6 % of it, converges last); the
-#: SEBM sub-problems (1-3-D) reach the closed form (<= 0.004 %). Margin x1.5-2.
-EBM_NOISE_FREE_TOL_PCT = np.array([0.01, 1.0, 1.0, 16.0, 0.01, 0.01, 2.0, 0.5, 2.0])
-SEBM_NOISE_FREE_TOL_PCT = np.full(9, 0.01)
+#: Noise-free EBM-PSO / SEBM-PSO with the paper's relative weighting, |error| in % per
+#: coefficient (Cx ... Cmq). (On noise-free data the noise weighting's per-channel sd
+#: estimates are round-off artefacts spanning 1e10, which makes the 9-D swarm's answer
+#: depend on round-off; it is checked on noisy data below.) The floor is the PSO's
+#: convergence (the reconstruction errs by < 1e-3 %, test_objectives): over PSO seeds
+#: 1-12 the 9-D EBM-PSO (450 x 200) erred at most 0.05/0.06/0.06/0.61/0.82/1.02/0.19/
+#: 0.05/0.79 %; the SEBM sub-problems (1-3-D) reach the closed form (<= 0.006 %).
+#: Margin about x3.
+EBM_NOISE_FREE_TOL_PCT = np.array([0.15, 0.2, 0.2, 2.0, 2.5, 3.0, 0.6, 0.15, 2.5])
+SEBM_NOISE_FREE_TOL_PCT = np.full(9, 0.02)
 #: Noise-free EAM-PSO at a reduced swarm (100 x 100, random start, no warm start), with
 #: the paper's relative weighting (eq. 23): on noise-free data the noise weighting's
 #: per-channel sd estimates are round-off-level artefacts (p is smooth to 1e-9), so
@@ -59,7 +62,7 @@ def paper_results(paper_flight):
 @pytest.mark.parametrize(("method", "tol"), [("ebm-pso", EBM_NOISE_FREE_TOL_PCT),
                                              ("sebm-pso", SEBM_NOISE_FREE_TOL_PCT)])
 def test_noise_free_ebm_recovers_truth(clean_flight, method, tol) -> None:
-    result = make_estimator(method).fit(clean_flight, rng=SEED)
+    result = make_estimator(method, {"weighting": "relative"}).fit(clean_flight, rng=SEED)
     assert result.success, result.message
     err = result.relative_error_pct(clean_flight.true_coefficients)
     assert np.all(err < tol), err
