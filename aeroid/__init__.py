@@ -7,7 +7,13 @@ The data flow, one module per arrow: :class:`Airframe` + coefficients +
 
 __version__ = "0.1.0"
 
-from aeroid.airframe import Airframe, AirframeError, load_airframe, reference_airframe, save_airframe
+from aeroid.airframe import (
+    Airframe,
+    AirframeError,
+    load_airframe,
+    reference_airframe,
+    save_airframe,
+)
 from aeroid.coefficients import NAMES, NOMINAL, nominal
 from aeroid.dynamics import (
     Constants,
@@ -29,18 +35,57 @@ from aeroid.estimators.base import (
     prior_bounds,
     register,
 )
+from aeroid.fisher import cramer_rao_sd
 from aeroid.flight import Flight, FlightError, make_flight, read_flight
 from aeroid.integrate import propagate, rk4
+from aeroid.pso import PSOResult, minimize
 from aeroid.scenario import Manoeuvre, Scenario, load_scenario, reference_scenario
 from aeroid.sensors import GaussianNoise, NoNoise, PaperNoise, accelerometers, make_noise
 from aeroid.simulate import simulate, simulate_scenario
 
 __all__ = [
-    "NAMES", "NOMINAL", "Airframe", "AirframeError", "Constants", "EstimationResult",
-    "Estimator", "EstimatorError", "Flight", "FlightError", "GaussianNoise", "Manoeuvre",
-    "NoNoise", "PaperNoise", "Scenario", "StudyError", "accelerometers", "aero_forces_moments",
-    "air_data", "available", "constants", "failed_result", "get_estimator", "load_airframe",
-    "load_scenario", "make_estimator", "make_flight", "make_noise", "nominal", "prior_bounds",
-    "propagate", "read_flight", "reference_airframe", "reference_scenario", "register",
-    "regressors", "rk4", "save_airframe", "simulate", "simulate_scenario", "state_derivative",
+    "Airframe",
+    "AirframeError",
+    "Constants",
+    "EstimationResult",
+    "Estimator",
+    "EstimatorError",
+    "Flight",
+    "FlightError",
+    "GaussianNoise",
+    "Manoeuvre",
+    "NAMES",
+    "NOMINAL",
+    "NoNoise",
+    "PSOResult",
+    "PaperNoise",
+    "Scenario",
+    "StudyError",
+    "accelerometers",
+    "aero_forces_moments",
+    "air_data",
+    "available",
+    "constants",
+    "cramer_rao_sd",
+    "failed_result",
+    "get_estimator",
+    "load_airframe",
+    "load_scenario",
+    "make_estimator",
+    "make_flight",
+    "make_noise",
+    "minimize",
+    "nominal",
+    "prior_bounds",
+    "propagate",
+    "read_flight",
+    "reference_airframe",
+    "reference_scenario",
+    "register",
+    "regressors",
+    "rk4",
+    "save_airframe",
+    "simulate",
+    "simulate_scenario",
+    "state_derivative",
 ]

@@ -14,10 +14,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from aeroid import __version__
-
-
-class UsageError(ValueError):
-    """Bad command-line input (exit status 2)."""
+from aeroid.errors import UsageError
 
 
 class _Parser(argparse.ArgumentParser):

@@ -6,12 +6,15 @@ from aeroid.airframe import AirframeError
 from aeroid.flight import FlightError
 
 
+class UsageError(ValueError):
+    """Bad command-line input (exit status 2)."""
+
+
 class StudyError(ValueError):
     """A study file is malformed or names an unknown estimator or option."""
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    from aeroid.cli import UsageError
     from aeroid.estimators.base import EstimatorError
 
     return (AirframeError, FlightError, EstimatorError, StudyError, UsageError,

@@ -249,10 +249,7 @@ def read_flight(
     """
     path = Path(path)
     try:
-        if path.suffix == ".parquet":
-            frame = pd.read_parquet(path)
-        else:
-            frame = pd.read_csv(path)
+        frame = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
     except FileNotFoundError:
         raise FlightError(f"{path}: no such file") from None
     except ImportError:

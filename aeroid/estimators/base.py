@@ -178,9 +178,9 @@ def _coerce(name: str, value: Any, hint: Any, owner: str) -> Any:
     origin = typing.get_origin(hint)
     if origin is typing.Union or isinstance(hint, types.UnionType):
         args = typing.get_args(hint)
-        if value is None or (isinstance(value, str) and value.lower() == "none"):
-            if type(None) in args:
-                return None
+        is_none = value is None or (isinstance(value, str) and value.lower() == "none")
+        if is_none and type(None) in args:
+            return None
         errors = []
         for arg in args:
             if arg is type(None):
