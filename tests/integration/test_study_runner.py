@@ -36,8 +36,8 @@ class Jitter(Estimator):
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.abs(prior) * self.scale,
             cost=float(data**2), n_evaluations=7, n_iterations=4,
-            history={"axis": "iteration", "step": steps, "theta": theta + 0.1 * (3 - steps)[:, None],
-                     "cost": 1.0 / (1.0 + steps)})
+            history={"axis": "iteration", "step": steps,
+                     "theta": theta + 0.1 * (3 - steps)[:, None], "cost": 1.0 / (1.0 + steps)})
 
 
 @dataclass(frozen=True, kw_only=True)
