@@ -22,7 +22,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from aeroid.dynamics import P, Q, R, Constants, aero_forces_moments, derivative_from_forces
+from aeroid.dynamics import Constants, P, Q, R, aero_forces_moments, derivative_from_forces
 
 ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
 RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
