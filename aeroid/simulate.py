@@ -86,13 +86,39 @@ def simulate(
         Recorded window; its airframe carries the estimator's copy of the sensor
         positions, ``metadata`` the truth (coefficients, positions), noise and seed.
     """
+    coefficients = as_vector(coefficients)
+    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend)
+    return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng)
+
+
+def record_flight(
+    airframe: Airframe,
+    coefficients: np.ndarray,
+    manoeuvre: Manoeuvre,
+    truth: tuple[np.ndarray, np.ndarray, np.ndarray],
+    noise: NoiseModel | None = None,
+    *,
+    rng: np.random.Generator | int | None = None,
+) -> Flight:
+    """Record a flight from an integrated truth: window, accelerometers, noise.
+
+    ``simulate(...)`` is ``record_flight(..., simulate_truth(...), ...)``; callers that
+    simulate many noisy flights of one truth (the study runner) integrate it once.
+
+    Parameters
+    ----------
+    truth : tuple of ndarray
+        ``(t, states, delta)`` from :func:`simulate_truth` for the same airframe,
+        coefficients and manoeuvre.
+    Other parameters
+        As :func:`simulate`.
+    """
     noise = noise or NoNoise()
     seed = rng if isinstance(rng, int | np.integer) else None
     rng = np.random.default_rng(rng)
     coefficients = as_vector(coefficients)
-    t, states, delta = simulate_truth(airframe, coefficients, manoeuvre, backend=backend)
-    dt = manoeuvre.dt
-    k0 = int(round(manoeuvre.window_s[0] / dt))
+    t, states, delta = truth
+    k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
     t, states, delta = t[k0:], states[k0:], delta[k0:]
     accel = accelerometers(states, delta, coefficients, constants(airframe),
                            airframe.accel_positions).reshape(-1, 6)

@@ -91,41 +91,15 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
 
     Equal to ``aeroid.simulate(airframe, coefficients, manoeuvre, noise,
     rng=default_rng(flight_seed(seed, run)))`` (a test checks it), but the truth is
-    integrated once per process: only the window, the accelerometers and the noise
-    are recomputed (the same steps, in the same order, as :func:`aeroid.simulate`).
+    integrated once per process (:func:`aeroid.simulate.record_flight` does the rest).
     """
-    from aeroid.coefficients import as_dict
-    from aeroid.dynamics import constants
-    from aeroid.flight import STATE_CHANNELS, make_flight
-    from aeroid.sensors import ACCEL_CHANNELS, accelerometers
+    from aeroid.simulate import record_flight
 
     scenario = study.scenario
     noise = study.noise[noise_index].model
     rng = np.random.default_rng(flight_seed(study.seed, run))
-    airframe, manoeuvre = scenario.airframe, scenario.manoeuvre
-    coefficients = scenario.coefficient_vector
-    t, states, delta = _truth(scenario)
-    k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
-    t, states, delta = t[k0:], states[k0:], delta[k0:]
-    accel = accelerometers(states, delta, coefficients, constants(airframe),
-                           airframe.accel_positions).reshape(-1, 6)
-    channels = {"t": t}
-    channels.update({name: accel[:, j] for j, name in enumerate(ACCEL_CHANNELS)})
-    channels.update({name: states[:, j] for j, name in enumerate(STATE_CHANNELS)})
-    channels["delta"] = delta
-    channels = noise.corrupt(channels, rng)
-    positions = noise.perturb_positions(airframe.accel_positions, rng)
-    seen = airframe.replace(accel1_position_m=tuple(positions[0]),
-                            accel2_position_m=tuple(positions[1]))
-    metadata = {
-        "noise": noise.to_dict(), "seed": None, "true_coefficients": as_dict(coefficients),
-        "true_accel_positions_m": airframe.accel_positions.tolist(),
-        "manoeuvre": {"command_amplitude": manoeuvre.command_amplitude,
-                      "command_phase_deg": manoeuvre.command_phase_deg,
-                      "sample_rate_hz": manoeuvre.sample_rate_hz,
-                      "window_s": list(manoeuvre.window_s)},
-    }
-    return make_flight(channels, seen, metadata)
+    return record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                         _truth(scenario), noise, rng=rng)
 
 
 # --------------------------------------------------------------------------------------
