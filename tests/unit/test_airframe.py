@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import tomllib
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +21,8 @@ from aeroid.airframe import (
 from aeroid.coefficients import nominal
 from aeroid.scenario import load_scenario
 
-SHARED_REFERENCE = "/work/shared/reference/reference-scenario.toml"
+# the project's shared folder sits beside the repository (developers' checkouts and CI)
+SHARED_REFERENCE = Path(__file__).resolve().parents[3] / "shared/reference/reference-scenario.toml"
 
 
 def _one_line(exc_info) -> str:
