@@ -6,8 +6,7 @@ forces and moments per sample, :func:`aeroid.reconstruct.ebm_regression` the reg
 (:func:`scipy.linalg.lstsq`): F_AX on Cx; F_AZ on Cza, Czd, Czq; M_X on Cl0, Clp; M_Y on
 Cma, Cmd, Cmq. With ``lateral_rows`` the F_AY rows join the F_AZ problem and the M_Z rows
 the M_Y problem through the symmetry ties of eq. 1 (rows weighted by the inverse noise
-sd of their channel). Standard errors ``sigma^2 (X^T X)^-1`` per sub-problem with
-``sigma^2`` the residual variance (``RSS / (n - k)``).
+sd of their channel).
 
 One-step (``one_step=True``): the six accelerations of eq. 28 and the SG derivatives of
 the measured p, q, r are each affine in the coefficients once the measured states are
@@ -17,11 +16,13 @@ so one weighted least-squares problem over all nine coefficients avoids invertin
 1. Channel weights are the inverse residual sds of a first unweighted-by-channel pass
 (two passes); standard errors from the weighted normal matrix.
 
-Caveat, measured: these standard errors assume white residuals, but SG smoothing
-(option ``smoothing``), the SG rate derivatives and the step-1 reconstruction colour
-them, so the intervals are too narrow: over 50 Gaussian-noise flights the nominal 95 %
-intervals covered the truth in 59 % of coefficient-runs (two-step; 22 % for Cl0 and Clp)
-and 80 % (one-step) (tests/statistical/test_coverage.py, a strict xfail).
+Standard errors: SG smoothing (option ``smoothing``), the SG rate derivatives and the
+step-1 reconstruction colour the residuals, so ``sigma^2 (X^T X)^-1`` (option
+``covariance="ols"``) gives intervals that are too narrow: over 50 Gaussian-noise
+flights its nominal 95 % intervals covered the truth in 59 % of coefficient-runs
+(two-step; 22 % for Cl0 and Clp) and 80 % (one-step). The default is therefore the
+Newey-West (HAC) covariance with a Bartlett window of twice the residuals' measured
+correlation length (tests/statistical/test_coverage.py gives the coverage).
 """
 
 from __future__ import annotations
@@ -60,8 +61,63 @@ def _correlation(A: np.ndarray) -> np.ndarray:
     return An.T @ An
 
 
-def _lstsq(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Least squares with column scaling; returns (theta, covariance, residual variance)."""
+def residual_correlation_length(e: np.ndarray, cap: int) -> int:
+    """Return the first lag at which the residuals' autocorrelation is insignificant.
+
+    ``e`` has shape (n,) or (n, k) (k channels); the lag is the largest over the
+    channels of the first ``l`` with ``|acf(l)| < 2 / sqrt(n)`` (the white-noise 95 %
+    band), capped at ``cap``.
+    """
+    e = np.asarray(e, dtype=float).reshape(len(e), -1)
+    n = e.shape[0]
+    length = 1
+    for j in range(e.shape[1]):
+        x = e[:, j] - e[:, j].mean()
+        var = float(x @ x)
+        lag = cap
+        for lag_j in range(1, cap):
+            if var == 0.0 or abs(float(x[lag_j:] @ x[:-lag_j])) / var < 2.0 / np.sqrt(n):
+                lag = lag_j
+                break
+        length = max(length, lag)
+    return length
+
+
+def hac_covariance(A: np.ndarray, e: np.ndarray, n_time: int, lags: int) -> np.ndarray:
+    """Newey-West (Bartlett-kernel) covariance of least-squares estimates.
+
+    ``cov = (A^T A)^-1 S (A^T A)^-1`` with ``S = G_0 + sum_l w_l (G_l + G_l^T)``,
+    ``G_l = sum_t g_t g_{t-l}^T``, ``g_t`` the score of time sample ``t`` (its rows of
+    ``A`` times their residuals) and ``w_l = 1 - l / (lags + 1)``.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n_time * k, p)
+        Regressors, time-major: the k rows of each time sample are consecutive.
+    e : ndarray, shape (n_time * k,)
+        Residuals.
+    n_time : int
+    lags : int
+    """
+    g = (A * e[:, None]).reshape(n_time, -1, A.shape[1]).sum(axis=1)
+    S = g.T @ g
+    for lag in range(1, min(lags, n_time - 1) + 1):
+        G = g[lag:].T @ g[:-lag]
+        S += (1.0 - lag / (lags + 1.0)) * (G + G.T)
+    bread = np.linalg.pinv(A.T @ A)
+    return bread @ S @ bread
+
+
+def _lstsq(A: np.ndarray, b: np.ndarray, *, n_time: int | None = None,
+           covariance: str = "hac") -> tuple[np.ndarray, np.ndarray, float]:
+    """Least squares with column scaling; returns (theta, covariance, residual variance).
+
+    ``covariance="ols"`` gives ``sigma^2 (A^T A)^-1`` (white residuals);
+    ``"hac"`` the Newey-West covariance over ``n_time`` time samples (rows time-major)
+    with the lag window set to twice the residuals' correlation length: Bartlett
+    weights halve the autocovariance at ``lags / 2``, so a window of the correlation
+    length itself would count only about half of it.
+    """
     scale = np.sqrt(np.sum(A * A, axis=0))
     scale[scale == 0] = 1.0
     sol, _, rank, _ = scipy.linalg.lstsq(A / scale, b, lapack_driver=LAPACK_DRIVER)
@@ -70,7 +126,13 @@ def _lstsq(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]
     resid = b - A @ theta
     sigma2 = float(resid @ resid) / dof
     As = A / scale
-    cov = sigma2 * np.linalg.pinv(As.T @ As) / np.outer(scale, scale)
+    if covariance == "hac":
+        n_time = A.shape[0] if n_time is None else n_time
+        lags = 2 * residual_correlation_length(resid.reshape(n_time, -1), cap=n_time // 4)
+        cov = hac_covariance(As, resid, n_time, lags) * (A.shape[0] / dof)
+        cov = cov / np.outer(scale, scale)
+    else:
+        cov = sigma2 * np.linalg.pinv(As.T @ As) / np.outer(scale, scale)
     if rank < A.shape[1]:
         cov[:] = np.nan
     return theta, cov, sigma2
@@ -98,7 +160,7 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
 
 
 def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
-                      lateral_rows: bool = False) -> tuple:
+                      lateral_rows: bool = False, covariance: str = "hac") -> tuple:
     """Solve the four SEBM least-squares sub-problems of the EBM regression.
 
     Parameters
@@ -111,12 +173,14 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
         Noise sd per force/moment channel (row weights; they matter only with
         ``lateral_rows``, which stacks two channels in one problem).
     lateral_rows : bool
+    covariance : {"hac", "ols"}
+        Newey-West or white-residual covariance (:func:`_lstsq`).
 
     Returns
     -------
     theta : ndarray, shape (9,)
     covariance : ndarray, shape (9, 9)
-        Block diagonal: ``sigma^2 (X^T X)^-1`` per sub-problem.
+        Block diagonal, per sub-problem (Newey-West, or ``sigma^2 (X^T X)^-1``).
     correlation : ndarray, shape (9, 9)
         Regressor correlation within each sub-problem, NaN across.
     sigma2 : dict
@@ -131,9 +195,10 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
     for label, row, cols in SUBPROBLEMS:
         cols = list(cols)
         rows = [row] + ([LATERAL[label]] if lateral_rows and label in LATERAL else [])
-        A = np.concatenate([X[:, r, cols] / sd[r] for r in rows])
-        b = np.concatenate([y[:, r] / sd[r] for r in rows])
-        th, cv, s2 = _lstsq(A, b)
+        # time-major rows (the k rows of one sample consecutive), for the HAC covariance
+        A = np.stack([X[:, r, cols] / sd[r] for r in rows], axis=1).reshape(-1, len(cols))
+        b = np.stack([y[:, r] / sd[r] for r in rows], axis=1).reshape(-1)
+        th, cv, s2 = _lstsq(A, b, n_time=X.shape[0], covariance=covariance)
         theta[cols] = th
         cov[np.ix_(cols, cols)] = cv
         corr[np.ix_(cols, cols)] = _correlation(A)
@@ -157,6 +222,12 @@ class EquationErrorEstimator(Estimator):
     lateral_rows : bool
         Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's
         four sub-problems).
+    covariance : {"hac", "ols"}
+        Standard errors: "hac" (default) the Newey-West covariance, because step 1, the
+        SG derivatives and the smoothing make the residuals correlated over up to ~100
+        samples; "ols" ``sigma^2 (X^T X)^-1``, which assumes white residuals and gave
+        95 % intervals that held the truth in only 59 % of coefficient-runs (two-step)
+        and 80 % (one-step) with Gaussian noise (tests/statistical/test_coverage.py).
 
     Notes
     -----
@@ -174,6 +245,7 @@ class EquationErrorEstimator(Estimator):
     one_step: bool = False
     smoothing: Literal["both", "forces", "none"] = "both"
     lateral_rows: bool = False
+    covariance: Literal["hac", "ols"] = "hac"
 
     def __post_init__(self) -> None:
         if self.smoothing not in rc.SMOOTHING_CHOICES:
@@ -187,7 +259,8 @@ class EquationErrorEstimator(Estimator):
         rec = rc.reconstruct(flight)
         X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
         theta, cov, corr, sigma2, cost = solve_subproblems(X, y, rc.noise_sd(rec.fm),
-                                                           lateral_rows=self.lateral_rows)
+                                                           lateral_rows=self.lateral_rows,
+                                                           covariance=self.covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank}
         return self._result(theta, cov, corr, cost, info)
@@ -207,7 +280,7 @@ class EquationErrorEstimator(Estimator):
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
             Aw = (A / sd[None, :, None]).reshape(-1, 9)
             bw = (target / sd[None, :]).reshape(-1)
-            theta, cov, s2 = _lstsq(Aw, bw)
+            theta, cov, s2 = _lstsq(Aw, bw, n_time=n, covariance=self.covariance)
             resid = target - np.einsum("noc,c->no", A, theta)
             sd = np.sqrt(np.mean(resid * resid, axis=0))
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)

@@ -79,7 +79,7 @@ def test_affine_form_reproduces_sensor_model(noisy_flight):
 
 def test_two_step_equals_independent_least_squares(noisy_flight):
     """theta and sigma^2 (X^T X)^-1 per sub-problem, recomputed with numpy.linalg."""
-    res = EquationErrorEstimator().fit(noisy_flight, rng=0)
+    res = EquationErrorEstimator(covariance="ols").fit(noisy_flight, rng=0)
     rec = rc.reconstruct(noisy_flight)
     X, y = rc.ebm_regression(noisy_flight, rec, smoothing="both")
     for label, row, cols in SUBPROBLEMS:
@@ -92,6 +92,33 @@ def test_two_step_equals_independent_least_squares(noisy_flight):
         np.testing.assert_allclose(res.covariance[np.ix_(cols, cols)], cov, rtol=1e-6,
                                    err_msg=label)
     np.testing.assert_allclose(res.stderr, np.sqrt(np.diag(res.covariance)))
+
+
+def test_hac_covariance_equals_the_direct_newey_west_sum(noisy_flight):
+    """Default covariance: (A^T A)^-1 G^T W G (A^T A)^-1 with the Bartlett matrix
+    W_ts = max(0, 1 - |t - s| / (L + 1)) written out in full (O(n^2), independent of the
+    estimator's lag loop), L = twice the first lag of insignificant autocorrelation
+    (found here with numpy.correlate), scaled by n / (n - k)."""
+    res = EquationErrorEstimator().fit(noisy_flight, rng=0)
+    rec = rc.reconstruct(noisy_flight)
+    X, y = rc.ebm_regression(noisy_flight, rec, smoothing="both")
+    n = X.shape[0]
+    lag_index = np.abs(np.arange(n)[:, None] - np.arange(n)[None, :])
+    for label, row, cols in SUBPROBLEMS:
+        cols = list(cols)
+        A, b = X[:, row, cols], y[:, row]
+        theta = np.linalg.lstsq(A, b, rcond=None)[0]
+        e = b - A @ theta
+        ec = e - e.mean()
+        acf = np.correlate(ec, ec, mode="full")[n - 1:] / (ec @ ec)
+        first = next(k for k in range(1, n // 4) if abs(acf[k]) < 2 / np.sqrt(n))
+        lags = 2 * first
+        W = np.clip(1.0 - lag_index / (lags + 1.0), 0.0, None)
+        G = A * e[:, None]
+        bread = np.linalg.inv(A.T @ A)
+        cov = bread @ (G.T @ W @ G) @ bread * n / (n - len(cols))
+        np.testing.assert_allclose(res.covariance[np.ix_(cols, cols)], cov, rtol=1e-6,
+                                   err_msg=label)
 
 
 def test_collinearity_of_cl0_and_clp_is_flagged(noisy_flight):
