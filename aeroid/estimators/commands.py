@@ -59,7 +59,11 @@ def read_column_map(path: Path) -> dict[str, str]:
 
 
 def estimate(args: argparse.Namespace) -> int:
-    """Run ``aeroid estimate``: read, validate, fit, print a table or JSON; return 0."""
+    """Run ``aeroid estimate``: read, validate, fit, print a table or JSON.
+
+    Returns 0, or 1 when the method failed (``success=False``: the result, with its
+    message, is still printed), so scripts can tell.
+    """
     options = parse_options(getattr(args, "option", None))
     estimator = make_estimator(args.method, options)
     airframe = load_airframe(args.airframe) if getattr(args, "airframe", None) else None
@@ -72,7 +76,7 @@ def estimate(args: argparse.Namespace) -> int:
         print(json.dumps(result.to_json_dict(), indent=2))
     else:
         print(result.summary(flight.true_coefficients))
-    return 0
+    return 0 if result.success else 1
 
 
 def methods(args: argparse.Namespace) -> int:
