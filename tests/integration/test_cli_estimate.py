@@ -202,3 +202,25 @@ def test_plugin_with_a_builtin_name_is_an_error_naming_both(tmp_path) -> None:
     assert "'sebm-pso' registered twice" in err
     assert "aeroid.estimators.sebm.SEBMPSO" in err
     assert "aeroid_test_plugin:PriorMeanEstimator" in err
+
+
+def test_failed_fit_is_printed_and_exits_1(flight_csv, capsys, monkeypatch) -> None:
+    """A method that fails (success=False) still prints its result, with exit status 1."""
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from aeroid.estimators import commands
+    from aeroid.estimators.base import Estimator, failed_result
+
+    @dataclass(frozen=True, kw_only=True)
+    class AlwaysFails(Estimator):
+        name: ClassVar[str] = "always-fails"
+
+        def run(self, flight, rng):
+            return failed_result(self.name, "singular system at t = 5.1 s")
+
+    monkeypatch.setattr(commands, "make_estimator", lambda name, options: AlwaysFails())
+    assert main(["estimate", str(flight_csv), "--method", "always-fails", "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert out["success"] is False
+    assert out["message"] == "singular system at t = 5.1 s"
