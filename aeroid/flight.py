@@ -108,12 +108,18 @@ class Flight:
 
     def states(self) -> np.ndarray:
         """Return the measured state ``[u, v, w, p, q, r, phi, theta, psi]``, shape (n, 9)."""
-        return np.column_stack([self[c] for c in STATE_CHANNELS])
+        return self._columns(STATE_CHANNELS)
 
     def accelerations(self) -> np.ndarray:
         """Return both triads' readings, shape (n, 2, 3) [m/s^2]."""
-        cols = [self[c] for c in ("ax1", "ay1", "az1", "ax2", "ay2", "az2")]
-        return np.column_stack(cols).reshape(-1, 2, 3)
+        return self._columns(("ax1", "ay1", "az1", "ax2", "ay2", "az2")).reshape(-1, 2, 3)
+
+    def _columns(self, names: tuple[str, ...]) -> np.ndarray:
+        """Return a float copy of several channels, shape (n, len(names))."""
+        missing = [c for c in names if c not in self.data.columns]
+        if missing:
+            raise FlightError(f"flight has no channel {missing[0]!r}")
+        return np.array(self.data[list(names)].to_numpy(dtype=float), copy=True)
 
     @property
     def true_coefficients(self) -> np.ndarray | None:
@@ -130,9 +136,15 @@ class Flight:
         missing = [c for c in REQUIRED_CHANNELS if c not in self.data.columns]
         if missing:
             found.append(f"missing required column(s): {', '.join(missing)}")
-        for name in [c for c in (*REQUIRED_CHANNELS, *OPTIONAL_CHANNELS) if c in self.data]:
-            values = pd.to_numeric(self.data[name], errors="coerce").to_numpy(dtype=float)
-            bad = np.flatnonzero(~np.isfinite(values))
+        present = [c for c in (*REQUIRED_CHANNELS, *OPTIONAL_CHANNELS) if c in self.data]
+        if all(pd.api.types.is_numeric_dtype(self.data[c]) for c in present):
+            finite = np.isfinite(self.data[present].to_numpy(dtype=float))  # one pass
+        else:
+            finite = np.column_stack([
+                np.isfinite(pd.to_numeric(self.data[c], errors="coerce").to_numpy(dtype=float))
+                for c in present]) if present else np.ones((len(self.data), 0), bool)
+        for j, name in enumerate(present):
+            bad = np.flatnonzero(~finite[:, j])
             if bad.size:
                 found.append(
                     f"column {name!r} has {bad.size} NaN/inf or non-numeric value(s), "
