@@ -11,10 +11,13 @@ The flights are session-scoped (simulated once per test run): treat them as read
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from aeroid.coefficients import nominal
 from aeroid.flight import Flight
 from aeroid.scenario import Scenario, load_scenario
 from aeroid.sensors import NoNoise, PaperNoise
@@ -35,6 +38,19 @@ def reference_scenario() -> Scenario:
 def clean_flight(reference_scenario: Scenario) -> Flight:
     """The reference scenario's noise-free flight (true sensor positions)."""
     return simulate_scenario(reference_scenario, NoNoise(), rng=0)
+
+
+#: The prior of ``prior_off_flight``: each coefficient 20 % off, alternating sign.
+PRIOR_FACTOR = np.array([1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2])
+
+
+@pytest.fixture(scope="session")
+def prior_off_flight(clean_flight: Flight) -> Flight:
+    """The noise-free flight with an airframe prior 20 % off the truth (alternating sign):
+    estimators that start from the prior must travel to the truth."""
+    prior = tuple(nominal() * PRIOR_FACTOR)
+    return dataclasses.replace(clean_flight,
+                               airframe=clean_flight.airframe.replace(prior=prior))
 
 
 @pytest.fixture(scope="session")

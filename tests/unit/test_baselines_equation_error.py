@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
 import aeroid
 from aeroid import reconstruct as rc
 from aeroid.scenario import reference_scenario
-from aeroid.sensors import GaussianNoise, NoNoise
+from aeroid.sensors import GaussianNoise
 from aeroid.simulate import simulate_scenario
 from baselines.equation_error import SUBPROBLEMS, EquationErrorEstimator, affine_accelerations
 
@@ -24,14 +22,6 @@ ONE_STEP_RTOL = 1e-8
 #: accelerometers() and state_derivative() are affine in theta: c + A theta reproduces
 #: them up to rounding of ~1e3-sized terms.
 AFFINE_ATOL = 1e-9
-PRIOR_FACTOR = np.array([1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2])
-
-
-@pytest.fixture(scope="module")
-def clean_flight():
-    fl = simulate_scenario(reference_scenario(), NoNoise(), rng=0)
-    prior = tuple(aeroid.nominal() * PRIOR_FACTOR)
-    return dataclasses.replace(fl, airframe=fl.airframe.replace(prior=prior))
 
 
 @pytest.fixture(scope="module")
@@ -41,23 +31,23 @@ def noisy_flight():
 
 
 @pytest.mark.parametrize("options", [{}, {"lateral_rows": True}, {"smoothing": "none"}])
-def test_two_step_recovers_noise_free_flight(clean_flight, options):
-    res = EquationErrorEstimator(**options).fit(clean_flight, rng=0)
+def test_two_step_recovers_noise_free_flight(prior_off_flight, options):
+    res = EquationErrorEstimator(**options).fit(prior_off_flight, rng=0)
     assert res.success, res.message
     np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=TWO_STEP_RTOL)
 
 
 @pytest.mark.parametrize("smoothing", ["both", "none"])
-def test_one_step_recovers_noise_free_flight(clean_flight, smoothing):
-    res = EquationErrorEstimator(one_step=True, smoothing=smoothing).fit(clean_flight, rng=0)
+def test_one_step_recovers_noise_free_flight(prior_off_flight, smoothing):
+    res = EquationErrorEstimator(one_step=True, smoothing=smoothing).fit(prior_off_flight, rng=0)
     assert res.success, res.message
     np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=ONE_STEP_RTOL)
 
 
-def test_smoothing_forces_only_biases_fin_coefficients(clean_flight):
+def test_smoothing_forces_only_biases_fin_coefficients(prior_off_flight):
     # notes, "Smoothing": smoothing one side of a regression on a square-wave delta
     # biases Czd and Cmd even without noise (prototype: +6-7 %)
-    res = EquationErrorEstimator(smoothing="forces").fit(clean_flight, rng=0)
+    res = EquationErrorEstimator(smoothing="forces").fit(prior_off_flight, rng=0)
     rel = np.abs(res.theta / aeroid.nominal() - 1.0)
     assert rel[aeroid.NAMES.index("Czd")] > 0.01
     assert rel[aeroid.NAMES.index("Cmd")] > 0.01

@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
 import aeroid
-from aeroid.scenario import reference_scenario
-from aeroid.sensors import NoNoise
-from aeroid.simulate import simulate_scenario
 from baselines import _common, _kalman, _model
 from baselines.ekf import ExtendedKalmanEstimator
 from baselines.ukf import UnscentedKalmanEstimator
@@ -28,15 +23,11 @@ LINEAR_KF_TOL = 1e-9
 #: 0.9998, and the filter's own sd of Clp is 2.5 % there). Tolerances: 10x the measured.
 FILTER_RTOL = 1e-3
 FILTER_RTOL_ROLL = 1e-2
-#: Prior used by the flight fits: each coefficient 20 % off, alternating sign.
-PRIOR_FACTOR = np.array([1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2, 0.8, 1.2])
-
 
 @pytest.fixture(scope="module")
-def flight():
-    fl = simulate_scenario(reference_scenario(), NoNoise(), rng=0)
-    prior = tuple(aeroid.nominal() * PRIOR_FACTOR)
-    return dataclasses.replace(fl, airframe=fl.airframe.replace(prior=prior))
+def flight(prior_off_flight):
+    """Noise-free, prior 20 % off (conftest)."""
+    return prior_off_flight
 
 
 @pytest.fixture(scope="module")
