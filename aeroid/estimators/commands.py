@@ -59,7 +59,7 @@ def read_column_map(path: Path) -> dict[str, str]:
 
 
 def estimate(args: argparse.Namespace) -> int:
-    """Run ``aeroid estimate``: read, validate, fit, print a table or JSON.
+    """Run ``aeroid estimate``: read, fit (which validates), print a table or JSON.
 
     Returns 0, or 1 when the method failed (``success=False``: the result, with its
     message, is still printed), so scripts can tell.
@@ -70,7 +70,6 @@ def estimate(args: argparse.Namespace) -> int:
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
     flight = read_flight(args.flight, airframe=airframe, columns=columns,
                          angles_in_degrees=bool(getattr(args, "degrees", False)))
-    flight.validate()
     result = estimator.fit(flight, rng=getattr(args, "seed", None))
     if getattr(args, "json", False):
         print(json.dumps(result.to_json_dict(), indent=2))
