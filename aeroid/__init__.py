@@ -7,41 +7,53 @@ The data flow, one module per arrow: :class:`Airframe` + coefficients +
 
 __version__ = "0.1.0"
 
-from aeroid.airframe import (
-    Airframe,
-    AirframeError,
-    load_airframe,
-    reference_airframe,
-    save_airframe,
-)
-from aeroid.coefficients import NAMES, NOMINAL, nominal
-from aeroid.dynamics import (
-    Constants,
-    aero_forces_moments,
-    air_data,
-    constants,
-    regressors,
-    state_derivative,
-)
-from aeroid.errors import StudyError
-from aeroid.estimators.base import (
+from aeroid.errors import AirframeError, EstimatorError, FlightError, StudyError
+from aeroid.estimation import (
     EstimationResult,
     Estimator,
-    EstimatorError,
+    PSOResult,
     available,
+    cramer_rao_sd,
     failed_result,
     get_estimator,
     make_estimator,
+    minimize,
     prior_bounds,
     register,
 )
-from aeroid.fisher import cramer_rao_sd
-from aeroid.flight import Flight, FlightError, make_flight, read_flight
-from aeroid.integrate import propagate, rk4
-from aeroid.pso import PSOResult, minimize
-from aeroid.scenario import Manoeuvre, Scenario, load_scenario, reference_scenario
-from aeroid.sensors import GaussianNoise, NoNoise, PaperNoise, accelerometers, make_noise
-from aeroid.simulate import simulate, simulate_scenario
+from aeroid.flights import (
+    Flight,
+    GaussianNoise,
+    Manoeuvre,
+    NoNoise,
+    PaperNoise,
+    Scenario,
+    load_scenario,
+    make_flight,
+    make_noise,
+    read_flight,
+    reference_scenario,
+    simulate,
+    simulate_scenario,
+)
+from aeroid.model import (
+    NAMES,
+    NOMINAL,
+    Airframe,
+    Constants,
+    accelerometers,
+    aero_forces_moments,
+    air_data,
+    constants,
+    load_airframe,
+    nominal,
+    propagate,
+    reference_airframe,
+    regressors,
+    rk4,
+    save_airframe,
+    state_derivative,
+)
 
 __all__ = [
     "Airframe",

@@ -1,24 +1,36 @@
-"""The error types that mean "bad input" (the CLI prints them in one line, exit 2)."""
+"""The user-facing error types (the ground floor: this module imports nothing of aeroid).
+
+Every error that means "bad input" derives from :class:`AeroidError`; the command line
+prints it as one line (what and where) and exits with status 2.
+"""
 
 from __future__ import annotations
 
-from aeroid.airframe import AirframeError
-from aeroid.flight import FlightError
+
+class AeroidError(ValueError):
+    """Bad input to aeroid: the message is one line saying what and where."""
 
 
-class UsageError(ValueError):
-    """Bad command-line input (exit status 2)."""
+class AirframeError(AeroidError):
+    """An airframe or scenario file or value is invalid."""
 
 
-class StudyError(ValueError):
+class FlightError(AeroidError):
+    """Flight data are missing, unreadable or invalid."""
+
+
+class EstimatorError(AeroidError):
+    """Unknown estimator, unknown or invalid option, or a registry conflict."""
+
+
+class StudyError(AeroidError):
     """A study file is malformed or names an unknown estimator or option."""
 
 
-def _user_errors() -> tuple[type[BaseException], ...]:
-    from aeroid.estimators.base import EstimatorError
-
-    return (AirframeError, FlightError, EstimatorError, StudyError, UsageError,
-            FileNotFoundError, IsADirectoryError, PermissionError)
+class UsageError(AeroidError):
+    """Bad command-line input."""
 
 
-USER_ERRORS: tuple[type[BaseException], ...] = _user_errors()
+#: What the command line reports in one line with exit status 2.
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    AeroidError, FileNotFoundError, IsADirectoryError, PermissionError)

@@ -10,9 +10,10 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 import aeroid
-from aeroid.estimators import EstimationResult, Estimator
-from aeroid.flight import Flight
-from baselines import _kalman, _model
+from aeroid.estimation._interface import EstimationResult, Estimator
+from aeroid.flights._flight import Flight
+from aeroid.model import _symbolic as _model
+from baselines import _kalman
 
 #: Variance of the width-7 quadratic Savitzky-Golay residual ``e - SG(e)`` for white noise
 #: of unit variance: ``1 - 2 w0 + sum w_i^2 = 1 - 2/3 + 1/3`` (weights of eq. 32).
@@ -83,7 +84,7 @@ def augmented_model(flight: Flight, substeps: int) -> _kalman.DiscreteModel:
 
     The transition from sample k to k+1 is the RK4 step (``substeps`` per interval) with
     the measured ``delta_k`` held; coefficients are constant. Jacobians come from CasADi
-    AD (:func:`baselines._model.augmented_functions`); the batched versions use
+    AD (:func:`aeroid.model.augmented_functions`); the batched versions use
     :func:`aeroid.propagate` and :func:`aeroid.accelerometers`.
     """
     const = aeroid.constants(flight.airframe)

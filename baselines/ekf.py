@@ -9,7 +9,7 @@ It runs on :class:`filterpy.kalman.ExtendedKalmanFilter`, whose ``predict`` is l
 airframe model (``predict_x`` overridden; ``F`` set to the exact Jacobian of that step
 before each ``predict``), see :mod:`baselines._kalman`. Both Jacobians are exact:
 CasADi algorithmic differentiation of the RK4 step and of the measurement function,
-written once in :mod:`baselines._model` from the same equations as :mod:`aeroid.dynamics`.
+written once in :mod:`aeroid.model` from the same equations as :mod:`aeroid.model`.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from aeroid.estimators import EstimationResult
-from aeroid.flight import Flight
+from aeroid.estimation._interface import EstimationResult
+from aeroid.flights._flight import Flight
 from baselines import _common, _kalman
 
 

@@ -1,7 +1,7 @@
 """Equation-error least-squares baseline: the closed-form answer of the EBM second step.
 
-Two-step (default): EBM step 1 (:func:`aeroid.reconstruct.reconstruct`) gives the
-forces and moments per sample, :func:`aeroid.reconstruct.ebm_regression` the regression
+Two-step (default): EBM step 1 (:func:`aeroid.estimation.reconstruct`) gives the
+forces and moments per sample, :func:`aeroid.estimation.ebm_regression` the regression
 ``FM = X theta``; every SEBM sub-problem is then linear least squares
 (:func:`scipy.linalg.lstsq`): F_AX on Cx; F_AZ on Cza, Czd, Czq; M_X on Cl0, Clp; M_Y on
 Cma, Cmd, Cmq. With ``lateral_rows`` the F_AY rows join the F_AZ problem and the M_Z rows
@@ -34,9 +34,9 @@ import numpy as np
 import scipy.linalg
 
 import aeroid
-from aeroid import reconstruct as rc
-from aeroid.estimators import EstimationResult, Estimator
-from aeroid.flight import Flight
+from aeroid.estimation import _reconstruct as rc
+from aeroid.estimation._interface import EstimationResult, Estimator
+from aeroid.flights._flight import Flight
 
 #: Regressor pairs with |correlation| above this are reported as collinear (Cl0/Clp on
 #: the reference flight: 0.9998).
@@ -166,7 +166,7 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
     Parameters
     ----------
     X : ndarray, shape (n, 6, 9)
-        Regressors (:func:`aeroid.reconstruct.ebm_regression`).
+        Regressors (:func:`aeroid.estimation.ebm_regression`).
     y : ndarray, shape (n, 6) [N, N m]
         Reconstructed forces and moments.
     sd : ndarray, shape (6,)
@@ -217,7 +217,7 @@ class EquationErrorEstimator(Estimator):
         Regress the accelerations and rate derivatives directly (default False: the
         two-step EBM regression).
     smoothing : {"both", "forces", "none"}
-        As in EBM (:func:`aeroid.reconstruct.ebm_regression`; default "both"). In the
+        As in EBM (:func:`aeroid.estimation.ebm_regression`; default "both"). In the
         one-step form "forces" smooths the targets only and "both" also the regressors.
     lateral_rows : bool
         Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's

@@ -2,8 +2,8 @@
 
 Model: the airframe equations (eqs. 2-10) integrated with RK4 from the initial state,
 ``delta`` held over each sample interval; outputs the six accelerations of eq. 28 at the
-estimator's sensor positions and ``p, q, r`` (:mod:`baselines._model`, the same
-equations as :mod:`aeroid.dynamics`). The whole record is one CasADi graph: the RK4 step
+estimator's sensor positions and ``p, q, r`` (:mod:`aeroid.model`, the same
+equations as :mod:`aeroid.model`). The whole record is one CasADi graph: the RK4 step
 is a CasADi Function, ``mapaccum`` runs it over the record with ``delta`` as an input
 sequence, and the output Jacobian with respect to the parameters comes from CasADi's
 algorithmic differentiation (forward sensitivities carried through the record). Built
@@ -37,10 +37,11 @@ import casadi as ca
 import numpy as np
 
 import aeroid
-from aeroid.dynamics import Constants
-from aeroid.estimators import EstimationResult, Estimator
-from aeroid.flight import Flight
-from baselines import _common, _model
+from aeroid.estimation._interface import EstimationResult, Estimator
+from aeroid.flights._flight import Flight
+from aeroid.model import _symbolic as _model
+from aeroid.model._dynamics import Constants
+from baselines import _common
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -94,7 +95,7 @@ def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
         Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
     is_compiled : bool
         With ``compiled``, the per-step SX functions are compiled to C
-        (:func:`baselines._model.compile_functions`); False when that failed.
+        (:func:`aeroid.model.compile_functions`); False when that failed.
     """
     n_x0 = len(x0_free)
     n_rx = len(rx_free)
@@ -322,7 +323,7 @@ class OutputErrorEstimator(Estimator):
         from ``rng`` (default 1); the start with the lowest likelihood cost wins.
     pso_warm_start : bool
         Replace the prior start by the best point of a short run of
-        :func:`aeroid.pso.minimize` on the concentrated likelihood
+        :func:`aeroid.estimation.minimize` on the concentrated likelihood
         ``sum_j log mean_k e_kj^2`` within :func:`aeroid.prior_bounds` (default False).
     pso_particles, pso_iterations : int
         Budget of that warm start (defaults 30 and 40).
@@ -503,7 +504,7 @@ class OutputErrorEstimator(Estimator):
     def warm_start(self, prob: _Problem, flight: Flight, rng: np.random.Generator
                    ) -> tuple[np.ndarray, int]:
         """Return the best coefficients of a short PSO run and its evaluation count."""
-        from aeroid.pso import minimize
+        from aeroid.estimation._pso import minimize
 
         const = aeroid.constants(flight.airframe)
         delta = flight["delta"]

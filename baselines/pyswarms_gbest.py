@@ -1,7 +1,7 @@
 """pyswarms' global-best PSO on the paper's EBM and EAM objectives (a library yardstick).
 
-The objectives are aeroid's (:func:`aeroid.objectives.ebm_cost` on EBM step 1,
-:class:`aeroid.objectives.OutputErrorCost` for EAM), with the same weighting, smoothing
+The objectives are aeroid's (:func:`aeroid.estimation.ebm_cost` on EBM step 1,
+:class:`aeroid.estimation.OutputErrorCost` for EAM), with the same weighting, smoothing
 and default budgets as the paper's estimators (450 particles, 200 iterations). The
 search runs in the unit cube over :func:`aeroid.prior_bounds` (as aeroid's PSO does), so
 one velocity clamp, the paper's ``V_max = 0.2`` of each range, fits every dimension.
@@ -30,9 +30,10 @@ from typing import ClassVar, Literal
 import numpy as np
 
 import aeroid
-from aeroid import objectives, reconstruct
-from aeroid.estimators import EstimationResult, Estimator
-from aeroid.flight import Flight
+from aeroid.estimation import _objectives as objectives
+from aeroid.estimation import _reconstruct as reconstruct
+from aeroid.estimation._interface import EstimationResult, Estimator
+from aeroid.flights._flight import Flight
 
 
 @contextlib.contextmanager

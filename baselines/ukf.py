@@ -16,8 +16,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from aeroid.estimators import EstimationResult
-from aeroid.flight import Flight
+from aeroid.estimation._interface import EstimationResult
+from aeroid.flights._flight import Flight
 from baselines import _common, _kalman
 
 

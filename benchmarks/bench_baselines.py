@@ -6,7 +6,7 @@ Run by hand from the repository root::
     python benchmarks/bench_baselines.py --quick    # fewer repeats, no pyswarms EAM, prints only
 
 Per fit (``Estimator.fit``, validation included) on one flight of the reference scenario
-with :class:`aeroid.sensors.PaperNoise` (seed 2026): the median and minimum wall time of
+with :class:`aeroid.flights.PaperNoise` (seed 2026): the median and minimum wall time of
 several repeats after one warm-up fit (numba JIT, CasADi graph construction, cached
 functions), the relative error of each coefficient and the estimator's standard errors.
 
@@ -48,10 +48,10 @@ import numpy as np  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
 import aeroid  # noqa: E402
-from aeroid import reconstruct as rc  # noqa: E402
-from aeroid.scenario import reference_scenario  # noqa: E402
-from aeroid.sensors import PaperNoise  # noqa: E402
-from aeroid.simulate import simulate_scenario  # noqa: E402
+from aeroid.estimation import _reconstruct as rc  # noqa: E402
+from aeroid.flights._noise import PaperNoise  # noqa: E402
+from aeroid.flights._scenario import reference_scenario  # noqa: E402
+from aeroid.flights._simulate import simulate_scenario  # noqa: E402
 from baselines.ekf import ExtendedKalmanEstimator  # noqa: E402
 from baselines.equation_error import EquationErrorEstimator, solve_subproblems  # noqa: E402
 from baselines.output_error import OutputErrorEstimator  # noqa: E402
@@ -241,7 +241,7 @@ def main(argv=None):
     lines += [
         "",
         f"Equation-error (two-step) parts, medians: `Flight.validate` {validate * 1e3:.2f} "
-        f"ms (done by every `fit`), EBM step 1 + regression (`aeroid.reconstruct`) "
+        f"ms (done by every `fit`), EBM step 1 + regression (`aeroid.estimation`) "
         f"{step1 * 1e3:.2f} ms, the baseline's own four least-squares solves "
         f"{step2 * 1e3:.2f} ms.",
         "",

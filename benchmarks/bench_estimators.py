@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aeroid.coefficients import NAMES
-from aeroid.estimators import make_estimator
-from aeroid.scenario import reference_scenario
-from aeroid.sensors import PaperNoise
-from aeroid.simulate import simulate_scenario
+from aeroid.estimation._interface import make_estimator
+from aeroid.flights._noise import PaperNoise
+from aeroid.flights._scenario import reference_scenario
+from aeroid.flights._simulate import simulate_scenario
+from aeroid.model._coefficients import NAMES
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_RESULTS = ROOT / "aeroid" / "data" / "paper-results.csv"

@@ -41,12 +41,12 @@ if str(ROOT) not in sys.path:
 
 import numba  # noqa: E402
 
-from aeroid import integrate  # noqa: E402
-from aeroid.dynamics import constants  # noqa: E402
-from aeroid.fisher import cramer_rao_sd  # noqa: E402
-from aeroid.scenario import reference_scenario  # noqa: E402
-from aeroid.sensors import NoNoise, PaperNoise  # noqa: E402
-from aeroid.simulate import simulate_scenario  # noqa: E402
+from aeroid.estimation._floor import cramer_rao_sd  # noqa: E402
+from aeroid.flights._noise import NoNoise, PaperNoise  # noqa: E402
+from aeroid.flights._scenario import reference_scenario  # noqa: E402
+from aeroid.flights._simulate import simulate_scenario  # noqa: E402
+from aeroid.model import _integrate as integrate  # noqa: E402
+from aeroid.model._dynamics import constants  # noqa: E402
 
 N_SETS = 450
 FIRST_COMMIT = "e4a5cfc"

@@ -1,4 +1,4 @@
-"""Benchmark the paper's modified PSO (aeroid.pso) against pyswarms' GlobalBestPSO.
+"""Benchmark the paper's modified PSO (aeroid.estimation) against pyswarms' GlobalBestPSO.
 
 Run by hand from the repository root::
 
@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from aeroid.pso import minimize  # noqa: E402
+from aeroid.estimation._pso import minimize  # noqa: E402
 
 N_PARTICLES = 40
 N_ITERATIONS = 250  # modified PSO with interpolation: 40 * 251 + 40 * 250 = 20040 evaluations
@@ -386,7 +386,7 @@ def main(argv: list[str] | None = None) -> int:
     import pyswarms
 
     lines = [
-        "# Modified PSO (aeroid.pso) vs pyswarms GlobalBestPSO",
+        "# Modified PSO (aeroid.estimation) vs pyswarms GlobalBestPSO",
         "",
         f"Command: `python benchmarks/bench_pso.py{' --quick' if args.quick else ''}"
         f"{'' if args.quick or args.seeds == 30 else f' --seeds {args.seeds}'}`  ",

@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aeroid.coefficients import nominal
-from aeroid.flight import Flight
-from aeroid.scenario import Scenario, load_scenario
-from aeroid.sensors import NoNoise, PaperNoise
-from aeroid.simulate import simulate_scenario
+from aeroid.flights._flight import Flight
+from aeroid.flights._noise import NoNoise, PaperNoise
+from aeroid.flights._scenario import Scenario, load_scenario
+from aeroid.flights._simulate import simulate_scenario
+from aeroid.model._coefficients import nominal
 
 DATA_DIR = Path(__file__).parent / "data"
 #: Seed of the ``paper_flight`` fixture.

@@ -14,9 +14,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aeroid.coefficients import NAMES
-from aeroid.estimators import EstimationResult, available, get_estimator, make_estimator
-from aeroid.flight import Flight, FlightError
+from aeroid.errors import FlightError
+from aeroid.estimation._interface import EstimationResult, available, get_estimator, make_estimator
+from aeroid.flights._flight import Flight
+from aeroid.model._coefficients import NAMES
 
 #: Cheap configurations (each fit well under 10 s on 2 busy cores).
 FAST_OPTIONS: dict[str, dict[str, object]] = {

@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aeroid.airframe import save_airframe
 from aeroid.cli import main
-from aeroid.coefficients import NAMES
-from aeroid.flight import Flight
+from aeroid.flights._flight import Flight
+from aeroid.model._airframe import save_airframe
+from aeroid.model._coefficients import NAMES
 
 PLUGIN_DIR = Path(__file__).resolve().parents[1] / "plugin"
 #: The CLI run in a fresh interpreter (``python -m aeroid.cli`` would warn: aeroid's
@@ -200,7 +200,7 @@ def test_plugin_with_a_builtin_name_is_an_error_naming_both(tmp_path) -> None:
     err = proc.stderr.strip()
     assert len(err.splitlines()) == 1, err
     assert "'sebm-pso' registered twice" in err
-    assert "aeroid.estimators.sebm.SEBMPSO" in err
+    assert "aeroid.estimation._sebm.SEBMPSO" in err
     assert "aeroid_test_plugin:PriorMeanEstimator" in err
 
 
@@ -209,8 +209,8 @@ def test_failed_fit_is_printed_and_exits_1(flight_csv, capsys, monkeypatch) -> N
     from dataclasses import dataclass
     from typing import ClassVar
 
-    from aeroid.estimators import commands
-    from aeroid.estimators.base import Estimator, failed_result
+    from aeroid.cli import _estimate as commands
+    from aeroid.estimation import Estimator, failed_result
 
     @dataclass(frozen=True, kw_only=True)
     class AlwaysFails(Estimator):

@@ -11,9 +11,9 @@ import pandas as pd
 import pytest
 
 from aeroid import __version__
-from aeroid.airframe import dumps_toml, reference_scenario_data
 from aeroid.cli import main
-from aeroid.flight import read_flight
+from aeroid.flights._flight import read_flight
+from aeroid.model._airframe import dumps_toml, reference_scenario_data
 
 
 def test_simulate_in_process_writes_the_paper_flight(tmp_path, capsys, paper_flight):

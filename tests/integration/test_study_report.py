@@ -9,9 +9,10 @@ import pytest
 
 from aeroid import EstimationResult, Estimator
 from aeroid.cli import main
-from aeroid.coefficients import NAMES
-from aeroid.study import design, loads_study, run_study, write_report
-from aeroid.study.report import paper_condition, paper_errors, paper_results
+from aeroid.model._coefficients import NAMES
+from aeroid.study import _design as design
+from aeroid.study import loads_study, run_study, write_report
+from aeroid.study._report import paper_condition, paper_errors, paper_results
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # A drawn 3x3 or 2x3 figure is tens of kB; an empty canvas is a few kB.
@@ -174,10 +175,10 @@ def test_study_floor_agrees_with_the_independent_prototype_floor():
     checked to be below the prototype's. The other eight agree to 10 % (the README
     rounds to two significant digits, and the linearisation point differs slightly).
     """
-    from aeroid.fisher import cramer_rao_sd
-    from aeroid.scenario import reference_scenario
-    from aeroid.sensors import PaperNoise
-    from aeroid.study.report import FLOOR_OPTIONS
+    from aeroid.estimation._floor import cramer_rao_sd
+    from aeroid.flights._noise import PaperNoise
+    from aeroid.flights._scenario import reference_scenario
+    from aeroid.study._report import FLOOR_OPTIONS
 
     prototype_pct = {"Cx": 0.02, "Cza": 0.11, "Czd": 0.34, "Czq": 6.0, "Cl0": 11.5,
                      "Clp": 14.4, "Cma": 0.07, "Cmd": 0.13, "Cmq": 0.86}

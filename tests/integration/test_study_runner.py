@@ -14,8 +14,8 @@ import pytest
 
 from aeroid import EstimationResult, Estimator, failed_result, simulate
 from aeroid.errors import StudyError
+from aeroid.study import _runner as study_runner
 from aeroid.study import loads_study, read_results, run_study
-from aeroid.study import runner as study_runner
 
 # Records compared between executors/resumes: everything but timing and worker id.
 VOLATILE = ("wall_time_s", "worker")

@@ -1,7 +1,7 @@
 """Coverage of the baselines' 95 % intervals over seeded noisy flights (slow).
 
 50 flights of the reference scenario with additive Gaussian sensor noise (the
-:class:`aeroid.sensors.GaussianNoise` defaults, sensor positions known exactly), one
+:class:`aeroid.flights.GaussianNoise` defaults, sensor positions known exactly), one
 fit per estimator and flight; a coefficient-run is covered when
 ``|theta - truth| <= 1.96 stderr``. Correct intervals cover 95 %; with 450
 coefficient-runs (correlated within a run) the accepted band is 88-99 %.
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import aeroid
-from aeroid.scenario import reference_scenario
-from aeroid.sensors import GaussianNoise
-from aeroid.simulate import simulate_scenario
+from aeroid.flights._noise import GaussianNoise
+from aeroid.flights._scenario import reference_scenario
+from aeroid.flights._simulate import simulate_scenario
 from baselines.equation_error import EquationErrorEstimator
 from baselines.output_error import OutputErrorEstimator
 

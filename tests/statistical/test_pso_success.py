@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from aeroid.pso import minimize
+from aeroid.estimation._pso import minimize
 
 N_SEEDS = 30
 # Required fraction of successful seeds; observed 30/30 on every problem below when

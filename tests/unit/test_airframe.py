@@ -10,16 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aeroid.airframe import (
+from aeroid.errors import AirframeError
+from aeroid.flights._scenario import load_scenario
+from aeroid.model._airframe import (
     Airframe,
-    AirframeError,
     dumps_toml,
     load_airframe,
     reference_airframe,
     save_airframe,
 )
-from aeroid.coefficients import nominal
-from aeroid.scenario import load_scenario
+from aeroid.model._coefficients import nominal
 
 # the project's shared folder sits beside the repository (developers' checkouts and CI)
 SHARED_REFERENCE = Path(__file__).resolve().parents[3] / "shared/reference/reference-scenario.toml"

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import aeroid
-from aeroid import reconstruct as rc
-from aeroid.scenario import reference_scenario
-from aeroid.sensors import GaussianNoise
-from aeroid.simulate import simulate_scenario
+from aeroid.estimation import _reconstruct as rc
+from aeroid.flights._noise import GaussianNoise
+from aeroid.flights._scenario import reference_scenario
+from aeroid.flights._simulate import simulate_scenario
 from baselines.equation_error import SUBPROBLEMS, EquationErrorEstimator, affine_accelerations
 
 #: Two-step on noise-free data: the step-1 rate-derivative rows use SG derivatives of

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import aeroid
-from baselines import _common, _kalman, _model
+from aeroid.model import _symbolic as _model
+from baselines import _common, _kalman
 from baselines.ekf import ExtendedKalmanEstimator
 from baselines.ukf import UnscentedKalmanEstimator
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import aeroid
-from aeroid.scenario import reference_scenario
-from aeroid.sensors import GaussianNoise, NoNoise
-from aeroid.simulate import simulate_scenario
+from aeroid.flights._noise import GaussianNoise, NoNoise
+from aeroid.flights._scenario import reference_scenario
+from aeroid.flights._simulate import simulate_scenario
 from baselines.output_error import OutputErrorEstimator
 
 #: Noise-free recovery required by the issue; the model (2 RK4 substeps) differs from the

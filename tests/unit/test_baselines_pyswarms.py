@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import aeroid
-from aeroid import objectives
-from aeroid import reconstruct as rc
-from aeroid.scenario import reference_scenario
-from aeroid.sensors import PaperNoise
-from aeroid.simulate import simulate_scenario
+from aeroid.estimation import _objectives as objectives
+from aeroid.estimation import _reconstruct as rc
+from aeroid.flights._noise import PaperNoise
+from aeroid.flights._scenario import reference_scenario
+from aeroid.flights._simulate import simulate_scenario
 from baselines.pyswarms_gbest import PyswarmsEstimator, seeded_global_state
 
 #: A cheap budget: the properties tested do not depend on convergence.

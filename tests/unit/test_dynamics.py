@@ -7,23 +7,24 @@ import math
 import numpy as np
 import pytest
 
-from aeroid.airframe import reference_airframe
-from aeroid.atmosphere import G0
-from aeroid.dynamics import (
+from aeroid.model._airframe import reference_airframe
+from aeroid.model._atmosphere import G0
+from aeroid.model._dynamics import (
     N_STATE,
     PHI,
     PSI,
     U,
     W,
+    accelerometers,
     aero_forces_moments,
     air_data,
     constants,
     derivative_from_forces,
+    lever_arm_acceleration,
     regressors,
     state_derivative,
 )
-from aeroid.integrate import HAVE_NUMBA, propagate
-from aeroid.sensors import accelerometers, lever_arm_acceleration
+from aeroid.model._integrate import HAVE_NUMBA, propagate
 
 #: Two evaluations of the same algebra in a different order: rounding only.
 IDENTITY_RTOL = 1e-12

@@ -5,9 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aeroid.coefficients import nominal
-from aeroid.dynamics import constants, regressors
-from aeroid.fisher import (
+from aeroid.estimation._floor import (
     PROTOTYPE_FLOOR,
     OutputErrorInputs,
     coefficient_information,
@@ -19,8 +17,10 @@ from aeroid.fisher import (
     output_error_information,
     output_sensitivities,
 )
-from aeroid.integrate import propagate
-from aeroid.sensors import GaussianNoise, NoNoise, PaperNoise, accelerometers
+from aeroid.flights._noise import GaussianNoise, NoNoise, PaperNoise
+from aeroid.model._coefficients import nominal
+from aeroid.model._dynamics import accelerometers, constants, regressors
+from aeroid.model._integrate import propagate
 
 #: Central differences (relative step 1e-5) of outputs that are linear in theta at k = 0:
 #: rounding only, ~eps |y| / step relative to each column's scale; measured below 1e-9.
@@ -67,7 +67,7 @@ def test_sensitivities_at_the_first_sample_equal_the_closed_form(reference_scena
 
 
 def _numpy_outputs(airframe, thetas, inputs):
-    """Model outputs on the numpy backend, computed here (not by aeroid.fisher)."""
+    """Model outputs on the numpy backend, computed here (not by aeroid.estimation)."""
     const = constants(airframe)
     states = propagate(inputs.state0, thetas, inputs.delta[:-1], inputs.dt, const, substeps=8,
                        backend="numpy")

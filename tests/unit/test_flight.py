@@ -10,10 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aeroid.flight import (
+from aeroid.errors import FlightError
+from aeroid.flights._flight import (
     ANGLE_CHANNELS,
     REQUIRED_CHANNELS,
-    FlightError,
     make_flight,
     read_flight,
     sidecar_path,

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from aeroid.dynamics import constants, state_derivative
-from aeroid.integrate import HAVE_NUMBA, PARALLEL_MIN_SETS, propagate, rk4
+from aeroid.model._dynamics import constants, state_derivative
+from aeroid.model._integrate import HAVE_NUMBA, PARALLEL_MIN_SETS, propagate, rk4
 
 #: RK4 on dx/dt = -x is multiplication by the degree-4 Taylor polynomial of exp(-h) each
 #: step; evaluating the same polynomial directly differs only by rounding over <= 100 steps.
@@ -135,7 +135,7 @@ def test_numba_and_numpy_backends_agree(clean_flight, reference_scenario):
 @needs_numba
 def test_sincos_shift_equals_libm():
     # the kernel's sin(a + d), cos(a + d) by the addition theorem, both branches
-    from aeroid.integrate import _sincos_shift
+    from aeroid.model._integrate import _sincos_shift
 
     rng = np.random.default_rng(3)
     steps = np.concatenate([np.geomspace(1e-10, 0.3, 40), [0.0999999, 0.1, 1.0, 3.0]])

@@ -1,4 +1,4 @@
-"""Costs of the paper's estimators (aeroid.objectives) against direct forms and scipy."""
+"""Costs of the paper's estimators (aeroid.estimation) against direct forms and scipy."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from aeroid.objectives import (
+from aeroid.estimation._objectives import (
     EBM_ROWS,
     GUARD_FRACTION,
     OutputErrorCost,
@@ -15,7 +15,7 @@ from aeroid.objectives import (
     ebm_cost,
     sebm_costs,
 )
-from aeroid.reconstruct import noise_sd, reconstruct
+from aeroid.estimation._reconstruct import noise_sd, reconstruct
 
 #: Quadratic form vs residual form: both exact; the difference is round-off of sums of
 #: ~1e3 terms with condition ~1e6.

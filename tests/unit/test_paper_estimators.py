@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from aeroid.estimators import EstimatorError, make_estimator, prior_bounds
-from aeroid.flight import Flight
-from aeroid.objectives import ebm_cost, sebm_costs
-from aeroid.reconstruct import reconstruct
+from aeroid.errors import EstimatorError
+from aeroid.estimation._interface import make_estimator, prior_bounds
+from aeroid.estimation._objectives import ebm_cost, sebm_costs
+from aeroid.estimation._reconstruct import reconstruct
+from aeroid.flights._flight import Flight
 
 #: Noise-free EBM-PSO / SEBM-PSO with the paper's relative weighting, |error| in % per
 #: coefficient (Cx ... Cmq). (On noise-free data the noise weighting's per-channel sd

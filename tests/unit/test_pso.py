@@ -5,7 +5,7 @@ import itertools
 import numpy as np
 import pytest
 
-from aeroid.pso import (
+from aeroid.estimation._pso import (
     PSOResult,
     interpolation_partners,
     local_best,

@@ -1,14 +1,11 @@
-"""EBM step 1 (aeroid.reconstruct): smoother, rank of eq. 29, reconstruction accuracy."""
+"""EBM step 1 (aeroid.estimation): smoother, rank of eq. 29, reconstruction accuracy."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from aeroid.airframe import reference_airframe
-from aeroid.dynamics import aero_forces_moments, constants
-from aeroid.flight import make_flight
-from aeroid.reconstruct import (
+from aeroid.estimation._reconstruct import (
     accel_only_matrix,
     ebm_regression,
     noise_sd,
@@ -16,7 +13,9 @@ from aeroid.reconstruct import (
     reconstruct,
     smooth,
 )
-from aeroid.sensors import accelerometers
+from aeroid.flights._flight import make_flight
+from aeroid.model._airframe import reference_airframe
+from aeroid.model._dynamics import accelerometers, aero_forces_moments, constants
 
 #: Float round-off of a 7-tap filter / a 6x6 product on O(1..1e3) numbers.
 ROUNDOFF_RTOL = 1e-10
@@ -64,7 +63,7 @@ def test_accel_only_matrix_has_rank_5_with_null_vector_along_r2_minus_r1() -> No
 
 
 def test_eq29_matches_the_sensor_model() -> None:
-    """a = A FM + B reproduces aeroid.sensors.accelerometers (independent code) at random states."""
+    """a = A FM + B reproduces aeroid.flights.accelerometers (independent code) at random states."""
     af = reference_airframe()
     const = constants(af)
     rng = np.random.default_rng(5)

@@ -9,18 +9,17 @@ import pytest
 from scipy import stats
 from scipy.integrate import solve_ivp
 
-from aeroid.dynamics import constants, state_derivative
-from aeroid.sensors import (
+from aeroid.flights._noise import (
     ACCEL_CHANNELS,
     RATE_CHANNELS,
     GaussianNoise,
     NoNoise,
     PaperNoise,
-    accelerometers,
     make_noise,
     noise_from_dict,
 )
-from aeroid.simulate import simulate_scenario
+from aeroid.flights._simulate import simulate_scenario
+from aeroid.model._dynamics import accelerometers, constants, state_derivative
 
 #: Half-width of the 5-point central-difference stencil [s]. Its truncation error
 #: (h^4/90 d^6x/dt^6, ~p^6 |R| h^4 / 90 for a point rotating at p = 50 rad/s) is 2e-7 m/s^2

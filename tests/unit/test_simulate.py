@@ -8,14 +8,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aeroid.actuator import RelayActuator
-from aeroid.coefficients import NAMES, as_dict
-from aeroid.dynamics import air_data
-from aeroid.flight import REQUIRED_CHANNELS
-from aeroid.integrate import HAVE_NUMBA
-from aeroid.scenario import Manoeuvre
-from aeroid.sensors import NoNoise
-from aeroid.simulate import simulate
+from aeroid.flights._flight import REQUIRED_CHANNELS
+from aeroid.flights._noise import NoNoise
+from aeroid.flights._scenario import Manoeuvre
+from aeroid.flights._simulate import simulate
+from aeroid.model._actuator import RelayActuator
+from aeroid.model._coefficients import NAMES, as_dict
+from aeroid.model._dynamics import air_data
+from aeroid.model._integrate import HAVE_NUMBA
 
 #: Noise-free flight versus tests/data/reference-flight-clean.csv (an independent
 #: implementation with the same conventions), relative to each channel's max |value|.

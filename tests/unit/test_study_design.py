@@ -10,9 +10,9 @@ import pytest
 from aeroid import EstimationResult, Estimator
 from aeroid.cli import main
 from aeroid.errors import StudyError
-from aeroid.sensors import GaussianNoise, NoNoise, PaperNoise
-from aeroid.study import design
-from aeroid.study.design import load_study, loads_study
+from aeroid.flights._noise import GaussianNoise, NoNoise, PaperNoise
+from aeroid.study import _design as design
+from aeroid.study._design import load_study, loads_study
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -93,7 +93,7 @@ def test_fingerprint_ignores_runs_but_not_seed_or_options():
 
 
 def test_scenario_path_is_relative_to_the_study_file(tmp_path):
-    from aeroid.airframe import reference_scenario_data
+    from aeroid.model._airframe import reference_scenario_data
 
     text = (design.quick_study_path().parent / "reference-scenario.toml").read_text()
     text = text.replace("Cx = -0.98", "Cx = -0.99")

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aeroid.coefficients import NAMES
-from aeroid.study import metrics
+from aeroid.model._coefficients import NAMES
+from aeroid.study import _metrics as metrics
 
 # Sums and means of a few O(1) decimals: float64 rounding only.
 EXACT_TOL = 1e-12

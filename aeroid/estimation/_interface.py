@@ -28,15 +28,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from aeroid.airframe import Airframe
-from aeroid.coefficients import NAMES
-from aeroid.flight import Flight, FlightError
+from aeroid.errors import EstimatorError, FlightError
+from aeroid.flights._flight import Flight
+from aeroid.model._airframe import Airframe
+from aeroid.model._coefficients import NAMES
 
 ENTRY_POINT_GROUP = "aeroid.estimators"
 
-
-class EstimatorError(ValueError):
-    """Unknown estimator, unknown or invalid option, or a registry conflict (one line)."""
 
 
 # --------------------------------------------------------------------------------------
@@ -51,7 +49,7 @@ class EstimationResult:
     estimator : str
         Registered name of the method.
     names : tuple of str
-        Coefficient names (:data:`aeroid.coefficients.NAMES`).
+        Coefficient names (:data:`aeroid.model.NAMES`).
     theta : ndarray, shape (9,)
         Estimates (NaN where the method failed).
     stderr, covariance : ndarray or None
@@ -360,7 +358,7 @@ def register(cls: type[Estimator]) -> type[Estimator]:
 
 def _load_builtins() -> None:
     # importing the modules runs their @register decorators
-    from aeroid.estimators import eam, ebm, sebm  # noqa: F401
+    from aeroid.estimation import _eam, _ebm, _sebm  # noqa: F401
 
 
 def available(*, refresh: bool = False) -> dict[str, type[Estimator]]:

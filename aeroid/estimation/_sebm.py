@@ -12,19 +12,19 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from aeroid import pso
-from aeroid.coefficients import NAMES
-from aeroid.estimators.base import EstimationResult, Estimator, prior_bounds, register
-from aeroid.estimators.eam import check_common_options
-from aeroid.estimators.ebm import check_step_one_options, reconstruction_info, step_one
-from aeroid.flight import Flight
-from aeroid.objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
-from aeroid.reconstruct import (
+from aeroid.estimation import _pso as pso
+from aeroid.estimation._eam import check_common_options
+from aeroid.estimation._ebm import check_step_one_options, reconstruction_info, step_one
+from aeroid.estimation._interface import EstimationResult, Estimator, prior_bounds, register
+from aeroid.estimation._objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
+from aeroid.estimation._reconstruct import (
     DERIVATIVE_WINDOW,
     RATE_WEIGHT,
     ROLL_DERIVATIVE_WINDOW,
     SMOOTHING_WINDOW,
 )
+from aeroid.flights._flight import Flight
+from aeroid.model._coefficients import NAMES
 
 __all__ = ["SEBMPSO"]
 

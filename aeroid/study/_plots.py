@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from aeroid.coefficients import NAMES  # noqa: E402
+from aeroid.model._coefficients import NAMES  # noqa: E402
 
 FM_NAMES = ("F_AX [N]", "F_AY [N]", "F_AZ [N]", "M_X [N m]", "M_Y [N m]", "M_Z [N m]")
 DPI = 110
@@ -156,7 +156,7 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
     Parameters
     ----------
     tidy : pandas.DataFrame
-        Rows of one noise condition from :func:`aeroid.study.metrics.tidy` (successful
+        Rows of one noise condition from :func:`aeroid.study.tidy` (successful
         fits are plotted).
     cr_pct : mapping of str to float, optional
         Coefficient -> Cramér-Rao sd in % of |truth|; drawn as the band +-1.96 of it.
@@ -211,7 +211,7 @@ def plot_runtime(tidy: pd.DataFrame, path: str | Path, title: str = "") -> Path:
     Parameters
     ----------
     tidy : pandas.DataFrame
-        From :func:`aeroid.study.metrics.tidy` (one value per fit is used).
+        From :func:`aeroid.study.tidy` (one value per fit is used).
     """
     fits = tidy.drop_duplicates(["run", "noise", "estimator"])
     labels = list(dict.fromkeys(fits["estimator"]))

@@ -1,10 +1,10 @@
 """EBM-PSO: the paper's two-step estimation-before-modelling method (section 3.2).
 
 Step 1 reconstructs the aerodynamic forces and moments of every sample
-(:func:`aeroid.reconstruct.reconstruct`); they are smoothed (eq. 32) and step 2 fits the
+(:func:`aeroid.estimation.reconstruct`); they are smoothed (eq. 32) and step 2 fits the
 nine coefficients with one 9-D modified-PSO problem on eq. 34 (or its noise-weighted
 form). The step-2 cost is quadratic in the coefficients and is evaluated exactly from
-its quadratic form (:class:`aeroid.objectives.QuadraticCost`); its closed-form optimum
+its quadratic form (:class:`aeroid.estimation.QuadraticCost`); its closed-form optimum
 is reported in ``info["closed_form_theta"]`` as the yardstick of the PSO.
 """
 
@@ -15,12 +15,11 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from aeroid import pso
-from aeroid.estimators.base import EstimationResult, Estimator, prior_bounds, register
-from aeroid.estimators.eam import check_common_options, pso_history
-from aeroid.flight import Flight
-from aeroid.objectives import EBM_ROWS, GUARD_FRACTION, ebm_cost
-from aeroid.reconstruct import (
+from aeroid.estimation import _pso as pso
+from aeroid.estimation._eam import check_common_options, pso_history
+from aeroid.estimation._interface import EstimationResult, Estimator, prior_bounds, register
+from aeroid.estimation._objectives import EBM_ROWS, GUARD_FRACTION, ebm_cost
+from aeroid.estimation._reconstruct import (
     DERIVATIVE_POLYORDER,
     DERIVATIVE_WINDOW,
     RATE_WEIGHT,
@@ -29,6 +28,7 @@ from aeroid.reconstruct import (
     Reconstruction,
     reconstruct,
 )
+from aeroid.flights._flight import Flight
 
 __all__ = ["EBMPSO", "check_step_one_options", "reconstruction_info", "step_one"]
 
@@ -77,7 +77,7 @@ class EBMPSO(Estimator):
     guard_fraction, box, topology, interpolation
         As for EAM-PSO.
     rate_weight, smoothing_window, derivative_window, roll_derivative_window
-        Step-1 options (:func:`aeroid.reconstruct.reconstruct`).
+        Step-1 options (:func:`aeroid.estimation.reconstruct`).
     """
 
     name: ClassVar[str] = "ebm-pso"

@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from aeroid import atmosphere
-from aeroid.coefficients import NAMES, as_vector, nominal
+from aeroid.errors import AirframeError
+from aeroid.model import _atmosphere as atmosphere
+from aeroid.model._coefficients import NAMES, as_vector, nominal
 
 _AIRFRAME_KEYS = {
     "diameter_m": "diameter_m",
@@ -36,9 +37,6 @@ _AIRFRAME_KEYS = {
     "accel2_position_m": "accel2_position_m",
 }
 
-
-class AirframeError(ValueError):
-    """An airframe file or value is invalid (the message says what and where)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -63,7 +61,7 @@ class Airframe:
         Flight altitude [m] for the ISA density (held constant: the model has no
         position equations).
     prior : tuple of 9 float or None
-        Pre-flight coefficient prediction in :data:`aeroid.coefficients.NAMES` order.
+        Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
     """
 
     diameter_m: float

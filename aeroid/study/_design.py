@@ -47,11 +47,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from aeroid.airframe import AirframeError, read_toml, reference_scenario_data
-from aeroid.errors import StudyError
-from aeroid.estimators.base import Estimator, EstimatorError
-from aeroid.scenario import Scenario, scenario_from_dict
-from aeroid.sensors import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.errors import AirframeError, EstimatorError, StudyError
+from aeroid.estimation._interface import Estimator
+from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.flights._scenario import Scenario, scenario_from_dict
+from aeroid.model._airframe import read_toml, reference_scenario_data
 
 STUDY_KEYS = ("name", "description", "runs", "seed", "scenario")
 NOISE_KEYS = ("label", "model")
@@ -209,7 +209,7 @@ def quick_study_path() -> Path:
 
 
 def _registry() -> Mapping[str, type[Estimator]]:
-    from aeroid.estimators.base import available
+    from aeroid.estimation._interface import available
 
     try:
         return available()

@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from aeroid.airframe import Airframe, AirframeError
-from aeroid.coefficients import NAMES
+from aeroid.errors import AirframeError, FlightError
+from aeroid.model._airframe import Airframe
+from aeroid.model._coefficients import NAMES
 
 STATE_CHANNELS: tuple[str, ...] = ("u", "v", "w", "p", "q", "r", "phi", "theta", "psi")
 REQUIRED_CHANNELS: tuple[str, ...] = (
@@ -42,9 +43,6 @@ MAX_ALPHA_DEG = 60.0
 #: Relative spread of the sample interval accepted as a uniform time base.
 TIME_UNIFORMITY_RTOL = 1e-6
 
-
-class FlightError(ValueError):
-    """Flight data are missing, unreadable or invalid (one line: what and where)."""
 
 
 def _jsonable(value: Any) -> Any:

@@ -12,7 +12,7 @@ the noise condition by the paper's model with ``accelerations_xi == rates_xi == 
 
 Decision: an EBM-PSO run with our default smoothing ("both") is shown beside Table 5
 (the paper's EBM-PSO at xi = 0.05); its configuration differs and the table says so.
-The Cramér-Rao floor comes from ``aeroid.fisher.cramer_rao_sd`` with
+The Cramér-Rao floor comes from ``aeroid.estimation.cramer_rao_sd`` with
 :data:`FLOOR_OPTIONS` and shows "n/a" where it cannot be computed.
 """
 
@@ -27,10 +27,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from aeroid.coefficients import NAMES
-from aeroid.study import metrics
-from aeroid.study.design import Study
-from aeroid.study.runner import RESULTS_FILE, load_history, read_results, slug
+from aeroid.model._coefficients import NAMES
+from aeroid.study import _metrics as metrics
+from aeroid.study._design import Study
+from aeroid.study._runner import RESULTS_FILE, load_history, read_results, slug
 
 PAPER_METHODS = {"eam-pso": "EAM-PSO", "ebm-pso": "EBM-PSO", "sebm-pso": "SEBM-PSO",
                  "ekf": "EKF"}
@@ -98,7 +98,7 @@ def paper_errors(table: int, condition: str, method: str) -> dict[str, float]:
 # --------------------------------------------------------------------------------------
 # Cramér-Rao floor
 # --------------------------------------------------------------------------------------
-#: How the study's floor is computed (:func:`aeroid.fisher.cramer_rao_sd` options).
+#: How the study's floor is computed (:func:`aeroid.estimation.cramer_rao_sd` options).
 #: Decision: the floor is the output-error information matrix as the output-error
 #: maximum-likelihood method itself uses it: one noise level per channel (the
 #: channel's noise RMS: what an estimator that learns a constant diagonal noise
@@ -111,7 +111,7 @@ def paper_errors(table: int, condition: str, method: str) -> dict[str, float]:
 #: within its rounding on all but Cx (which used triad 1 only).
 FLOOR_OPTIONS: dict[str, Any] = {"noise_form": "homoscedastic",
                                  "estimate_initial": ("p", "q", "r")}
-FLOOR_DESCRIPTION = ("aeroid.fisher.cramer_rao_sd, output-error information matrix: one noise "
+FLOOR_DESCRIPTION = ("aeroid.estimation.cramer_rao_sd, output-error information matrix: one noise "
                      "level per channel (its RMS), both triads and p, q, r, initial rates "
                      "estimated, true sensor positions")
 
@@ -119,10 +119,10 @@ FLOOR_DESCRIPTION = ("aeroid.fisher.cramer_rao_sd, output-error information matr
 def cramer_rao_floor(study: Study, noise_index: int) -> tuple[np.ndarray | None, str]:
     """Return the Cramér-Rao sd (9,) of the study's scenario under one noise condition.
 
-    Calls ``aeroid.fisher.cramer_rao_sd`` with :data:`FLOOR_OPTIONS`; returns
+    Calls ``aeroid.estimation.cramer_rao_sd`` with :data:`FLOOR_OPTIONS`; returns
     ``(None, reason)`` when a floor for this noise model is not available.
     """
-    from aeroid import fisher
+    from aeroid.estimation import _floor as fisher
 
     scenario, noise = study.scenario, study.noise[noise_index].model
     try:
@@ -254,8 +254,8 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
 # --------------------------------------------------------------------------------------
 def _true_forces(study: Study, t: np.ndarray) -> np.ndarray | None:
     """True aerodynamic forces and moments of the scenario at times ``t`` (n, 6)."""
-    from aeroid.dynamics import aero_forces_moments, constants
-    from aeroid.study.runner import _truth
+    from aeroid.model._dynamics import aero_forces_moments, constants
+    from aeroid.study._runner import _truth
 
     try:
         t_all, states, delta = _truth(study.scenario)
@@ -271,7 +271,7 @@ def _true_forces(study: Study, t: np.ndarray) -> np.ndarray | None:
 def make_figures(study: Study, tidy: pd.DataFrame, summary: pd.DataFrame, out_dir: Path
                  ) -> list[Path]:
     """Write every figure of the study into ``out_dir/figures``; return their paths."""
-    from aeroid.study import plots
+    from aeroid.study import _plots as plots
 
     fig_dir = out_dir / "figures"
     written: list[Path] = []

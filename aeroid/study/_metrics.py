@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from aeroid.coefficients import NAMES
+from aeroid.model._coefficients import NAMES
 
 COVERAGE_Z = 1.96
 """Two-sided 95 % normal quantile (rounded as in the brief: |e| <= 1.96 stderr)."""

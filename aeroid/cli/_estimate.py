@@ -12,9 +12,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from aeroid.airframe import load_airframe, read_toml
-from aeroid.estimators.base import EstimatorError, available, load_errors, make_estimator
-from aeroid.flight import FlightError, read_flight
+from aeroid.errors import EstimatorError, FlightError
+from aeroid.estimation._interface import available, load_errors, make_estimator
+from aeroid.flights._flight import read_flight
+from aeroid.model._airframe import load_airframe, read_toml
 
 __all__ = ["estimate", "methods", "parse_options", "read_column_map"]
 

@@ -38,9 +38,9 @@ import numpy as np
 import pandas as pd
 from scipy.signal import savgol_coeffs, savgol_filter
 
-from aeroid.airframe import Airframe
-from aeroid.dynamics import FM_NAMES, Constants, constants, regressors
-from aeroid.flight import Flight
+from aeroid.flights._flight import Flight
+from aeroid.model._airframe import Airframe
+from aeroid.model._dynamics import FM_NAMES, Constants, constants, regressors
 
 __all__ = [
     "Reconstruction",
@@ -357,7 +357,7 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
                    window: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Return the EBM step-2 regression ``y ~ X theta`` (eqs. 33-38).
 
-    ``X`` comes from :func:`aeroid.dynamics.regressors` on the measured states
+    ``X`` comes from :func:`aeroid.model.regressors` on the measured states
     (u, v, w give V_T, alpha, beta as in eqs. 14-16) and the measured ``delta``; ``y``
     is the reconstructed ``FM``.
 

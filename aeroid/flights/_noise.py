@@ -22,60 +22,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from aeroid.dynamics import Constants, P, Q, R, aero_forces_moments, derivative_from_forces
-
 ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
 RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
-
-
-def lever_arm_acceleration(
-    specific_force: np.ndarray, omega: np.ndarray, omega_dot: np.ndarray, position: np.ndarray
-) -> np.ndarray:
-    """Return ``f + wdot x R + w x (w x R)`` (eq. 28), shape (..., 3) [m/s^2].
-
-    Parameters
-    ----------
-    specific_force : ndarray, shape (..., 3)
-        ``(F_A + F_T) / m`` [m/s^2].
-    omega, omega_dot : ndarray, shape (..., 3)
-        Body rates [rad/s] and their derivatives [rad/s^2].
-    position : ndarray, shape (..., 3) or (3,)
-        Sensor position from the c.g. [m].
-    """
-    position = np.broadcast_to(np.asarray(position, dtype=float), omega.shape)
-    return (specific_force + np.cross(omega_dot, position)
-            + np.cross(omega, np.cross(omega, position)))
-
-
-def accelerometers(
-    state: np.ndarray,
-    delta: np.ndarray | float,
-    coefficients: np.ndarray,
-    const: Constants,
-    positions: np.ndarray,
-) -> np.ndarray:
-    """Return the readings of accelerometer triads, shape (..., n_triads, 3) [m/s^2].
-
-    Parameters
-    ----------
-    state : ndarray, shape (..., 9)
-    delta : ndarray or float [rad]
-    coefficients : ndarray, shape (..., 9)
-    const : Constants
-    positions : ndarray, shape (n_triads, 3)
-        Triad positions from the c.g. [m].
-    """
-    fm = aero_forces_moments(state, delta, coefficients, const)
-    xdot = derivative_from_forces(state, fm, const)
-    force = fm[..., :3].copy()
-    force[..., 0] += const.thrust
-    specific = force / const.mass
-    omega = state[..., [P, Q, R]]
-    omega_dot = xdot[..., [P, Q, R]]
-    positions = np.asarray(positions, dtype=float)
-    return np.stack(
-        [lever_arm_acceleration(specific, omega, omega_dot, pos) for pos in positions], axis=-2
-    )
 
 
 class NoiseModel(Protocol):

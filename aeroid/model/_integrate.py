@@ -3,7 +3,7 @@
 Two layers:
 
 * :func:`rk4` integrates any batched right-hand side ``fun(t, x, *args)`` with numpy.
-* :func:`propagate` integrates the airframe model (:mod:`aeroid.dynamics`) for many
+* :func:`propagate` integrates the airframe model (:mod:`aeroid.model`) for many
   coefficient sets at once with the fin deflection held constant over each sample
   interval (zero-order hold of the measured ``delta``). This is the hot loop of the
   output-error estimators (EAM-PSO: ~400 passes over 450 coefficient sets), so it has a
@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.dynamics import N_STATE, Constants, state_derivative
+from aeroid.model._dynamics import N_STATE, Constants, state_derivative
 
 try:  # numba is a runtime dependency, but the numpy path must work without it
     import numba
@@ -128,7 +128,7 @@ if HAVE_NUMBA:
     def _rhs_scalar(u, v, w, p, q, r, sphi, cphi, sth, cth, delta, cx, cza, czd, czq, cl0,
                     clp, cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust,
                     g):  # pragma: no cover - compiled
-        # Eqs. 2-10 on scalars, the algebra of aeroid.dynamics.state_derivative; psi does
+        # Eqs. 2-10 on scalars, the algebra of aeroid.model.state_derivative; psi does
         # not enter, phi and theta enter through their sines and cosines.
         speed2 = u * u + v * v + w * w
         inv_speed = 1.0 / math.sqrt(speed2)

@@ -15,10 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.airframe import Airframe, AirframeError, read_toml, reference_scenario_data
-from aeroid.coefficients import as_vector
-from aeroid.dynamics import STATE_NAMES
-from aeroid.sensors import NoiseModel, make_noise
+from aeroid.errors import AirframeError
+from aeroid.flights._noise import NoiseModel, make_noise
+from aeroid.model._airframe import Airframe, read_toml, reference_scenario_data
+from aeroid.model._coefficients import as_vector
+from aeroid.model._dynamics import STATE_NAMES
 
 _STATE_KEYS = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps",
                "phi_deg", "theta_deg", "psi_deg")
@@ -31,11 +32,11 @@ class Manoeuvre:
     Attributes
     ----------
     command_amplitude : float
-        ``A`` of the relay law (:mod:`aeroid.actuator`).
+        ``A`` of the relay law (:mod:`aeroid.model`).
     command_phase_deg : float
         ``phi0`` [deg].
     initial_state : tuple of 9 float
-        State at t = 0 [m/s, rad/s, rad] in :data:`aeroid.dynamics.STATE_NAMES` order.
+        State at t = 0 [m/s, rad/s, rad] in :data:`aeroid.model.STATE_NAMES` order.
     sample_rate_hz : float
         Recording (and relay) rate [Hz].
     window_s : tuple of 2 float
@@ -73,7 +74,7 @@ class Manoeuvre:
 
 @dataclass(frozen=True, kw_only=True)
 class Scenario:
-    """Everything :func:`aeroid.simulate.simulate` needs, with its default noise model."""
+    """Everything :func:`aeroid.flights.simulate` needs, with its default noise model."""
 
     airframe: Airframe
     coefficients: tuple[float, ...]

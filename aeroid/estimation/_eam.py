@@ -1,8 +1,8 @@
 """EAM-PSO: output-error estimation with the paper's modified PSO (section 3.1, eq. 23).
 
 Every particle's coefficients are simulated over the whole record (batched RK4 over the
-swarm, :func:`aeroid.integrate.propagate`) and the predicted triad-1 accelerations and
-rates are compared with the measured ones (:class:`aeroid.objectives.OutputErrorCost`).
+swarm, :func:`aeroid.model.propagate`) and the predicted triad-1 accelerations and
+rates are compared with the measured ones (:class:`aeroid.estimation.OutputErrorCost`).
 """
 
 from __future__ import annotations
@@ -12,10 +12,15 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from aeroid import pso
-from aeroid.estimators.base import EstimationResult, Estimator, prior_bounds, register
-from aeroid.flight import Flight
-from aeroid.objectives import EAM_ROLL_WINDOW, GUARD_FRACTION, WEIGHTINGS, OutputErrorCost
+from aeroid.estimation import _pso as pso
+from aeroid.estimation._interface import EstimationResult, Estimator, prior_bounds, register
+from aeroid.estimation._objectives import (
+    EAM_ROLL_WINDOW,
+    GUARD_FRACTION,
+    WEIGHTINGS,
+    OutputErrorCost,
+)
+from aeroid.flights._flight import Flight
 
 __all__ = ["EAMPSO", "check_common_options", "pso_history"]
 
@@ -52,7 +57,7 @@ class EAMPSO(Estimator):
     n_particles, n_iterations : int
         Swarm size and iterations (paper: 450 x 200; section 4.1 says 100, Table 5 200).
     weighting : {"noise", "relative"}
-        Cost weighting (:mod:`aeroid.objectives`): "noise" (default, maximum likelihood)
+        Cost weighting (:mod:`aeroid.estimation`): "noise" (default, maximum likelihood)
         or "relative" (eq. 23 with the guard).
     guard_fraction : float
         Guard of the relative weighting.
@@ -70,7 +75,7 @@ class EAMPSO(Estimator):
     initial_state : {"smoothed", "kinematic"}
         Initial rates of the simulation: SG-smoothed measured rates (default, notes
         "EAM"; p over ``roll_window`` samples) or p0 from the measured roll angle
-        (:class:`aeroid.objectives.OutputErrorCost`).
+        (:class:`aeroid.estimation.OutputErrorCost`).
     roll_window : int
         SG window for the initial roll rate [samples] (default 501).
     """

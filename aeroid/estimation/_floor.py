@@ -2,7 +2,7 @@
 
 Model (the output-error problem of EAM, section 3.1, with both triads): the state is
 integrated from the true state at the window start with the recorded fin deflection
-held over each sample interval (:func:`aeroid.integrate.propagate`); the outputs at
+held over each sample interval (:func:`aeroid.model.propagate`); the outputs at
 every sample ``t_k`` are the six accelerometer readings (eq. 28, both triads, with the
 recorded ``delta_k``) and the body rates p, q, r::
 
@@ -77,14 +77,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from aeroid.airframe import Airframe
-from aeroid.coefficients import N_COEFFICIENTS, as_vector
-from aeroid.dynamics import STATE_NAMES, Constants, P, R, constants
-from aeroid.flight import Flight
-from aeroid.integrate import propagate
-from aeroid.scenario import Scenario
-from aeroid.sensors import GaussianNoise, NoiseModel, NoNoise, PaperNoise, accelerometers
-from aeroid.simulate import simulate
+from aeroid.flights._flight import Flight
+from aeroid.flights._noise import GaussianNoise, NoiseModel, NoNoise, PaperNoise
+from aeroid.flights._scenario import Scenario
+from aeroid.flights._simulate import simulate
+from aeroid.model._airframe import Airframe
+from aeroid.model._coefficients import N_COEFFICIENTS, as_vector
+from aeroid.model._dynamics import STATE_NAMES, Constants, P, R, accelerometers, constants
+from aeroid.model._integrate import propagate
 
 #: Output channels of the output-error model, in the column order of every (n, 9) array.
 OUTPUT_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r")
@@ -215,7 +215,7 @@ def output_sensitivities(
 
     Axes: sample k, output channel c (:data:`OUTPUT_CHANNELS`), parameter: the nine
     coefficients, then the ``m`` initial-state components named in ``estimate_initial``
-    (:data:`aeroid.dynamics.STATE_NAMES`, e.g. ``("p", "q", "r")``). The step of
+    (:data:`aeroid.model.STATE_NAMES`, e.g. ``("p", "q", "r")``). The step of
     coefficient j is ``rel_step * |theta_j|`` (``rel_step`` when theta_j = 0), that of
     state component i ``rel_step * max(|x0_i|, 1)``; all perturbed trajectories are
     integrated in one batched call.
@@ -363,7 +363,7 @@ def output_error_information(
     channels : {"both", "triad1"}
         Outputs used: both triads and the rates, or triad 1 and the rates.
     estimate_initial : tuple of str
-        Initial-state components (:data:`aeroid.dynamics.STATE_NAMES`) estimated jointly
+        Initial-state components (:data:`aeroid.model.STATE_NAMES`) estimated jointly
         with the coefficients as nuisance parameters; default none (the initial state
         is known). Their effect is removed with :func:`coefficient_information`.
     rel_step, substeps
@@ -414,7 +414,7 @@ def cramer_rao_sd(
     Returns
     -------
     ndarray, shape (9,)
-        ``sqrt(diag(F^-1))`` in :data:`aeroid.coefficients.NAMES` order (same units as the
+        ``sqrt(diag(F^-1))`` in :data:`aeroid.model.NAMES` order (same units as the
         coefficients). Divide by ``|theta|`` for a relative floor.
     """
     if isinstance(scenario_or_flight, Scenario):

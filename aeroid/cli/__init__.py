@@ -79,9 +79,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run ``aeroid simulate``."""
-    from aeroid.airframe import read_toml
-    from aeroid.scenario import load_scenario, noise_for, reference_scenario_data
-    from aeroid.simulate import simulate
+    from aeroid.flights._scenario import load_scenario, noise_for, reference_scenario_data
+    from aeroid.flights._simulate import simulate
+    from aeroid.model._airframe import read_toml
 
     scenario = load_scenario(args.scenario)
     data = read_toml(args.scenario) if args.scenario else reference_scenario_data()
@@ -100,10 +100,10 @@ def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "simulate":
         return cmd_simulate(args)
     if args.command in ("estimate", "methods"):
-        from aeroid.estimators import commands
+        from aeroid.cli import _estimate as commands
 
         return commands.estimate(args) if args.command == "estimate" else commands.methods(args)
-    from aeroid.study import commands as study_commands
+    from aeroid.cli import _study as study_commands
 
     return study_commands.study(args)
 

@@ -13,14 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from aeroid.actuator import RelayActuator
-from aeroid.airframe import Airframe
-from aeroid.coefficients import as_dict, as_vector
-from aeroid.dynamics import constants
-from aeroid.flight import STATE_CHANNELS, Flight, make_flight
-from aeroid.integrate import propagate
-from aeroid.scenario import Manoeuvre, Scenario
-from aeroid.sensors import ACCEL_CHANNELS, NoiseModel, NoNoise, accelerometers
+from aeroid.flights._flight import STATE_CHANNELS, Flight, make_flight
+from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
+from aeroid.flights._scenario import Manoeuvre, Scenario
+from aeroid.model._actuator import RelayActuator
+from aeroid.model._airframe import Airframe
+from aeroid.model._coefficients import as_dict, as_vector
+from aeroid.model._dynamics import accelerometers, constants
+from aeroid.model._integrate import propagate
 
 
 def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
@@ -74,11 +74,11 @@ def simulate(
         True coefficients.
     manoeuvre : Manoeuvre
     noise : NoiseModel, optional
-        Sensor noise and position error; default :class:`~aeroid.sensors.NoNoise`.
+        Sensor noise and position error; default :class:`~aeroid.flights.NoNoise`.
     rng : numpy.random.Generator or int, optional
         Source of every random draw (normalised once with ``default_rng``).
     backend : {"auto", "numba", "numpy"}
-        Integration backend (:func:`aeroid.integrate.propagate`).
+        Integration backend (:func:`aeroid.model.propagate`).
 
     Returns
     -------

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import StudyError
-from aeroid.study.design import Study
+from aeroid.study._design import Study
 
 RESULTS_FILE = "results.jsonl"
 DESIGN_FILE = "study.json"
@@ -75,7 +75,7 @@ _TRUTH_CACHE: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 def _truth(scenario: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return (t, states, delta) of the scenario's noise-free truth, cached per process."""
-    from aeroid.simulate import simulate_truth
+    from aeroid.flights._simulate import simulate_truth
 
     key = hashlib.sha256(pickle.dumps((scenario.airframe, scenario.coefficients,
                                        scenario.manoeuvre))).hexdigest()
@@ -91,9 +91,9 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
 
     Equal to ``aeroid.simulate(airframe, coefficients, manoeuvre, noise,
     rng=default_rng(flight_seed(seed, run)))`` (a test checks it), but the truth is
-    integrated once per process (:func:`aeroid.simulate.record_flight` does the rest).
+    integrated once per process (:func:`aeroid.flights.record_flight` does the rest).
     """
-    from aeroid.simulate import record_flight
+    from aeroid.flights._simulate import record_flight
 
     scenario = study.scenario
     noise = study.noise[noise_index].model
@@ -392,7 +392,7 @@ def run_study(study: Study, out_dir: str | Path, *, jobs: int = 1,
     Parameters
     ----------
     study : Study
-        A validated design (:func:`aeroid.study.design.load_study`).
+        A validated design (:func:`aeroid.study.load_study`).
     out_dir : path-like
         Output folder; created if needed. Holds ``results.jsonl``, ``study.json`` and
         ``histories/``.

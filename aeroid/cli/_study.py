@@ -21,9 +21,9 @@ def study(args: argparse.Namespace) -> int:
     """Run ``aeroid study``; return the exit status (0 also when some fits failed)."""
     from pathlib import Path
 
-    from aeroid.study.design import load_study
-    from aeroid.study.report import write_report
-    from aeroid.study.runner import run_study
+    from aeroid.study._design import load_study
+    from aeroid.study._report import write_report
+    from aeroid.study._runner import run_study
 
     design = load_study(args.study)
     for item in design.skipped:

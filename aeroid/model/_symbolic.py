@@ -1,7 +1,7 @@
 """The airframe model written once in CasADi form, for exact Jacobians (private).
 
-The equations are those of :mod:`aeroid.dynamics` (eqs. 2-10, 14-16) and of
-:func:`aeroid.sensors.accelerometers` (eq. 28), written with operations that work on
+The equations are those of :mod:`aeroid.model` (eqs. 2-10, 14-16) and of
+:func:`aeroid.flights.accelerometers` (eq. 28), written with operations that work on
 CasADi ``SX``/``MX`` symbols (and on floats). Tests check that these functions equal
 aeroid's numpy model (:func:`aeroid.state_derivative`, :func:`aeroid.propagate`,
 :func:`aeroid.accelerometers`) to rounding, so the baselines fit exactly the model the
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from aeroid.dynamics import Constants
+from aeroid.model._dynamics import Constants
 
 #: Measurement layout of every baseline: both triads, then the body rates (section 4.3).
 MEASUREMENT_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r")
@@ -120,7 +120,7 @@ def measurement(x, delta, theta, positions, const: Constants):
 def rk4_step(x, delta, theta, const: Constants, dt: float, substeps: int):
     """Return the state after ``substeps`` RK4 steps of ``dt / substeps`` with ``delta`` held.
 
-    The same scheme as :func:`aeroid.integrate.propagate` (zero-order hold of ``delta``
+    The same scheme as :func:`aeroid.model.propagate` (zero-order hold of ``delta``
     over the sample interval).
     """
     h = dt / substeps

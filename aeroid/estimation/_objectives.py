@@ -8,7 +8,7 @@ Weighting (notes, "Objectives")
 ``"noise"`` (default)
     Maximum likelihood for Gaussian noise: each channel's residual is divided by the
     channel's noise sd, estimated from the data with
-    :func:`aeroid.reconstruct.noise_sd` (robust spread of the residual of the 7-point
+    :func:`aeroid.estimation.noise_sd` (robust spread of the residual of the 7-point
     SG smoother; for the EBM's reconstructed forces, of the *unsmoothed* series). One
     constant per channel.
 ``"relative"``
@@ -35,10 +35,10 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.signal import savgol_filter
 
-from aeroid.dynamics import PHI, THETA, P, Q, R, constants
-from aeroid.flight import Flight
-from aeroid.integrate import propagate
-from aeroid.reconstruct import Reconstruction, ebm_regression, noise_sd, smooth
+from aeroid.estimation._reconstruct import Reconstruction, ebm_regression, noise_sd, smooth
+from aeroid.flights._flight import Flight
+from aeroid.model._dynamics import PHI, THETA, P, Q, R, constants
+from aeroid.model._integrate import propagate
 
 try:
     import numba
@@ -196,12 +196,12 @@ def ebm_cost(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
     ----------
     flight : Flight
     rec : Reconstruction
-        EBM step 1 (:func:`aeroid.reconstruct.reconstruct`).
+        EBM step 1 (:func:`aeroid.estimation.reconstruct`).
     weighting : {"noise", "relative"}
         Noise sd of each channel from the unsmoothed reconstruction ``rec.fm``;
         the relative form divides by the (smoothed, per ``smoothing``) target.
     smoothing : {"both", "forces", "none"}
-        See :func:`aeroid.reconstruct.ebm_regression`.
+        See :func:`aeroid.estimation.ebm_regression`.
     rows : sequence of int
         Channels of (F_AX, F_AY, F_AZ, M_X, M_Y, M_Z) used; default the paper's four.
     guard_fraction : float
@@ -252,8 +252,7 @@ def _check_rows(rows: Sequence[int]) -> list[int]:
 def _outputs_numpy(states: np.ndarray, delta: np.ndarray, theta: np.ndarray, k: tuple,
                    pos: np.ndarray) -> np.ndarray:
     """Triad-1 accelerations (eq. 28) and rates, shape (P, n, 6), from states (P, n, 9)."""
-    from aeroid.dynamics import Constants
-    from aeroid.sensors import accelerometers
+    from aeroid.model._dynamics import Constants, accelerometers
 
     const = Constants(*k)
     acc = accelerometers(states, delta, theta[:, None, :], const, pos[None, :])[..., 0, :]
@@ -313,7 +312,7 @@ if HAVE_NUMBA:
 class OutputErrorCost:
     """EAM output-error cost (eq. 23, or its noise-weighted form), vectorised over a swarm.
 
-    Each coefficient set is simulated by :func:`aeroid.integrate.propagate` (batched
+    Each coefficient set is simulated by :func:`aeroid.model.propagate` (batched
     RK4, all sets at once) from the measured state at the first sample, with the
     measured p, q, r smoothed there (notes, "EAM"), and the measured ``delta`` held over
     each sample interval.

@@ -1,0 +1,40 @@
+"""Flight data and simulation: the Flight type, its files, noise models, scenarios, simulate."""
+
+from aeroid.flights._flight import (
+    ANGLE_CHANNELS,
+    OPTIONAL_CHANNELS,
+    REQUIRED_CHANNELS,
+    STATE_CHANNELS,
+    Flight,
+    make_flight,
+    read_flight,
+    sidecar_path,
+)
+from aeroid.flights._noise import (
+    ACCEL_CHANNELS,
+    RATE_CHANNELS,
+    GaussianNoise,
+    NoiseModel,
+    NoNoise,
+    PaperNoise,
+    make_noise,
+    noise_from_dict,
+)
+from aeroid.flights._scenario import (
+    Manoeuvre,
+    Scenario,
+    load_scenario,
+    noise_for,
+    reference_scenario,
+    scenario_from_dict,
+)
+from aeroid.flights._simulate import record_flight, simulate, simulate_scenario, simulate_truth
+
+__all__ = [
+    "ACCEL_CHANNELS", "ANGLE_CHANNELS", "OPTIONAL_CHANNELS", "RATE_CHANNELS",
+    "REQUIRED_CHANNELS", "STATE_CHANNELS", "Flight", "GaussianNoise", "Manoeuvre",
+    "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario", "make_flight",
+    "make_noise", "noise_for", "noise_from_dict", "read_flight", "record_flight",
+    "reference_scenario", "scenario_from_dict", "sidecar_path", "simulate",
+    "simulate_scenario", "simulate_truth",
+]

@@ -1,0 +1,62 @@
+"""The model, written once: coefficients, airframe, atmosphere, actuator, equations, RK4.
+
+This is the kernel-level tier of aeroid: what estimators, simulators and floors evaluate.
+The equations of motion (paper eqs. 2-16) and the lever-arm accelerometers (eq. 28) are
+defined once, by name; numpy, numba and CasADi evaluate the same definitions.
+"""
+
+from aeroid.model._actuator import RelayActuator
+from aeroid.model._airframe import (
+    Airframe,
+    dumps_toml,
+    load_airframe,
+    read_toml,
+    reference_airframe,
+    reference_scenario_data,
+    save_airframe,
+)
+from aeroid.model._atmosphere import G0
+from aeroid.model._coefficients import (
+    LABELS,
+    N_COEFFICIENTS,
+    NAMES,
+    NOMINAL,
+    as_dict,
+    as_vector,
+    lateral_from_pitch,
+    nominal,
+)
+from aeroid.model._dynamics import (
+    FM_NAMES,
+    N_STATE,
+    PHI,
+    PSI,
+    STATE_NAMES,
+    THETA,
+    Constants,
+    P,
+    Q,
+    R,
+    U,
+    V,
+    W,
+    accelerometers,
+    aero_forces_moments,
+    air_data,
+    constants,
+    derivative_from_forces,
+    lever_arm_acceleration,
+    regressors,
+    state_derivative,
+)
+from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
+
+__all__ = [
+    "FM_NAMES", "G0", "HAVE_NUMBA", "LABELS", "NAMES", "NOMINAL", "N_COEFFICIENTS", "N_STATE",
+    "PHI", "PSI", "STATE_NAMES", "THETA", "Airframe", "Constants", "P", "Q", "R",
+    "RelayActuator", "U", "V", "W", "accelerometers", "aero_forces_moments", "air_data",
+    "as_dict", "as_vector", "constants", "derivative_from_forces", "dumps_toml",
+    "lateral_from_pitch", "lever_arm_acceleration", "load_airframe", "nominal", "propagate",
+    "read_toml", "reference_airframe", "reference_scenario_data", "regressors", "rk4",
+    "rk4_step", "save_airframe", "state_derivative",
+]
