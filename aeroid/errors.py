@@ -31,6 +31,10 @@ class UsageError(AeroidError):
     """Bad command-line input."""
 
 
+class AeroidWarning(UserWarning):
+    """Input that is accepted but probably not what the user meant (one line: what, where)."""
+
+
 #: What the command line reports in one line with exit status 2.
 USER_ERRORS: tuple[type[BaseException], ...] = (
     AeroidError, FileNotFoundError, IsADirectoryError, PermissionError)
