@@ -60,7 +60,11 @@ def _add_study(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", help="Dask scheduler address")
     p.add_argument("--dask-local", type=int, metavar="N", help="start a local Dask cluster")
     p.add_argument("--out", type=Path, help="output folder (default: results/<study>)")
-    p.add_argument("--resume", action="store_true", help="complete only what is missing")
+    p.add_argument("--resume", action="store_true",
+                   help="complete the study in --out (same design and code): run only "
+                        "what is missing")
+    p.add_argument("--overwrite", action="store_true",
+                   help="move a previous study's results in --out into previous-N/ first")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -123,7 +127,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"aeroid: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("aeroid: interrupted", file=sys.stderr)
+        hint = ("; finished fits are saved: rerun with --resume to complete the study"
+                if args.command == "study" else "")
+        print(f"aeroid: interrupted{hint}", file=sys.stderr)
         return 130
 
 

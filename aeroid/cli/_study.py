@@ -1,30 +1,40 @@
 """``aeroid study [STUDY.toml] [--runs N] [--jobs N] [--scheduler ADDR | --dask-local N]
-[--out DIR] [--resume] [--no-progress]``.
+[--out DIR] [--resume | --overwrite] [--no-progress]``.
 
 Without a file it runs the quick default study (``aeroid/data/quick_study.toml``);
 estimators of the quick study that are not installed are skipped with a warning line
 (a user's study with an unknown estimator fails on load instead). The report goes to
 ``results/<study name>/`` unless ``--out`` says otherwise; the last line printed says
-where it is.
+where it is. A folder that already holds a study's results is refused unless
+``--resume`` (complete it) or ``--overwrite`` (move it aside into ``previous-N/``).
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import shlex
 import sys
+from pathlib import Path
 
 from aeroid.errors import StudyError
 
 
+def default_out(name: str) -> Path:
+    """Return ``results/<name>`` with the name reduced to letters, digits and ``_+=-``.
+
+    The folder is always a child of ``results/``, whatever the study's name.
+    """
+    return Path("results") / (re.sub(r"[^A-Za-z0-9_+=-]+", "_", name).strip("_") or "study")
+
+
 def study(args: argparse.Namespace) -> int:
     """Run ``aeroid study``; return the exit status (0 also when some fits failed)."""
-    from pathlib import Path
+    from aeroid.study import load_study, run_study, write_report
+    from aeroid.study._executors import check_scheduler
 
-    from aeroid.study._design import load_study
-    from aeroid.study._report import write_report
-    from aeroid.study._runner import run_study
-
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     design = load_study(args.study)
     for item in design.skipped:
         print(f"warning: quick study: estimator {item} is not installed; skipped",
@@ -33,7 +43,7 @@ def study(args: argparse.Namespace) -> int:
         if args.runs < 1:
             raise StudyError(f"--runs must be >= 1, got {args.runs}")
         design = design.with_runs(args.runs)
-    out = args.out if args.out is not None else Path("results") / design.name
+    out = args.out if args.out is not None else default_out(design.name)
     where = ("Dask scheduler " + args.scheduler if args.scheduler else
              f"local Dask cluster of {args.dask_local}" if args.dask_local else
              f"{args.jobs} process(es)")
@@ -42,6 +52,7 @@ def study(args: argparse.Namespace) -> int:
           file=sys.stderr)
     outcome = run_study(design, out, jobs=args.jobs, scheduler=args.scheduler,
                         dask_local=args.dask_local, resume=args.resume,
+                        overwrite=args.overwrite,
                         progress=False if args.no_progress else None)
     command = "aeroid " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
         if Path(sys.argv[0]).name == "aeroid" else ""
@@ -52,4 +63,4 @@ def study(args: argparse.Namespace) -> int:
     return 0
 
 
-__all__ = ["study"]
+__all__ = ["default_out", "study"]

@@ -1,15 +1,21 @@
 """Monte Carlo studies: design files, a seeded resumable parallel runner, metrics, reports.
 
-``load_study(path)`` validates a study file (:mod:`aeroid.study`), ``run_study``
-runs it (:mod:`aeroid.study`), :mod:`aeroid.study` reduces the fits and
-``write_report`` writes tables, figures and ``report.md`` (:mod:`aeroid.study`).
+``load_study(path)`` validates a study file, ``run_study`` runs it into a study folder
+(the store: ``study.json``, ``results.jsonl``, ``histories/``), ``read_results`` and
+``load_history`` read that folder back, and ``write_report`` writes tables, figures
+and ``report.md``.
 """
 
-from aeroid.study._design import EstimatorSpec, NoiseCondition, Study, load_study, loads_study
-from aeroid.study._runner import StudyOutcome, read_results, run_study
+from aeroid.study._design import load_study, loads_study
+from aeroid.study._histories import load_history
+from aeroid.study._provenance import code_identity
+from aeroid.study._runner import StudyOutcome, run_study
+from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study
+from aeroid.study._store import read_design, read_results
 
-__all__ = ["EstimatorSpec", "NoiseCondition", "Study", "StudyOutcome", "load_study",
-           "loads_study", "read_results", "run_study", "write_report"]
+__all__ = ["EstimatorSpec", "NoiseCondition", "Study", "StudyOutcome", "code_identity",
+           "load_history", "load_study", "loads_study", "read_design", "read_results",
+           "run_study", "write_report"]
 
 
 def __getattr__(name: str):  # the report pulls in matplotlib: import it on first use

@@ -21,186 +21,52 @@ A study file is TOML with three parts::
     options = { n_iterations = 100 }
 
 Everything is checked on load, before any run starts: malformed TOML, a missing or
-unknown key, an unknown noise model or option, an unknown estimator or option each
-raise :class:`aeroid.errors.StudyError` with one line naming the file, what is wrong
-and where. Every estimator is built on load with ``make_estimator(method, options)``.
+unknown key, an unknown noise model, option or option value (a noise model is tried
+on a few samples, so an option of the wrong type fails here, not mid-study), an
+unknown estimator or option each raise :class:`aeroid.errors.StudyError` with one line
+naming the file, what is wrong and where. Every estimator is built on load with
+``make_estimator(method, options)``. The study file and a scenario file must be
+regular files of at most :data:`MAX_FILE_BYTES` (``/dev/zero`` or a FIFO is refused
+before reading); sizes are bounded (:data:`aeroid.study._spec.MAX_RUNS`, ``MAX_FITS``).
 
-Decisions the notes leave open:
-
-- A noise model's options default to the scenario's ``[noise.<model>]`` table (the
-  reference scenario: the paper's xi = 0.05 / 0.05 / 0.1), overridden by the keys given
-  in the study file.
-- The study's *fingerprint* (scenario, seed, noise conditions, estimators and their
-  options, but not ``runs``, ``name`` or ``description``) guards ``--resume``: results
-  of another design are never mixed in.
+Decision the notes leave open: a noise model's options default to the scenario's
+``[noise.<model>]`` table (the reference scenario: the paper's xi = 0.05 / 0.05 / 0.1),
+overridden by the keys given in the study file.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import json
+import math
+import stat
 import tomllib
+import typing
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from aeroid.errors import AirframeError, EstimatorError, StudyError
-from aeroid.estimation._interface import Estimator
-from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
-from aeroid.flights._scenario import Scenario, scenario_from_dict
-from aeroid.model._airframe import read_toml, reference_scenario_data
+from aeroid.estimation import Estimator
+from aeroid.flights import (
+    ACCEL_CHANNELS,
+    RATE_CHANNELS,
+    NoiseModel,
+    Scenario,
+    make_noise,
+    scenario_from_dict,
+)
+from aeroid.model import read_toml, reference_scenario_data
+from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study
+
+#: Largest study or scenario file read [bytes] (the shipped ones are a few kB).
+MAX_FILE_BYTES = 1_000_000
 
 STUDY_KEYS = ("name", "description", "runs", "seed", "scenario")
 NOISE_KEYS = ("label", "model")
 ESTIMATOR_KEYS = ("label", "method", "options")
 TOP_LEVEL = ("study", "noise", "estimators")
-
-
-@dataclass(frozen=True, kw_only=True)
-class NoiseCondition:
-    """One sensor-noise condition of a study.
-
-    Attributes
-    ----------
-    label : str
-        Unique name used in tables and file names.
-    model : NoiseModel
-        The built noise model (:func:`aeroid.make_noise`).
-    """
-
-    label: str
-    model: NoiseModel
-
-    def describe(self) -> dict[str, Any]:
-        """Return the label and the model's full settings (JSON-ready)."""
-        return {"label": self.label, **self.model.to_dict()}
-
-
-@dataclass(frozen=True, kw_only=True)
-class EstimatorSpec:
-    """One estimator of a study: a label and a built (frozen, option-only) estimator.
-
-    Attributes
-    ----------
-    label : str
-        Unique name used in tables and file names (e.g. ``"EBM-PSO forces"``).
-    estimator : Estimator
-        The estimator instance; ``estimator.name`` is its method name.
-    """
-
-    label: str
-    estimator: Estimator
-
-    @property
-    def method(self) -> str:
-        """The registered method name (``estimator.name``)."""
-        return self.estimator.name or type(self.estimator).__name__
-
-    def describe(self) -> dict[str, Any]:
-        """Return label, method and the options in use (JSON-ready)."""
-        return {"label": self.label, "method": self.method,
-                "options": _jsonable(self.estimator.options())}
-
-
-@dataclass(frozen=True, kw_only=True)
-class Study:
-    """A validated study design.
-
-    Attributes
-    ----------
-    name : str
-    runs : int
-        Number of Monte Carlo runs (each run: one flight per noise condition).
-    seed : int
-        Root seed; run ``i`` draws from ``SeedSequence(seed, spawn_key=(i, ...))``.
-    scenario : Scenario
-        Airframe, true coefficients and manoeuvre of every simulated flight.
-    noise : tuple of NoiseCondition
-    estimators : tuple of EstimatorSpec
-    description : str
-    scenario_ref : str
-        ``"reference"`` or the scenario file path as resolved on load.
-    source : str
-        The study file (or ``"<memory>"``).
-    skipped : tuple of str
-        Estimators of the file left out because they are not installed (quick study only).
-    """
-
-    name: str
-    runs: int
-    seed: int
-    scenario: Scenario
-    noise: tuple[NoiseCondition, ...]
-    estimators: tuple[EstimatorSpec, ...]
-    description: str = ""
-    scenario_ref: str = "reference"
-    source: str = "<memory>"
-    skipped: tuple[str, ...] = field(default=())
-
-    def __post_init__(self) -> None:
-        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
-            raise StudyError(f"{self.source}: [study] runs must be an integer >= 1, "
-                             f"got {self.runs!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise StudyError(f"{self.source}: [study] seed must be an integer >= 0, "
-                             f"got {self.seed!r}")
-        if not self.noise:
-            raise StudyError(f"{self.source}: no noise condition")
-        if not self.estimators:
-            raise StudyError(f"{self.source}: no [[estimators]] entry")
-        for what, labels in (("noise", [n.label for n in self.noise]),
-                             ("estimators", [e.label for e in self.estimators])):
-            dup = sorted({x for x in labels if labels.count(x) > 1})
-            if dup:
-                raise StudyError(f"{self.source}: [[{what}]] label(s) given twice: "
-                                 f"{', '.join(dup)}")
-
-    def with_runs(self, runs: int) -> Study:
-        """Return a copy with another number of runs (``--runs``)."""
-        return dataclasses.replace(self, runs=runs)
-
-    @property
-    def n_fits(self) -> int:
-        """Fits in the whole study: runs x noise conditions x estimators."""
-        return self.runs * len(self.noise) * len(self.estimators)
-
-    def describe(self) -> dict[str, Any]:
-        """Return the design as a JSON-ready dict (written beside the results)."""
-        return {
-            "name": self.name, "description": self.description, "runs": self.runs,
-            "seed": self.seed, "scenario": self.scenario_ref, "source": self.source,
-            "true_coefficients": list(self.scenario.coefficients),
-            "noise": [n.describe() for n in self.noise],
-            "estimators": [e.describe() for e in self.estimators],
-            "skipped": list(self.skipped), "fingerprint": self.fingerprint(),
-        }
-
-    def fingerprint(self) -> str:
-        """Return a hash of what decides the results (not runs, name or description)."""
-        key = {
-            "seed": self.seed,
-            "scenario": {"coefficients": list(self.scenario.coefficients),
-                         "airframe": _jsonable(self.scenario.airframe.to_dict()),
-                         "manoeuvre": _jsonable(dataclasses.asdict(self.scenario.manoeuvre))},
-            "noise": [n.describe() for n in self.noise],
-            "estimators": [e.describe() for e in self.estimators],
-        }
-        text = json.dumps(key, sort_keys=True, default=str)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _jsonable(value: Any) -> Any:
-    """Return ``value`` with tuples as lists and unknown objects as text."""
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if value is None or isinstance(value, bool | int | float | str):
-        return value
-    return str(value)
 
 
 def quick_study_path() -> Path:
@@ -209,7 +75,7 @@ def quick_study_path() -> Path:
 
 
 def _registry() -> Mapping[str, type[Estimator]]:
-    from aeroid.estimation._interface import available
+    from aeroid.estimation import available
 
     try:
         return available()
@@ -240,10 +106,7 @@ def load_study(path: str | Path | None = None, *,
     """
     quick = path is None
     path = quick_study_path() if quick else Path(path)
-    try:
-        data = read_toml(path)
-    except AirframeError as exc:
-        raise StudyError(str(exc).replace("malformed TOML", "invalid TOML")) from None
+    data = read_study_toml(path)
     return study_from_dict(data, source=str(path), base_dir=path.parent, registry=registry,
                            skip_missing=quick if skip_missing is None else skip_missing)
 
@@ -258,6 +121,66 @@ def loads_study(text: str, *, base_dir: str | Path = ".", source: str = "<string
         raise StudyError(f"{source}: invalid TOML ({exc})") from None
     return study_from_dict(data, source=source, base_dir=Path(base_dir), registry=registry,
                            skip_missing=skip_missing)
+
+
+def read_study_toml(path: Path, what: str = "") -> dict[str, Any]:
+    """Read a TOML file after checking it is a regular file of at most MAX_FILE_BYTES.
+
+    Raises
+    ------
+    StudyError
+        One line: ``[what: ]path: reason``.
+    """
+    where = f"{what}: {path}" if what else str(path)
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise StudyError(f"{where}: no such file") from None
+    except OSError as exc:
+        raise StudyError(f"{where}: cannot read ({exc.strerror})") from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise StudyError(f"{where}: {kind} (a TOML file is expected)")
+    if info.st_size > MAX_FILE_BYTES:
+        raise StudyError(f"{where}: {info.st_size} bytes, over the limit of "
+                         f"{MAX_FILE_BYTES} for a TOML file")
+    try:
+        return read_toml(path)
+    except AirframeError as exc:
+        text = str(exc).replace("malformed TOML", "invalid TOML")
+        raise StudyError(f"{what}: {text}" if what else text) from None
+
+
+def _check_name(name: Any, source: str) -> str:
+    if (not isinstance(name, str) or not name.strip() or name.strip().strip(".") == ""
+            or any(c in name for c in "/\\") or not name.isprintable()):
+        raise StudyError(f"{source}: [study] name must be a non-empty printable string "
+                         f"without '/', '\\' and not only dots, got {name!r}")
+    return name.strip()
+
+
+def _check_noise(model: NoiseModel, options: Mapping[str, Any], where: str) -> None:
+    """Check option values by type and on a few samples (errors must not wait for a run)."""
+    hints = typing.get_type_hints(type(model))
+    for key, value in options.items():
+        if hints.get(key) is float and (
+                isinstance(value, bool) or not isinstance(value, int | float)
+                or not math.isfinite(value) or value < 0):
+            raise StudyError(f"{where}: option {key} must be a finite number >= 0, "
+                             f"got {value!r}")
+    rng = np.random.default_rng(0)
+    channels = {c: np.ones(4) for c in (*ACCEL_CHANNELS, *RATE_CHANNELS)}
+    try:
+        out = model.corrupt(channels, rng)
+        positions = model.perturb_positions(np.full((2, 3), 0.1), rng)
+        ok = (all(np.all(np.isfinite(np.asarray(out[c], dtype=float))) for c in channels)
+              and np.shape(positions) == (2, 3) and np.all(np.isfinite(positions)))
+    except Exception as exc:  # any failure of the model on good data is a bad option
+        raise StudyError(f"{where}: the noise model fails with these options "
+                         f"({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    if not ok:
+        raise StudyError(f"{where}: the noise model gives non-finite values with these "
+                         "options")
 
 
 def _check_keys(table: Any, allowed: tuple[str, ...], where: str, source: str,
@@ -288,7 +211,7 @@ def _load_scenario(ref: Any, base_dir: Path, source: str) -> tuple[Scenario, dic
             data = reference_scenario_data()
             return scenario_from_dict(data, source="reference"), data, ref
         path = Path(ref) if Path(ref).is_absolute() else base_dir / ref
-        data = read_toml(path)
+        data = read_study_toml(path, f"{source}: [study] scenario")
         return scenario_from_dict(data, source=str(path)), data, str(path)
     except AirframeError as exc:
         raise StudyError(f"{source}: [study] scenario: {exc}") from None
@@ -311,9 +234,7 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
         raise StudyError(f"{source}: no [study] table")
     head = data["study"]
     _check_keys(head, STUDY_KEYS, "[study]", source, required=("runs", "seed"))
-    name = head.get("name", Path(source).stem)
-    if not isinstance(name, str) or not name.strip() or "/" in name:
-        raise StudyError(f"{source}: [study] name must be a non-empty string without '/'")
+    name = _check_name(head.get("name", Path(source).stem), source)
     scenario, scenario_data, scenario_ref = _load_scenario(
         head.get("scenario", "reference"), base_dir, source)
 
@@ -330,15 +251,17 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
             raise StudyError(f"{source}: {where} is missing {', '.join(missing)}")
         label = _label(entry, where, source)
         model = entry["model"]
-        if model not in NOISE_MODELS:
-            raise StudyError(f"{source}: {where} ({label}): unknown noise model {model!r} "
-                             f"(expected one of {', '.join(NOISE_MODELS)})")
+        if not isinstance(model, str):
+            raise StudyError(f"{source}: {where} ({label}): model must be a string, "
+                             f"got {model!r}")
         options = {**scenario_data.get("noise", {}).get(model, {}),
                    **{key: v for key, v in entry.items() if key not in NOISE_KEYS}}
         try:
-            noise.append(NoiseCondition(label=label, model=make_noise(model, **options)))
-        except ValueError as exc:
+            built = make_noise(model, **options)
+        except (TypeError, ValueError) as exc:
             raise StudyError(f"{source}: {where} ({label}): {exc}") from None
+        _check_noise(built, options, f"{source}: {where} ({label})")
+        noise.append(NoiseCondition(label=label, model=built))
 
     est_entries = data.get("estimators")
     if not isinstance(est_entries, list) or not est_entries:
@@ -350,6 +273,9 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
         _check_keys(entry, ESTIMATOR_KEYS, where, source, required=("label", "method"))
         label = _label(entry, where, source)
         method, options = entry["method"], entry.get("options", {})
+        if not isinstance(method, str):
+            raise StudyError(f"{source}: {where} ({label}): method must be a string "
+                             f"(see aeroid methods), got {method!r}")
         if not isinstance(options, Mapping):
             raise StudyError(f"{source}: {where} ({label}): options must be a table")
         if method not in classes:

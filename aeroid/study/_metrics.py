@@ -5,7 +5,8 @@ coefficient; :func:`summarize` reduces it per noise condition, estimator and
 coefficient. Definitions (``e = estimate - truth``, over *successful* fits only):
 
 - ``bias`` = mean(e); ``bias_pct`` = bias / |truth| * 100
-- ``sd`` = sample standard deviation of the estimates (ddof = 1; NaN for one fit)
+- ``sd`` = sample standard deviation of the estimates (ddof = 1; NaN for one fit);
+  ``sd_pct`` = sd / |truth| * 100
 - ``mean_abs_error_pct`` = mean(|e| / |truth|) * 100 — the paper's error figure
 - ``rmse`` = sqrt(mean(e^2)); ``rmse_pct`` = rmse / |truth| * 100
 - ``coverage`` = fraction of fits with a finite standard error whose nominal 95 %
@@ -25,7 +26,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from aeroid.model._coefficients import NAMES
+from aeroid.model import NAMES
 
 COVERAGE_Z = 1.96
 """Two-sided 95 % normal quantile (rounded as in the brief: |e| <= 1.96 stderr)."""
@@ -91,6 +92,11 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
 
 
 def _reduce(group: pd.DataFrame) -> pd.Series:
+    with np.errstate(over="ignore", invalid="ignore"):  # an absurd estimate: inf, not noise
+        return _reduce_finite(group)
+
+
+def _reduce_finite(group: pd.DataFrame) -> pd.Series:
     good = group[group["success"]]
     err = good["error"].to_numpy(dtype=float)
     truth = float(group["truth"].iloc[0])
@@ -106,6 +112,7 @@ def _reduce(group: pd.DataFrame) -> pd.Series:
         "bias": err.mean() if n_good else np.nan,
         "bias_pct": err.mean() / abs(truth) * 100.0 if n_good else np.nan,
         "sd": good["estimate"].std(ddof=1) if n_good > 1 else np.nan,
+        "sd_pct": good["estimate"].std(ddof=1) / abs(truth) * 100.0 if n_good > 1 else np.nan,
         "mean_abs_error_pct": good["rel_error_pct"].mean() if n_good else np.nan,
         "rmse": float(np.sqrt(np.mean(err**2))) if n_good else np.nan,
         "rmse_pct": float(np.sqrt(np.mean(err**2))) / abs(truth) * 100.0 if n_good else np.nan,

@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from aeroid.model._coefficients import NAMES  # noqa: E402
+from aeroid.model import NAMES  # noqa: E402
 
 FM_NAMES = ("F_AX [N]", "F_AY [N]", "F_AZ [N]", "M_X [N m]", "M_Y [N m]", "M_Z [N m]")
 DPI = 110
@@ -42,11 +42,13 @@ def _save(fig: Any, path: str | Path) -> Path:
 
 
 def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: str | Path,
-                     title: str = "") -> Path:
+                     title: str = "", left_out: Mapping[str, str] | None = None) -> Path:
     """Plot the best cost against iteration, one panel per estimator (paper Fig. 4).
 
-    Each method minimises its own objective, so each panel has its own y axis (log
-    scale when every cost is positive).
+    Each method minimises its own objective, so each panel has its own y axis: log
+    scale when every cost is positive; otherwise linear, with a note that the cost is
+    known only up to a constant (output-error's negative log-likelihood without its
+    constant term is negative: its level means nothing, its decrease does).
 
     Parameters
     ----------
@@ -55,11 +57,13 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
         ``EstimationResult.history``).
     path : path-like
         PNG to write.
+    left_out : mapping of str to str, optional
+        Estimator label -> why it has no panel; listed under the figure.
     """
     n = max(len(histories), 1)
     cols = min(n, 3)
     rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False,
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows + 0.4), squeeze=False,
                              layout="constrained")
     for ax, (label, h) in zip(axes.flat, histories.items(), strict=False):
         cost = np.asarray(h["cost"], dtype=float).reshape(-1)
@@ -70,14 +74,54 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
             ax.set_yscale("log")
             ax.yaxis.set_major_formatter(_PLAIN)
             ax.yaxis.set_minor_formatter(_PLAIN)
-        ax.set_title(label, fontsize=10)
+            ax.set_title(label, fontsize=10)
+        else:
+            ax.set_title(f"{label}\ncost <= 0: known up to a constant (e.g. a negative\n"
+                         "log-likelihood); only its decrease matters", fontsize=8)
         ax.set_xlabel("iteration")
         ax.grid(True, which="both", alpha=0.3)
     for ax in list(axes.flat)[len(histories):]:
         ax.set_visible(False)
     axes[0, 0].set_ylabel("best cost (own objective)")
+    if left_out:
+        text = "; ".join(f"{k}: {v}" for k, v in left_out.items())
+        fig.supxlabel("Not shown — " + text, fontsize=8, wrap=True)
     fig.suptitle(title or "Convergence of the cost (run 0)")
     return _save(fig, path)
+
+
+#: A path whose full range exceeds this many times the range of its second half and
+#: the truth is shown on the narrower window, with the points outside marked.
+ZOOM_RATIO = 10.0
+
+
+def _keep_in_view(ax: Any, step: np.ndarray, values: np.ndarray, truth: float) -> bool:
+    """Set y limits that hold the truth and the path; mark points left outside.
+
+    The whole path is shown unless its early part spans more than :data:`ZOOM_RATIO`
+    times the window of the truth and the path's second half; then that window is
+    shown and each point outside it is drawn on the edge as a triangle (returns True).
+    """
+    ok = np.isfinite(values)
+    if not ok.any():
+        return False
+    finite = values[ok]
+    tail = finite[len(finite) // 2:]
+
+    def window(v: np.ndarray) -> tuple[float, float]:
+        lo, hi = min(v.min(), truth), max(v.max(), truth)
+        pad = 0.1 * (hi - lo) + 0.02 * abs(truth) + 1e-12
+        return lo - pad, hi + pad
+
+    full, near = window(finite), window(tail)
+    lo, hi = full if (full[1] - full[0]) <= ZOOM_RATIO * (near[1] - near[0]) else near
+    ax.set_ylim(lo, hi)
+    above, below = ok & (values > hi), ok & (values < lo)
+    if above.any() or below.any():
+        ax.plot(step[above], np.full(above.sum(), hi), "^", color="C3", ms=5, clip_on=False)
+        ax.plot(step[below], np.full(below.sum(), lo), "v", color="C3", ms=5, clip_on=False)
+        return True
+    return False
 
 
 def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
@@ -98,6 +142,7 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
     sd = history.get("theta_sd")
     axis = str(history.get("axis", "iteration"))
     fig, axes = plt.subplots(3, 3, figsize=(10, 7.5), sharex=True, layout="constrained")
+    clipped = False
     for j, ax in enumerate(axes.flat):
         ax.plot(step, theta[:, j], lw=1.4, color="C0", label="estimate")
         if sd is not None:
@@ -105,17 +150,16 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
             ax.fill_between(step, theta[:, j] - 1.96 * s, theta[:, j] + 1.96 * s,
                             color="C0", alpha=0.2, lw=0, label="±1.96 sd")
         ax.axhline(truth[j], color="k", ls="--", lw=1, label="truth")
-        finite = theta[np.isfinite(theta[:, j]), j]
-        if finite.size:  # keep the truth and the last half of the path in view
-            tail = finite[len(finite) // 2:]
-            lo, hi = min(tail.min(), truth[j]), max(tail.max(), truth[j])
-            pad = 0.15 * (hi - lo) + 0.02 * abs(truth[j]) + 1e-12
-            ax.set_ylim(lo - pad, hi + pad)
+        clipped |= _keep_in_view(ax, step, theta[:, j], truth[j])
         ax.set_title(names[j], fontsize=10)
         ax.grid(True, alpha=0.3)
         if j >= 6:
             ax.set_xlabel("time [s]" if axis == "time" else "iteration")
     axes.flat[0].legend(fontsize=7)
+    if clipped:
+        fig.supxlabel("▲ ▼ mark estimates beyond the axis (early iterations far from the "
+                      "truth); the axis keeps the truth and the converged part in view",
+                      fontsize=8)
     fig.suptitle(title or "Coefficient estimates (run 0)")
     return _save(fig, path)
 
@@ -148,6 +192,43 @@ def plot_forces(t: np.ndarray, fm_raw: np.ndarray, fm_smooth: np.ndarray | None,
     return _save(fig, path)
 
 
+#: Relative errors beyond this [%] are drawn on the edge of the axis (triangles), so
+#: that one absurd estimate (1e300) does not stretch the axis over 300 decades.
+CLIP_PCT = 1e6
+#: Panels whose errors and Cramér-Rao band stay within this [%] get a linear axis.
+LINEAR_UP_TO_PCT = 10.0
+
+
+def _tick_label(v: float) -> str:
+    if v == 0:
+        return "0"
+    return f"{v:g}" if abs(v) < 1e4 else f"{'-' if v < 0 else ''}1e{round(np.log10(abs(v)))}"
+
+
+def _error_axis(ax: Any, lo: float, hi: float) -> None:
+    """Linear axis for small errors; otherwise symmetric-log with ticks 0, +-1, +-10, ..."""
+    if max(abs(lo), abs(hi)) <= LINEAR_UP_TO_PCT:
+        ax.set_ylim(lo, hi)
+        ax.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(6))
+        ax.yaxis.set_major_formatter(_PLAIN)
+        return
+    ax.set_yscale("symlog", linthresh=1.0)
+
+    def decade(v: float) -> float:  # round away from zero to a power of ten (or +-1)
+        return float(np.sign(v) * 10.0 ** np.ceil(np.log10(abs(v)))) if abs(v) > 1 else v
+
+    lo, hi = decade(min(lo, -0.5)), decade(max(hi, 0.5))
+    ax.set_ylim(lo * 1.3 if lo < -1 else lo - 0.3, hi * 1.3 if hi > 1 else hi + 0.3)
+    top = int(np.ceil(np.log10(max(abs(lo), abs(hi), 1.0))))
+    ticks = [0.0] + [s * 10.0**k for k in range(top + 1) for s in (-1, 1)]
+    ticks = sorted(t for t in ticks if lo <= t <= hi)
+    if len(ticks) > 9:  # every other decade
+        ticks = [t for t in ticks if t == 0 or round(np.log10(abs(t))) % 2 == top % 2]
+    ax.yaxis.set_major_locator(matplotlib.ticker.FixedLocator(ticks))
+    ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: _tick_label(v)))
+    ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+
+
 def plot_errors(tidy: pd.DataFrame, path: str | Path,
                 cr_pct: Mapping[str, float] | None = None, title: str = "",
                 names: Sequence[str] = NAMES) -> Path:
@@ -157,25 +238,38 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
     ----------
     tidy : pandas.DataFrame
         Rows of one noise condition from :func:`aeroid.study.tidy` (successful
-        fits are plotted).
+        fits are plotted; the x labels count the failed ones left out).
     cr_pct : mapping of str to float, optional
         Coefficient -> Cramér-Rao sd in % of |truth|; drawn as the band +-1.96 of it.
 
     Notes
     -----
-    The y axis is symmetric-log (linear within +-1 %), since errors of different
-    methods span several decades on the same coefficient.
+    Panels whose errors stay within +-:data:`LINEAR_UP_TO_PCT` % are linear; the others
+    are symmetric-log (linear within +-1 %) with ticks at 0, +-1, +-10, ... %, since
+    errors of different methods span several decades on the same coefficient. Errors
+    beyond +-:data:`CLIP_PCT` % are drawn on the edge as triangles.
     """
     good = tidy[tidy["success"] & np.isfinite(tidy["error"])]
     labels = list(dict.fromkeys(tidy["estimator"]))
+    fits = tidy.drop_duplicates(["run", "estimator"])
+    failed = {lab: int((~fits.loc[fits["estimator"] == lab, "success"]).sum())
+              for lab in labels}
+    ticks = [lab + (f"\n({failed[lab]} failed)" if failed[lab] else "") for lab in labels]
     fig, axes = plt.subplots(3, 3, figsize=(12, 9), layout="constrained")
     rng = np.random.default_rng(0)  # horizontal jitter of the strip only
+    n_clipped = 0
     for j, ax in enumerate(axes.flat):
         name = names[j]
         rows = good[good["coefficient"] == name]
-        data = [100.0 * (rows.loc[rows["estimator"] == lab, "error"]
-                         / rows.loc[rows["estimator"] == lab, "truth"].abs()).to_numpy()
-                for lab in labels]
+        data = []
+        for lab in labels:
+            sel = rows[rows["estimator"] == lab]
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                pct = 100.0 * (sel["error"] / sel["truth"].abs()).to_numpy(dtype=float)
+            pct = pct[~np.isnan(pct)]
+            n_clipped += int(np.sum(np.abs(pct) > CLIP_PCT))
+            data.append(np.clip(pct, -CLIP_PCT, CLIP_PCT))
+        band = np.nan
         if cr_pct is not None and np.isfinite(cr_pct.get(name, np.nan)):
             band = 1.96 * cr_pct[name]
             ax.axhspan(-band, band, color="C2", alpha=0.25, lw=0,
@@ -187,12 +281,17 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
                        widths=0.6, showfliers=False, medianprops={"color": "C3"})
             for k in nonempty:
                 x = positions[k] + rng.uniform(-0.15, 0.15, len(data[k]))
-                ax.plot(x, data[k], ".", ms=3, alpha=0.5, color="C0")
+                edge = np.abs(data[k]) >= CLIP_PCT
+                ax.plot(x[~edge], data[k][~edge], ".", ms=3, alpha=0.5, color="C0")
+                up = edge & (data[k] > 0)
+                ax.plot(x[up], data[k][up], "^", ms=5, color="C3")
+                ax.plot(x[edge & ~up], data[k][edge & ~up], "v", ms=5, color="C3")
+        values = np.concatenate([*data, [0.0]] + ([[-band, band]] if np.isfinite(band) else []))
+        lo, hi = float(values.min()), float(values.max())
+        pad = 0.08 * (hi - lo) + 1e-9
+        _error_axis(ax, lo - pad, hi + pad)
         ax.axhline(0, color="k", lw=0.8)
-        ax.set_yscale("symlog", linthresh=1.0)
-        ax.yaxis.set_major_formatter(_PLAIN)
-        ax.margins(y=0.08)
-        ax.set_xticks(positions, labels, rotation=35, ha="right", fontsize=7)
+        ax.set_xticks(positions, ticks, rotation=35, ha="right", fontsize=7)
         ax.set_xlim(0.4, len(labels) + 0.6)
         ax.set_title(name, fontsize=10)
         ax.grid(True, axis="y", alpha=0.3)
@@ -201,6 +300,9 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
     handles, texts = axes.flat[0].get_legend_handles_labels()
     if handles:
         axes.flat[0].legend(handles, texts, fontsize=7, loc="upper left")
+    if n_clipped:
+        fig.supxlabel(f"▲ ▼ {n_clipped} error(s) beyond ±{_tick_label(CLIP_PCT)} % drawn on "
+                      "the edge", fontsize=8)
     fig.suptitle(title or "Relative error per coefficient (successful fits)")
     return _save(fig, path)
 

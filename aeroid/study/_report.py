@@ -1,99 +1,38 @@
 """Write a study's report: tidy CSV, summary CSV, figures and ``report.md``.
 
-``report.md`` puts our figures beside the paper's published ones
-(``aeroid/data/paper-results.csv``), always labelled as the paper's. Our labels are
-matched to the paper's methods by method name (eam-pso, ebm-pso, sebm-pso, ekf) and
-the noise condition by the paper's model with ``accelerations_xi == rates_xi == xi``:
-
-- ebm-pso with ``smoothing = "forces"`` (the paper's SG filter on the reconstructed
-  forces) -> Table 6 ("with SG filter") at its xi;
-- ebm-pso with ``smoothing = "none"`` -> Table 7 ("no filter") at its xi;
-- otherwise, at xi = 0.05, any of the four methods -> Table 5 (100 runs).
-
-Decision: an EBM-PSO run with our default smoothing ("both") is shown beside Table 5
-(the paper's EBM-PSO at xi = 0.05); its configuration differs and the table says so.
-The Cramér-Rao floor comes from ``aeroid.estimation.cramer_rao_sd`` with
-:data:`FLOOR_OPTIONS` and shows "n/a" where it cannot be computed.
+``report.md`` has the design (with the code that computed the numbers, from
+``study.json``), an overall table, and per noise condition a Table-5-style table of
+mean |error| % per coefficient beside the paper's published figures
+(:mod:`aeroid.study._paper`, always labelled as the paper's) and a table of bias,
+spread, Cramér-Rao ratio and coverage. Every header names its unit; counts are
+integers. Studies of fewer than :data:`COMPACT_RUNS` runs get a compact report: the
+spread and coverage of a handful of fits say little, so that table is left out (it is
+in ``summary.csv``) and the report says so. The Cramér-Rao floor comes from
+``aeroid.estimation.cramer_rao_sd`` with :data:`FLOOR_OPTIONS` and shows "n/a" where it
+cannot be computed.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from aeroid.model._coefficients import NAMES
+from aeroid.model import NAMES
 from aeroid.study import _metrics as metrics
-from aeroid.study._design import Study
-from aeroid.study._runner import RESULTS_FILE, load_history, read_results, slug
+from aeroid.study._fits import HISTORY_RUN
+from aeroid.study._histories import read_history
+from aeroid.study._paper import PAPER_METHODS, paper_condition, paper_errors, paper_results
+from aeroid.study._spec import Study
+from aeroid.study._store import DESIGN_FILE, RESULTS_FILE, read_design, read_results
 
-PAPER_METHODS = {"eam-pso": "EAM-PSO", "ebm-pso": "EBM-PSO", "sebm-pso": "SEBM-PSO",
-                 "ekf": "EKF"}
-XI_MATCH_TOL = 1e-9
-"""xi values in study files are decimal literals like 0.05: equal up to rounding."""
-
-
-# --------------------------------------------------------------------------------------
-# The paper's figures
-# --------------------------------------------------------------------------------------
-def paper_results() -> pd.DataFrame:
-    """Return the paper's published tables (columns table, method, condition, coefficient,
-    nominal, estimate, error_pct)."""
-    path = resources.files("aeroid") / "data" / "paper-results.csv"
-    with path.open() as fh:
-        return pd.read_csv(fh)
-
-
-def _paper_xi(noise: Mapping[str, Any]) -> float | None:
-    if noise.get("model") != "paper":
-        return None
-    xa, xr = noise.get("accelerations_xi"), noise.get("rates_xi")
-    if xa is None or xr is None or abs(float(xa) - float(xr)) > XI_MATCH_TOL:
-        return None
-    return float(xa)
-
-
-def paper_condition(method: str, options: Mapping[str, Any], noise: Mapping[str, Any]
-                    ) -> tuple[int, str] | None:
-    """Return the paper's (table, condition) comparable to one study cell, or None.
-
-    Parameters
-    ----------
-    method : str
-        Our method name (``ebm-pso``...).
-    options : dict
-        The estimator's options (``smoothing`` is read for ebm-pso).
-    noise : dict
-        The noise condition's settings (``NoiseCondition.describe()``).
-    """
-    if method not in PAPER_METHODS:
-        return None
-    xi = _paper_xi(noise)
-    if xi is None:
-        return None
-    text = f"{xi:g}"
-    if method == "ebm-pso" and options.get("smoothing") == "forces":
-        return 6, f"xi={text} with SG filter"
-    if method == "ebm-pso" and options.get("smoothing") == "none":
-        return 7, f"xi={text} no filter"
-    if abs(xi - 0.05) <= XI_MATCH_TOL:
-        return 5, "xi=0.05 100 runs"
-    return None
-
-
-def paper_errors(table: int, condition: str, method: str) -> dict[str, float]:
-    """Return the paper's error % per coefficient for (table, condition, our method)."""
-    data = paper_results()
-    rows = data[(data["table"] == table) & (data["condition"] == condition)
-                & (data["method"] == PAPER_METHODS.get(method, ""))]
-    return {str(c): float(e) for c, e in zip(rows["coefficient"], rows["error_pct"],
-                                              strict=True)}
-
+#: Below this many runs the report is compact (no bias/spread/coverage table).
+COMPACT_RUNS = 10
 
 # --------------------------------------------------------------------------------------
 # Cramér-Rao floor
@@ -139,6 +78,8 @@ def cramer_rao_floor(study: Study, noise_index: int) -> tuple[np.ndarray | None,
 # Markdown
 # --------------------------------------------------------------------------------------
 def _fmt(x: Any, digits: int = 3) -> str:
+    if isinstance(x, float) and math.isinf(x):
+        return "inf" if x > 0 else "-inf"
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "n/a"
     if isinstance(x, float | np.floating):
@@ -152,11 +93,39 @@ def _fmt(x: Any, digits: int = 3) -> str:
     return str(x)
 
 
-def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
+def _count(x: Any) -> str:
+    """A count (or a median of counts): an integer, or one decimal for a half."""
+    if x is None or not math.isfinite(float(x)):
+        return "n/a"
+    return str(int(x)) if float(x).is_integer() else f"{float(x):.1f}"
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]],
+           counts: Sequence[int] = ()) -> list[str]:
+    """Markdown table; the columns whose indices are in ``counts`` print as integers."""
     lines = ["| " + " | ".join(header) + " |",
              "|" + "|".join("---:" if k else ":---" for k in range(len(header))) + "|"]
-    lines += ["| " + " | ".join(_fmt(v) for v in row) + " |" for row in rows]
+    lines += ["| " + " | ".join(_count(v) if k in counts else _fmt(v)
+                                for k, v in enumerate(row)) + " |" for row in rows]
     return lines
+
+
+def _code_line(out_dir: Path) -> str:
+    """The code that computed the results, from ``study.json`` (or the running code)."""
+    from aeroid.study._provenance import code_identity
+
+    code = None
+    if (out_dir / DESIGN_FILE).exists():
+        code = read_design(out_dir).get("code")
+    if not isinstance(code, dict):
+        code = code_identity()
+        where = "the running code (no study.json)"
+    else:
+        where = "from study.json"
+    packages = ", ".join(f"{k} {v}" for k, v in (code.get("packages") or {}).items()
+                         if v is not None and k != "aeroid-toolkit")
+    return (f"- code ({where}): aeroid {code.get('aeroid')}, source {code.get('source')}, "
+            f"Python {code.get('python')}; {packages}")
 
 
 def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
@@ -169,7 +138,8 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
     lines += ["## Design", "",
               f"- scenario: {d['scenario']}; seed {study.seed}; {study.runs} runs; "
               f"{len(study.noise)} noise condition(s) x {len(study.estimators)} estimator(s)",
-              f"- study file: {study.source}; fingerprint {d['fingerprint']}"]
+              f"- study file: {study.source}; fingerprint {d['fingerprint']}",
+              _code_line(out_dir)]
     if command:
         lines.append(f"- command: `{command}`")
     for n in d["noise"]:
@@ -180,20 +150,22 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
         lines.append(f"- estimator **{e['label']}**: {e['method']} ({opts or 'defaults'})")
     if study.skipped:
         lines.append(f"- skipped (not installed): {', '.join(study.skipped)}")
-    lines += ["", "Error figures are over successful fits: mean |error| % = mean of "
-              "|estimate - truth| / |truth| x 100 (the paper's figure); coverage = share of "
-              f"fits whose estimate +- {metrics.COVERAGE_Z} x its standard error holds the "
-              "truth (nominal 0.95); CR sd = Cramér-Rao standard deviation in % of |truth| "
-              "(the floor on the spread of any unbiased estimator); sd/CR = spread over "
-              "floor (1 = efficient).", ""]
+    lines += ["", "Error figures are over successful fits: mean |error| [%] = mean of "
+              "|estimate - truth| / |truth| x 100 (the paper's figure); bias, sd and RMSE "
+              "are in % of |truth|; coverage = share of fits whose estimate +- "
+              f"{metrics.COVERAGE_Z} x its standard error holds the truth (nominal 0.95); "
+              "CR sd = Cramér-Rao standard deviation in % of |truth| (the floor on the "
+              "spread of any unbiased estimator); sd/CR = spread over floor (1 = "
+              "efficient).", ""]
 
     over = metrics.overall(summary)
     lines += ["## Overall (mean over the nine coefficients)", ""]
-    lines += _table(["noise", "estimator", "method", "mean abs error %", "coverage",
-                     "success", "median time [s]", "median evaluations"],
-                    over[["noise", "estimator", "method", "mean_abs_error_pct", "coverage",
-                          "success_rate", "median_wall_time_s",
-                          "median_evaluations"]].itertuples(index=False))
+    lines += _table(["noise", "estimator", "method", "mean abs error [%]",
+                     "coverage [share]", "success [share]", "median time [s]",
+                     "median evaluations [count]"],
+                    list(over[["noise", "estimator", "method", "mean_abs_error_pct",
+                               "coverage", "success_rate", "median_wall_time_s",
+                               "median_evaluations"]].itertuples(index=False)), counts=(7,))
     lines.append("")
 
     est_opts = {e["label"]: e["options"] for e in d["estimators"]}
@@ -204,16 +176,16 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
         lines += [f"## Noise: {cond.label}", "",
                   f"Cramér-Rao floor: {floors.get(cond.label, 'n/a')}.", ""]
         labels = list(dict.fromkeys(part["estimator"]))
-        header = ["coef", "truth", "CR sd %"]
+        header = ["coef", "truth [-]", "CR sd [% of truth]"]
         paper_cols: list[tuple[str, dict[str, float], str]] = []
         for lab in labels:
-            header.append(f"{lab} error %")
+            header.append(f"{lab} error [%]")
             method = part.loc[part["estimator"] == lab, "method"].iloc[0]
             match = paper_condition(method, est_opts.get(lab, {}), cond.describe())
             if match is not None:
                 errs = paper_errors(match[0], match[1], method)
                 if errs:
-                    name = f"PAPER {PAPER_METHODS[method]} (Table {match[0]})"
+                    name = f"PAPER {PAPER_METHODS[method]} (Table {match[0]}) [%]"
                     if all(name != c[0] for c in paper_cols):
                         paper_cols.append((name, errs, match[1]))
         header += [c[0] for c in paper_cols]
@@ -236,11 +208,18 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
         for name, _, condition in paper_cols:
             lines.append(f"- {name}: the paper's published mean error % for \"{condition}\" "
                          "(paper section 4; its configuration may differ from ours)")
-        lines += ["", "Bias, spread, coverage:", ""]
-        detail = part[["estimator", "coefficient", "bias_pct", "sd", "cr_sd", "sd_over_cr",
-                       "rmse_pct", "coverage", "n_success", "n_runs"]]
-        lines += _table(["estimator", "coef", "bias %", "sd", "CR sd", "sd/CR", "RMSE %",
-                         "coverage", "ok", "runs"], detail.itertuples(index=False))
+        if study.runs < COMPACT_RUNS:
+            lines += ["", f"Bias, spread, coverage: not shown for {study.runs} run(s) "
+                      f"(from {COMPACT_RUNS} runs on; a spread of so few fits says little); "
+                      "the per-coefficient figures are in summary.csv, every fit in "
+                      "results.csv.", ""]
+            continue
+        lines += ["", "Bias, spread, coverage (in % of |truth| unless stated):", ""]
+        detail = part[["estimator", "coefficient", "bias_pct", "sd_pct", "cr_sd_pct",
+                       "sd_over_cr", "rmse_pct", "coverage", "n_success", "n_runs"]]
+        lines += _table(["estimator", "coef", "bias [%]", "sd [%]", "CR sd [%]",
+                         "sd/CR [-]", "RMSE [%]", "coverage [share]", "ok [fits]",
+                         "runs [fits]"], list(detail.itertuples(index=False)), counts=(8, 9))
         lines.append("")
     if figures:
         lines += ["## Figures", ""]
@@ -254,11 +233,11 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
 # --------------------------------------------------------------------------------------
 def _true_forces(study: Study, t: np.ndarray) -> np.ndarray | None:
     """True aerodynamic forces and moments of the scenario at times ``t`` (n, 6)."""
-    from aeroid.model._dynamics import aero_forces_moments, constants
-    from aeroid.study._runner import _truth
+    from aeroid.model import aero_forces_moments, constants
+    from aeroid.study._fits import scenario_truth
 
     try:
-        t_all, states, delta = _truth(study.scenario)
+        t_all, states, delta = scenario_truth(study.scenario)
         k = np.rint(np.asarray(t) / study.scenario.manoeuvre.dt).astype(int)
         if k.min() < 0 or k.max() >= len(t_all):
             return None
@@ -268,40 +247,65 @@ def _true_forces(study: Study, t: np.ndarray) -> np.ndarray | None:
         return None
 
 
-def make_figures(study: Study, tidy: pd.DataFrame, summary: pd.DataFrame, out_dir: Path
-                 ) -> list[Path]:
-    """Write every figure of the study into ``out_dir/figures``; return their paths."""
+def slug(text: str) -> str:
+    """Return ``text`` as a file-name-safe slug (readability only: names carry an index)."""
+    return re.sub(r"[^A-Za-z0-9.=+-]+", "_", text).strip("_.") or "x"
+
+
+def make_figures(study: Study, tidy: pd.DataFrame, summary: pd.DataFrame, out_dir: Path,
+                 records: Sequence[Mapping[str, Any]] = ()) -> list[Path]:
+    """Write every figure of the study into ``out_dir/figures``; return their paths.
+
+    File names carry the design's indices (``n<k>`` noise, ``e<j>`` estimator) and, for
+    reading, a slug of the labels; the run-0 histories are the files named by the
+    records (``record["history"]``).
+    """
     from aeroid.study import _plots as plots
 
     fig_dir = out_dir / "figures"
     written: list[Path] = []
     truth = list(study.scenario.coefficients)
-    for cond in study.noise:
-        tag = slug(cond.label)
-        convergence = {}
-        for spec in study.estimators:
-            h = load_history(out_dir, cond.label, spec.label)
+    run0 = {(r["noise"], r["estimator"]): r for r in records
+            if int(r["run"]) == HISTORY_RUN}
+    for k, cond in enumerate(study.noise):
+        tag = f"n{k}_{slug(cond.label)}"
+        convergence: dict[str, Any] = {}
+        left_out: dict[str, str] = {}
+        for j, spec in enumerate(study.estimators):
+            record = run0.get((cond.label, spec.label))
+            name = record.get("history") if record else None
+            h = read_history(out_dir, name) if name else None
             if h is None:
+                left_out[spec.label] = ("run 0 not run yet" if record is None else
+                                        "run 0 failed" if not record["success"] else
+                                        "no iterations (closed form)")
                 continue
-            history = {k[len("history_"):]: v for k, v in h.items()
-                       if k.startswith("history_")}
+            stem = f"n{k}-e{j}_{slug(spec.label)}"
+            history = {key[len("history_"):]: v for key, v in h.items()
+                       if key.startswith("history_")}
             if "theta" in history and "step" in history:
                 axis = str(history.get("axis", "iteration"))
                 if axis == "iteration" and "cost" in history:
                     convergence[spec.label] = history
+                else:
+                    left_out[spec.label] = ("a filter: estimates against time, no cost "
+                                            "iterations" if axis == "time" else
+                                            "no cost history")
                 written.append(plots.plot_coefficient_history(
-                    history, truth, fig_dir / f"coefficients_{tag}__{slug(spec.label)}.png",
+                    history, truth, fig_dir / f"coefficients_{stem}.png",
                     title=f"{spec.label} — estimates vs {axis} (run 0, noise {cond.label})"))
+            else:
+                left_out[spec.label] = "no convergence history"
             if "info_t" in h and "info_fm_raw" in h:
                 written.append(plots.plot_forces(
                     h["info_t"], h["info_fm_raw"], h.get("info_fm_smooth"),
-                    fig_dir / f"forces_{tag}__{slug(spec.label)}.png",
+                    fig_dir / f"forces_{stem}.png",
                     fm_true=_true_forces(study, h["info_t"]),
                     title=f"{spec.label} — reconstructed forces and moments "
                           f"(run 0, noise {cond.label})"))
         if convergence:
             written.append(plots.plot_convergence(
-                convergence, fig_dir / f"convergence_{tag}.png",
+                convergence, fig_dir / f"convergence_{tag}.png", left_out=left_out,
                 title=f"Convergence of the cost (run 0, noise {cond.label})"))
         part = tidy[tidy["noise"] == cond.label]
         if not part.empty:
@@ -361,7 +365,7 @@ def write_report(study: Study, out_dir: str | Path,
     summary = metrics.summarize(tidy, cramer_rao)
     tidy.to_csv(out_dir / "results.csv", index=False)
     summary.to_csv(out_dir / "summary.csv", index=False)
-    paths = make_figures(study, tidy, summary, out_dir) if figures else []
+    paths = make_figures(study, tidy, summary, out_dir, records) if figures else []
     report = out_dir / "report.md"
     report.write_text(markdown(study, summary, floors, paths, out_dir, command))
     return report

@@ -177,8 +177,12 @@ def test_history_kept_for_run_0_only(study, serial):
             theta0 = next(r["theta"] for r in serial.records
                           if (r["run"], r["noise"], r["estimator"]) == (0, noise, label))
             np.testing.assert_array_equal(h["history_theta"][3], theta0)
+    # one file per (noise index, estimator index), named by the record that owns it
     files = sorted(p.name for p in (serial.out_dir / "histories").iterdir())
-    assert files == ["gauss__J1.npz", "gauss__J2.npz", "paper__J1.npz", "paper__J2.npz"]
+    assert files == ["n0-e0.npz", "n0-e1.npz", "n1-e0.npz", "n1-e1.npz"]
+    named = {r["history"] for r in serial.records if r["run"] == 0}
+    assert named == {f"histories/{name}" for name in files}
+    assert all(r["history"] is None for r in serial.records if r["run"] > 0)
 
 
 def test_failures_are_recorded_and_the_study_goes_on(tmp_path):
@@ -239,12 +243,27 @@ def test_resume_refuses_results_of_another_design(study, tmp_path):
     assert more.n_new == 4 and len(more.records) == 8
 
 
-def test_without_resume_previous_results_are_kept_aside(study, tmp_path):
+def test_a_folder_with_results_is_refused_without_resume_or_overwrite(study, tmp_path):
     run_study(study.with_runs(1), tmp_path, progress=False)
     first = (tmp_path / "results.jsonl").read_text()
+    with pytest.raises(StudyError, match="holds a study's results.*--resume.*--overwrite"):
+        run_study(study.with_runs(1), tmp_path, progress=False)
+    assert (tmp_path / "results.jsonl").read_text() == first  # untouched
+
+
+def test_overwrite_moves_each_previous_study_into_a_new_folder(study, tmp_path):
     run_study(study.with_runs(1), tmp_path, progress=False)
-    assert (tmp_path / "results.previous.jsonl").read_text() == first
+    first = (tmp_path / "results.jsonl").read_text()
+    run_study(study.with_runs(2), tmp_path, overwrite=True, progress=False)
+    second = (tmp_path / "results.jsonl").read_text()
+    assert (tmp_path / "previous-1" / "results.jsonl").read_text() == first
+    assert sorted(p.name for p in (tmp_path / "previous-1" / "histories").iterdir())
+    run_study(study.with_runs(1), tmp_path, overwrite=True, progress=False)
+    assert (tmp_path / "previous-1" / "results.jsonl").read_text() == first  # kept
+    assert (tmp_path / "previous-2" / "results.jsonl").read_text() == second
     assert len((tmp_path / "results.jsonl").read_text().splitlines()) == 4
+    with pytest.raises(StudyError, match="not both"):
+        run_study(study, tmp_path, overwrite=True, resume=True, progress=False)
 
 
 def test_damaged_results_file_is_an_error(study, tmp_path):

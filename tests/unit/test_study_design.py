@@ -1,5 +1,6 @@
 """Study files: what loads, and every malformed file failing on load with one line."""
 
+import os
 import textwrap
 from dataclasses import dataclass
 from typing import Literal
@@ -113,6 +114,7 @@ BAD = [
     (GOOD.replace("seed = 7\n", ""), "[study] is missing seed"),
     (GOOD.replace("runs = 4", "runs = 0"), "runs must be an integer >= 1"),
     (GOOD.replace("runs = 4", "runs = 2.5"), "runs must be an integer >= 1"),
+    (GOOD.replace("runs = 4", "runs = 1e9"), "runs must be an integer >= 1, got 1000000000.0"),
     (GOOD.replace("seed = 7", "seed = 7\nsed = 1"), "[study] has unknown key(s) sed"),
     (GOOD + "\n[extra]\na = 1\n", "unknown table(s) extra"),
     (GOOD.replace('method = "prior"\n\n[[estimators]]', 'method = "nope"\n\n[[estimators]]'),
@@ -129,6 +131,23 @@ BAD = [
     (GOOD.replace('label = "P10"\n', ""), "[[estimators]] #1 is missing label"),
     (GOOD.split("[[estimators]]")[0], "no [[estimators]] entry"),
     (GOOD.replace("seed = 7", 'seed = 7\nscenario = "missing.toml"'), "missing.toml"),
+    # option values and sizes are checked before any run starts
+    (GOOD.replace('method = "prior"\n\n[[estimators]]', 'method = ["x"]\n\n[[estimators]]'),
+     "[[estimators]] #1 (P10): method must be a string"),
+    (GOOD.replace("runs = 4", "runs = 1000000000"), "runs = 1000000000 is over the limit"),
+    (GOOD.replace("runs = 4", "runs = 90000") + '[[estimators]]\nlabel = "Q"\nmethod = "other"\n'
+     '[[estimators]]\nlabel = "R"\nmethod = "other"\n', "= 1080000 fits is over the limit"),
+    (GOOD.replace("accel_sd_mps2 = 0.1", 'accel_sd_mps2 = "0.1"'),
+     "[[noise]] #2 (imu): option accel_sd_mps2 must be a finite number >= 0, got '0.1'"),
+    (GOOD.replace("rates_xi = 0.02", "rates_xi = true"), "option rates_xi must be a finite"),
+    (GOOD.replace("accel_sd_mps2 = 0.1", "accel_sd_mps2 = -0.1"), "got -0.1"),
+    (GOOD.replace("accel_sd_mps2 = 0.1", "accel_sd_mps2 = nan"), "got nan"),
+    (GOOD.replace('model = "gaussian"', "model = 3"), "(imu): model must be a string"),
+    (GOOD.replace("seed = 7", 'seed = 7\nscenario = "/dev/zero"'),
+     "[study] scenario: /dev/zero: not a regular file"),
+    (GOOD.replace("seed = 7", 'seed = 7\nscenario = "."'), "a folder (a TOML file is expected)"),
+    (GOOD.replace('name = "demo"', 'name = ".."'), "name must be a non-empty printable"),
+    (GOOD.replace('name = "demo"', 'name = "a\\\\b"'), "without '/', '\\'"),
 ]
 
 
@@ -141,6 +160,42 @@ def test_malformed_study_fails_on_load_with_one_line(tmp_path, text, expected):
     message = str(info.value)
     assert expected in message
     assert message.startswith(str(path)) and "\n" not in message
+
+
+def test_a_noise_model_that_fails_on_data_fails_on_load(monkeypatch):
+    """A model that accepts its options but cannot corrupt a flight fails before any run."""
+    from aeroid.flights import GaussianNoise
+
+    def broken(self, channels, rng):
+        raise TypeError("can't multiply sequence by non-int of type 'float'")
+
+    monkeypatch.setattr(GaussianNoise, "corrupt", broken)
+    with pytest.raises(StudyError, match=r"\[\[noise\]\] #2 \(imu\): the noise model fails "
+                                         r"with these options \(TypeError: can't multiply"):
+        loads_study(GOOD, registry=REGISTRY)
+
+
+def test_study_file_that_is_not_a_regular_file_is_refused(tmp_path):
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * design.MAX_FILE_BYTES + "\n" + GOOD)
+    with pytest.raises(StudyError, match="over the limit of 1000000 for a TOML file"):
+        load_study(big, registry=REGISTRY)
+    with pytest.raises(StudyError, match="/dev/zero: not a regular file"):
+        load_study("/dev/zero", registry=REGISTRY)
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(StudyError, match="fifo.toml: not a regular file"):
+        load_study(fifo, registry=REGISTRY)  # would block on open() if it were read
+
+
+def test_cli_runs_over_the_limit_exit_2(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(design, "_registry", lambda: REGISTRY)
+    path = tmp_path / "s.toml"
+    path.write_text(GOOD)
+    assert main(["study", str(path), "--runs", "1000000000", "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "over the limit of 100000" in err[0]
 
 
 def test_quick_study_skips_missing_methods_but_a_user_study_does_not(tmp_path):

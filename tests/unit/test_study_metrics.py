@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aeroid.model._coefficients import NAMES
+from aeroid.model import NAMES
 from aeroid.study import _metrics as metrics
 
 # Sums and means of a few O(1) decimals: float64 rounding only.
@@ -64,6 +64,7 @@ def test_summary_matches_hand_computation(records):
         assert row["bias_pct"] == pytest.approx(7.5, abs=1e-9)
         sd = math.sqrt(sum((o - 0.075) ** 2 for o in offsets) / 3) * scale
         assert row["sd"] == pytest.approx(sd, abs=EXACT_TOL * scale)
+        assert row["sd_pct"] == pytest.approx(sd / scale * 100, abs=1e-9)
         assert row["mean_abs_error_pct"] == pytest.approx(12.5, abs=1e-9)   # (10+10+30+0)/4
         assert row["rmse"] == pytest.approx(math.sqrt(0.11 / 4) * scale, abs=EXACT_TOL * scale)
         assert row["n_stderr"] == 3

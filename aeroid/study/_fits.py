@@ -1,0 +1,170 @@
+"""One fit of a study: its seeds, its flight and its JSON record (runs in any worker).
+
+Seeding: run ``i`` owns the stream ``SeedSequence(seed, spawn_key=(i,))``. Its flights
+draw from the child ``spawn_key=(i, 0)`` and its estimators from ``spawn_key=(i, 1)``,
+so a fit depends only on (seed, run index, noise condition, estimator), never on the
+number or kind of workers. Decisions:
+
+- Every estimator of a run gets a fresh generator from the same seed, so all of them
+  draw the same starting guess (and the same first random numbers).
+- All noise conditions of a run use the same flight seed (common random numbers): in
+  a sweep of the paper's xi the same uniform draws are scaled, so the conditions
+  differ by the noise level only, not by luck.
+
+The noise-free truth of the scenario is deterministic, so each worker process
+integrates it once and caches it; a fit then costs the sensor noise plus the
+estimator. Convergence histories (and the reconstructed forces of EBM-type methods)
+are kept for run :data:`HISTORY_RUN` only.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+import os
+import pickle
+import socket
+from typing import Any
+
+import numpy as np
+
+from aeroid.errors import StudyError
+from aeroid.study._provenance import code_id
+from aeroid.study._spec import Study
+
+HISTORY_RUN = 0
+#: ``EstimationResult.info`` arrays kept with the history (EBM reconstructions).
+INFO_ARRAYS = ("t", "fm_raw", "fm_smooth")
+
+Task = tuple[int, int, int]
+"""(run index, noise index, estimator index)."""
+
+
+def flight_seed(seed: int, run: int) -> np.random.SeedSequence:
+    """Return the seed of run ``run``'s flights (every noise condition)."""
+    return np.random.SeedSequence(seed, spawn_key=(run, 0))
+
+
+def estimator_seed(seed: int, run: int) -> np.random.SeedSequence:
+    """Return the seed every estimator of run ``run`` starts from."""
+    return np.random.SeedSequence(seed, spawn_key=(run, 1))
+
+
+_TRUTH_CACHE: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def scenario_truth(scenario: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return (t, states, delta) of the scenario's noise-free truth, cached per process.
+
+    Shapes (n,) [s], (n, 9) [m/s, rad/s, rad] and (n,) [rad]
+    (:func:`aeroid.flights.simulate_truth`).
+    """
+    from aeroid.flights import simulate_truth
+
+    key = hashlib.sha256(pickle.dumps((scenario.airframe, scenario.coefficients,
+                                       scenario.manoeuvre))).hexdigest()
+    if key not in _TRUTH_CACHE:
+        _TRUTH_CACHE.clear()
+        _TRUTH_CACHE[key] = simulate_truth(scenario.airframe, scenario.coefficient_vector,
+                                           scenario.manoeuvre)
+    return _TRUTH_CACHE[key]
+
+
+def simulate_run(study: Study, run: int, noise_index: int) -> Any:
+    """Return the flight of ``run`` under noise condition ``noise_index``.
+
+    Equal to ``aeroid.simulate(airframe, coefficients, manoeuvre, noise,
+    rng=default_rng(flight_seed(seed, run)))`` (a test checks it), but the truth is
+    integrated once per process (:func:`aeroid.flights.record_flight` does the rest).
+    """
+    from aeroid.flights import record_flight
+
+    scenario = study.scenario
+    noise = study.noise[noise_index].model
+    rng = np.random.default_rng(flight_seed(study.seed, run))
+    return record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                         scenario_truth(scenario), noise, rng=rng)
+
+
+def _clean(x: Any) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _vector(x: Any) -> list[float | None] | None:
+    return None if x is None else [_clean(v) for v in np.asarray(x, dtype=float).ravel()]
+
+
+@functools.lru_cache(maxsize=16)
+def _code(classes: tuple[type, ...]) -> str:
+    return code_id(classes)
+
+
+def study_code_id(study: Study) -> str:
+    """Return the code identity (:func:`aeroid.study.code_id`) of this process for a study."""
+    return _code(tuple(type(e.estimator) for e in study.estimators))
+
+
+def base_record(study: Study, task: Task, truth: Any = None) -> dict[str, Any]:
+    """Return the record of a fit that produced nothing (``success: false``, no message)."""
+    run, k_noise, k_est = task
+    spec = study.estimators[k_est]
+    n = len(study.scenario.coefficients)
+    return {
+        "run": run, "noise": study.noise[k_noise].label, "estimator": spec.label,
+        "method": spec.method,
+        "truth": _vector(study.scenario.coefficient_vector if truth is None else truth),
+        "theta": [None] * n, "stderr": None, "success": False, "message": "", "cost": None,
+        "n_evaluations": 0, "n_iterations": 0, "wall_time_s": None,
+        "worker": f"{socket.gethostname()}:{os.getpid()}", "code": study_code_id(study),
+    }
+
+
+def failed_record(study: Study, task: Task, message: str) -> dict[str, Any]:
+    """Return the record of a fit that failed outside the estimator (a worker died)."""
+    record = base_record(study, task)
+    record.update(message=message, worker="")
+    return record
+
+
+def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.ndarray] | None]:
+    """Run one fit; return its JSON record and, for run 0, its history arrays.
+
+    An estimator that raises (anything but ``KeyboardInterrupt``/``SystemExit``) or
+    returns ``success=False`` gives a record with ``success: false`` and the message.
+    """
+    run, k_noise, k_est = task
+    spec = study.estimators[k_est]
+    try:
+        flight = simulate_run(study, run, k_noise)
+    except Exception as exc:  # the design was checked on load: this is not the estimator's
+        text = " ".join(str(exc).split())
+        raise StudyError(f"run {run}, noise {study.noise[k_noise].label!r}: the flight "
+                         f"simulation failed: {type(exc).__name__}: {text}") from None
+    record = base_record(study, task, flight.true_coefficients)
+    try:
+        result = spec.estimator.fit(flight, rng=np.random.default_rng(
+            estimator_seed(study.seed, run)))
+    except Exception as exc:  # failure is data: record it, the study goes on
+        text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        record.update(message=f"{type(exc).__name__}: {text}".rstrip(": "))
+        return record, None
+    record.update(theta=_vector(result.theta), stderr=_vector(result.stderr),
+                  success=bool(result.success), message=str(result.message),
+                  cost=_clean(result.cost), n_evaluations=int(result.n_evaluations),
+                  n_iterations=int(result.n_iterations),
+                  wall_time_s=_clean(result.wall_time_s))
+    if run != HISTORY_RUN:
+        return record, None
+    history = {}
+    for key, value in (result.history or {}).items():
+        history[f"history_{key}"] = np.asarray(value)
+    for key in INFO_ARRAYS:
+        if key in (result.info or {}):
+            history[f"info_{key}"] = np.asarray(result.info[key], dtype=float)
+    return record, history
+
+
+__all__ = ["HISTORY_RUN", "Task", "base_record", "estimator_seed", "failed_record",
+           "fit_task", "flight_seed", "scenario_truth", "simulate_run", "study_code_id"]

@@ -1,0 +1,185 @@
+"""A validated study design: noise conditions, estimators, and the study itself.
+
+These are the types :func:`aeroid.study.load_study` builds; constructing a
+:class:`Study` checks what does not need the file (sizes, duplicate labels). The
+*fingerprint* (scenario, seed, noise conditions, estimators and their options, but not
+``runs``, ``name`` or ``description``) guards ``--resume``: results of another design
+are never mixed in.
+
+Size limits (checked before anything is allocated): :data:`MAX_RUNS` runs and
+:data:`MAX_FITS` fits per study. The paper's Table 5 is 100 runs, 800 fits; a million
+fits of the fastest estimator is already days of computing and a results file of
+gigabytes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from aeroid.errors import StudyError
+from aeroid.estimation import Estimator
+from aeroid.flights import NoiseModel, Scenario
+
+MAX_RUNS = 100_000
+MAX_FITS = 1_000_000
+
+
+@dataclass(frozen=True, kw_only=True)
+class NoiseCondition:
+    """One sensor-noise condition of a study.
+
+    Attributes
+    ----------
+    label : str
+        Unique name used in tables and file names.
+    model : NoiseModel
+        The built noise model (:func:`aeroid.make_noise`).
+    """
+
+    label: str
+    model: NoiseModel
+
+    def describe(self) -> dict[str, Any]:
+        """Return the label and the model's full settings (JSON-ready)."""
+        return {"label": self.label, **self.model.to_dict()}
+
+
+@dataclass(frozen=True, kw_only=True)
+class EstimatorSpec:
+    """One estimator of a study: a label and a built (frozen, option-only) estimator.
+
+    Attributes
+    ----------
+    label : str
+        Unique name used in tables and file names (e.g. ``"EBM-PSO forces"``).
+    estimator : Estimator
+        The estimator instance; ``estimator.name`` is its method name.
+    """
+
+    label: str
+    estimator: Estimator
+
+    @property
+    def method(self) -> str:
+        """The registered method name (``estimator.name``)."""
+        return self.estimator.name or type(self.estimator).__name__
+
+    def describe(self) -> dict[str, Any]:
+        """Return label, method and the options in use (JSON-ready)."""
+        return {"label": self.label, "method": self.method,
+                "options": _jsonable(self.estimator.options())}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Study:
+    """A validated study design.
+
+    Attributes
+    ----------
+    name : str
+    runs : int
+        Number of Monte Carlo runs (each run: one flight per noise condition).
+    seed : int
+        Root seed; run ``i`` draws from ``SeedSequence(seed, spawn_key=(i, ...))``.
+    scenario : Scenario
+        Airframe, true coefficients and manoeuvre of every simulated flight.
+    noise : tuple of NoiseCondition
+    estimators : tuple of EstimatorSpec
+    description : str
+    scenario_ref : str
+        ``"reference"`` or the scenario file path as resolved on load.
+    source : str
+        The study file (or ``"<memory>"``).
+    skipped : tuple of str
+        Estimators of the file left out because they are not installed (quick study only).
+    """
+
+    name: str
+    runs: int
+    seed: int
+    scenario: Scenario
+    noise: tuple[NoiseCondition, ...]
+    estimators: tuple[EstimatorSpec, ...]
+    description: str = ""
+    scenario_ref: str = "reference"
+    source: str = "<memory>"
+    skipped: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
+            raise StudyError(f"{self.source}: [study] runs must be an integer >= 1, "
+                             f"got {self.runs!r}")
+        if self.runs > MAX_RUNS:
+            raise StudyError(f"{self.source}: [study] runs = {self.runs} is over the limit "
+                             f"of {MAX_RUNS}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise StudyError(f"{self.source}: [study] seed must be an integer >= 0, "
+                             f"got {self.seed!r}")
+        if not self.noise:
+            raise StudyError(f"{self.source}: no noise condition")
+        if not self.estimators:
+            raise StudyError(f"{self.source}: no [[estimators]] entry")
+        for what, labels in (("noise", [n.label for n in self.noise]),
+                             ("estimators", [e.label for e in self.estimators])):
+            dup = sorted({x for x in labels if labels.count(x) > 1})
+            if dup:
+                raise StudyError(f"{self.source}: [[{what}]] label(s) given twice: "
+                                 f"{', '.join(dup)}")
+        if self.n_fits > MAX_FITS:
+            raise StudyError(f"{self.source}: {self.runs} runs x {len(self.noise)} noise x "
+                             f"{len(self.estimators)} estimators = {self.n_fits} fits is over "
+                             f"the limit of {MAX_FITS}")
+
+    def with_runs(self, runs: int) -> Study:
+        """Return a copy with another number of runs (``--runs``)."""
+        return dataclasses.replace(self, runs=runs)
+
+    @property
+    def n_fits(self) -> int:
+        """Fits in the whole study: runs x noise conditions x estimators."""
+        return self.runs * len(self.noise) * len(self.estimators)
+
+    def describe(self) -> dict[str, Any]:
+        """Return the design as a JSON-ready dict (written beside the results)."""
+        return {
+            "name": self.name, "description": self.description, "runs": self.runs,
+            "seed": self.seed, "scenario": self.scenario_ref, "source": self.source,
+            "true_coefficients": list(self.scenario.coefficients),
+            "noise": [n.describe() for n in self.noise],
+            "estimators": [e.describe() for e in self.estimators],
+            "skipped": list(self.skipped), "fingerprint": self.fingerprint(),
+        }
+
+    def fingerprint(self) -> str:
+        """Return a hash of what decides the results (not runs, name or description)."""
+        key = {
+            "seed": self.seed,
+            "scenario": {"coefficients": list(self.scenario.coefficients),
+                         "airframe": _jsonable(self.scenario.airframe.to_dict()),
+                         "manoeuvre": _jsonable(dataclasses.asdict(self.scenario.manoeuvre))},
+            "noise": [n.describe() for n in self.noise],
+            "estimators": [e.describe() for e in self.estimators],
+        }
+        text = json.dumps(key, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _jsonable(value: Any) -> Any:
+    """Return ``value`` with tuples as lists and unknown objects as text."""
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    return str(value)
+
+
+
+
+__all__ = ["MAX_FITS", "MAX_RUNS", "EstimatorSpec", "NoiseCondition", "Study"]
