@@ -89,11 +89,31 @@ def estimator_sources(classes: Iterable[type]) -> tuple[str, ...]:
     return tuple(sorted(set(out)))
 
 
+@functools.lru_cache(maxsize=1)
+def cpu_name() -> str:
+    """Return the CPU that numba compiles for (LLVM's name, e.g. ``znver3``), or ``?``.
+
+    The RK4 kernel is compiled with fast-math (fused multiply-add, reassociation), so
+    its last bits depend on the instruction set, and EAM-PSO's search amplifies them
+    into different estimates (measured: a generic x86-64 target and an AMD ``znver3``
+    give different simulated flights and EAM-PSO answers on the same run; compiled
+    without fast-math they agree to the bit). Recorded, not compared: the CPU explains
+    digits, it does not make a study wrong.
+    """
+    try:
+        import llvmlite.binding as llvm
+
+        return f"{platform.machine()} {llvm.get_host_cpu_name()}"
+    except Exception:  # llvmlite missing or too old: the numbers do not use it then
+        return f"{platform.machine()} ?"
+
+
 def code_identity(estimator_classes: Iterable[type] = ()) -> dict[str, Any]:
     """Return the description of the running code (JSON-ready).
 
     Keys: ``aeroid`` (version), ``source`` (:func:`source_hash`), ``python``,
-    ``platform``, ``packages`` (:func:`package_versions`) and ``id`` (:func:`code_id`).
+    ``platform``, ``cpu`` (:func:`cpu_name`), ``packages`` (:func:`package_versions`)
+    and ``id`` (:func:`code_id`: version, source and packages, not the CPU).
     """
     from aeroid import __version__
 
@@ -101,7 +121,8 @@ def code_identity(estimator_classes: Iterable[type] = ()) -> dict[str, Any]:
     packages = package_versions()
     return {"aeroid": __version__, "source": source,
             "python": platform.python_version(), "platform": sys.platform,
-            "packages": packages, "id": _short(__version__, source, packages)}
+            "cpu": cpu_name(), "packages": packages,
+            "id": _short(__version__, source, packages)}
 
 
 def _short(version: str, source: str, packages: dict[str, str | None]) -> str:
@@ -127,5 +148,5 @@ def code_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     return out
 
 
-__all__ = ["KEY_PACKAGES", "code_differences", "code_id", "code_identity",
+__all__ = ["KEY_PACKAGES", "code_differences", "code_id", "code_identity", "cpu_name",
            "estimator_sources", "package_versions", "source_hash"]

@@ -308,7 +308,8 @@ class RecordWriter:
 # --------------------------------------------------------------------------------------
 # Opening a folder for a study
 # --------------------------------------------------------------------------------------
-def _check_resumable(out_dir: Path, design: Mapping[str, Any]) -> None:
+def _check_resumable(out_dir: Path, design: Mapping[str, Any]) -> str | None:
+    """Refuse another design or other code; return a note when only the CPU differs."""
     old = read_design(out_dir)
     if old["fingerprint"] != design["fingerprint"]:
         raise StudyError(f"{out_dir}: the results there come from another study design "
@@ -323,6 +324,11 @@ def _check_resumable(out_dir: Path, design: Mapping[str, Any]) -> None:
         raise StudyError(f"{out_dir}: its results were computed by other code ({changes}); "
                          "resuming would mix two code versions in one table: use "
                          "--overwrite to start again, or another --out")
+    if old_code.get("cpu") != new_code.get("cpu"):
+        return (f"the results in {out_dir} were computed on a {old_code.get('cpu')} CPU, "
+                f"this one is {new_code.get('cpu')}: fits run here may differ in the last "
+                "digits (fast-math kernels), EAM-PSO's estimates more")
+    return None
 
 
 def open_store(out_dir: str | Path, design: Mapping[str, Any], *, resume: bool = False,
@@ -362,7 +368,9 @@ def open_store(out_dir: str | Path, design: Mapping[str, Any], *, resume: bool =
     notes: list[str] = []
     results = out_dir / RESULTS_FILE
     if present and resume:
-        _check_resumable(out_dir, design)
+        note = _check_resumable(out_dir, design)
+        if note:
+            notes.append(note)
         records = read_results(results, repair=True)
         code = design["code"]["id"]
         for k, r in enumerate(records):

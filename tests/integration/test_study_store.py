@@ -224,6 +224,16 @@ def test_resume_refuses_results_of_other_code(study, tmp_path):
         run_study(study, tmp_path, resume=True, progress=False)
 
 
+def test_resume_on_another_cpu_says_so(study, tmp_path, capsys):
+    run_study(study.with_runs(1), tmp_path, progress=False)
+    design = json.loads((tmp_path / "study.json").read_text())
+    design["code"]["cpu"] = "x86_64 generic"
+    (tmp_path / "study.json").write_text(json.dumps(design))
+    more = run_study(study.with_runs(2), tmp_path, resume=True, progress=False)
+    assert more.n_new == 4
+    assert "computed on a x86_64 generic CPU" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(("damage", "expected"), [
     ("{not json", r"study\.json: not valid JSON"),
     ("[1, 2]", r"study\.json: not a study design"),
