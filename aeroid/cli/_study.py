@@ -32,9 +32,14 @@ def study(args: argparse.Namespace) -> int:
     """Run ``aeroid study``; return the exit status (0 also when some fits failed)."""
     from aeroid.study import load_study, run_study, write_report
     from aeroid.study._executors import check_scheduler
+    from aeroid.study._store import check_out_dir
 
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
+    if args.resume and args.overwrite:
+        raise StudyError("give --resume or --overwrite, not both")
+    if args.out is not None:
+        check_out_dir(args.out)
     design = load_study(args.study)
     for item in design.skipped:
         print(f"warning: quick study: estimator {item} is not installed; skipped",

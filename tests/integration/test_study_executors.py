@@ -68,3 +68,46 @@ def test_cli_scheduler_without_scheme_exits_2(tmp_path, capsys):
                  "localhost:8786", "--no-progress"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tcp://HOST:8786" in err[-1]
+
+
+@pytest.mark.parametrize(("extra", "expected"), [
+    (["--out", "FILE"], "is a file, not a folder"),
+    (["--out", "."], "working directory or one of its parents"),
+    (["--resume", "--overwrite"], "not both"),
+])
+def test_cli_bad_output_settings_exit_2_with_one_line(tmp_path, capsys, monkeypatch, extra,
+                                                      expected):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "FILE").write_text("x")
+    path = tmp_path / "s.toml"
+    path.write_text("[study]\nruns = 1\nseed = 1\n[[estimators]]\nlabel = 'E'\n"
+                    "method = 'equation-error'\n")
+    assert main(["study", str(path), "--no-progress", *extra]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expected in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["FILE", "s.toml"]
+
+
+def test_cli_a_second_run_into_the_same_folder_is_refused(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "s.toml"
+    path.write_text("[study]\nruns = 1\nseed = 1\n[[estimators]]\nlabel = 'E'\n"
+                    "method = 'equation-error'\n")
+    assert main(["study", str(path), "--no-progress"]) == 0
+    first = (tmp_path / "results" / "s" / "results.jsonl").read_text()
+    capsys.readouterr()
+    assert main(["study", str(path), "--no-progress"]) == 2
+    assert "--resume to complete them, --overwrite" in capsys.readouterr().err
+    assert main(["study", str(path), "--no-progress", "--overwrite"]) == 0
+    assert (tmp_path / "results" / "s" / "previous-1" / "results.jsonl").read_text() == first
+
+
+def test_cli_interrupt_suggests_resume(tmp_path, capsys, monkeypatch):
+    from aeroid.cli import _study
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_study, "study", interrupted)
+    assert main(["study", "--no-progress"]) == 130
+    assert "rerun with --resume" in capsys.readouterr().err
