@@ -20,6 +20,8 @@ import contextlib
 import logging
 import os
 import re
+import threading
+import time
 from collections import deque
 from collections.abc import Iterator
 from typing import Any
@@ -35,18 +37,35 @@ WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_TH
 QUEUE_PER_WORKER = 1
 WORKER_DIED = ("the worker process died running this fit twice (killed by a signal or "
                "out of memory); recorded as failed after one retry")
+#: How often a worker process checks that the study process is alive [s].
+PARENT_POLL_S = 1.0
 SCHEDULER_ADDRESS = re.compile(r"(tcp|tls)://[^/\s:]+:[0-9]{1,5}")
 
 Finished = tuple[dict[str, Any], dict[str, Any] | None]
 
 
-def init_worker() -> None:
-    """Process-pool initializer: one numba thread per worker (no oversubscription)."""
+def _exit_with(parent: int) -> None:
+    while True:
+        time.sleep(PARENT_POLL_S)
+        if os.getppid() != parent:  # reparented: the study process is gone
+            os._exit(1)
+
+
+def init_worker(parent: int | None = None) -> None:
+    """Process-pool initializer: one numba thread per worker, and exit with the parent.
+
+    A worker of a study killed with SIGKILL would otherwise wait forever for work (each
+    worker holds the task queue's write end, so the queue never closes): a watcher
+    thread ends the worker within :data:`PARENT_POLL_S` of the death of ``parent`` (the
+    study process's id, passed by it: a worker orphaned before this runs exits too).
+    """
     os.environ.update(WORKER_ENV)
     with contextlib.suppress(Exception):  # numba missing or threads fixed already
         import numba
 
         numba.set_num_threads(1)
+    threading.Thread(target=_exit_with, args=(parent or os.getppid(),), daemon=True,
+                     name="aeroid-exit-with-parent").start()
 
 
 @contextlib.contextmanager
@@ -77,7 +96,7 @@ def _pool(workers: int) -> Any:
     context = multiprocessing.get_context("spawn")
     with environment(WORKER_ENV):  # spawned children inherit it before importing numba
         return ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                                   initializer=init_worker)
+                                   initializer=init_worker, initargs=(os.getpid(),))
 
 
 def _drive(study: Study, pool: Any, queue: deque[Task], in_flight: int,

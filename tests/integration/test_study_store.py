@@ -5,6 +5,7 @@ Every kill here is a real SIGKILL of a real process (a subprocess running
 exactly the rows of an uninterrupted run.
 """
 
+import contextlib
 import errno
 import json
 import os
@@ -27,6 +28,8 @@ VOLATILE = ("wall_time_s", "worker")
 HERE = Path(__file__).parent
 #: Seconds a subprocess study may take (start-up with numba's cache is a few seconds).
 SUBPROCESS_TIMEOUT_S = 120
+#: Seconds a worker may outlive its killed study (it checks its parent every second).
+ORPHAN_TIMEOUT_S = 10
 
 
 def _stable(records):
@@ -97,17 +100,46 @@ def test_sigkill_from_outside_during_a_parallel_study_then_resume(study, referen
     deadline = time.monotonic() + SUBPROCESS_TIMEOUT_S
     while time.monotonic() < deadline and proc.poll() is None:
         if results.exists() and results.read_bytes().count(b"\n") >= 4:
+            workers = _children(proc.pid)
             proc.send_signal(signal.SIGKILL)
             break
         time.sleep(0.002)
     proc.wait(timeout=SUBPROCESS_TIMEOUT_S)
     assert proc.returncode == -signal.SIGKILL
+    _assert_exited(workers)
     partial = read_results(results)
     assert 4 <= len(partial) < runs * 4
     resumed = run_study(study.with_runs(runs), out, resume=True, progress=False)
     assert resumed.n_new == runs * 4 - len(partial)
     uninterrupted = run_study(study.with_runs(runs), tmp_path / "ref", progress=False)
     assert _stable(read_results(results)) == _stable(uninterrupted.records)
+
+
+def _children(pid: int) -> list[int]:
+    """Process ids of the children of ``pid`` (Linux /proc; empty elsewhere)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        with contextlib.suppress(OSError):
+            found += [int(x) for x in (task / "children").read_text().split()]
+    return found
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` is a live process (not gone, not a zombie awaiting its reaper)."""
+    try:
+        return "zombie" not in Path(f"/proc/{pid}/status").read_text()
+    except OSError:  # gone (or gone between two reads)
+        return False
+
+
+def _assert_exited(pids: list[int]) -> None:
+    """The worker processes of a killed study end by themselves (no orphans left)."""
+    deadline = time.monotonic() + ORPHAN_TIMEOUT_S
+    alive = list(pids)
+    while alive and time.monotonic() < deadline:
+        alive = [p for p in alive if _running(p)]
+        time.sleep(0.1)
+    assert not alive, f"worker processes {alive} outlived the killed study"
 
 
 # --------------------------------------------------------------------------------------
