@@ -10,14 +10,12 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 import aeroid
-from aeroid.estimation._interface import EstimationResult, Estimator
-from aeroid.flights._flight import Flight
-from aeroid.model import _symbolic as _model
+from aeroid import estimation
+from aeroid.estimation import EstimationResult, Estimator
+from aeroid.flights import Flight
+from aeroid.model import symbolic
 from baselines import _kalman
 
-#: Variance of the width-7 quadratic Savitzky-Golay residual ``e - SG(e)`` for white noise
-#: of unit variance: ``1 - 2 w0 + sum w_i^2 = 1 - 2/3 + 1/3`` (weights of eq. 32).
-SG_RESIDUAL_VARIANCE_FACTOR = 2.0 / 3.0
 SG_WINDOW = 7
 #: Default uniform noise amplitude of eq. 43 (the paper's xi on accelerations and rates).
 PAPER_XI = 0.05
@@ -25,7 +23,7 @@ PAPER_XI = 0.05
 
 def measurements(flight: Flight) -> np.ndarray:
     """Return the measurement matrix ``[ax1, ay1, az1, ax2, ay2, az2, p, q, r]``, (n, 9)."""
-    return np.column_stack([flight[c] for c in _model.MEASUREMENT_NAMES])
+    return np.column_stack([flight[c] for c in aeroid.model.OUTPUT_CHANNELS])
 
 
 def smoothed_start(y: np.ndarray, window: int = SG_WINDOW) -> np.ndarray:
@@ -35,47 +33,21 @@ def smoothed_start(y: np.ndarray, window: int = SG_WINDOW) -> np.ndarray:
     return savgol_filter(y, window, min(2, window - 1), axis=0)[0]
 
 
-def noise_sd_from_data(y: np.ndarray, delta: np.ndarray, *, floor_rel: float) -> np.ndarray:
-    """Estimate each channel's white-noise standard deviation from its SG residual.
+def measurement_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float) -> np.ndarray:
+    """Return the measurement-noise sd the filters assume, per channel, shape (m,).
 
-    ``sd = RMS(y - savgol(y, 7, 2)) / sqrt(2/3)`` over the samples whose 7-point window
-    contains no relay switch (a step in ``delta`` makes the accelerations jump, which the
-    smoother cannot follow), floored at ``floor_rel`` times the channel's RMS.
-
-    Parameters
-    ----------
-    y : ndarray, shape (n, m)
-    delta : ndarray, shape (n,) [rad]
-    floor_rel : float
-
-    Returns
-    -------
-    ndarray, shape (m,)
-    """
-    resid = y - savgol_filter(y, SG_WINDOW, 2, axis=0)
-    n = y.shape[0]
-    half = SG_WINDOW // 2
-    clean = np.ones(n, dtype=bool)
-    for j in np.flatnonzero(np.diff(delta) != 0.0) + 1:  # delta changes between j-1 and j
-        clean[max(j - half - 1, 0): j + half + 1] = False
-    if clean.sum() < max(10, n // 10):  # too many switches: use every sample
-        clean[:] = True
-    sd = np.sqrt(np.mean(resid[clean] ** 2, axis=0) / SG_RESIDUAL_VARIANCE_FACTOR)
-    floor = floor_rel * np.sqrt(np.mean(y * y, axis=0))
-    return np.maximum(sd, np.maximum(floor, np.finfo(float).tiny))
-
-
-def noise_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float) -> np.ndarray:
-    """Return per-channel measurement sd, shape (m,): ``"data"`` or ``"paper"`` (eq. 43).
-
-    ``"paper"``: the sd of multiplicative uniform noise, ``xi / sqrt(3) * RMS(y)`` with
-    ``xi = 0.05``; ``"data"``: :func:`noise_sd_from_data`.
+    ``"data"``: :func:`aeroid.estimation.estimate_noise_sd` (RMS of the 7-point SG
+    residual over the samples whose window holds no relay switch); ``"paper"``: the sd of
+    eq. 43's multiplicative uniform noise, ``xi / sqrt(3) * RMS(y)`` with ``xi = 0.05``.
+    Both floored at ``floor_rel`` times the channel's RMS.
     """
     if method == "paper":
         sd = PAPER_XI / math.sqrt(3.0) * np.sqrt(np.mean(y * y, axis=0))
         return np.maximum(sd, floor_rel * np.sqrt(np.mean(y * y, axis=0)))
     if method == "data":
-        return noise_sd_from_data(y, flight["delta"], floor_rel=floor_rel)
+        return estimation.estimate_noise_sd(
+            y, statistic="rms", use=estimation.switch_free_samples(flight["delta"]),
+            floor_fraction=floor_rel)
     raise ValueError(f"measurement_noise must be 'data' or 'paper', got {method!r}")
 
 
@@ -87,12 +59,12 @@ def augmented_model(flight: Flight, substeps: int) -> _kalman.DiscreteModel:
     AD (:func:`aeroid.model.augmented_functions`); the batched versions use
     :func:`aeroid.propagate` and :func:`aeroid.accelerometers`.
     """
-    const = aeroid.constants(flight.airframe)
+    const = aeroid.model.constants(flight.airframe)
     dt = flight.dt
     delta = flight["delta"]
     positions = flight.airframe.accel_positions
     pos_flat = positions.ravel()
-    f, h = _model.augmented_functions(const, dt, substeps)
+    f, h = symbolic.augmented_functions(const, dt, substeps)
 
     def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         z_next, F = f(z, delta[k])
@@ -105,12 +77,12 @@ def augmented_model(flight: Flight, substeps: int) -> _kalman.DiscreteModel:
     def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
         # numpy backend: one RK4 step of 37 sets is too little work for numba's parallel
         # launch, which cost ~5 ms per call on a busy 2-core machine (measured)
-        x_next = aeroid.propagate(Z[:, :9], Z[:, 9:], delta[k:k + 1], dt, const,
+        x_next = aeroid.model.propagate(Z[:, :9], Z[:, 9:], delta[k:k + 1], dt, const,
                                   substeps=substeps, backend="numpy")[:, 1]
         return np.concatenate([x_next, Z[:, 9:]], axis=1)
 
     def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
-        acc = aeroid.accelerometers(Z[:, :9], delta[k], Z[:, 9:], const, positions)
+        acc = aeroid.model.accelerometers(Z[:, :9], delta[k], Z[:, 9:], const, positions)
         return np.concatenate([acc.reshape(len(Z), 6), Z[:, 3:6]], axis=1)
 
     return _kalman.DiscreteModel(18, 9, transition, observe, transition_batch, observe_batch)
@@ -174,7 +146,8 @@ class AugmentedFilterOptions(Estimator):
     def setup(self, flight: Flight) -> tuple[np.ndarray, ...]:
         """Return ``x0 (18,), P0, Q (18, 18), R (9, 9), zs (n, 9), meas_sd (9,)``."""
         zs = measurements(flight)
-        meas_sd = noise_sd(flight, zs, self.measurement_noise, self.measurement_sd_floor_rel)
+        meas_sd = measurement_sd(flight, zs, self.measurement_noise,
+                                 self.measurement_sd_floor_rel)
         prior = flight.airframe.prior_vector()
         x0 = np.concatenate([flight.states()[0], prior])
         sd0 = np.concatenate([

@@ -34,9 +34,9 @@ import numpy as np
 import scipy.linalg
 
 import aeroid
-from aeroid.estimation import _reconstruct as rc
-from aeroid.estimation._interface import EstimationResult, Estimator
-from aeroid.flights._flight import Flight
+from aeroid import estimation as rc
+from aeroid.estimation import EstimationResult, Estimator
+from aeroid.flights import Flight
 
 #: Regressor pairs with |correlation| above this are reported as collinear (Cl0/Clp on
 #: the reference flight: 0.9998).
@@ -145,13 +145,13 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
     From :func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` evaluated at
     ``theta = 0`` and at the nine unit vectors (both are affine in the coefficients).
     """
-    const = aeroid.constants(flight.airframe)
+    const = aeroid.model.constants(flight.airframe)
     states = flight.states() if states is None else states
     delta = flight["delta"]
     basis = np.vstack([np.zeros(9), np.eye(9)])  # (10, 9)
-    acc = aeroid.accelerometers(states[:, None, :], delta[:, None], basis[None], const,
+    acc = aeroid.model.accelerometers(states[:, None, :], delta[:, None], basis[None], const,
                                 flight.airframe.accel_positions).reshape(len(states), 10, 6)
-    wdot = aeroid.state_derivative(states[:, None, :], delta[:, None], basis[None],
+    wdot = aeroid.model.state_derivative(states[:, None, :], delta[:, None], basis[None],
                                    const)[..., 3:6]
     out = np.concatenate([acc, wdot], axis=2)  # (n, 10, 9)
     c = out[:, 0, :]
@@ -258,7 +258,7 @@ class EquationErrorEstimator(Estimator):
             return self._one_step(flight)
         rec = rc.reconstruct(flight)
         X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
-        theta, cov, corr, sigma2, cost = solve_subproblems(X, y, rc.noise_sd(rec.fm),
+        theta, cov, corr, sigma2, cost = solve_subproblems(X, y, rc.estimate_noise_sd(rec.fm),
                                                            lateral_rows=self.lateral_rows,
                                                            covariance=self.covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
@@ -275,7 +275,7 @@ class EquationErrorEstimator(Estimator):
             target = rc.smooth(target)
         if self.smoothing == "both":
             A = rc.smooth(A, axis=0)
-        sd = rc.noise_sd(meas)
+        sd = rc.estimate_noise_sd(meas)
         theta = cov = None
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
             Aw = (A / sd[None, :, None]).reshape(-1, 9)

@@ -30,10 +30,9 @@ from typing import ClassVar, Literal
 import numpy as np
 
 import aeroid
-from aeroid.estimation import _objectives as objectives
-from aeroid.estimation import _reconstruct as reconstruct
-from aeroid.estimation._interface import EstimationResult, Estimator
-from aeroid.flights._flight import Flight
+from aeroid import estimation
+from aeroid.estimation import EstimationResult, Estimator
+from aeroid.flights import Flight
 
 
 @contextlib.contextmanager
@@ -124,10 +123,10 @@ class PyswarmsEstimator(Estimator):
     def cost_function(self, flight: Flight):
         """Return the objective ``theta (P, 9) -> (P,)``."""
         if self.objective == "ebm":
-            rec = reconstruct.reconstruct(flight)
-            return objectives.ebm_cost(flight, rec, weighting=self.weighting,
+            rec = estimation.reconstruct(flight)
+            return estimation.ebm_cost(flight, rec, weighting=self.weighting,
                                        smoothing=self.smoothing)
-        return objectives.OutputErrorCost(flight, weighting=self.weighting)
+        return estimation.OutputErrorCost(flight, weighting=self.weighting)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it)."""

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation._interface import EstimationResult
-from aeroid.flights._flight import Flight
+from aeroid.flights import Flight
 from baselines import _common, _kalman
 
 

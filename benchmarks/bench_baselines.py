@@ -180,7 +180,7 @@ def main(argv=None):
 
     rec = rc.reconstruct(flight)
     X, y = rc.ebm_regression(flight, rec)
-    sd = rc.noise_sd(rec.fm)
+    sd = rc.estimate_noise_sd(rec.fm)
     _, step2_times = timed(lambda: solve_subproblems(X, y, sd), repeats * 3)
     _, step1_times = timed(lambda: rc.ebm_regression(flight, rc.reconstruct(flight)),
                            repeats * 3)

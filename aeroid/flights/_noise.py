@@ -22,8 +22,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
-RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
+from aeroid.model._dynamics import ACCEL_CHANNELS, RATE_CHANNELS
 
 
 class NoiseModel(Protocol):

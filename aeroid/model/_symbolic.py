@@ -1,11 +1,9 @@
-"""The airframe model written once in CasADi form, for exact Jacobians (private).
+"""The model on CasADi symbols, for exact derivatives (algorithmic differentiation).
 
-The equations are those of :mod:`aeroid.model` (eqs. 2-10, 14-16) and of
-:func:`aeroid.flights.accelerometers` (eq. 28), written with operations that work on
-CasADi ``SX``/``MX`` symbols (and on floats). Tests check that these functions equal
-aeroid's numpy model (:func:`aeroid.state_derivative`, :func:`aeroid.propagate`,
-:func:`aeroid.accelerometers`) to rounding, so the baselines fit exactly the model the
-simulator integrates.
+The equations are not written here: :mod:`aeroid.model._equations` is evaluated on CasADi
+``SX`` symbols (numpy's element-wise functions dispatch to CasADi objects in CasADi's
+numpy mode, set once below), so the baselines differentiate exactly the model the
+simulator integrates. Tests check these functions against the numpy evaluation.
 
 Built CasADi functions are cached per (constants, dt, substeps) with
 :func:`functools.lru_cache`, so repeated fits on flights of the same airframe and sample
@@ -16,6 +14,7 @@ library on disk.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
@@ -27,17 +26,28 @@ from pathlib import Path
 
 import casadi as ca
 
-from aeroid.model._dynamics import Constants
+from aeroid.model import _equations as eq
+from aeroid.model._coefficients import N_COEFFICIENTS
+from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, Constants
 
-#: Measurement layout of every baseline: both triads, then the body rates (section 4.3).
-MEASUREMENT_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r")
-N_MEASUREMENTS = 9
-N_STATE = 9
-N_COEF = 9
+# numpy functions on CasADi symbols return CasADi values (not the legacy behaviour, which
+# CasADi 3.8 announces with a FutureWarning); older CasADi versions lack the setting.
+with contextlib.suppress(AttributeError):  # pragma: no branch - absent before CasADi 3.8
+    ca.GlobalOptions.setNumpyMode(1)
+
+N_OUTPUTS = len(OUTPUT_CHANNELS)
+
+
+def _state(x) -> eq.State:
+    return eq.State(*(x[i] for i in range(N_STATE)))
+
+
+def _coefficients(theta) -> eq.Coefficients:
+    return eq.Coefficients(*(theta[i] for i in range(N_COEFFICIENTS)))
 
 
 def rhs(x, delta, theta, const: Constants):
-    """Return d(state)/dt and the aerodynamic forces/moments (eqs. 2-10), CasADi-compatible.
+    """Return d(state)/dt (a CasADi vector of 9) and the aerodynamic loads (eqs. 2-10).
 
     Parameters
     ----------
@@ -48,80 +58,37 @@ def rhs(x, delta, theta, const: Constants):
     theta : casadi SX/MX or sequence, length 9
         Coefficients in ``aeroid.NAMES`` order.
     const : Constants
-
-    Returns
-    -------
-    xdot : casadi vector (9,)
-    fm : list of 6 expressions
-        ``F_AX, F_AY, F_AZ`` [N], ``M_X, M_Y, M_Z`` [N m].
     """
-    u, v, w, p, q, r, phi, th = (x[i] for i in range(8))
-    c = [theta[i] for i in range(9)]
-    speed = ca.sqrt(u * u + v * v + w * w)
-    alpha = ca.atan2(w, u)
-    beta = ca.asin(v / speed)
-    qs = 0.5 * const.rho * speed * speed * const.area
-    qsd = qs * const.diameter
-    k = const.diameter / (2.0 * speed)
-    fax = qs * c[0]
-    fay = qs * (c[1] * beta - c[3] * k * r)
-    faz = qs * (c[1] * alpha + c[2] * delta + c[3] * k * q)
-    mx = qsd * (c[4] + c[5] * k * p)
-    my = qsd * (c[6] * alpha + c[7] * delta + c[8] * k * q)
-    mz = qsd * (-c[6] * beta + c[8] * k * r)
-    g = const.gravity
-    sphi, cphi = ca.sin(phi), ca.cos(phi)
-    sth, cth = ca.sin(th), ca.cos(th)
-    xdot = ca.vertcat(
-        r * v - q * w - g * sth + (fax + const.thrust) / const.mass,
-        -r * u + p * w + g * cth * sphi + fay / const.mass,
-        q * u - p * v + g * cth * cphi + faz / const.mass,
-        mx / const.ix,
-        (const.iz - const.ix) / const.iy * p * r + my / const.iy,
-        (const.ix - const.iy) / const.iz * p * q + mz / const.iz,
-        p + (q * sphi + r * cphi) * sth / cth,
-        q * cphi - r * sphi,
-        (q * sphi + r * cphi) / cth,
-    )
-    return xdot, [fax, fay, faz, mx, my, mz]
+    state = _state(x)
+    loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
+    return ca.vertcat(*eq.derivative(state, loads, const, eq.trig(state))), loads
 
 
 def measurement(x, delta, theta, positions, const: Constants):
-    """Return the nine measurements ``[a1 (3), a2 (3), p, q, r]`` (eq. 28), CasADi-compatible.
-
-    ``a_R = (F_A + F_T) / m + wdot x R + w x (w x R)`` at each triad position ``R``.
+    """Return the outputs ``[a1 (3), a2 (3), ..., p, q, r]`` (eq. 28 at each triad, gyros).
 
     Parameters
     ----------
     x, delta, theta, const
         As in :func:`rhs`.
-    positions : casadi vector of length 6 or sequence
-        ``[x1, y1, z1, x2, y2, z2]`` triad positions from the c.g. [m].
+    positions : casadi vector of length 3 n_triads, or sequence
+        ``[x1, y1, z1, x2, y2, z2, ...]`` triad positions from the c.g. [m].
     """
-    xdot, fm = rhs(x, delta, theta, const)
-    p, q, r = x[3], x[4], x[5]
-    pd, qd, rd = xdot[3], xdot[4], xdot[5]
-    fx = (fm[0] + const.thrust) / const.mass
-    fy = fm[1] / const.mass
-    fz = fm[2] / const.mass
+    state = _state(x)
+    loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
     out = []
-    for j in range(2):
-        rx, ry, rz = positions[3 * j], positions[3 * j + 1], positions[3 * j + 2]
-        # w x R
-        cx, cy, cz = q * rz - r * ry, r * rx - p * rz, p * ry - q * rx
-        out += [
-            fx + (qd * rz - rd * ry) + (q * cz - r * cy),
-            fy + (rd * rx - pd * rz) + (r * cx - p * cz),
-            fz + (pd * ry - qd * rx) + (p * cy - q * cx),
-        ]
-    return ca.vertcat(*out, p, q, r)
+    n_triads = (positions.shape[0] if hasattr(positions, "shape") else len(positions)) // 3
+    for j in range(n_triads):
+        out += eq.accelerometer(state, loads, const, positions[3 * j], positions[3 * j + 1],
+                                positions[3 * j + 2])
+    return ca.vertcat(*out, *eq.rate_gyros(state))
 
 
 def rk4_step(x, delta, theta, const: Constants, dt: float, substeps: int):
     """Return the state after ``substeps`` RK4 steps of ``dt / substeps`` with ``delta`` held.
 
-    The same scheme as :func:`aeroid.model.propagate` (zero-order hold of ``delta``
-    over the sample interval).
+    The same scheme as :func:`aeroid.model.propagate` (zero-order hold of ``delta`` over
+    the sample interval).
     """
     h = dt / substeps
     for _ in range(substeps):
@@ -137,7 +104,7 @@ def rk4_step(x, delta, theta, const: Constants, dt: float, substeps: int):
 def step_function(const: Constants, dt: float, substeps: int) -> ca.Function:
     """Return the CasADi Function ``step(x (9), theta (9), delta) -> x_next (9)``."""
     x = ca.SX.sym("x", N_STATE)
-    theta = ca.SX.sym("theta", N_COEF)
+    theta = ca.SX.sym("theta", N_COEFFICIENTS)
     delta = ca.SX.sym("delta")
     return ca.Function("step", [x, theta, delta],
                        [rk4_step(x, delta, theta, const, dt, substeps)],
@@ -148,7 +115,7 @@ def step_function(const: Constants, dt: float, substeps: int) -> ca.Function:
 def measurement_function(const: Constants) -> ca.Function:
     """Return the CasADi Function ``meas(x (9), theta (9), delta, positions (6)) -> y (9)``."""
     x = ca.SX.sym("x", N_STATE)
-    theta = ca.SX.sym("theta", N_COEF)
+    theta = ca.SX.sym("theta", N_COEFFICIENTS)
     delta = ca.SX.sym("delta")
     pos = ca.SX.sym("pos", 6)
     return ca.Function("meas", [x, theta, delta, pos],
@@ -169,7 +136,7 @@ def augmented_functions(const: Constants, dt: float, substeps: int) -> tuple[ca.
     h : Function ``(z (18), delta, positions (6)) -> (y (9), H (9, 18))``
         Measurement and its Jacobian.
     """
-    z = ca.SX.sym("z", N_STATE + N_COEF)
+    z = ca.SX.sym("z", N_STATE + N_COEFFICIENTS)
     delta = ca.SX.sym("delta")
     pos = ca.SX.sym("pos", 6)
     x, theta = z[:N_STATE], z[N_STATE:]

@@ -189,32 +189,6 @@ def test_failure_becomes_result_with_time(flight):
 
 
 # --------------------------------------------------------------------------------------
-# Measurement-noise estimate
-# --------------------------------------------------------------------------------------
-def test_noise_sd_from_data_recovers_white_noise_sd():
-    rng = np.random.default_rng(5)
-    n = 20000
-    t = np.arange(n) * 0.002
-    sd_true = np.array([0.1, 2.0])
-    signal = np.column_stack([np.sin(2 * np.pi * 2 * t), 50 + 3 * t])
-    y = signal + sd_true * rng.standard_normal((n, 2))
-    delta = np.zeros(n)
-    sd = _common.noise_sd_from_data(y, delta, floor_rel=1e-6)
-    # sd of an sd estimate from n samples ~ sd / sqrt(2 n) = 0.5 %; the SG residual is a
-    # moving average (correlated), so allow 4x that
-    np.testing.assert_allclose(sd, sd_true, rtol=0.02)
-
-
-def test_noise_sd_from_data_ignores_relay_jumps():
-    rng = np.random.default_rng(6)
-    n = 5000
-    delta = np.where((np.arange(n) // 50) % 2 == 0, 1.0, -1.0)
-    y = (10.0 * delta + 0.05 * rng.standard_normal(n))[:, None]
-    sd = _common.noise_sd_from_data(y, delta, floor_rel=1e-6)
-    np.testing.assert_allclose(sd, [0.05], rtol=0.05)
-
-
-# --------------------------------------------------------------------------------------
 # Fits of the noise-free reference flight
 # --------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
