@@ -13,7 +13,7 @@ import aeroid
 from aeroid import estimation
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
-from aeroid.model import symbolic
+from aeroid.model import Pieces, Record, symbolic
 from baselines import _kalman
 
 SG_WINDOW = 7
@@ -51,38 +51,47 @@ def measurement_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float)
     raise ValueError(f"measurement_noise must be 'data' or 'paper', got {method!r}")
 
 
-def augmented_model(flight: Flight, substeps: int) -> _kalman.DiscreteModel:
+def augmented_model(flight: Flight, substeps: int, record: Record | None = None
+                    ) -> _kalman.DiscreteModel:
     """Return the 18-state augmented model ``[x, theta]`` of ``flight`` for the filters.
 
-    The transition from sample k to k+1 is the RK4 step (``substeps`` per interval) with
-    the measured ``delta_k`` held; coefficients are constant. Jacobians come from CasADi
-    AD (:func:`aeroid.model.augmented_functions`); the batched versions use
-    :func:`aeroid.propagate` and :func:`aeroid.accelerometers`.
+    The transition from sample k to k+1 is one interval of the model's record
+    (``record``, default the logged deflection held; ``substeps`` RK4 steps per piece);
+    coefficients are constant. Jacobians come from CasADi AD
+    (:func:`aeroid.model.symbolic.augmented_functions`); the batched versions (UKF) use
+    :func:`aeroid.model.propagate` and :func:`aeroid.model.accelerometers`.
     """
     const = aeroid.model.constants(flight.airframe)
-    dt = flight.dt
-    delta = flight["delta"]
+    record = record or Record.held(flight["delta"], flight.dt)
+    delta, pieces_table, exo_table = record.symbolic_inputs()
+    delta = delta[0]
     positions = flight.airframe.accel_positions
     pos_flat = positions.ravel()
-    f, h = symbolic.augmented_functions(const, dt, substeps)
+    varying = record.exogenous is not None
+    f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying)
 
     def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        z_next, F = f(z, delta[k])
+        z_next, F = f(z, pieces_table[:, k], exo_table[:, k], exo_table[:, k + 1])
         return np.asarray(z_next).ravel(), np.asarray(F)
 
     def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        y, H = h(z, delta[k], pos_flat)
+        y, H = h(z, delta[k], exo_table[:, k], pos_flat)
         return np.asarray(y).ravel(), np.asarray(H)
 
     def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
         # numpy backend: one RK4 step of 37 sets is too little work for numba's parallel
         # launch, which cost ~5 ms per call on a busy 2-core machine (measured)
-        x_next = aeroid.model.propagate(Z[:, :9], Z[:, 9:], delta[k:k + 1], dt, const,
-                                  substeps=substeps, backend="numpy")[:, 1]
+        interval = Pieces(*(a[k:k + 1] for a in record.pieces))
+        exo = None if not varying else record.exogenous[k:k + 2]
+        x_next = aeroid.model.propagate(Z[:, :9], Z[:, 9:], interval, record.dt, const,
+                                        substeps=substeps, backend="numpy",
+                                        exogenous=exo)[:, 1]
         return np.concatenate([x_next, Z[:, 9:]], axis=1)
 
     def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
-        acc = aeroid.model.accelerometers(Z[:, :9], delta[k], Z[:, 9:], const, positions)
+        const_k = const if not varying else aeroid.model.with_exogenous(
+            const, record.exogenous[k])
+        acc = aeroid.model.accelerometers(Z[:, :9], delta[k], Z[:, 9:], const_k, positions)
         return np.concatenate([acc.reshape(len(Z), 6), Z[:, 3:6]], axis=1)
 
     return _kalman.DiscreteModel(18, 9, transition, observe, transition_batch, observe_batch)

@@ -116,17 +116,36 @@ class _RowFeed:
         return row
 
 
-def _check(P: np.ndarray, x: np.ndarray) -> str:
-    """Return '' when P is positive definite and x finite, else the reason."""
+#: An updated covariance whose smallest eigenvalue is above ``-ROUNDING_RTOL`` times its
+#: largest is positive definite up to rounding: ``P - K S K^T`` cancels to the last digits
+#: when a measurement pins a direction exactly (noise-free flights: the measurement sd is
+#: 1e-4 of the signal while coefficient variances reach 1e5), and its eigenvalues are
+#: then known only to about ``n eps |P|`` (n = 18, eps = 2.2e-16: 4e-15). 1e-12 leaves a
+#: factor 250 above that; anything more negative is a real divergence.
+ROUNDING_RTOL = 1e-12
+
+
+def _check(P: np.ndarray, x: np.ndarray) -> tuple[str, np.ndarray]:
+    """Return ``('', P)`` when P is positive definite (up to rounding) and x finite.
+
+    A covariance that fails the Cholesky factorisation only by rounding
+    (:data:`ROUNDING_RTOL`) is replaced by the nearest positive definite matrix with the
+    same eigenvectors (eigenvalues clipped to ``ROUNDING_RTOL`` times the largest);
+    otherwise the reason is returned.
+    """
     if not np.all(np.isfinite(x)) or not np.all(np.isfinite(P)):
-        return "non-finite state or covariance"
+        return "non-finite state or covariance", P
     if np.any(np.diag(P) <= 0.0):
-        return "non-positive variance on the diagonal"
+        return "non-positive variance on the diagonal", P
     try:
         np.linalg.cholesky(P)
+        return "", P
     except np.linalg.LinAlgError:
-        return "covariance not positive definite (Cholesky failed)"
-    return ""
+        eig, vec = np.linalg.eigh(P)
+        if eig[0] < -ROUNDING_RTOL * eig[-1]:
+            return "covariance not positive definite (Cholesky failed)", P
+        eig = np.maximum(eig, ROUNDING_RTOL * eig[-1])
+        return "", (vec * eig) @ vec.T
 
 
 def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
@@ -177,7 +196,7 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
                    Hx=lambda _x, z_hat=z_hat: z_hat)
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
-        reason = _check(ekf.P, ekf.x)
+        reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
             return _finish(xs, sds, ekf.P, k, reason)
         xs[k] = ekf.x.ravel()
@@ -225,7 +244,7 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
         ukf.update(zs[k], hx=_RowFeed(rows))
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
-        reason = _check(ukf.P, ukf.x)
+        reason, ukf.P = _check(ukf.P, ukf.x)
         if reason:
             return _finish(xs, sds, ukf.P, k, reason)
         xs[k] = ukf.x

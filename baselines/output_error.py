@@ -28,7 +28,7 @@ import numpy as np
 import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
-from aeroid.model import Buffered, ForwardModel, constants, symbolic_record
+from aeroid.model import Buffered, ForwardModel, Record, constants, symbolic_record
 from baselines import _common
 from baselines._gauss_newton import Fit, Problem, fisher_information, gauss_newton
 
@@ -149,10 +149,11 @@ class OutputErrorEstimator(Estimator):
     def problem(self, flight: Flight) -> Problem:
         """Return the flight's arrays and cached CasADi functions."""
         const = constants(flight.airframe)
-        n = flight.n_samples
+        record = Record.held(flight["delta"], flight.dt)
         simulate, jacobian, is_compiled = symbolic_record(
-            const, flight.dt, self.substeps, n, self.x0_free(),
-            tuple(3 * t for t in self.rx_free()), self.compile_model)
+            const, record.dt, self.substeps, record.n_samples, self.x0_free(),
+            tuple(3 * t for t in self.rx_free()), self.compile_model, record.n_pieces,
+            record.exogenous is not None)
         prior = flight.airframe.prior_vector()
         pos = flight.airframe.accel_positions.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
@@ -163,8 +164,8 @@ class OutputErrorEstimator(Estimator):
         x0 = flight.states()[0]
         x0[3:6] = _common.smoothed_start(z[:, 6:9])
         scale = np.concatenate(scale)
-        delta = flight["delta"][None, :]
-        inputs = [np.zeros(scale.size), scale, x0, delta, pos]
+        delta, pieces, exo = record.symbolic_inputs()
+        inputs = [np.zeros(scale.size), scale, x0, delta, pieces, exo, pos]
         return Problem(z=z, scale=scale, x0_meas=x0, delta=delta, pos=pos,
                         simulate=Buffered(simulate, inputs),
                         jacobian=Buffered(jacobian, inputs), r_floor=r_floor,
@@ -179,7 +180,8 @@ class OutputErrorEstimator(Estimator):
         """Return the best coefficients of a short PSO run and its evaluation count."""
         from aeroid.estimation import minimize
 
-        model = ForwardModel(constants(flight.airframe), flight["delta"], flight.dt,
+        model = ForwardModel(constants(flight.airframe),
+                             Record.held(flight["delta"], flight.dt),
                              flight.airframe.accel_positions, substeps=self.substeps)
 
         def cost(thetas: np.ndarray) -> np.ndarray:

@@ -85,6 +85,7 @@ from aeroid.model._airframe import Airframe
 from aeroid.model._coefficients import N_COEFFICIENTS, as_vector
 from aeroid.model._dynamics import OUTPUT_CHANNELS, constants
 from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
+from aeroid.model._inputs import Record
 
 #: Channel subsets: ``both`` triads and the rates (default), or ``triad1`` and the rates
 #: (the EAM output set: triad 1 at [Rx1, 0, 0] only).
@@ -153,7 +154,7 @@ def _positions(airframe: Airframe, positions: np.ndarray | None) -> np.ndarray:
 
 def _forward_model(airframe: Airframe, inputs: OutputErrorInputs, positions: np.ndarray | None,
                    substeps: int) -> ForwardModel:
-    return ForwardModel(constants(airframe), inputs.delta, inputs.dt,
+    return ForwardModel(constants(airframe), Record.held(inputs.delta, inputs.dt),
                         _positions(airframe, positions), substeps=substeps)
 
 

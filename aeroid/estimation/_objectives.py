@@ -40,6 +40,7 @@ from aeroid.estimation._signals import estimate_noise_sd, smooth
 from aeroid.flights._flight import Flight
 from aeroid.model._dynamics import PHI, THETA, P, Q, R, constants
 from aeroid.model._forward import ForwardModel
+from aeroid.model._inputs import Record
 
 __all__ = [
     "EAM_OUTPUTS",
@@ -320,7 +321,7 @@ class OutputErrorCost:
             q0, r0 = self.state0[Q], self.state0[R]
             self.state0[P] = phidot - (q0 * np.sin(phi) + r0 * np.cos(phi)) * np.tan(theta)
         self.initial_state = initial_state
-        self.model = ForwardModel(constants(flight.airframe), self.delta, flight.dt,
+        self.model = ForwardModel(constants(flight.airframe), Record.held(self.delta, flight.dt),
                                   flight.airframe.accel_positions[:1], substeps=substeps,
                                   backend=backend)
 

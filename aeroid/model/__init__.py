@@ -57,12 +57,21 @@ from aeroid.model._dynamics import (
 )
 from aeroid.model._equations import Coefficients, Loads, State, Trig
 from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
+from aeroid.model._inputs import (
+    EXOGENOUS,
+    Pieces,
+    Record,
+    Schedule,
+    exogenous_table,
+    with_exogenous,
+)
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
 
 __all__ = [
     "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",
     "Trig", "as_coefficients", "as_state", "equations", "Buffered", "ForwardModel",
-    "symbolic", "symbolic_record",
+    "symbolic", "symbolic_record", "EXOGENOUS", "Pieces", "Record", "Schedule",
+    "exogenous_table", "with_exogenous",
     "FM_NAMES", "G0", "HAVE_NUMBA", "LABELS", "NAMES", "NOMINAL", "N_COEFFICIENTS", "N_STATE",
     "PHI", "PSI", "STATE_NAMES", "THETA", "Airframe", "Constants", "P", "Q", "R",
     "RelayActuator", "U", "V", "W", "accelerometers", "aero_forces_moments", "air_data",

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.model import _equations as eq
+from aeroid.model import _inputs as inputs
 
 try:  # numba is a runtime dependency, but the numpy path must work without it
     import numba
@@ -95,7 +96,7 @@ def _register(fn: Callable[..., Any], impl: Callable[..., Any]) -> None:
 if HAVE_NUMBA:
     for _fn in eq.ELEMENT_WISE:
         _register(_fn, _fast_atan2 if _fn is eq.atan2 else _fn)
-    for _fn in (from_array, axpy, rk4_combine):
+    for _fn in (from_array, axpy, rk4_combine, inputs.with_exogenous, inputs.lerp):
         _register(_fn, _fn)
 
     jit_inline = numba.njit(inline="always", fastmath=FASTMATH_FLAGS)
@@ -127,55 +128,98 @@ if HAVE_NUMBA:
         return eq.Trig(sphi, cphi, sth, cth)
 
     @jit_inline
-    def rk4_substep(x, c, delta, const, h):  # pragma: no cover - compiled
-        """Return the state after one classical RK4 step of ``h`` with ``delta`` held."""
+    def rk4_substep(x, c, d0, d1, d2, k0, k1, k2, h):  # pragma: no cover - compiled
+        """Return the state after one classical RK4 step of ``h``.
+
+        ``d0, d1, d2`` and ``k0, k1, k2`` are the fin deflection and the constants at the
+        start, the middle and the end of the step.
+        """
         hh = 0.5 * h
         t = eq.Trig(math.sin(x.phi), math.cos(x.phi), math.sin(x.theta), math.cos(x.theta))
-        a = eq.state_derivative(x, c, delta, const, t)
-        b = eq.state_derivative(axpy(x, hh, a), c, delta, const, shifted(t, hh * a.phi,
-                                                                     hh * a.theta))
-        e = eq.state_derivative(axpy(x, hh, b), c, delta, const, shifted(t, hh * b.phi,
-                                                                     hh * b.theta))
-        f = eq.state_derivative(axpy(x, h, e), c, delta, const, shifted(t, h * e.phi,
-                                                                    h * e.theta))
+        a = eq.state_derivative(x, c, d0, k0, t)
+        b = eq.state_derivative(axpy(x, hh, a), c, d1, k1, shifted(t, hh * a.phi,
+                                                                   hh * a.theta))
+        e = eq.state_derivative(axpy(x, hh, b), c, d1, k1, shifted(t, hh * b.phi,
+                                                                   hh * b.theta))
+        f = eq.state_derivative(axpy(x, h, e), c, d2, k2, shifted(t, h * e.phi,
+                                                                  h * e.theta))
         return rk4_combine(x, h / 6.0, a, b, e, f)
 
     @numba.njit(cache=True, fastmath=FASTMATH_FLAGS)
-    def integrate_set(x0, c0, delta, h, substeps, const, out):  # pragma: no cover - compiled
-        """Integrate one coefficient set over the record into ``out`` (n_samples, 9)."""
+    def integrate_set(x0, c0, end, start, stop, exo, varying, dt, substeps, base,
+                      out):  # pragma: no cover - compiled
+        """Integrate one coefficient set over the record into ``out`` (n_samples, 9).
+
+        Interval ``s`` is cut into the pieces ``end[s]`` (fractions; the deflection goes
+        linearly from ``start`` to ``stop`` within a piece, constant when they are
+        equal), each integrated with ``substeps`` RK4 steps; with ``varying`` the
+        exogenous table ``exo`` (n, 7) is interpolated linearly within the interval,
+        otherwise the constants ``base`` hold.
+        """
         c = eq.Coefficients(c0[0], c0[1], c0[2], c0[3], c0[4], c0[5], c0[6], c0[7], c0[8])
         x = from_array(x0)
         for j in range(x0.shape[0]):
             out[0, j] = x0[j]
-        for s in range(delta.shape[0]):
-            d = delta[s]
-            for _ in range(substeps):
-                x = rk4_substep(x, c, d, const, h)
+        k_a = base
+        k_b = base
+        for s in range(end.shape[0]):
+            if varying:
+                k_a = inputs.with_exogenous(base, exo[s])
+                k_b = inputs.with_exogenous(base, exo[s + 1])
+            f_start = 0.0
+            for piece in range(end.shape[1]):
+                f_end = end[s, piece]
+                length = f_end - f_start
+                if length > 0.0:
+                    d_start = start[s, piece]
+                    d_span = stop[s, piece] - d_start
+                    h = length * dt / substeps
+                    for sub in range(substeps):
+                        # stage points as fractions of the piece: no division by length
+                        u0, u1, u2 = sub / substeps, (sub + 0.5) / substeps, (sub + 1.0) / substeps
+                        d0 = d_start + d_span * u0
+                        d1 = d_start + d_span * u1
+                        d2 = d_start + d_span * u2
+                        if varying:
+                            x = rk4_substep(x, c, d0, d1, d2,
+                                            inputs.lerp(k_a, k_b, f_start + length * u0),
+                                            inputs.lerp(k_a, k_b, f_start + length * u1),
+                                            inputs.lerp(k_a, k_b, f_start + length * u2), h)
+                        else:
+                            x = rk4_substep(x, c, d0, d1, d2, base, base, base, h)
+                f_start = f_end
             for j in range(len(x)):
                 out[s + 1, j] = x[j]
 
     @numba.njit(cache=True, parallel=True)
-    def propagate_parallel(state0, coefficients, delta, h, substeps, const):  # pragma: no cover
+    def propagate_parallel(state0, coefficients, end, start, stop, exo, varying, dt,
+                           substeps, base):  # pragma: no cover - compiled
         """Integrate many sets, one thread per set (``prange``)."""
-        out = np.empty((state0.shape[0], delta.shape[0] + 1, state0.shape[1]))
+        out = np.empty((state0.shape[0], end.shape[0] + 1, state0.shape[1]))
         for i in numba.prange(state0.shape[0]):
-            integrate_set(state0[i], coefficients[i], delta, h, substeps, const, out[i])
+            integrate_set(state0[i], coefficients[i], end, start, stop, exo, varying, dt,
+                          substeps, base, out[i])
         return out
 
     @numba.njit(cache=True)
-    def propagate_serial(state0, coefficients, delta, h, substeps, const):  # pragma: no cover
+    def propagate_serial(state0, coefficients, end, start, stop, exo, varying, dt,
+                         substeps, base):  # pragma: no cover - compiled
         """Integrate many sets in one thread."""
-        out = np.empty((state0.shape[0], delta.shape[0] + 1, state0.shape[1]))
+        out = np.empty((state0.shape[0], end.shape[0] + 1, state0.shape[1]))
         for i in range(state0.shape[0]):
-            integrate_set(state0[i], coefficients[i], delta, h, substeps, const, out[i])
+            integrate_set(state0[i], coefficients[i], end, start, stop, exo, varying, dt,
+                          substeps, base, out[i])
         return out
 
     @numba.njit(cache=True, parallel=True, fastmath=False)
-    def weighted_cost(states, delta, theta, const, positions, z, w):  # pragma: no cover
+    def weighted_cost(states, delta, theta, base, exo, varying, positions, z,
+                      w):  # pragma: no cover - compiled
         """Return ``(1/n) sum_k sum_c w_kc (z_kc - y_kc)^2`` for every set, shape (n_sets,).
 
         ``y`` are the model outputs (eq. 28 at each triad position, then the rate gyros)
-        of the trajectories ``states`` (n_sets, n, 9); ``z``, ``w`` (n, 3 n_triads + 3).
+        of the trajectories ``states`` (n_sets, n, 9) with the deflection ``delta`` (n,)
+        and the constants (``base``, or the rows of ``exo`` with ``varying``) at the
+        samples; ``z``, ``w`` (n, 3 n_triads + 3).
         """
         n_sets, n = states.shape[0], states.shape[1]
         n_triads = positions.shape[0]
@@ -184,7 +228,10 @@ if HAVE_NUMBA:
             t = theta[i]
             c = eq.Coefficients(t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8])
             total = 0.0
+            const = base
             for s in range(n):
+                if varying:
+                    const = inputs.with_exogenous(base, exo[s])
                 x = from_array(states[i, s])
                 loads = eq.aerodynamic_loads(x, c, delta[s], const)
                 for j in range(n_triads):

@@ -35,8 +35,10 @@ import casadi as ca
 import numpy as np
 
 from aeroid.model import _compiled, _symbolic
+from aeroid.model import _inputs as inputs
 from aeroid.model._coefficients import N_COEFFICIENTS, as_vector
 from aeroid.model._dynamics import N_STATE, STATE_NAMES, Constants, accelerometers
+from aeroid.model._inputs import Record
 from aeroid.model._integrate import propagate
 
 #: Default relative step of the central-difference sensitivities (the floor's decision:
@@ -51,10 +53,9 @@ class ForwardModel:
     ----------
     const : Constants
         Model constants (:func:`aeroid.model.constants`).
-    delta : ndarray, shape (n,)
-        Fin deflection at every sample [rad], held over ``[t_k, t_k + dt)``.
-    dt : float
-        Sample interval [s].
+    record : Record
+        The inputs in time: sample interval, deflection at and between the samples,
+        exogenous quantities (:class:`aeroid.model.Record`).
     positions : ndarray, shape (n_triads, 3)
         Accelerometer-triad positions from the c.g. [m].
     substeps : int
@@ -68,11 +69,12 @@ class ForwardModel:
         ``ax1, ay1, az1, ...`` per triad, then ``p, q, r``.
     """
 
-    def __init__(self, const: Constants, delta: np.ndarray, dt: float, positions: np.ndarray,
-                 *, substeps: int = 1, backend: str = "auto") -> None:
+    def __init__(self, const: Constants, record: Record, positions: np.ndarray, *,
+                 substeps: int = 1, backend: str = "auto") -> None:
         self.const = Constants(*(float(v) for v in const))
-        self.delta = np.ascontiguousarray(delta, dtype=float).reshape(-1)
-        self.dt = float(dt)
+        self.record = record
+        self.delta = record.delta
+        self.dt = record.dt
         self.positions = np.ascontiguousarray(np.atleast_2d(np.asarray(positions, dtype=float)))
         if self.positions.ndim != 2 or self.positions.shape[1] != 3:
             raise ValueError(f"forward model: positions must have shape (n_triads, 3), "
@@ -100,14 +102,17 @@ class ForwardModel:
         ``state0`` is (9,) (shared) or (n_sets, 9); ``theta`` (9,) or (n_sets, 9).
         """
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
-        return propagate(state0, theta, self.delta[:-1], self.dt, self.const,
-                         substeps=self.substeps, backend=self.backend)
+        return propagate(state0, theta, self.record.pieces, self.dt, self.const,
+                         substeps=self.substeps, backend=self.backend,
+                         exogenous=self.record.exogenous)
 
     def outputs_of(self, states: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """Return the outputs of given trajectories ``states`` (n_sets, n, 9), (n_sets, n, m)."""
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        const = self.const if self.record.exogenous is None else inputs.with_exogenous(
+            self.const, self.record.exogenous.T)  # fields (n,): the constants per sample
         with np.errstate(all="ignore"):
-            acc = accelerometers(states, self.delta[None, :], theta[:, None, :], self.const,
+            acc = accelerometers(states, self.delta[None, :], theta[:, None, :], const,
                                  self.positions)
         n_sets, n = states.shape[:2]
         return np.concatenate([acc.reshape(n_sets, n, -1), states[..., 3:6]], axis=-1)
@@ -134,8 +139,10 @@ class ForwardModel:
         states = self.states(state0, theta)
         with np.errstate(all="ignore"):
             if self.backend == "numba":
-                cost = _compiled.weighted_cost(states, self.delta, theta, self.const,
-                                               self.positions, measured, weights)
+                varying = self.record.exogenous is not None
+                table = self.record.exogenous if varying else np.zeros((1, 7))
+                cost = _compiled.weighted_cost(states, self.delta, theta, self.const, table,
+                                               varying, self.positions, measured, weights)
             else:
                 pred = self.outputs_of(states, theta)
                 cost = np.sum(weights * (measured - pred) ** 2, axis=(1, 2)) / self.n_samples
@@ -186,7 +193,8 @@ class ForwardModel:
 @functools.lru_cache(maxsize=16)
 def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                     x0_free: tuple[int, ...] = (), position_free: tuple[int, ...] = (),
-                    compiled: bool = False) -> tuple[ca.Function, ca.Function, bool]:
+                    compiled: bool = False, n_pieces: int = 1, varying: bool = False
+                    ) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record (both triads, rates) and its Jacobian.
 
     Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; the next
@@ -195,8 +203,13 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     ``len(position_free)`` are offsets of those position components (indices into the
     flattened positions ``[x1, y1, z1, x2, y2, z2]``) from the given positions.
 
-    The Jacobian is propagated with the record (forward sensitivities): the RK4 step
-    ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
+    Inputs besides the parameters: the deflection at every sample (the outputs see it),
+    the schedule's pieces per interval (``n_pieces`` per interval, rows ``end``,
+    ``start``, ``stop``: :meth:`aeroid.model.Schedule.segments`) and, with ``varying``,
+    the exogenous table (7 rows, one column per sample).
+
+    The Jacobian is propagated with the record (forward sensitivities): the interval
+    step ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
     ``S_k = dx_k/dp`` (``jtimes``), ``S_{k+1} = dF/dx S_k + dF/dtheta dtheta/dp``, and
     ``mapaccum`` carries ``(x, S)`` over the record; the outputs' Jacobian is
     ``dh/dx S_k + dh/dtheta dtheta/dp + dh/dpos dpos/dp``. This is exact (the chain rule
@@ -205,7 +218,8 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
 
     Returns
     -------
-    simulate : Function ``(p, scale, x0_given (9), delta (1, n), pos (6)) -> Y (n, 9)``
+    simulate : Function ``(p, scale, x0_given (9), delta (1, n), pieces (3 S, n - 1),
+        exo (7 or 0, n), pos (6)) -> Y (n, 9)``
     jacobian : Function ``(same) -> (Y (n, 9), dY (9, n n_p))``
         Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
     is_compiled : bool
@@ -215,37 +229,41 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     n_pos = 6
     n_x0, n_free_pos = len(x0_free), len(position_free)
     n_p = N_COEFFICIENTS + n_x0 + n_free_pos
-    # one step with sensitivities (SX)
+    # one interval with sensitivities (SX)
     x = ca.SX.sym("x", N_STATE)
     sens = ca.SX.sym("S", N_STATE, n_p)
     p9 = ca.SX.sym("p9", N_COEFFICIENTS)
     scale9 = ca.SX.sym("scale9", N_COEFFICIENTS)
-    d = ca.SX.sym("delta")
+    sym = _symbolic.interval_symbols(n_pieces, varying)
+    n_exo = sym.exo_a.shape[0]
     theta = p9 * scale9
     dtheta = ca.horzcat(ca.SX.eye(N_COEFFICIENTS), ca.SX.zeros(N_COEFFICIENTS,
                                                                n_p - N_COEFFICIENTS))
-    x_next = _symbolic.rk4_step(x, d, theta, const, dt, substeps)
+    x_next = _symbolic.interval_step_symbolic(x, theta, sym, const, dt, substeps)
     s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
     # symbol names unique per configuration: several compiled libraries may be loaded in
     # one process
     tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}"
-           f"r{''.join(map(str, position_free)) or 'n'}s{substeps}h"
+           f"r{''.join(map(str, position_free)) or 'n'}s{substeps}S{n_pieces}"
+           f"{'v' if varying else 'c'}h"
            f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}")
-    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, d], [x_next, s_next])
+    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, *sym], [x_next, s_next])
     # outputs with sensitivities (SX)
+    d = ca.SX.sym("delta")
+    exo = ca.SX.sym("exo", n_exo)
     ppos = ca.SX.sym("ppos", n_pos)  # scaled position offsets
     scale_pos = ca.SX.sym("scale_pos", n_pos)
     pos0 = ca.SX.sym("pos", n_pos)
     pos = pos0 + ppos * scale_pos
-    y = _symbolic.measurement(x, d, theta, pos, const)
+    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const, exo))
     dpos = ca.SX.zeros(n_pos, n_p)
     for j, component in enumerate(position_free):
         dpos[component, N_COEFFICIENTS + n_x0 + j] = 1.0
     dy = ca.jtimes(y, ca.vertcat(x, p9, ppos), ca.vertcat(sens, dtheta, dpos))
-    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, pos0, ppos, scale_pos],
+    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, exo, pos0, ppos, scale_pos],
                       [y, dy])
-    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, pos0, ppos, scale_pos], [y])
-    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, d], [x_next])
+    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, exo, pos0, ppos, scale_pos], [y])
+    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, *sym], [x_next])
     is_compiled = False
     if compiled:
         built = _symbolic.compile_functions([step, out, step_plain, out_plain],
@@ -259,6 +277,8 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     scale = ca.MX.sym("scale", n_p)
     x0_given = ca.MX.sym("x0_given", N_STATE)
     delta = ca.MX.sym("delta", 1, n_samples)
+    pieces = ca.MX.sym("pieces", 3 * n_pieces, n_samples - 1)
+    exo_table = ca.MX.sym("exo", n_exo, n_samples)
     pos_given = ca.MX.sym("pos", n_pos)
     pm, sm = p[:N_COEFFICIENTS], scale[:N_COEFFICIENTS]
     ppos_parts, spos_parts = [ca.MX(0.0)] * n_pos, [ca.MX(0.0)] * n_pos
@@ -271,33 +291,33 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     if n_x0:
         select = np.zeros((N_STATE, n_x0))
         select[list(x0_free), np.arange(n_x0)] = 1.0  # state component <- parameter
-        offsets = p[N_COEFFICIENTS:N_COEFFICIENTS + n_x0] * scale[N_COEFFICIENTS:
-                                                                  N_COEFFICIENTS + n_x0]
-        x0 = x0_given + ca.mtimes(ca.DM(select), offsets)
+        free = slice(N_COEFFICIENTS, N_COEFFICIENTS + n_x0)
+        x0 = x0_given + ca.mtimes(ca.DM(select), p[free] * scale[free])
         s0 = ca.horzcat(ca.MX.zeros(N_STATE, N_COEFFICIENTS),
-                        ca.mtimes(ca.DM(select), ca.diag(scale[N_COEFFICIENTS:
-                                                               N_COEFFICIENTS + n_x0])),
+                        ca.mtimes(ca.DM(select), ca.diag(scale[free])),
                         ca.MX.zeros(N_STATE, n_p - N_COEFFICIENTS - n_x0))
     m = n_samples - 1
 
     def rep(v: ca.MX, k: int) -> ca.MX:
         return ca.repmat(v, 1, k)
 
-    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m), delta[:, :m])
+    interval_inputs = [pieces, exo_table[:, :m], exo_table[:, 1:]]
+    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m), *interval_inputs)
     states = ca.horzcat(x0, xs)
-    Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples), delta,
-                                 rep(pos_given, n_samples), rep(ppos_m, n_samples),
-                                 rep(spos_m, n_samples))
-    inputs = [p, scale, x0_given, delta, pos_given]
-    simulate = ca.Function("oe_simulate", inputs, [ca.densify(Y.T)])
-    xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m), delta[:, :m])
+    sample_inputs = [delta, exo_table, rep(pos_given, n_samples), rep(ppos_m, n_samples),
+                     rep(spos_m, n_samples)]
+    Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples),
+                                 *sample_inputs)
+    record_inputs = [p, scale, x0_given, delta, pieces, exo_table, pos_given]
+    simulate = ca.Function("oe_simulate", record_inputs, [ca.densify(Y.T)])
+    xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m),
+                                                *interval_inputs)
     states = ca.horzcat(x0, xs)
     sens_all = ca.horzcat(s0, ss)  # 9 x (n_samples n_p), block k = S_k
     Y, dY = out.map(n_samples)(states, sens_all, rep(pm, n_samples), rep(sm, n_samples),
-                               delta, rep(pos_given, n_samples), rep(ppos_m, n_samples),
-                               rep(spos_m, n_samples))
+                               *sample_inputs)
     # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
-    jacobian = ca.Function("oe_jacobian", inputs, [ca.densify(Y.T), ca.densify(dY)])
+    jacobian = ca.Function("oe_jacobian", record_inputs, [ca.densify(Y.T), ca.densify(dY)])
     return simulate, jacobian, is_compiled
 
 

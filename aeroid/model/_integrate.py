@@ -21,8 +21,10 @@ from typing import Any
 import numpy as np
 
 from aeroid.model import _compiled
+from aeroid.model import _inputs as inputs
 from aeroid.model._compiled import HAVE_NUMBA, PARALLEL_MIN_SETS
 from aeroid.model._dynamics import N_STATE, Constants, state_derivative
+from aeroid.model._inputs import Pieces
 
 
 def rk4_step(fun: Callable[..., np.ndarray], t: float, x: np.ndarray, dt: float,
@@ -62,27 +64,51 @@ def rk4(fun: Callable[..., np.ndarray], x0: np.ndarray, t0: float, dt: float, n_
     return out
 
 
-def _model_rhs(_t: float, x: np.ndarray, delta: float, coefficients: np.ndarray,
-               const: Constants) -> np.ndarray:
-    return state_derivative(x, delta, coefficients, const)
+def _rk4_numpy(x: np.ndarray, coefficients: np.ndarray, deltas: tuple[float, float, float],
+               consts: tuple[Constants, Constants, Constants], h: float) -> np.ndarray:
+    """One RK4 step of ``h`` with the deflection and constants at start, middle and end."""
+    k1 = state_derivative(x, deltas[0], coefficients, consts[0])
+    k2 = state_derivative(x + 0.5 * h * k1, deltas[1], coefficients, consts[1])
+    k3 = state_derivative(x + 0.5 * h * k2, deltas[1], coefficients, consts[1])
+    k4 = state_derivative(x + h * k3, deltas[2], coefficients, consts[2])
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray,
-                     dt: float, const: Constants, substeps: int) -> np.ndarray:
-    n_sets, n_samples = state0.shape[0], delta.shape[0] + 1
-    out = np.empty((n_sets, n_samples, N_STATE))
+def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, pieces: Pieces,
+                     exo: np.ndarray | None, dt: float, const: Constants,
+                     substeps: int) -> np.ndarray:
+    """The numba kernel's algorithm (:func:`aeroid.model._compiled.integrate_set`) in numpy."""
+    n_sets, n_int = state0.shape[0], pieces.end.shape[0]
+    out = np.empty((n_sets, n_int + 1, N_STATE))
     x = state0.copy()
     out[:, 0] = x
-    h = dt / substeps
-    for k in range(n_samples - 1):
-        for _ in range(substeps):
-            x = rk4_step(_model_rhs, 0.0, x, h, delta[k], coefficients, const)
-        out[:, k + 1] = x
+    k_a = k_b = const
+    for s in range(n_int):
+        if exo is not None:
+            k_a = inputs.with_exogenous(const, exo[s])
+            k_b = inputs.with_exogenous(const, exo[s + 1])
+        f_start = 0.0
+        for piece in range(pieces.end.shape[1]):
+            f_end = float(pieces.end[s, piece])
+            length = f_end - f_start
+            if length > 0.0:
+                d_start = float(pieces.start[s, piece])
+                d_span = float(pieces.stop[s, piece]) - d_start
+                h = length * dt / substeps
+                for sub in range(substeps):
+                    u = (sub / substeps, (sub + 0.5) / substeps, (sub + 1.0) / substeps)
+                    deltas = tuple(d_start + d_span * ui for ui in u)
+                    consts = (const, const, const) if exo is None else tuple(
+                        inputs.lerp(k_a, k_b, f_start + length * ui) for ui in u)
+                    x = _rk4_numpy(x, coefficients, deltas, consts, h)
+            f_start = f_end
+        out[:, s + 1] = x
     return out
 
 
-def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, dt: float,
-              const: Constants, *, substeps: int = 1, backend: str = "auto") -> np.ndarray:
+def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | Pieces,
+              dt: float, const: Constants, *, substeps: int = 1, backend: str = "auto",
+              exogenous: np.ndarray | None = None) -> np.ndarray:
     """Integrate the airframe model for many coefficient sets with RK4.
 
     Parameters
@@ -90,16 +116,22 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
     state0 : ndarray, shape (9,) or (n_sets, 9)
         Initial state(s) [m/s, rad/s, rad]; one state is shared by all sets.
     coefficients : ndarray, shape (9,) or (n_sets, 9)
-    delta : ndarray, shape (n_samples - 1,)
-        Fin deflection [rad] held constant over each sample interval
-        ``[t_k, t_k + dt)`` (zero-order hold of the recorded ``delta``).
+    delta : ndarray, shape (n_samples - 1,), or Pieces
+        Fin deflection [rad]: held constant over each sample interval
+        ``[t_k, t_k + dt)`` (an array: zero-order hold of the recorded ``delta``), or
+        the pieces of a :class:`aeroid.model.Schedule` (switch instants and ramps inside
+        the intervals; every piece gets ``substeps`` RK4 steps).
     dt : float
         Sample interval [s].
     const : Constants
     substeps : int
-        RK4 steps per sample interval.
+        RK4 steps per sample interval (per piece).
     backend : {"auto", "numba", "numpy"}
         ``auto`` takes numba when it is installed.
+    exogenous : ndarray, shape (n_samples, 7), optional
+        Air density, mass, thrust, inertias and gravity at every sample
+        (:data:`aeroid.model.EXOGENOUS` columns, :func:`aeroid.model.exogenous_table`),
+        interpolated linearly in time within each interval; default the constants.
 
     Returns
     -------
@@ -129,7 +161,17 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
                          f"{coefficients.shape[0]} coefficient sets do not broadcast")
     state0 = np.ascontiguousarray(np.broadcast_to(state0, (n_sets, N_STATE)))
     coefficients = np.ascontiguousarray(np.broadcast_to(coefficients, (n_sets, 9)))
-    delta = np.ascontiguousarray(delta, dtype=float).reshape(-1)
+    pieces = delta if isinstance(delta, Pieces) else inputs.held(delta)
+    pieces = Pieces(*(np.ascontiguousarray(a, dtype=float) for a in pieces))
+    if pieces.end.ndim != 2 or pieces.start.shape != pieces.end.shape \
+            or pieces.stop.shape != pieces.end.shape:
+        raise ValueError("propagate: the deflection pieces must be three (n - 1, S) arrays")
+    n_samples = pieces.end.shape[0] + 1
+    if exogenous is not None:
+        exogenous = np.ascontiguousarray(exogenous, dtype=float)
+        if exogenous.shape != (n_samples, len(inputs.EXOGENOUS)):
+            raise ValueError(f"propagate: exogenous must have shape ({n_samples}, "
+                             f"{len(inputs.EXOGENOUS)}), got {exogenous.shape}")
     substeps = int(substeps)
     dt = float(dt)
     if substeps < 1:
@@ -143,10 +185,13 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
             raise ValueError("propagate: backend 'numba' requested but numba is not installed")
         kernel = (_compiled.propagate_parallel if n_sets >= PARALLEL_MIN_SETS
                   else _compiled.propagate_serial)
+        varying = exogenous is not None
+        table = exogenous if varying else np.zeros((1, len(inputs.EXOGENOUS)))
         with np.errstate(all="ignore"):
-            return kernel(state0, coefficients, delta, dt / substeps, substeps,
-                          Constants(*(float(v) for v in const)))
+            return kernel(state0, coefficients, pieces.end, pieces.start, pieces.stop, table,
+                          varying, dt, substeps, Constants(*(float(v) for v in const)))
     if backend == "numpy":
         with np.errstate(all="ignore"):
-            return _propagate_numpy(state0, coefficients, delta, dt, const, substeps)
+            return _propagate_numpy(state0, coefficients, pieces, exogenous, dt, const,
+                                    substeps)
     raise ValueError(f"propagate: unknown backend {backend!r} (expected auto, numba or numpy)")

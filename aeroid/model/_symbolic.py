@@ -23,10 +23,12 @@ import subprocess
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import casadi as ca
 
 from aeroid.model import _equations as eq
+from aeroid.model import _inputs as inputs
 from aeroid.model._coefficients import N_COEFFICIENTS
 from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, Constants
 
@@ -84,20 +86,44 @@ def measurement(x, delta, theta, positions, const: Constants):
     return ca.vertcat(*out, *eq.rate_gyros(state))
 
 
-def rk4_step(x, delta, theta, const: Constants, dt: float, substeps: int):
-    """Return the state after ``substeps`` RK4 steps of ``dt / substeps`` with ``delta`` held.
+def _rk4(x, theta, deltas, consts, h):
+    """One RK4 step of ``h`` with the deflection and constants at start, middle and end."""
+    k1 = rhs(x, deltas[0], theta, consts[0])[0]
+    k2 = rhs(x + 0.5 * h * k1, deltas[1], theta, consts[1])[0]
+    k3 = rhs(x + 0.5 * h * k2, deltas[1], theta, consts[1])[0]
+    k4 = rhs(x + h * k3, deltas[2], theta, consts[2])[0]
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
-    The same scheme as :func:`aeroid.model.propagate` (zero-order hold of ``delta`` over
-    the sample interval).
+
+def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Constants | None,
+                  dt: float, substeps: int):
+    """Return the state one sample interval later: the pieces of a schedule, RK4 each.
+
+    The same scheme as the numba kernel (:func:`aeroid.model._compiled.integrate_set`):
+    piece ``j`` ends at the fraction ``end[j]`` of the interval, the deflection goes
+    linearly from ``start[j]`` to ``stop[j]`` within it, and it gets ``substeps`` RK4
+    steps; the constants are interpolated linearly from ``const_a`` (the interval's
+    start) to ``const_b`` (its end; None: ``const_a`` throughout). A zero-length piece
+    is a step of length zero.
     """
-    h = dt / substeps
-    for _ in range(substeps):
-        k1 = rhs(x, delta, theta, const)[0]
-        k2 = rhs(x + 0.5 * h * k1, delta, theta, const)[0]
-        k3 = rhs(x + 0.5 * h * k2, delta, theta, const)[0]
-        k4 = rhs(x + h * k3, delta, theta, const)[0]
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    f_start = 0.0
+    for j in range(len(end) if not hasattr(end, "shape") else end.shape[0]):
+        length = end[j] - f_start
+        h = length * dt / substeps
+        d_span = stop[j] - start[j]
+        for sub in range(substeps):
+            u = (sub / substeps, (sub + 0.5) / substeps, (sub + 1.0) / substeps)
+            deltas = [start[j] + d_span * ui for ui in u]
+            consts = [const_a] * 3 if const_b is None else [
+                inputs.lerp(const_a, const_b, f_start + length * ui) for ui in u]
+            x = _rk4(x, theta, deltas, consts, h)
+        f_start = end[j]
     return x
+
+
+def rk4_step(x, delta, theta, const: Constants, dt: float, substeps: int):
+    """Return the state after ``substeps`` RK4 steps of ``dt / substeps`` with ``delta`` held."""
+    return interval_step(x, theta, [1.0], [delta], [delta], const, None, dt, substeps)
 
 
 @functools.lru_cache(maxsize=32)
@@ -123,27 +149,61 @@ def measurement_function(const: Constants) -> ca.Function:
                        ["x", "theta", "delta", "pos"], ["y"])
 
 
+class IntervalSymbols(NamedTuple):
+    """Symbols of one sample interval's inputs (:func:`interval_symbols`)."""
+
+    pieces: ca.SX      # (3 S,): end, start, stop of the S pieces
+    exo_a: ca.SX       # (7,) or (0,): exogenous row at the interval's start
+    exo_b: ca.SX       # (7,) or (0,): at its end
+
+
+def interval_symbols(n_pieces: int, varying: bool) -> IntervalSymbols:
+    """Return fresh symbols for an interval's pieces and exogenous rows."""
+    n_exo = len(inputs.EXOGENOUS) if varying else 0
+    return IntervalSymbols(ca.SX.sym("pieces", 3 * n_pieces), ca.SX.sym("exo_a", n_exo),
+                        ca.SX.sym("exo_b", n_exo))
+
+
+def interval_step_symbolic(x, theta, sym: IntervalSymbols, const: Constants, dt: float,
+                           substeps: int):
+    """:func:`interval_step` on the symbols of :func:`interval_symbols`."""
+    n_pieces = sym.pieces.shape[0] // 3
+    end, start, stop = (sym.pieces[i * n_pieces:(i + 1) * n_pieces] for i in range(3))
+    if sym.exo_a.shape[0]:
+        return interval_step(x, theta, end, start, stop, inputs.with_exogenous(const, sym.exo_a),
+                             inputs.with_exogenous(const, sym.exo_b), dt, substeps)
+    return interval_step(x, theta, end, start, stop, const, None, dt, substeps)
+
+
+def sample_constants(const: Constants, exo) -> Constants:
+    """The constants at a sample: ``const`` with the exogenous row ``exo`` (empty: none)."""
+    return inputs.with_exogenous(const, exo) if exo.shape[0] else const
+
+
 @functools.lru_cache(maxsize=32)
-def augmented_functions(const: Constants, dt: float, substeps: int) -> tuple[ca.Function, ...]:
+def augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int = 1,
+                        varying: bool = False) -> tuple[ca.Function, ...]:
     """Return the augmented-state (18) model of the Kalman filters with exact Jacobians.
 
     The augmented state is ``z = [x (9), theta (9)]`` with constant coefficients.
 
     Returns
     -------
-    f : Function ``(z (18), delta) -> (z_next (18), F (18, 18))``
-        RK4 transition and its Jacobian ``d z_next / d z`` (CasADi AD).
-    h : Function ``(z (18), delta, positions (6)) -> (y (9), H (9, 18))``
+    f : Function ``(z (18), pieces (3 S), exo_a, exo_b) -> (z_next (18), F (18, 18))``
+        One sample interval (:func:`interval_step`) and its Jacobian ``d z_next / d z``.
+    h : Function ``(z (18), delta, exo, positions (6)) -> (y (9), H (9, 18))``
         Measurement and its Jacobian.
     """
     z = ca.SX.sym("z", N_STATE + N_COEFFICIENTS)
+    sym = interval_symbols(n_pieces, varying)
     delta = ca.SX.sym("delta")
+    exo = ca.SX.sym("exo", sym.exo_a.shape[0])
     pos = ca.SX.sym("pos", 6)
     x, theta = z[:N_STATE], z[N_STATE:]
-    z_next = ca.vertcat(rk4_step(x, delta, theta, const, dt, substeps), theta)
-    f = ca.Function("f_aug", [z, delta], [z_next, ca.jacobian(z_next, z)])
-    y = measurement(x, delta, theta, pos, const)
-    h = ca.Function("h_aug", [z, delta, pos], [y, ca.jacobian(y, z)])
+    z_next = ca.vertcat(interval_step_symbolic(x, theta, sym, const, dt, substeps), theta)
+    f = ca.Function("f_aug", [z, *sym], [z_next, ca.jacobian(z_next, z)])
+    y = measurement(x, delta, theta, pos, sample_constants(const, exo))
+    h = ca.Function("h_aug", [z, delta, exo, pos], [y, ca.jacobian(y, z)])
     return f, h
 
 

@@ -81,8 +81,9 @@ def test_augmented_jacobians_equal_finite_differences(flight, const):
     z = np.concatenate([flight.states()[200], aeroid.nominal()])
     d = flight["delta"][200]
     pos = flight.airframe.accel_positions.ravel()
-    _, F = f(z, d)
-    _, H = h(z, d, pos)
+    piece = np.array([1.0, d, d])  # one piece held over the interval
+    _, F = f(z, piece, [], [])
+    _, H = h(z, d, [], pos)
     F, H = np.asarray(F), np.asarray(H)
     F_fd, H_fd = np.empty((18, 18)), np.empty((9, 18))
     for j in range(18):
@@ -90,8 +91,10 @@ def test_augmented_jacobians_equal_finite_differences(flight, const):
         zp, zm = z.copy(), z.copy()
         zp[j] += step
         zm[j] -= step
-        F_fd[:, j] = (np.asarray(f(zp, d)[0]) - np.asarray(f(zm, d)[0])).ravel() / (2 * step)
-        H_fd[:, j] = (np.asarray(h(zp, d, pos)[0]) - np.asarray(h(zm, d, pos)[0])).ravel() / (
+        F_fd[:, j] = (np.asarray(f(zp, piece, [], [])[0])
+                      - np.asarray(f(zm, piece, [], [])[0])).ravel() / (2 * step)
+        H_fd[:, j] = (np.asarray(h(zp, d, [], pos)[0])
+                      - np.asarray(h(zm, d, [], pos)[0])).ravel() / (
             2 * step)
     np.testing.assert_allclose(F, F_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(F).max())
     np.testing.assert_allclose(H, H_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(H).max())
@@ -242,3 +245,24 @@ def test_filter_options_are_checked():
         UnscentedKalmanEstimator.from_options({"measurement_noise": "magic"})
     with pytest.raises(aeroid.EstimatorError, match="alpha"):
         UnscentedKalmanEstimator.from_options({"alpha": "2.0"})
+
+
+def test_covariance_check_repairs_rounding_only():
+    # a covariance spanning 10 decades whose smallest eigenvalue came out -1e-15 of the
+    # largest (rounding of P - K S K^T) is repaired; -1e-6 of the largest is a divergence
+    rng = np.random.default_rng(3)
+    vec = np.linalg.qr(rng.standard_normal((6, 6)))[0]
+    for smallest, repaired in ((-1e-13, True), (-1e-6, False)):
+        eig = np.array([smallest * 1e2, 1e-8, 1e-4, 1.0, 1e2, 1.0])
+        P = (vec * eig) @ vec.T
+        P = 0.5 * (P + P.T)
+        assert np.all(np.diag(P) > 0)
+        with pytest.raises(np.linalg.LinAlgError):
+            np.linalg.cholesky(P)
+        reason, fixed = _kalman._check(P, np.zeros(6))
+        if repaired:
+            assert reason == ""
+            np.linalg.cholesky(fixed)
+            np.testing.assert_allclose(fixed, P, rtol=0, atol=1e-9)
+        else:
+            assert "not positive definite" in reason
