@@ -1,6 +1,6 @@
 """Measure what breaks aeroid's estimators on JSBSim flights, and what mends them.
 
-Run by hand (not collected by pytest; about 12 minutes on two cores)::
+Run by hand (not collected by pytest; 5 minutes on two cores; results.md holds a run)::
 
     PYTHONPATH=. python -m tests.crossengine.measure            # every table
     PYTHONPATH=. python -m tests.crossengine.measure today      # one table
