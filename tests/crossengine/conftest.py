@@ -12,11 +12,9 @@ import dataclasses
 
 import pytest
 
-pytest.importorskip("jsbsim", reason="the cross-engine tests need JSBSim (the dev extra)")
+from aeroid.flights import GaussianNoise
 
-from aeroid.flights import GaussianNoise  # noqa: E402
-
-from .jsbsim_flight import FlightConfig, make_flight  # noqa: E402
+from .jsbsim_flight import FlightConfig, make_flight  # imports jsbsim only when flying
 
 NOISE_SEED = 1
 #: Actuator delay of ``climb_delayed`` [s] (16 frames at 16 kHz).

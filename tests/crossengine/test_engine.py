@@ -29,6 +29,9 @@ from aeroid.model import (
 from ._aircraft import EARTH_MEAN_RADIUS_M, FT, JSBSIM_SLUGTOLB, LBF, SLUG, FlightConfig
 from .jsbsim_flight import make_flight, write_flight
 
+jsbsim = pytest.importorskip("jsbsim", reason="the cross-engine tests need JSBSim "
+                                                  "(the dev or crossengine extra)")
+
 #: Two evaluations of the same algebra (JSBSim's functions in lbf and ft, aeroid's numpy
 #: in N and m) with exact unit factors: rounding only (measured: 5e-15).
 SAME_ALGEBRA_RTOL = 1e-12

@@ -15,6 +15,9 @@ from aeroid.model import RelayActuator, constants, state_derivative
 from . import _kernel
 from . import prototype as pt
 
+jsbsim = pytest.importorskip("jsbsim", reason="the cross-engine tests need JSBSim "
+                                                  "(the dev or crossengine extra)")
+
 pytestmark = pytest.mark.slow
 
 #: Same algebra in scalar numba and batched numpy: rounding only.

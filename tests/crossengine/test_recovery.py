@@ -28,6 +28,9 @@ import aeroid
 
 from . import prototype as pt
 
+jsbsim = pytest.importorskip("jsbsim", reason="the cross-engine tests need JSBSim "
+                                                  "(the dev or crossengine extra)")
+
 #: aeroid's equation-error on ``climb`` today (measured: 0.013 0.459 0.011 1.44 1.49 1.55
 #: 0.804 0.017 0.144 %): the tolerance is the largest measured error plus 5 % of it.
 EE_TODAY_MAX_PCT = 1.55 * 1.05
