@@ -98,6 +98,9 @@ def regressors(state: np.ndarray, delta: np.ndarray | float, const: Constants) -
     x = as_state(np.asarray(state, dtype=float)[..., None, :])  # fields (..., 1)
     unit = eq.Coefficients(*np.eye(N_COEFFICIENTS))  # fields (9,)
     delta = np.asarray(delta, dtype=float)[..., None]
+    # constants given per sample (array fields) get the coefficient axis too
+    const = Constants(*(np.asarray(v, dtype=float)[..., None] if np.ndim(v) else v
+                        for v in const))
     return np.stack(np.broadcast_arrays(*eq.aerodynamic_loads(x, unit, delta, const)), axis=-2)
 
 

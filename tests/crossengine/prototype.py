@@ -324,7 +324,7 @@ def equation_error_per_sample_density(flight: Flight, rho: np.ndarray | None = N
 
     ``rho`` (n,) [kg/m^3]; None gives aeroid's constant airframe density (today's fit).
     """
-    from aeroid.estimation import _reconstruct as rc
+    from aeroid import estimation as rc
     from baselines.equation_error import solve_subproblems
 
     rec = rc.reconstruct(flight)
@@ -332,5 +332,5 @@ def equation_error_per_sample_density(flight: Flight, rho: np.ndarray | None = N
     if rho is not None:
         const = const._replace(rho=np.asarray(rho, dtype=float))
     X = rc.smooth(regressors(flight.states(), flight["delta"], const), axis=0)
-    theta, *_ = solve_subproblems(X, rec.fm_smooth, rc.noise_sd(rec.fm))
+    theta, *_ = solve_subproblems(X, rec.fm_smooth, rc.estimate_noise_sd(rec.fm))
     return theta
