@@ -9,13 +9,11 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
-from typing import Any
 
-from aeroid.errors import EstimatorError, FlightError
+from aeroid.errors import EstimatorError
 from aeroid.estimation._interface import available, load_errors, make_estimator
-from aeroid.flights._flight import read_flight
-from aeroid.model._airframe import load_airframe, read_toml
+from aeroid.flights._files import read_column_map, read_flight
+from aeroid.model._airframe import load_airframe
 
 __all__ = ["estimate", "methods", "parse_options", "read_column_map"]
 
@@ -38,25 +36,6 @@ def parse_options(pairs: list[str] | None) -> dict[str, str]:
             raise EstimatorError(f"--option {key!r} given twice")
         options[key] = value.strip()
     return options
-
-
-def read_column_map(path: Path) -> dict[str, str]:
-    """Return ``{name in the file: aeroid channel}`` from a TOML file.
-
-    The mapping is the file's top-level string keys, or its ``[columns]`` table.
-
-    Raises
-    ------
-    FlightError
-        One line naming the file when a value is not a channel-name string.
-    """
-    data: dict[str, Any] = read_toml(path)
-    table = data.get("columns", data) if isinstance(data.get("columns"), dict) else data
-    bad = sorted(k for k, v in table.items() if not isinstance(v, str))
-    if bad:
-        raise FlightError(f"{path}: column map values must be channel names (strings); "
-                          f"check {', '.join(map(repr, bad))}")
-    return dict(table)
 
 
 def estimate(args: argparse.Namespace) -> int:

@@ -17,12 +17,31 @@ Noise models
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, fields
 from typing import Any, Protocol
 
 import numpy as np
 
+from aeroid.errors import AirframeError
 from aeroid.model._dynamics import ACCEL_CHANNELS, RATE_CHANNELS
+from aeroid.model._fileform import is_number
+
+
+def _check_options(model: Any) -> None:
+    """Refuse options that are not finite non-negative numbers (a boolean is not one).
+
+    Run at construction, so a study or scenario with ``rates_xi = "x"`` stops with one
+    line before its first flight instead of in the middle of a study.
+    """
+    for f in fields(model):
+        if f.name == "name":
+            continue
+        value = getattr(model, f.name)
+        if not (is_number(value) and math.isfinite(value) and value >= 0):
+            raise AirframeError(f"noise model {model.name!r}: {f.name} must be a finite "
+                                f"number >= 0, got {value!r}")
+        object.__setattr__(model, f.name, float(value))
 
 
 class NoiseModel(Protocol):
@@ -56,6 +75,9 @@ class PaperNoise:
     rates_xi: float = 0.05
     accel_position_xi: float = 0.1
     name: str = field(default="paper", init=False)
+
+    def __post_init__(self) -> None:
+        _check_options(self)
 
     def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
                 ) -> dict[str, np.ndarray]:
@@ -103,6 +125,9 @@ class GaussianNoise:
     rate_sd_radps: float = 0.005
     position_sd_m: float = 0.0
     name: str = field(default="gaussian", init=False)
+
+    def __post_init__(self) -> None:
+        _check_options(self)
 
     def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
                 ) -> dict[str, np.ndarray]:
@@ -155,25 +180,28 @@ def make_noise(name: str, **options: Any) -> NoiseModel:
 
     Raises
     ------
-    ValueError
-        One line naming the unknown model or option.
+    AirframeError
+        One line naming the unknown model, an unknown option or an option of the wrong
+        type (a ``ValueError``).
     """
     try:
         cls = NOISE_MODELS[name]
-    except KeyError:
-        raise ValueError(
+    except (KeyError, TypeError):
+        raise AirframeError(
             f"unknown noise model {name!r} (expected one of {', '.join(NOISE_MODELS)})"
         ) from None
     try:
         return cls(**options)  # type: ignore[no-any-return]
     except TypeError:
-        allowed = [f for f in cls.__dataclass_fields__ if f != "name"]
-        raise ValueError(
+        allowed = [f.name for f in fields(cls) if f.name != "name"]
+        raise AirframeError(
             f"noise model {name!r}: unknown option(s) {sorted(options)}; allowed {allowed}"
         ) from None
 
 
 def noise_from_dict(data: dict[str, Any]) -> NoiseModel:
-    """Rebuild a noise model from :meth:`to_dict` output."""
+    """Rebuild a noise model from :meth:`to_dict` output (``{"model": NAME, **options}``)."""
     data = dict(data)
+    if "model" not in data:
+        raise AirframeError(f"noise settings {data!r} name no model")
     return make_noise(data.pop("model"), **data)

@@ -1,9 +1,12 @@
 """Scenarios: an airframe, its true coefficients, a manoeuvre and a noise model.
 
 The scenario file format is ``aeroid/data/reference-scenario.toml`` (the embedded
-default, copied from the project's reference): tables ``[airframe]``, ``[atmosphere]``,
-``[actuator]``, ``[initial_state]``, ``[recording]``, ``[coefficients]``, ``[noise.paper]``
-and optionally ``[prior]`` and ``[noise.gaussian]``.
+default, copied from the project's reference): the airframe file's tables
+``[airframe]``, ``[atmosphere]`` (required) and ``[prior]`` (optional), then
+``[initial_state]`` and ``[coefficients]`` (required), ``[actuator]`` and ``[recording]``
+(keys left out take the paper's values, :class:`Manoeuvre`) and ``[noise.paper]``,
+``[noise.gaussian]``, ``[noise.none]`` (options of each noise model; optional). Unknown
+tables and keys and values of the wrong type are one-line errors naming the file.
 """
 
 from __future__ import annotations
@@ -16,10 +19,22 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import AirframeError
-from aeroid.flights._noise import NoiseModel, make_noise
-from aeroid.model._airframe import Airframe, read_toml, reference_scenario_data
-from aeroid.model._coefficients import as_vector
+from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.model._airframe import (
+    SCENARIO_TABLES,
+    Airframe,
+    read_toml,
+    reference_scenario_data,
+)
+from aeroid.model._coefficients import NAMES
 from aeroid.model._dynamics import STATE_NAMES
+from aeroid.model._fileform import check_keys, check_table, integer, number, numbers
+
+#: Most RK4 steps one simulated truth may take (window end x rate x substeps): 1e8 steps
+#: are minutes of integration and, at 500 Hz and 8 substeps, 7 hours of flight whose
+#: (n, 9) sampled states alone take 900 MB: a window beyond it is a typo, refused before
+#: anything is allocated.
+MAX_TRUTH_STEPS = 1e8
 
 _STATE_KEYS = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps",
                "phi_deg", "theta_deg", "psi_deg")
@@ -53,18 +68,25 @@ class Manoeuvre:
     truth_substeps: int = 8
 
     def __post_init__(self) -> None:
-        state = tuple(float(x) for x in self.initial_state)
-        if len(state) != 9 or not all(math.isfinite(x) for x in state):
-            raise ValueError("manoeuvre: initial_state must be 9 finite numbers")
+        state = numbers(self.initial_state, 9, "manoeuvre: initial_state")
         object.__setattr__(self, "initial_state", state)
-        t0, t1 = (float(x) for x in self.window_s)
+        t0, t1 = numbers(self.window_s, 2, "manoeuvre: window_s")
         if not (0.0 <= t0 < t1):
-            raise ValueError(f"manoeuvre: window_s must satisfy 0 <= start < end, got {t0, t1}")
+            raise AirframeError(
+                f"manoeuvre: window_s must satisfy 0 <= start < end, got {t0, t1}")
         object.__setattr__(self, "window_s", (t0, t1))
-        if not self.sample_rate_hz > 0:
-            raise ValueError("manoeuvre: sample_rate_hz must be positive")
-        if int(self.truth_substeps) < 1:
-            raise ValueError("manoeuvre: truth_substeps must be >= 1")
+        rate = number(self.sample_rate_hz, "manoeuvre: sample_rate_hz")
+        if not rate > 0:
+            raise AirframeError("manoeuvre: sample_rate_hz must be positive")
+        object.__setattr__(self, "sample_rate_hz", rate)
+        substeps = integer(self.truth_substeps, "manoeuvre: truth_substeps")
+        if substeps < 1:
+            raise AirframeError("manoeuvre: truth_substeps must be >= 1")
+        steps = t1 * rate * substeps
+        if steps > MAX_TRUTH_STEPS:
+            raise AirframeError(
+                f"manoeuvre: {t1:g} s at {rate:g} Hz x {substeps} substeps is {steps:.3g} "
+                f"RK4 steps (limit {MAX_TRUTH_STEPS:.0e}); shorten window_s")
 
     @property
     def dt(self) -> float:
@@ -88,41 +110,59 @@ class Scenario:
         return np.array(self.coefficients)
 
 
+#: Keys of the scenario tables (the airframe's own tables are checked by ``Airframe``).
+ACTUATOR_KEYS = ("command_amplitude", "command_phase_deg")
+RECORDING_KEYS = ("sample_rate_Hz", "window_s", "truth_rk4_substeps")
+
+
 def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Scenario:
     """Build a scenario from the parsed file form (see the module docstring).
+
+    Every table and key is checked: unknown tables and keys, missing initial-state keys
+    or coefficients, and values of the wrong type are errors. ``[actuator]`` and
+    ``[recording]`` keys left out take the :class:`Manoeuvre` defaults (the paper's).
 
     Raises
     ------
     AirframeError
         One line naming ``source`` and the table or key that is wrong.
     """
+    airframe = Airframe.from_dict(data, source=source, other_tables=SCENARIO_TABLES)
+    act = check_table(data.get("actuator", {}), f"{source}: [actuator]")
+    check_keys(act, ACTUATOR_KEYS, f"{source}: [actuator]")
+    init = check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
+    check_keys(init, _STATE_KEYS, f"{source}: [initial_state]", required=_STATE_KEYS)
+    state = [number(init[k], f"{source}: [initial_state] {k}") for k in _STATE_KEYS]
+    state[6:9] = [math.radians(x) for x in state[6:9]]
+    rec = check_table(data.get("recording", {}), f"{source}: [recording]")
+    check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
+    options: dict[str, Any] = {}
+    for key in ACTUATOR_KEYS:
+        if key in act:
+            options[key] = number(act[key], f"{source}: [actuator] {key}")
+    if "sample_rate_Hz" in rec:
+        options["sample_rate_hz"] = number(rec["sample_rate_Hz"],
+                                           f"{source}: [recording] sample_rate_Hz")
+    if "window_s" in rec:
+        options["window_s"] = numbers(rec["window_s"], 2, f"{source}: [recording] window_s")
+    if "truth_rk4_substeps" in rec:
+        options["truth_substeps"] = integer(rec["truth_rk4_substeps"],
+                                            f"{source}: [recording] truth_rk4_substeps")
+    if "coefficients" not in data:
+        raise AirframeError(f"{source}: no [coefficients] table (the true coefficients)")
+    table = check_table(data["coefficients"], f"{source}: [coefficients]")
+    check_keys(table, NAMES, f"{source}: [coefficients]", required=NAMES)
+    coefficients = tuple(number(table[n], f"{source}: [coefficients] {n}") for n in NAMES)
+    noise_tables = check_table(data.get("noise", {}), f"{source}: [noise]")
+    check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
+    noise_options = {name: check_table(table, f"{source}: [noise.{name}]")
+                     for name, table in noise_tables.items()}
     try:
-        airframe = Airframe.from_dict(data, source=source)
-        act = data.get("actuator", {})
-        init = data.get("initial_state", {})
-        missing = [k for k in _STATE_KEYS if k not in init]
-        if missing:
-            raise AirframeError(f"{source}: [initial_state] is missing {', '.join(missing)}")
-        state = [float(init[k]) for k in _STATE_KEYS]
-        state[6:9] = [math.radians(x) for x in state[6:9]]
-        rec = data.get("recording", {})
-        manoeuvre = Manoeuvre(
-            command_amplitude=float(act.get("command_amplitude", 0.5)),
-            command_phase_deg=float(act.get("command_phase_deg", 60.0)),
-            initial_state=tuple(state),
-            sample_rate_hz=float(rec.get("sample_rate_Hz", 500.0)),
-            window_s=tuple(rec.get("window_s", (5.0, 6.0))),  # type: ignore[arg-type]
-            truth_substeps=int(rec.get("truth_rk4_substeps", 8)),
-        )
-        if "coefficients" not in data:
-            raise AirframeError(f"{source}: no [coefficients] table (the true coefficients)")
-        coefficients = tuple(float(x) for x in as_vector(data["coefficients"]))
-        noise_tables = data.get("noise", {})
-        noise = make_noise("paper", **noise_tables.get("paper", {}))
-    except (ValueError, TypeError) as exc:
-        if isinstance(exc, AirframeError) and str(exc).startswith(source):
-            raise
+        manoeuvre = Manoeuvre(initial_state=tuple(state), **options)
+        models = {name: make_noise(name, **opts) for name, opts in noise_options.items()}
+    except ValueError as exc:
         raise AirframeError(f"{source}: {exc}") from None
+    noise = models.get("paper") or make_noise("paper")
     return Scenario(airframe=airframe, coefficients=coefficients, manoeuvre=manoeuvre,
                     noise=noise, name=Path(source).stem)
 
