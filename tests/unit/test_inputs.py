@@ -72,7 +72,7 @@ def test_events_and_ramps_give_values_at_and_between_samples() -> None:
     assert ev.at(0.0031) == -1.0 and ev.before(0.0031) == 1.0
     ramp = Schedule(np.array([0.003, 0.005]), np.array([1.0, -1.0]))
     # linear from +1 at 3 ms to -1 at 5 ms: 0 at the 4 ms sample
-    np.testing.assert_allclose(ramp.at(t), [1, 1, 1, 0, -1, -1], atol=1e-12)
+    np.testing.assert_allclose(ramp.at(t), [1, 1, 0, -1, -1, -1], atol=1e-12)
     pieces = ramp.segments(t)
     np.testing.assert_allclose(pieces.end[1], [0.5, 1.0])
     np.testing.assert_allclose(pieces.start[1], [1.0, 1.0], atol=1e-12)
