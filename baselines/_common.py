@@ -12,7 +12,7 @@ from scipy.signal import savgol_filter
 import aeroid
 from aeroid import estimation
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import Flight
+from aeroid.flights import INPUTS, Flight, flight_record, model_constants
 from aeroid.model import Pieces, Record, symbolic
 from baselines import _kalman
 
@@ -61,8 +61,8 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None
     (:func:`aeroid.model.symbolic.augmented_functions`); the batched versions (UKF) use
     :func:`aeroid.model.propagate` and :func:`aeroid.model.accelerometers`.
     """
-    const = aeroid.model.constants(flight.airframe)
-    record = record or Record.held(flight["delta"], flight.dt)
+    const = model_constants(flight)
+    record = record or flight_record(flight)
     delta, pieces_table, exo_table = record.symbolic_inputs()
     delta = delta[0]
     positions = flight.airframe.accel_positions
@@ -103,6 +103,11 @@ class AugmentedFilterOptions(Estimator):
 
     Attributes
     ----------
+    input : {"hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled (:data:`aeroid.flights.INPUTS`;
+        default ``hold``).
+    delay_s : float
+        A known actuator delay [s] applied to that deflection (default 0).
     substeps : int
         RK4 steps per sample interval in the prediction (default 1).
     measurement_noise : {"data", "paper"}
@@ -129,6 +134,8 @@ class AugmentedFilterOptions(Estimator):
         ``|prior|`` (default 0: constant coefficients).
     """
 
+    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    delay_s: float = 0.0
     substeps: int = 1
     measurement_noise: Literal["data", "paper"] = "data"
     measurement_sd_floor_rel: float = 1e-4
@@ -141,6 +148,10 @@ class AugmentedFilterOptions(Estimator):
     coefficient_random_walk_rel: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.input not in INPUTS:
+            raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
+        if not (math.isfinite(self.delay_s) and abs(self.delay_s) < 0.1):
+            raise ValueError(f"delay_s must be seconds below 0.1 in magnitude, got {self.delay_s}")
         if self.substeps < 1:
             raise ValueError(f"substeps must be >= 1, got {self.substeps}")
         for name in ("measurement_sd_floor_rel", "initial_coefficient_sd_rel",

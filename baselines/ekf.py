@@ -20,7 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation._interface import EstimationResult
-from aeroid.flights import Flight
+from aeroid.flights import Flight, flight_record
 from baselines import _common, _kalman
 
 
@@ -44,6 +44,7 @@ class ExtendedKalmanEstimator(_common.AugmentedFilterOptions):
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
         x0, P0, Q, R, zs, meas_sd = self.setup(flight)
-        model = _common.augmented_model(flight, self.substeps)
+        model = _common.augmented_model(
+            flight, self.substeps, flight_record(flight, self.input, self.delay_s))
         out = _kalman.run_ekf(model, x0, P0, Q, R, zs)
         return self.result(flight, out, meas_sd, n_evaluations=len(zs))

@@ -145,7 +145,8 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
     From :func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` evaluated at
     ``theta = 0`` and at the nine unit vectors (both are affine in the coefficients).
     """
-    const = aeroid.model.constants(flight.airframe)
+    const = aeroid.model.Constants(*(np.asarray(v, dtype=float)[:, None] if np.ndim(v) else v
+                                     for v in aeroid.flights.sample_constants(flight)))
     states = flight.states() if states is None else states
     delta = flight["delta"]
     basis = np.vstack([np.zeros(9), np.eye(9)])  # (10, 9)

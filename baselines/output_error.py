@@ -20,17 +20,19 @@ Gaussian-noise flights the 95 % intervals covered the truth in 96 % of coefficie
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Literal
 
 import numpy as np
 
 import aeroid
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import Flight
-from aeroid.model import Buffered, ForwardModel, Record, constants, symbolic_record
+from aeroid.flights import INPUTS, Flight, model_constants
+from aeroid.model import OUTPUT_CHANNELS, ForwardModel
 from baselines import _common
-from baselines._gauss_newton import Fit, Problem, fisher_information, gauss_newton
+from baselines._gauss_newton import NOISE_MODELS, Fit, Problem, gauss_newton, posterior_information
+from baselines._oe_record import RecordModel
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -42,6 +44,9 @@ X0_NAMES = ("u0", "v0", "w0", "p0", "q0", "r0")
 #: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
 #: finite on noise-free data, far below any real noise level.
 R_FLOOR_REL = 1e-24
+#: Largest actuator delay accepted [s] (a starting value or a fixed delay): a tenth of a
+#: second is far beyond any fin actuator and beyond the fits' record lengths' sense.
+MAX_DELAY_S = 0.1
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(Estimator):
@@ -51,6 +56,22 @@ class OutputErrorEstimator(Estimator):
 
     Attributes
     ----------
+    input : {"hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled (:data:`aeroid.flights.INPUTS`):
+        held until the next sample (default: a relay latched at the log clock, the
+        paper's reference), switched halfway, at the flight's known switch instants, or by
+        the airframe's fin law on the measured roll angle. A relay that switches between
+        samples and is modelled as held biases Czq and Cmq by up to tens of percent
+        (measured on JSBSim flights, tests/crossengine/results.md).
+    estimate_delay : bool
+        Also estimate an actuator time delay (default False), reported in
+        ``info['delay_s']`` with ``info['delay_stderr_s']``.
+    delay_s : float
+        The delay [s]: its starting value when estimated, else a known delay (default 0).
+    noise_model : {"channel", "signal"}
+        Measurement-noise variance: one per channel re-estimated from the residuals
+        (default), or per sample ``a_c + b_c yhat^2`` (proportional to the signal, as the
+        paper's eq. 43; :class:`baselines._gauss_newton.Problem`).
     estimate_initial_state : bool
         Also estimate the body rates ``p, q, r`` at the first sample (default True: the
         measured rates carry the sensor noise; a wrong initial roll rate puts the whole
@@ -108,6 +129,10 @@ class OutputErrorEstimator(Estimator):
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
+    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    estimate_delay: bool = False
+    delay_s: float = 0.0
+    noise_model: Literal["channel", "signal"] = "channel"
     estimate_initial_state: bool = True
     estimate_initial_velocity: bool = False
     estimate_rx1: bool = False
@@ -129,12 +154,21 @@ class OutputErrorEstimator(Estimator):
             raise ValueError(f"pso_iterations must be >= 0, got {self.pso_iterations}")
         if not self.tol > 0:
             raise ValueError(f"tol must be > 0, got {self.tol}")
+        if self.input not in INPUTS:
+            raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
+        if self.noise_model not in NOISE_MODELS:
+            raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
+                             f"got {self.noise_model!r}")
+        if not (math.isfinite(self.delay_s) and abs(self.delay_s) < MAX_DELAY_S):
+            raise ValueError(f"delay_s must be a number of seconds below {MAX_DELAY_S:g} in "
+                             f"magnitude, got {self.delay_s}")
 
     # ----------------------------------------------------------------------------------
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
-        return tuple(names + [f"rx{t + 1}" for t in self.rx_free()])
+        names += [f"rx{t + 1}" for t in self.rx_free()]
+        return tuple(names + (["delay_s"] if self.estimate_delay else []))
 
     def rx_free(self) -> tuple[int, ...]:
         """Triads (0, 1) whose x position is estimated."""
@@ -147,29 +181,25 @@ class OutputErrorEstimator(Estimator):
         return tuple(sorted(free))
 
     def problem(self, flight: Flight) -> Problem:
-        """Return the flight's arrays and cached CasADi functions."""
-        const = constants(flight.airframe)
-        record = Record.held(flight["delta"], flight.dt)
-        simulate, jacobian, is_compiled = symbolic_record(
-            const, record.dt, self.substeps, record.n_samples, self.x0_free(),
-            tuple(3 * t for t in self.rx_free()), self.compile_model, record.n_pieces,
-            record.exogenous is not None)
+        """Return the fit of ``flight``: measurements, record model, noise model."""
         prior = flight.airframe.prior_vector()
         pos = flight.airframe.accel_positions.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
         scale.append([max(abs(pos[3 * t]), 0.1) for t in self.rx_free()])
+        if self.estimate_delay:
+            scale.append([flight.dt])
+        scale = np.concatenate(scale)
         z = _common.measurements(flight)
-        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         x0 = flight.states()[0]
         x0[3:6] = _common.smoothed_start(z[:, 6:9])
-        scale = np.concatenate(scale)
-        delta, pieces, exo = record.symbolic_inputs()
-        inputs = [np.zeros(scale.size), scale, x0, delta, pieces, exo, pos]
-        return Problem(z=z, scale=scale, x0_meas=x0, delta=delta, pos=pos,
-                        simulate=Buffered(simulate, inputs),
-                        jacobian=Buffered(jacobian, inputs), r_floor=r_floor,
-                        compiled=is_compiled)
+        model = RecordModel(flight, input=self.input, substeps=self.substeps,
+                            x0_free=self.x0_free(),
+                            position_free=tuple(3 * t for t in self.rx_free()),
+                            compiled=self.compile_model, x0=x0, scale=scale,
+                            delay_s=self.delay_s, estimate_delay=self.estimate_delay)
+        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
+        return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model)
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -180,12 +210,12 @@ class OutputErrorEstimator(Estimator):
         """Return the best coefficients of a short PSO run and its evaluation count."""
         from aeroid.estimation import minimize
 
-        model = ForwardModel(constants(flight.airframe),
-                             Record.held(flight["delta"], flight.dt),
+        record_model: RecordModel = prob.model  # type: ignore[assignment]
+        model = ForwardModel(model_constants(flight), record_model.record(self.delay_s),
                              flight.airframe.accel_positions, substeps=self.substeps)
 
         def cost(thetas: np.ndarray) -> np.ndarray:
-            ms = np.mean((prob.z[None] - model.outputs(prob.x0_meas, thetas)) ** 2, axis=1)
+            ms = np.mean((prob.z[None] - model.outputs(record_model.x0, thetas)) ** 2, axis=1)
             with np.errstate(all="ignore"):
                 out = np.sum(np.log(np.maximum(ms, prob.r_floor)), axis=1)
             return np.where(np.isfinite(out), out, np.inf)
@@ -198,18 +228,22 @@ class OutputErrorEstimator(Estimator):
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
         prob = self.problem(flight)
-        n_p = prob.scale.size
+        model: RecordModel = prob.model  # type: ignore[assignment]
+        scale = model.scale
+        n_p = scale.size
         prior = flight.airframe.prior_vector()
         first = np.zeros(n_p)
-        first[:9] = prior / prob.scale[:9]
+        first[:9] = prior / scale[:9]
+        if self.estimate_delay:
+            first[-1] = self.delay_s / scale[-1]
         extra_evals = 0
         if self.pso_warm_start:
             theta_pso, extra_evals = self.warm_start(prob, flight, rng)
-            first[:9] = theta_pso / prob.scale[:9]
+            first[:9] = theta_pso / scale[:9]
         starts = [first]
         for _ in range(self.n_starts - 1):
             p = first.copy()
-            p[:9] = prior * (1.0 + 0.2 * rng.standard_normal(9)) / prob.scale[:9]
+            p[:9] = prior * (1.0 + 0.2 * rng.standard_normal(9)) / scale[:9]
             starts.append(p)
         fits, failures = [], []
         for p0 in starts:
@@ -222,28 +256,32 @@ class OutputErrorEstimator(Estimator):
         best = min(fits, key=lambda f: f.nll)
         n_evals = extra_evals + sum(f.n_evaluations for f in fits)
         n_iter = sum(f.n_iterations for f in fits)
-        M, _ = fisher_information(best.J, best.e, best.r_diag)
+        M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
         try:
             cov_p = np.linalg.inv(M)
         except np.linalg.LinAlgError:
             cov_p = np.full_like(M, np.nan)
-        cov_phys = cov_p * np.outer(prob.scale, prob.scale)
-        phys = best.p * prob.scale
+        cov_phys = cov_p * np.outer(scale, scale)
+        phys = best.p * scale
         theta = phys[:9]
         cov = cov_phys[:9, :9]
         hist_p = np.array(best.history_p)
         history = {"axis": "iteration", "step": np.arange(len(hist_p)),
-                   "theta": hist_p[:, :9] * prob.scale[:9],
+                   "theta": hist_p[:, :9] * scale[:9],
                    "cost": np.array(best.history_cost)}
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
         info = {"R": best.r_diag, "fisher": M, "parameter_names": self.parameter_names(),
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
-                "starts": len(starts), "failed_starts": failures, "compiled": prob.compiled,
-                "start_costs": [f.nll for f in fits]}
-        n_rx = len(self.rx_free())
+                "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
+                "start_costs": [f.nll for f in fits], "input": self.input,
+                "residuals": best.e, "output_names": OUTPUT_CHANNELS}
+        first_rx = 9 + len(self.x0_free())
         for j, t in enumerate(self.rx_free()):
-            info[f"rx{t + 1}_m"] = prob.pos[3 * t] + phys[phys.size - n_rx + j]
+            info[f"rx{t + 1}_m"] = model.pos[3 * t] + phys[first_rx + j]
+        if self.estimate_delay:
+            info["delay_s"] = float(phys[-1])
+            info["delay_stderr_s"] = float(stderr_phys[-1])
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation._interface import EstimationResult
-from aeroid.flights import Flight
+from aeroid.flights import Flight, flight_record
 from baselines import _common, _kalman
 
 
@@ -47,7 +47,8 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
         x0, P0, Q, R, zs, meas_sd = self.setup(flight)
-        model = _common.augmented_model(flight, self.substeps)
+        model = _common.augmented_model(
+            flight, self.substeps, flight_record(flight, self.input, self.delay_s))
         out = _kalman.run_ukf(model, x0, P0, Q, R, zs, alpha=self.alpha, beta=self.beta,
                               kappa=self.kappa)
         n_sigma = 2 * model.dim_x + 1

@@ -95,7 +95,7 @@ def least_squares_fit(flight, r_diag=None):
 
     def outputs(P):  # P: (n_sets, n_p) scaled parameters -> (n_sets, n, 9)
         theta = P[:, :9] * prior
-        x0 = np.repeat(prob.x0_meas[None], len(P), axis=0)
+        x0 = np.repeat(prob.model.x0[None], len(P), axis=0)
         x0[:, free] += P[:, 9:]
         states = aeroid.propagate(x0, theta, delta[:-1], flight.dt, const,
                                   substeps=est.substeps)

@@ -79,6 +79,7 @@ import numpy as np
 
 from aeroid.flights._flight import Flight
 from aeroid.flights._noise import GaussianNoise, NoiseModel, NoNoise, PaperNoise
+from aeroid.flights._record import flight_record
 from aeroid.flights._scenario import Scenario
 from aeroid.flights._simulate import simulate
 from aeroid.model._airframe import Airframe
@@ -115,20 +116,27 @@ class OutputErrorInputs(NamedTuple):
         Recorded fin deflection at every sample [rad], held over ``[t_k, t_k + dt)``.
     dt : float
         Sample interval [s].
+    record : Record or None
+        The inputs in time (deflection between samples, per-sample quantities); None:
+        ``delta`` held over each interval, the airframe's constants.
     """
 
     state0: np.ndarray
     delta: np.ndarray
     dt: float
+    record: Record | None = None
 
 
-def inputs_from_flight(flight: Flight) -> OutputErrorInputs:
-    """Return the model inputs of ``flight``: its first state, recorded delta and dt.
+def inputs_from_flight(flight: Flight, input: str = "hold") -> OutputErrorInputs:  # noqa: A002
+    """Return the model inputs of ``flight``: its first state, the deflection and dt.
 
-    For a noisy flight the first sample's measured p, q, r are used as they are; for
-    the floor pass the noise-free flight (``cramer_rao_sd`` does).
+    ``input`` is how the deflection between samples is modelled
+    (:data:`aeroid.flights.INPUTS`); per-sample channels of the flight are used. For a
+    noisy flight the first sample's measured p, q, r are used as they are; for the floor
+    pass the noise-free flight (``cramer_rao_sd`` does).
     """
-    return OutputErrorInputs(flight.states()[0], flight["delta"], flight.dt)
+    record = flight_record(flight, input)
+    return OutputErrorInputs(flight.states()[0], record.delta, flight.dt, record)
 
 
 def _as_inputs(flight_or_inputs: Flight | OutputErrorInputs) -> OutputErrorInputs:
@@ -139,7 +147,8 @@ def _as_inputs(flight_or_inputs: Flight | OutputErrorInputs) -> OutputErrorInput
         delta = np.asarray(flight_or_inputs.delta, dtype=float).reshape(-1)
         if state0.shape != (9,) or delta.size < 2:
             raise ValueError("fisher: inputs need state0 of shape (9,) and at least 2 samples")
-        return OutputErrorInputs(state0, delta, float(flight_or_inputs.dt))
+        return OutputErrorInputs(state0, delta, float(flight_or_inputs.dt),
+                                 flight_or_inputs.record)
     raise TypeError(
         f"fisher: expected a Flight or OutputErrorInputs, got {type(flight_or_inputs).__name__}"
     )
@@ -154,8 +163,9 @@ def _positions(airframe: Airframe, positions: np.ndarray | None) -> np.ndarray:
 
 def _forward_model(airframe: Airframe, inputs: OutputErrorInputs, positions: np.ndarray | None,
                    substeps: int) -> ForwardModel:
-    return ForwardModel(constants(airframe), Record.held(inputs.delta, inputs.dt),
-                        _positions(airframe, positions), substeps=substeps)
+    record = inputs.record or Record.held(inputs.delta, inputs.dt)
+    return ForwardModel(constants(airframe), record, _positions(airframe, positions),
+                        substeps=substeps)
 
 
 def model_outputs(
@@ -356,6 +366,7 @@ def cramer_rao_sd(
     noise_form: str = "heteroscedastic",
     channels: str = "both",
     estimate_initial: tuple[str, ...] = (),
+    input: str = "hold",  # noqa: A002 - the estimators' option name
 ) -> np.ndarray:
     """Return the Cramér-Rao standard deviations of the nine coefficients, shape (9,).
 
@@ -377,6 +388,9 @@ def cramer_rao_sd(
         Initial-state components estimated jointly as nuisance parameters (default
         none). ``**PROTOTYPE_FLOOR`` (homoscedastic, triad 1, initial p, q, r estimated)
         reproduces the reference README's figures.
+    input : {"hold", "midpoint", "events", "law"}
+        How the model's deflection between samples is taken
+        (:data:`aeroid.flights.INPUTS`); per-sample channels of the flight are used.
 
     Returns
     -------
@@ -405,7 +419,7 @@ def cramer_rao_sd(
     else:
         raise ValueError(
             f"cramer_rao_sd: positions must be 'true' or 'estimator', got {positions!r}")
-    inputs = inputs_from_flight(flight)
+    inputs = inputs_from_flight(flight, input)
     outputs = model_outputs(flight.airframe, theta, inputs, positions=pos)
     sd = model_noise_sd(noise_model, outputs, noise_form=noise_form)
     info = output_error_information(flight.airframe, theta, inputs, sd, positions=pos,

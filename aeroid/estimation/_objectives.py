@@ -38,9 +38,9 @@ from scipy.signal import savgol_filter
 from aeroid.estimation._reconstruct import Reconstruction, ebm_regression
 from aeroid.estimation._signals import estimate_noise_sd, smooth
 from aeroid.flights._flight import Flight
-from aeroid.model._dynamics import PHI, THETA, P, Q, R, constants
+from aeroid.flights._record import flight_record, model_constants
+from aeroid.model._dynamics import PHI, THETA, P, Q, R
 from aeroid.model._forward import ForwardModel
-from aeroid.model._inputs import Record
 
 __all__ = [
     "EAM_OUTPUTS",
@@ -282,6 +282,11 @@ class OutputErrorCost:
         How the initial rates are taken (above).
     roll_window : int
         SG window for p0 with ``"smoothed"`` [samples].
+    input : {"hold", "midpoint", "events", "law"}
+        How the deflection between samples is modelled (:data:`aeroid.flights.INPUTS`);
+        the flight's per-sample channels (density, mass, thrust, inertias) are used.
+    delay_s : float
+        Actuator time delay of the input [s].
 
     Attributes
     ----------
@@ -294,7 +299,8 @@ class OutputErrorCost:
     def __init__(self, flight: Flight, *, weighting: str = "noise",
                  guard_fraction: float = GUARD_FRACTION, substeps: int = 1,
                  backend: str = "auto", initial_state: str = "smoothed",
-                 roll_window: int = EAM_ROLL_WINDOW) -> None:
+                 roll_window: int = EAM_ROLL_WINDOW, input: str = "hold",  # noqa: A002
+                 delay_s: float = 0.0) -> None:
         _check_weighting(weighting, guard_fraction)
         if initial_state not in INITIAL_STATES:
             raise ValueError(f"initial_state must be one of {', '.join(INITIAL_STATES)}, "
@@ -321,7 +327,8 @@ class OutputErrorCost:
             q0, r0 = self.state0[Q], self.state0[R]
             self.state0[P] = phidot - (q0 * np.sin(phi) + r0 * np.cos(phi)) * np.tan(theta)
         self.initial_state = initial_state
-        self.model = ForwardModel(constants(flight.airframe), Record.held(self.delta, flight.dt),
+        self.record = flight_record(flight, input, delay_s)
+        self.model = ForwardModel(model_constants(flight), self.record,
                                   flight.airframe.accel_positions[:1], substeps=substeps,
                                   backend=backend)
 

@@ -51,6 +51,7 @@ from aeroid.estimation._signals import (
     smooth,
 )
 from aeroid.flights._flight import Flight
+from aeroid.flights._record import sample_constants
 from aeroid.model import _equations as eq
 from aeroid.model._airframe import Airframe
 from aeroid.model._dynamics import FM_NAMES, Constants, constants, regressors
@@ -93,17 +94,30 @@ def _unit_loads() -> eq.Loads:
     return eq.Loads(*np.eye(len(FM_NAMES)))  # field j is the unit vector e_j over the loads
 
 
-def sensor_matrix(const: Constants, positions: np.ndarray) -> np.ndarray:
-    """Return ``A`` (3 n_triads, 6): eq. 28 per unit load, ``a_m = A FM + B(w)``.
+def _per_load(const: Constants) -> Constants:
+    """Constants with per-sample fields (n,) made (n, 1), to broadcast over the six loads."""
+    return Constants(*(np.asarray(v, dtype=float)[:, None] if np.ndim(v) else v
+                       for v in const))
 
-    Eq. 28 with eqs. 5-7 is affine in the loads; its columns are the model's accelerometer
-    readings for unit loads with no rotation and no thrust (those go to ``B``), so this is
-    the model's eq. 28, not a second writing of it.
+
+def sensor_matrix(const: Constants, positions: np.ndarray) -> np.ndarray:
+    """Return ``A`` (3 n_triads, 6), or (n, 3 n_triads, 6) for per-sample mass or inertia.
+
+    Eq. 28 with eqs. 5-7 is affine in the loads, ``a_m = A FM + B(w)``; the columns of
+    ``A`` are the model's accelerometer readings for unit loads with no rotation and no
+    thrust (those go to ``B``), so this is the model's eq. 28, not a second writing of it.
     """
     still = eq.State(*np.zeros(len(eq.STATE_NAMES)))
-    free = const._replace(thrust=0.0)
-    return np.vstack([np.stack(eq.accelerometer(still, _unit_loads(), free, *pos))
-                      for pos in np.asarray(positions, dtype=float)])
+    free = _per_load(const._replace(thrust=0.0))
+    return np.concatenate([np.stack(np.broadcast_arrays(
+        *eq.accelerometer(still, _unit_loads(), free, *pos)), axis=-2)
+        for pos in np.asarray(positions, dtype=float)], axis=-2)
+
+
+def inertia_rows(const: Constants) -> np.ndarray:
+    """Return ``[0, J^-1]`` (3, 6), or (n, 3, 6) per sample: eqs. 5-7 per unit load."""
+    return np.stack(np.broadcast_arrays(*eq.angular_acceleration(
+        0.0, 0.0, 0.0, _unit_loads(), _per_load(const))), axis=-2)
 
 
 def sensor_offset(const: Constants, positions: np.ndarray, omega: np.ndarray) -> np.ndarray:
@@ -222,7 +236,7 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     """
     if not (np.isfinite(rate_weight) and rate_weight > 0):
         raise ValueError(f"rate_weight must be a positive number, got {rate_weight!r}")
-    const = constants(flight.airframe)
+    const = sample_constants(flight)
     n = flight.n_samples
     accel = flight.accelerations().reshape(n, 6)
     omega = np.column_stack([flight["p"], flight["q"], flight["r"]])
@@ -231,7 +245,6 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     none = eq.Loads(*np.zeros(len(FM_NAMES)))
     gyro = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2], none,
                                             const))
-    inertia_rows = np.stack(eq.angular_acceleration(0.0, 0.0, 0.0, _unit_loads(), const))
     matrix = sensor_matrix(const, positions)
     z = accel - sensor_offset(const, positions, omega)
     row_sd = np.full(9, np.nan)
@@ -246,17 +259,25 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
                               (derivative_window, derivative_polyorder),
                               (derivative_window, derivative_polyorder))]
         row_sd[6:] = estimate_noise_sd(omega) * np.asarray(gains)
-        matrix = np.vstack([matrix, inertia_rows])
+        rows = inertia_rows(const)
+        if rows.ndim != matrix.ndim:  # one of them per sample
+            matrix, rows = (np.broadcast_to(a, (n, *a.shape[-2:])) for a in (matrix, rows))
+        matrix = np.concatenate([matrix, rows], axis=-2)
         z = np.hstack([z, wdot_sg - gyro])
-    weights = 1.0 / row_sd[: matrix.shape[0]]
+    n_rows = matrix.shape[-2]
+    weights = 1.0 / row_sd[:n_rows]
     if rate_rows:
         weights[6:] *= rate_weight
     weighted = weights[:, None] * matrix
-    fm = (z * weights) @ np.linalg.pinv(weighted).T
-    rank = int(np.linalg.matrix_rank(weighted))
-    model = fm @ matrix.T
+    if matrix.ndim == 2:  # one matrix for the whole flight: one pseudo-inverse
+        fm = (z * weights) @ np.linalg.pinv(weighted).T
+        model = fm @ matrix.T
+    else:  # per-sample mass or inertia
+        fm = np.einsum("kij,kj->ki", np.linalg.pinv(weighted), z * weights)
+        model = np.einsum("kij,kj->ki", matrix, fm)
+    rank = int(np.min(np.linalg.matrix_rank(weighted)))
     residual = np.full((n, 9), np.nan)
-    residual[:, : matrix.shape[0]] = model - z
+    residual[:, :n_rows] = model - z
     omega_dot = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2],
                                                  eq.Loads(*fm.T), const))
     fm_smooth = smooth(fm, smoothing_window, min(SMOOTHING_POLYORDER, smoothing_window - 1))
@@ -306,7 +327,7 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
         raise ValueError(f"reconstruction has {rec.fm.shape[0]} samples, flight "
                          f"{flight.n_samples}")
     window = rec.smoothing_window if window is None else int(window)
-    X = regressors(flight.states(), flight["delta"], constants(flight.airframe))
+    X = regressors(flight.states(), flight["delta"], sample_constants(flight))
     if smoothing == "none" or window == 1:
         return X, rec.fm.copy()
     polyorder = min(SMOOTHING_POLYORDER, window - 1)

@@ -20,6 +20,14 @@ from aeroid.flights._noise import (
     make_noise,
     noise_from_dict,
 )
+from aeroid.flights._record import (
+    INPUTS,
+    exogenous,
+    flight_record,
+    model_constants,
+    sample_constants,
+    schedule,
+)
 from aeroid.flights._scenario import (
     Manoeuvre,
     Scenario,
@@ -32,6 +40,7 @@ from aeroid.flights._sidecar import FORMAT, sidecar_path
 from aeroid.flights._simulate import record_flight, simulate, simulate_scenario, simulate_truth
 
 __all__ = [
+    "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
     "ACCEL_CHANNELS", "ANGLE_CHANNELS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
     "RATE_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS", "UNITS", "Flight", "GaussianNoise",
     "Manoeuvre", "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario",

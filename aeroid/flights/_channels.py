@@ -17,14 +17,14 @@ REQUIRED_CHANNELS: tuple[str, ...] = (
     "t", *ACCELEROMETER_CHANNELS, "p", "q", "r", "delta",
     "u", "v", "w", "alpha", "beta", "phi", "theta", "psi",
 )
-#: Per-sample inputs of the planned format: mass, thrust and the atmosphere (density,
-#: altitude for the ISA density, or dynamic pressure), named by ``[atmosphere]
-#: per_sample``. A flight that has one of them stops in ``Flight.validate`` until the
-#: model uses it (:data:`SUPPORTED_OPTIONAL_CHANNELS`): nothing given is ignored.
-OPTIONAL_CHANNELS: tuple[str, ...] = ("mass", "thrust", "rho", "altitude", "qbar")
-#: The optional channels the model uses today (none: it holds mass, thrust and density
-#: constant over the window).
-SUPPORTED_OPTIONAL_CHANNELS: frozenset[str] = frozenset()
+#: Per-sample inputs: mass, thrust, inertias, and the atmosphere (density, altitude for
+#: the ISA density, or dynamic pressure), the latter named by ``[atmosphere] per_sample``.
+#: The model interpolates them linearly in time between samples; every estimator, the EBM
+#: reconstruction and the Cramér-Rao floor use them (:mod:`aeroid.flights._record`).
+OPTIONAL_CHANNELS: tuple[str, ...] = ("mass", "thrust", "ix", "iy", "iz", "rho", "altitude",
+                                      "qbar")
+#: The atmosphere channels: one of them is used when ``[atmosphere] per_sample`` names it.
+ATMOSPHERE_CHANNELS: tuple[str, ...] = ("rho", "altitude", "qbar")
 #: Every channel name aeroid knows.
 CHANNELS: tuple[str, ...] = (*REQUIRED_CHANNELS, *OPTIONAL_CHANNELS)
 #: Channels converted by ``angles_in_degrees`` (rates in deg/s).
@@ -37,5 +37,6 @@ UNITS: dict[str, str] = {
     "p": "rad/s", "q": "rad/s", "r": "rad/s",
     "delta": "rad", "alpha": "rad", "beta": "rad", "phi": "rad", "theta": "rad", "psi": "rad",
     "u": "m/s", "v": "m/s", "w": "m/s",
-    "mass": "kg", "thrust": "N", "rho": "kg/m^3", "altitude": "m", "qbar": "Pa",
+    "mass": "kg", "thrust": "N", "ix": "kg m^2", "iy": "kg m^2", "iz": "kg m^2",
+    "rho": "kg/m^3", "altitude": "m", "qbar": "Pa",
 }

@@ -23,11 +23,14 @@ import pandas as pd
 
 from aeroid.flights._channels import (
     ACCELEROMETER_CHANNELS,
+    ATMOSPHERE_CHANNELS,
     CHANNELS,
-    OPTIONAL_CHANNELS,
     REQUIRED_CHANNELS,
-    SUPPORTED_OPTIONAL_CHANNELS,
 )
+from aeroid.flights._channels import (
+    UNITS as PER_SAMPLE_UNITS,
+)
+from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
 from aeroid.model._airframe import Airframe
 
 #: Relative spread of the sample interval accepted as a uniform time base.
@@ -97,7 +100,7 @@ def check_flight(data: pd.DataFrame, airframe: Airframe) -> tuple[list[str], lis
         if bad.size:
             errors.append(f"column {name!r} has {bad.size} NaN/inf or non-numeric value(s), "
                           f"first at row {bad[0]}")
-    errors.extend(_unsupported(present, airframe))
+    errors.extend(_per_sample(values, airframe))
     if len(data) < MIN_SAMPLES:
         errors.append(f"too few samples ({len(data)}; need at least {MIN_SAMPLES}: two per "
                       "unknown of the largest fit)")
@@ -121,21 +124,31 @@ def _floats(column: pd.Series) -> np.ndarray:
     return pd.to_numeric(column, errors="coerce").to_numpy(dtype=float)
 
 
-def _unsupported(present: list[str], airframe: Airframe) -> list[str]:
+def _per_sample(values: dict[str, np.ndarray], airframe: Airframe) -> list[str]:
+    """A per-sample input is used or refused: never present and silently ignored."""
     found: list[str] = []
     channel = airframe.atmosphere_channel
-    if channel is not None:
-        found.append(f"per-sample atmosphere ([atmosphere] per_sample = {channel!r}) is not "
-                     "supported yet: the model holds one density per flight; state "
-                     "altitude_m or density_kgm3 (e.g. the window's mean)"
-                     + ("" if channel in present else f"; the flight has no {channel!r} "
-                        "channel either"))
-    given = [c for c in OPTIONAL_CHANNELS if c in present
-             and c not in SUPPORTED_OPTIONAL_CHANNELS and c != channel]
-    if given:
-        found.append(f"channel(s) {', '.join(given)} given but not supported yet (the model "
-                     "holds mass, thrust and density constant: state them in the airframe "
-                     "file and drop the column(s) or their column-map entries)")
+    if channel is not None and channel not in values:
+        found.append(f"[atmosphere] per_sample = {channel!r} but the flight has no "
+                     f"{channel!r} channel")
+    ignored = [c for c in ATMOSPHERE_CHANNELS if c in values and c != channel]
+    if ignored:
+        found.append(f"channel(s) {', '.join(ignored)} given while the airframe states one "
+                     "atmosphere for the flight: set [atmosphere] per_sample to the channel "
+                     "to use it, or drop the column(s)")
+    for name in ("mass", "ix", "iy", "iz", "rho", "qbar"):
+        v = values.get(name)
+        if v is not None and np.all(np.isfinite(v)) and np.any(v <= 0):
+            found.append(f"channel {name!r} must be positive ({PER_SAMPLE_UNITS[name]}), "
+                         f"first non-positive at row {int(np.flatnonzero(v <= 0)[0])}")
+    thrust = values.get("thrust")
+    if thrust is not None and np.all(np.isfinite(thrust)) and np.any(thrust < 0):
+        found.append("channel 'thrust' must be >= 0 [N] (thrust along body +x)")
+    altitude = values.get("altitude")
+    low, high = AIRFRAME_LIMITS["altitude_m"]
+    if altitude is not None and np.all(np.isfinite(altitude)) and (
+            np.any(altitude < low) or np.any(altitude > high)):
+        found.append(f"channel 'altitude' outside the ISA model's {low:g} to {high:g} m")
     return found
 
 

@@ -251,15 +251,15 @@ class Airframe:
         Raises
         ------
         AirframeError
-            For a per-sample atmosphere, which the model does not use yet.
+            For a per-sample atmosphere: the density is then the flight's.
         """
         if self.given_density_kgm3 is not None:
             return self.given_density_kgm3
         if self.altitude_m is None:
             raise AirframeError(
-                f"airframe: per-sample atmosphere (channel {self.atmosphere_channel!r}) is not "
-                "supported yet: the model holds one density per flight; state altitude_m or "
-                "density_kgm3 in [atmosphere]")
+                f"airframe: no single density: the atmosphere is per sample (channel "
+                f"{self.atmosphere_channel!r}); take the flight's values "
+                "(aeroid.flights.sample_constants)")
         return float(atmosphere.density(self.altitude_m))
 
     @property

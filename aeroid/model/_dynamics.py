@@ -35,9 +35,15 @@ OUTPUT_CHANNELS: tuple[str, ...] = ACCEL_CHANNELS + RATE_CHANNELS
 
 
 def constants(airframe: Airframe) -> Constants:
-    """Return the model constants of ``airframe`` (its air density, standard gravity)."""
+    """Return the model constants of ``airframe`` (its air density, standard gravity).
+
+    With a per-sample atmosphere (``[atmosphere] per_sample``) the constant density is
+    NaN: only the flight's per-sample values may be used (:mod:`aeroid.flights`), and a
+    computation that forgot them fails instead of using a wrong density.
+    """
+    per_sample = getattr(airframe, "atmosphere_channel", None) is not None
     return Constants(
-        rho=airframe.density_kgm3,
+        rho=float("nan") if per_sample else airframe.density_kgm3,
         area=airframe.area_m2,
         diameter=airframe.diameter_m,
         mass=airframe.mass_kg,

@@ -190,7 +190,6 @@ class ForwardModel:
 # --------------------------------------------------------------------------------------
 # The same record as a CasADi graph with exact sensitivities
 # --------------------------------------------------------------------------------------
-@functools.lru_cache(maxsize=16)
 def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                     x0_free: tuple[int, ...] = (), position_free: tuple[int, ...] = (),
                     compiled: bool = False, n_pieces: int = 1, varying: bool = False
@@ -226,6 +225,16 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
         With ``compiled``, the per-step SX functions are compiled to C
         (:func:`aeroid.model._symbolic.compile_functions`); False when that failed.
     """
+    return _symbolic_record(inputs.normalised(const, varying), float(dt), int(substeps),
+                            int(n_samples), tuple(x0_free), tuple(position_free),
+                            bool(compiled), int(n_pieces), bool(varying))
+
+
+@functools.lru_cache(maxsize=16)
+def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
+                     x0_free: tuple[int, ...], position_free: tuple[int, ...],
+                     compiled: bool, n_pieces: int, varying: bool
+                     ) -> tuple[ca.Function, ca.Function, bool]:
     n_pos = 6
     n_x0, n_free_pos = len(x0_free), len(position_free)
     n_p = N_COEFFICIENTS + n_x0 + n_free_pos
@@ -342,6 +351,10 @@ class Buffered:
             self.buffer.set_arg(i, memoryview(a))
         for i, r in enumerate(self.outputs):
             self.buffer.set_res(i, memoryview(r))
+
+    def set(self, i: int, value: np.ndarray) -> None:
+        """Replace input ``i`` (same shape as given at construction) in place."""
+        self.inputs[i][:] = np.asarray(value, dtype=float).T.ravel()
 
     def __call__(self, p: np.ndarray) -> list[np.ndarray]:
         """Evaluate with input 0 set to ``p``; returns the output buffers (reused)."""

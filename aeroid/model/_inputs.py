@@ -340,6 +340,16 @@ with_exogenous = _generated("with_exogenous", _row_source())
 lerp = _generated("lerp", _lerp_source())
 
 
+def normalised(const: Constants, varying: bool) -> Constants:
+    """Return ``const`` with the exogenous fields zeroed when per-sample values replace them.
+
+    Built models are cached by their constants; a per-sample atmosphere leaves the constant
+    density NaN (never equal to itself), and the replaced values do not enter the model.
+    """
+    const = Constants(*(float(v) for v in const))
+    return const._replace(**dict.fromkeys(EXOGENOUS, 0.0)) if varying else const
+
+
 def is_uniform(t: np.ndarray) -> bool:
     """Return whether ``t`` is a uniform time base (to :data:`TIME_RTOL`)."""
     steps = np.diff(np.asarray(t, dtype=float))

@@ -180,7 +180,6 @@ def sample_constants(const: Constants, exo) -> Constants:
     return inputs.with_exogenous(const, exo) if exo.shape[0] else const
 
 
-@functools.lru_cache(maxsize=32)
 def augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int = 1,
                         varying: bool = False) -> tuple[ca.Function, ...]:
     """Return the augmented-state (18) model of the Kalman filters with exact Jacobians.
@@ -194,6 +193,13 @@ def augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: in
     h : Function ``(z (18), delta, exo, positions (6)) -> (y (9), H (9, 18))``
         Measurement and its Jacobian.
     """
+    return _augmented_functions(inputs.normalised(const, varying), float(dt), int(substeps),
+                                int(n_pieces), bool(varying))
+
+
+@functools.lru_cache(maxsize=32)
+def _augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
+                         varying: bool) -> tuple[ca.Function, ...]:
     z = ca.SX.sym("z", N_STATE + N_COEFFICIENTS)
     sym = interval_symbols(n_pieces, varying)
     delta = ca.SX.sym("delta")

@@ -77,22 +77,33 @@ def test_airframe_without_atmosphere_exit_2(log_and_airframe, capsys) -> None:
     assert f"{airframe}: no [atmosphere] table" in err
 
 
-def test_per_sample_atmosphere_exit_2(log_and_airframe, capsys) -> None:
+def test_per_sample_atmosphere_without_its_channel_exit_2(log_and_airframe, capsys) -> None:
     log, airframe = log_and_airframe
     airframe.write_text(airframe.read_text().replace("altitude_m = 10000.0",
                                                      'per_sample = "rho"'))
     err = _one_line_error(capsys, ["estimate", str(log), "--airframe", str(airframe),
                                    "--method", "equation-error"])
-    assert "per-sample atmosphere ([atmosphere] per_sample = 'rho') is not supported yet" in err
+    assert "[atmosphere] per_sample = 'rho' but the flight has no 'rho' channel" in err
 
 
-def test_mass_channel_exit_2(tmp_path, paper_flight, log_and_airframe, capsys) -> None:
+def test_a_mass_channel_is_used(tmp_path, paper_flight, log_and_airframe, capsys) -> None:
+    # the airframe's 70 kg as a channel gives the airframe's answer; 7 kg with 74 N of
+    # thrust (both a tenth) divides every force, so Cx, Cza, Czd, Czq, by ten exactly and
+    # leaves the moments alone: the channels are used, not ignored
     _, airframe = log_and_airframe
-    log = tmp_path / "mass.csv"
-    paper_flight.data.assign(mass=70.0).to_csv(log, index=False, float_format="%.17g")
-    err = _one_line_error(capsys, ["estimate", str(log), "--airframe", str(airframe),
-                                   "--method", "equation-error"])
-    assert "channel(s) mass given but not supported yet" in err
+    answers = []
+    for mass, thrust in ((None, None), (70.0, 740.0), (7.0, 74.0)):
+        log = tmp_path / f"mass{mass}.csv"
+        data = paper_flight.data if mass is None else paper_flight.data.assign(
+            mass=mass, thrust=thrust)
+        data.to_csv(log, index=False, float_format="%.17g")
+        assert main(["estimate", str(log), "--airframe", str(airframe),
+                     "--method", "equation-error", "--json"]) == 0
+        answers.append(json.loads(capsys.readouterr().out)["coefficients"])
+    assert answers[1] == pytest.approx(answers[0], rel=1e-9)
+    for name, factor in (("Cx", 0.1), ("Cza", 0.1), ("Czd", 0.1), ("Czq", 0.1),
+                         ("Cl0", 1.0), ("Clp", 1.0), ("Cma", 1.0), ("Cmd", 1.0), ("Cmq", 1.0)):
+        assert answers[2][name] == pytest.approx(factor * answers[0][name], rel=1e-8), name
 
 
 def test_rates_in_degrees_per_second_exit_2(tmp_path, paper_flight, log_and_airframe,

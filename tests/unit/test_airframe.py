@@ -210,7 +210,7 @@ def test_per_sample_atmosphere_is_the_planned_format(tmp_path):
     assert load_airframe(tmp_path / "b.toml") == airframe
     with pytest.raises(AirframeError) as info:
         _ = airframe.density_kgm3
-    assert "per-sample atmosphere (channel 'rho') is not supported yet" in _one_line(info)
+    assert "no single density: the atmosphere is per sample (channel 'rho')" in _one_line(info)
 
 
 def test_length_is_optional(tmp_path):

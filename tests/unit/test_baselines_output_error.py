@@ -66,7 +66,7 @@ def test_jacobian_equals_finite_differences(noisy_flight, options):
     est = OutputErrorEstimator(**options, compile_model=not options)
     prob = est.problem(noisy_flight)
     rng = np.random.default_rng(2)
-    p = np.ones(prob.scale.size)
+    p = np.ones(prob.model.scale.size)
     p[:9] += 0.05 * rng.standard_normal(9)
     p[9:] = 0.01 * rng.standard_normal(p.size - 9)
     _, J = prob.residuals_jacobian(p)
@@ -81,10 +81,10 @@ def test_jacobian_equals_finite_differences(noisy_flight, options):
 def test_compiled_model_equals_casadi_virtual_machine(noisy_flight):
     compiled = OutputErrorEstimator(compile_model=True).problem(noisy_flight)
     vm = OutputErrorEstimator(compile_model=False).problem(noisy_flight)
-    assert not vm.compiled
-    if not compiled.compiled:
+    assert not vm.model.compiled
+    if not compiled.model.compiled:
         pytest.skip("no working C compiler: the compiled path is not available here")
-    p = np.concatenate([np.full(9, 1.05), np.full(compiled.scale.size - 9, 0.01)])
+    p = np.concatenate([np.full(9, 1.05), np.full(compiled.model.scale.size - 9, 0.01)])
     e_c, J_c = compiled.residuals_jacobian(p)
     e_v, J_v = vm.residuals_jacobian(p)
     # same floating-point operations, possibly reordered by the C compiler (-O1, no
@@ -107,7 +107,7 @@ def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit
     assert res.info["parameter_names"][9:] == ("p0", "q0", "r0")
 
     def outputs(params):
-        x0 = prob.x0_meas.copy()
+        x0 = prob.model.x0.copy()
         x0[3:6] += params[9:12]
         states = aeroid.propagate(x0, params[:9], delta[:-1], noisy_flight.dt, const,
                                   substeps=est.substeps)[0]

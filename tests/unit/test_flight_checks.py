@@ -164,16 +164,29 @@ def test_fin_deflection_in_degrees_or_overshooting(paper_flight):
         _changed(paper_flight, delta=1.3 * delta).validate()
 
 
-@pytest.mark.parametrize("channel", ["mass", "thrust", "rho"])
-def test_per_sample_inputs_are_refused_until_the_model_uses_them(paper_flight, channel):
-    flight = _changed(paper_flight, **{channel: np.ones(paper_flight.n_samples)})
-    assert f"channel(s) {channel} given but not supported yet" in _error(flight)
+@pytest.mark.parametrize(("channel", "value", "message"), [
+    ("mass", -1.0, "channel 'mass' must be positive"),
+    ("ix", 0.0, "channel 'ix' must be positive"),
+    ("thrust", -5.0, "channel 'thrust' must be >= 0"),
+    ("altitude", 30000.0, "channel 'altitude' outside the ISA model"),
+])
+def test_per_sample_inputs_are_range_checked(paper_flight, channel, value, message):
+    flight = _changed(paper_flight, **{channel: np.full(paper_flight.n_samples, value)})
+    if channel == "altitude":
+        flight = make_flight({c: flight[c] for c in flight.channels},
+                             flight.airframe.replace(altitude_m=None,
+                                                     atmosphere_channel="altitude"),
+                             {"source": "hostile.csv"})
+    assert message in _error(flight)
 
 
-def test_per_sample_atmosphere_is_refused(paper_flight):
+def test_an_atmosphere_channel_is_used_or_refused(paper_flight):
+    # per_sample names a channel the flight lacks: refused
     airframe = paper_flight.airframe.replace(altitude_m=None, atmosphere_channel="rho")
     flight = make_flight({c: paper_flight[c] for c in paper_flight.channels}, airframe,
                          {"source": "hostile.csv"})
     message = _error(flight)
-    assert "per-sample atmosphere ([atmosphere] per_sample = 'rho') is not supported yet" \
-        in message and "no 'rho' channel" in message
+    assert "[atmosphere] per_sample = 'rho' but the flight has no 'rho' channel" in message
+    # a density channel while the airframe states one atmosphere: refused, not ignored
+    flight = _changed(paper_flight, rho=np.full(paper_flight.n_samples, 0.41))
+    assert "channel(s) rho given while the airframe states one atmosphere" in _error(flight)
