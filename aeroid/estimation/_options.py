@@ -88,10 +88,10 @@ def coerce(name: str, value: Any, hint: Any, owner: str) -> Any:
     if origin in (tuple, list):
         if not isinstance(value, list | tuple):
             raise EstimatorError(f"{owner}: option {name} expects a list, got {value!r}")
-        args = [a for a in typing.get_args(hint) if a is not Ellipsis]
-        if len(args) == 1:
-            value = [coerce(name, v, args[0], owner) for v in value]
-        return tuple(value) if origin is tuple else list(value)
+        item_types = [a for a in typing.get_args(hint) if a is not Ellipsis]
+        items = ([coerce(name, v, item_types[0], owner) for v in value]
+                 if len(item_types) == 1 else list(value))
+        return tuple(items) if origin is tuple else items
     return value
 
 
