@@ -16,6 +16,8 @@ from typing import Protocol
 import numpy as np
 import scipy.optimize
 
+from aeroid.estimation import report_progress
+
 #: A trial step is accepted when it does not raise the cost by more than this fraction
 #: (rounding: at a noise-free optimum the cost is flat to the last digits).
 COST_RTOL = 1e-12
@@ -246,6 +248,7 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
         r_diag = r_new
         history_p.append(p.copy())
         history_cost.append(_nll(e, r_diag) + prob.prior_terms(p)[0])
+        report_progress(it, max_iterations, stage="Gauss-Newton", cost=history_cost[-1])
         if settled and near_gauss_newton and float(np.max(np.abs(step))) < STALL_STEP:
             # noise-free data: the residuals are the model's own discretisation error,
             # the standard deviations shrink with them and the sd-relative test is

@@ -19,7 +19,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from aeroid.estimation._interface import EstimationResult
+from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, flight_record
 from baselines import _common, _kalman
 

@@ -16,7 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from aeroid.estimation._interface import EstimationResult
+from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, flight_record
 from baselines import _common, _kalman
 
@@ -26,9 +26,17 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
     """Augmented-state UKF (filterpy, Merwe scaled sigma points, batched propagation).
 
     Options are those of :class:`baselines._common.AugmentedFilterOptions` plus the
-    sigma-point parameters ``alpha`` (default 0.5: sigma points at about
-    ``0.5 sqrt(18) = 2.1`` standard deviations), ``beta`` (default 2, Gaussian) and
-    ``kappa`` (default 0). Result and failure handling as for the EKF.
+    sigma-point parameters below. Result and failure handling as for the EKF.
+
+    Attributes
+    ----------
+    alpha : float
+        Spread of the sigma points (default 0.5: about ``0.5 sqrt(18) = 2.1`` standard
+        deviations from the mean).
+    beta : float
+        Prior knowledge of the distribution (default 2, optimal for a Gaussian).
+    kappa : float
+        Secondary scaling of the sigma points (default 0).
     """
 
     name: ClassVar[str] = "ukf"

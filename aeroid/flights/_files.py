@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import os
 import warnings
 from collections.abc import Mapping
@@ -37,7 +36,8 @@ import pandas as pd
 from aeroid.errors import AirframeError, FlightError
 from aeroid.flights._channels import ANGLE_CHANNELS, CHANNELS
 from aeroid.flights._flight import Flight, air_angles
-from aeroid.flights._sidecar import read_sidecar, sidecar_path, sidecar_payload
+from aeroid.flights._sidecar import read_sidecar
+from aeroid.flights._write import write_flight
 from aeroid.model._airframe import Airframe
 from aeroid.model._fileform import read_toml, regular_file_size
 
@@ -50,40 +50,6 @@ READ_MEMORY_FACTOR = 2.0
 MAX_HEADER_CHARS = 1 << 16
 #: Bytes of the file's beginning used to estimate its bytes per row.
 _SAMPLE_BYTES = 1 << 16
-
-
-# Writing ------------------------------------------------------------------------------
-def write_flight(flight: Flight, path: str | Path) -> Path:
-    """Write ``flight`` as CSV (Parquet for a ``.parquet`` path) plus its JSON sidecar.
-
-    CSV values are written with 17 significant digits (a lossless round trip).
-
-    Returns
-    -------
-    Path
-        The sidecar written.
-
-    Raises
-    ------
-    FlightError
-        A ``.json`` data path (the sidecar's own name), or Parquet without pyarrow.
-    """
-    path = Path(path)
-    sidecar = sidecar_path(path)
-    if sidecar == path:
-        raise FlightError(f"{path}: a flight's data cannot be .json (that is its sidecar's "
-                          "name); use .csv or .parquet")
-    if path.suffix == ".parquet":
-        try:
-            import pyarrow  # noqa: F401
-        except ImportError:
-            raise FlightError(f"{path}: writing Parquet needs pyarrow "
-                              "(pip install 'aeroid-toolkit[parquet]'); or write .csv") from None
-        flight.data.to_parquet(path, index=False, engine="pyarrow")
-    else:
-        flight.data.to_csv(path, index=False, float_format="%.17g")
-    sidecar.write_text(json.dumps(sidecar_payload(flight), indent=2))
-    return sidecar
 
 
 # Column map -----------------------------------------------------------------------------

@@ -149,7 +149,7 @@ class Flight:
         CSV values are written with 17 significant digits, so a round trip is lossless.
         Returns the sidecar path (:func:`aeroid.flights.write_flight`).
         """
-        from aeroid.flights._files import write_flight
+        from aeroid.flights._write import write_flight
 
         return write_flight(self, path)
 
@@ -176,19 +176,6 @@ def air_angles(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> tuple[np.ndarray,
     """Return alpha = atan2(w, u) and beta = asin(v / V) [rad] (eqs. 14-16)."""
     with np.errstate(all="ignore"):
         return np.arctan2(w, u), np.arcsin(v / np.sqrt(u * u + v * v + w * w))
-
-
-def __getattr__(name: str) -> Any:
-    """Make the file functions importable from here too (they live in ``_files``)."""
-    if name in ("read_flight", "write_flight"):
-        from aeroid.flights import _files
-
-        return getattr(_files, name)
-    if name in ("sidecar_path", "FORMAT"):
-        from aeroid.flights import _sidecar
-
-        return getattr(_sidecar, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = ["ANGLE_CHANNELS", "OPTIONAL_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS",

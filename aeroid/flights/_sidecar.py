@@ -14,18 +14,20 @@ import json
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aeroid.errors import AirframeError, FlightError
-from aeroid.flights._flight import Flight
 from aeroid.flights._noise import noise_from_dict
 from aeroid.model._airframe import Airframe
 from aeroid.model._coefficients import NAMES
 from aeroid.model._fileform import check_keys, check_table, is_number, numbers, regular_file_size
 
 #: The sidecar's format tag; a same-stem JSON file without it is not a sidecar.
+if TYPE_CHECKING:  # annotations only (Flight.write reaches this module)
+    from aeroid.flights._flight import Flight
+
 FORMAT = "aeroid-flight/1"
 #: The keys of a sidecar.
 SIDECAR_KEYS = ("format", "airframe", "metadata")

@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 
 from aeroid.errors import AirframeError, EstimatorError, StudyError
-from aeroid.estimation._interface import Estimator
+from aeroid.estimation import Estimator
 from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
 from aeroid.flights._scenario import Scenario, scenario_from_dict
 from aeroid.model._airframe import read_toml, reference_scenario_data
@@ -209,7 +209,7 @@ def quick_study_path() -> Path:
 
 
 def _registry() -> Mapping[str, type[Estimator]]:
-    from aeroid.estimation._interface import available
+    from aeroid.estimation import available
 
     try:
         return available()

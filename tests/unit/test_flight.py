@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from aeroid.errors import FlightError
-from aeroid.flights._flight import (
+from aeroid.flights import (
     ANGLE_CHANNELS,
     REQUIRED_CHANNELS,
     make_flight,
