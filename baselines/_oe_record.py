@@ -109,7 +109,7 @@ class RecordModel:
         for sign in (1.0, -1.0):
             sim, _ = self._buffers(self.record(tau + sign * DELAY_STEP_S), record.delta)
             (ys,) = sim(p[:self.n_graph])
-            columns.append(ys.reshape(9, n).T)
+            columns.append(ys.reshape(9, n).T.copy())  # the buffer is reused
         self._buffers(record)  # restore the inputs of the current delay
         d_tau = (columns[0] - columns[1]) / (2.0 * DELAY_STEP_S) * self.delay_scale
         return y, np.concatenate([J, d_tau.T[:, :, None]], axis=2)
