@@ -193,6 +193,11 @@ class AugmentedFilterOptions(Estimator):
             return aeroid.failed_result(self.name, message, history=history, info=info,
                                         n_iterations=int(out.failed_at))
         cov = out.P[9:, 9:].copy()
+        # the fit check reads the innovations of the second half (after the coefficients'
+        # initial uncertainty has been worked off)
+        half = len(t) // 2
+        info["fit_residuals"] = {name: out.innovation[half:, j]
+                                 for j, name in enumerate(aeroid.model.OUTPUT_CHANNELS)}
         return EstimationResult(
             estimator=self.name, theta=out.x[-1, 9:], stderr=np.sqrt(np.diag(cov)),
             covariance=cov, cost=math.nan, success=True, message="",

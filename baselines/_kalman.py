@@ -71,6 +71,8 @@ class FilterOutput:
     failed_at : int or None
         Sample index at which the covariance stopped being positive definite.
     reason : str
+    innovation : ndarray, shape (n, dim_z)
+        Measurement minus its prediction before each update (rows after a failure NaN).
     """
 
     x: np.ndarray
@@ -78,6 +80,7 @@ class FilterOutput:
     P: np.ndarray
     failed_at: int | None
     reason: str
+    innovation: np.ndarray
 
 
 class _NonlinearEKF(ExtendedKalmanFilter):
@@ -149,11 +152,12 @@ def _check(P: np.ndarray, x: np.ndarray) -> tuple[str, np.ndarray]:
 
 
 def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
-            reason: str) -> FilterOutput:
+            reason: str, innovation: np.ndarray) -> FilterOutput:
     if k is not None:
         xs[k:] = np.nan
         sds[k:] = np.nan
-    return FilterOutput(xs, sds, P, k, reason)
+        innovation[k:] = np.nan
+    return FilterOutput(xs, sds, P, k, reason, innovation)
 
 
 def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
@@ -184,6 +188,7 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     ekf.R = np.asarray(R, dtype=float)
     xs = np.empty((n, model.dim_x))
     sds = np.empty((n, model.dim_x))
+    innov = np.empty((n, model.dim_z))
     for k in range(n):
         if k > 0:
             x_next, F = model.transition(ekf.x.ravel(), k - 1)
@@ -193,15 +198,16 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         z_hat, H = model.observe(ekf.x.ravel(), k)
         H = np.asarray(H, dtype=float)
         z_hat = np.asarray(z_hat, dtype=float).reshape(-1, 1)
+        innov[k] = zs[k] - z_hat.ravel()
         ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
                    Hx=lambda _x, z_hat=z_hat: z_hat)
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
         reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
-            return _finish(xs, sds, ekf.P, k, reason)
+            return _finish(xs, sds, ekf.P, k, reason, innov)
         xs[k] = ekf.x.ravel()
         sds[k] = np.sqrt(np.diag(ekf.P))
-    return _finish(xs, sds, ekf.P, None, "")
+    return _finish(xs, sds, ekf.P, None, "", innov)
 
 
 def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
@@ -234,19 +240,21 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
     xs = np.empty((n, model.dim_x))
     sds = np.empty((n, model.dim_x))
+    innov = np.empty((n, model.dim_z))
     for k in range(n):
         if k > 0:
             step["k"] = k - 1
             try:
                 ukf.predict()
             except np.linalg.LinAlgError:
-                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed")
+                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed", innov)
         rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
         ukf.update(zs[k], hx=_RowFeed(rows))
+        innov[k] = ukf.y
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
         reason, ukf.P = _check(ukf.P, ukf.x)
         if reason:
-            return _finish(xs, sds, ukf.P, k, reason)
+            return _finish(xs, sds, ukf.P, k, reason, innov)
         xs[k] = ukf.x
         sds[k] = np.sqrt(np.diag(ukf.P))
-    return _finish(xs, sds, ukf.P, None, "")
+    return _finish(xs, sds, ukf.P, None, "", innov)

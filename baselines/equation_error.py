@@ -264,6 +264,10 @@ class EquationErrorEstimator(Estimator):
                                                            covariance=self.covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank}
+        rows = tuple(row for _, row, _ in SUBPROBLEMS)
+        if self.lateral_rows:
+            rows = tuple(sorted(rows + tuple(LATERAL.values())))
+        info.update(rc.regression_fit(rec, X, y, theta, rows))
         return self._result(theta, cov, corr, cost, info)
 
     def _one_step(self, flight: Flight) -> EstimationResult:
@@ -287,6 +291,8 @@ class EquationErrorEstimator(Estimator):
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
         corr = _correlation(Aw)
         info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"]}
+        names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels
+        info["fit_residuals"] = {name: resid[:, j] for j, name in enumerate(names)}
         return self._result(theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
 
     def _result(self, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray, cost: float,

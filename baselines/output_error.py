@@ -275,7 +275,7 @@ class OutputErrorEstimator(Estimator):
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
                 "start_costs": [f.nll for f in fits], "input": self.input,
-                "residuals": best.e, "output_names": OUTPUT_CHANNELS}
+                "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
         first_rx = 9 + len(self.x0_free())
         for j, t in enumerate(self.rx_free()):
             info[f"rx{t + 1}_m"] = model.pos[3 * t] + phys[first_rx + j]

@@ -134,6 +134,16 @@ class PyswarmsEstimator(Estimator):
                                        smoothing=self.smoothing)
         return estimation.OutputErrorCost(flight, weighting=self.weighting, input=self.input)
 
+    def fit_entries(self, flight: Flight, cost, theta: np.ndarray) -> dict:
+        """Residuals of the objective's model at ``theta`` for the fit check."""
+        if self.objective == "eam":
+            predicted = cost.predict(theta)[0]
+            return {"fit_residuals": {name: cost.measured[:, j] - predicted[:, j]
+                                      for j, name in enumerate(estimation.EAM_OUTPUTS)}}
+        rec = estimation.reconstruct(flight)
+        X, y = estimation.ebm_regression(flight, rec, smoothing=self.smoothing)
+        return estimation.regression_fit(rec, X, y, theta, estimation.EBM_ROWS)
+
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it)."""
         cost = self.cost_function(flight)
@@ -162,10 +172,12 @@ class PyswarmsEstimator(Estimator):
         hist_cost = np.asarray(optimizer.cost_history, dtype=float)
         history = {"axis": "iteration", "step": np.arange(1, len(hist_cost) + 1),
                    "theta": np.tile(theta, (len(hist_cost), 1)), "cost": hist_cost}
+        info = {"objective": self.objective, "bounds": bounds}
+        info.update(self.fit_entries(flight, cost, theta))
         return EstimationResult(
             estimator=self.name, theta=theta, cost=float(best_cost),
             success=bool(np.isfinite(best_cost)),
             warnings=estimation.box_edge_warnings(theta, bounds),
             message=f"{self.n_iterations} iterations", n_evaluations=count["n"],
             n_iterations=self.n_iterations, history=history,
-            info={"objective": self.objective, "bounds": bounds})
+            info=info)

@@ -16,6 +16,7 @@ share), and the methods ``_eam``, ``_ebm``, ``_sebm``, which import none of one 
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._floor import cramer_rao_sd
 from aeroid.estimation._objectives import (
+    EAM_OUTPUTS,
     EBM_ROWS,
     SEBM_PROBLEMS,
     OutputErrorCost,
@@ -34,6 +35,7 @@ from aeroid.estimation._reconstruct import (
     accel_only_matrix,
     ebm_regression,
     reconstruct,
+    regression_fit,
 )
 from aeroid.estimation._registry import (
     ENTRY_POINT_GROUP,
@@ -60,6 +62,7 @@ from aeroid.estimation._signals import (
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
 
 __all__ = [
+    "EAM_OUTPUTS",
     "EBM_ROWS",
     "EDGE_FRACTION",
     "ENTRY_POINT_GROUP",
@@ -92,6 +95,7 @@ __all__ = [
     "rate_derivatives",
     "reconstruct",
     "register",
+    "regression_fit",
     "report_progress",
     "sebm_costs",
     "smooth",

@@ -140,6 +140,8 @@ class EAMPSO(Estimator):
             "measured": cost.measured, "predicted": cost.predict(res.x)[0],
             "state0": cost.state0, "initial_state": self.initial_state,
         }
+        info["fit_residuals"] = {name: info["measured"][:, j] - info["predicted"][:, j]
+                                 for j, name in enumerate(info["outputs"])}
         return EstimationResult(
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
             message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,

@@ -31,6 +31,8 @@ from aeroid.estimation._reconstruct import (
     RATE_WEIGHT,
     ROLL_DERIVATIVE_WINDOW,
     SMOOTHING_WINDOW,
+    ebm_regression,
+    regression_fit,
 )
 from aeroid.estimation._registry import register
 from aeroid.estimation._result import EstimationResult
@@ -111,6 +113,8 @@ class EBMPSO(Estimator):
         info.update({"weighting": self.weighting, "smoothing": self.smoothing,
                      "rows": rows, "n_particles": self.n_particles, "bounds": bounds,
                      "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min})
+        X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
+        info.update(regression_fit(rec, X, y, res.x, tuple(rows)))
         return EstimationResult(
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
             message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,

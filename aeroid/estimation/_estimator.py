@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
+from aeroid.estimation._fitcheck import apply_fit_check, floor_warnings
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
@@ -97,9 +98,14 @@ class Estimator(abc.ABC):
         if result.success and not np.all(np.isfinite(result.theta)):
             result = dataclasses.replace(result, success=False,
                                          message=result.message or "non-finite estimate")
+        result = apply_fit_check(result, flight)
         info = dict(result.info)
         info.setdefault("options", self.options())
-        return dataclasses.replace(result, wall_time_s=elapsed, info=info)
+        result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
+        extra = floor_warnings(result, flight)
+        if extra:
+            result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
+        return result
 
     def options(self) -> dict[str, Any]:
         """Return the options as a dict (field name -> value)."""

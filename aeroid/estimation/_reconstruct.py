@@ -62,6 +62,7 @@ __all__ = [
     "Reconstruction",
     "accel_only_matrix",
     "ebm_regression",
+    "regression_fit",
     "reconstruct",
     "sensor_matrix",
     "sensor_offset",
@@ -162,6 +163,9 @@ class Reconstruction:
     row_sd : ndarray, shape (9,)
         Noise sd assumed for the rows ``ax1..az2`` [m/s^2] and ``pdot, qdot, rdot``
         [rad/s^2] (weights are ``1 / row_sd``; the rate rows also times ``rate_weight``).
+    fm_sd : ndarray, shape (6,)
+        Noise sd of each reconstructed load: the rows' sds propagated through the solve
+        (the median over samples when mass or inertia vary) [N, N m].
     residual : ndarray, shape (n, 9)
         Row residuals ``model - measurement`` of the solved system (rate rows NaN when
         not used).
@@ -177,6 +181,7 @@ class Reconstruction:
     omega_dot: np.ndarray
     omega_dot_sg: np.ndarray | None
     row_sd: np.ndarray
+    fm_sd: np.ndarray
     residual: np.ndarray
     rate_rows: bool
     rank: int
@@ -269,12 +274,16 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     if rate_rows:
         weights[6:] *= rate_weight
     weighted = weights[:, None] * matrix
+    gain = np.linalg.pinv(weighted) * weights  # fm = gain z, per sample or shared
     if matrix.ndim == 2:  # one matrix for the whole flight: one pseudo-inverse
-        fm = (z * weights) @ np.linalg.pinv(weighted).T
+        fm = z @ gain.T
         model = fm @ matrix.T
     else:  # per-sample mass or inertia
-        fm = np.einsum("kij,kj->ki", np.linalg.pinv(weighted), z * weights)
+        fm = np.einsum("kij,kj->ki", gain, z)
         model = np.einsum("kij,kj->ki", matrix, fm)
+    # the sensors' noise propagated into the loads: sqrt(diag(G diag(row_sd^2) G^T))
+    fm_sd = np.sqrt(np.median(np.sum((gain * row_sd[:n_rows]) ** 2, axis=-1).reshape(
+        -1, len(FM_NAMES)), axis=0))
     rank = int(np.min(np.linalg.matrix_rank(weighted)))
     residual = np.full((n, 9), np.nan)
     residual[:, :n_rows] = model - z
@@ -282,7 +291,8 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
                                                  eq.Loads(*fm.T), const))
     fm_smooth = smooth(fm, smoothing_window, min(SMOOTHING_POLYORDER, smoothing_window - 1))
     return Reconstruction(t=flight.t, fm=fm, fm_smooth=fm_smooth, omega_dot=omega_dot,
-                          omega_dot_sg=wdot_sg, row_sd=row_sd, residual=residual,
+                          omega_dot_sg=wdot_sg, row_sd=row_sd, fm_sd=fm_sd,
+                          residual=residual,
                           rate_rows=rate_rows, rank=rank, smoothing_window=smoothing_window,
                           derivative_window=derivative_window)
 
@@ -337,3 +347,18 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
         X = smooth(X, window, polyorder, axis=0)
     return X, y
 
+
+def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.ndarray,
+                   rows: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
+    """Return the fit-check entries of an EBM second step: residuals and yardsticks.
+
+    For each used row of ``F_AX .. M_Z``: the residual ``y - X theta`` of the regression
+    (``fit_residuals``) and, as the yardstick, the sensors' noise propagated into that
+    load (``fit_noise_sd``, :attr:`Reconstruction.fm_sd`: the roll moment's comes from
+    the wide roll-rate derivative, whose coloured noise a smoother's residual cannot
+    see); see :mod:`aeroid.estimation._fitcheck`.
+    """
+    theta = np.asarray(theta, dtype=float)
+    return {"fit_residuals": {FM_NAMES[r]: y[:, r] - X[:, r] @ theta for r in rows},
+            "fit_noise_sd": {FM_NAMES[r]: float(rec.fm_sd[r]) for r in rows},
+            "fit_signals": {FM_NAMES[r]: rec.fm[:, r] for r in rows}}

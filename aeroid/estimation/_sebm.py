@@ -27,6 +27,8 @@ from aeroid.estimation._reconstruct import (
     RATE_WEIGHT,
     ROLL_DERIVATIVE_WINDOW,
     SMOOTHING_WINDOW,
+    ebm_regression,
+    regression_fit,
 )
 from aeroid.estimation._registry import register
 from aeroid.estimation._result import EstimationResult
@@ -143,6 +145,8 @@ class SEBMPSO(Estimator):
                      "subproblems": subproblems, "closed_form_theta": closed,
                      "closed_form_cost": float(sum(s["closed_form_cost"]
                                                    for s in subproblems.values()))})
+        X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
+        info.update(regression_fit(rec, X, y, theta, tuple(row for _, row, _, _ in SEBM_PROBLEMS)))
         success = all(res.success for _, res in runs)
         messages = sorted({res.message for _, res in runs})
         return EstimationResult(

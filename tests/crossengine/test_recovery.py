@@ -48,7 +48,6 @@ TARGET_CRAMER_RAO_SD = 3.0
 TARGET_NOISY_MEAN_PCT = 1.0
 ROLL = [aeroid.NAMES.index("Cl0"), aeroid.NAMES.index("Clp")]
 
-needs_issue10 = pytest.mark.xfail(strict=True, reason="needs issue 10 inputs")
 
 
 def _error_pct(theta, truth) -> np.ndarray:
@@ -59,7 +58,9 @@ def test_equation_error_today(climb):
     flight, truth = climb
     result = aeroid.make_estimator("equation-error").fit(flight, rng=1)
     error = _error_pct(result.theta, truth)
-    assert result.success
+    # one density for a climb: the regression misses the forces by tens of times the
+    # noise-free data's resolution, and the fit check says so
+    assert not result.success and "does not fit the data" in result.message
     assert np.max(error) < EE_TODAY_MAX_PCT
     assert np.mean(error) < EE_TODAY_MEAN_PCT
 
@@ -149,7 +150,6 @@ def test_equation_error_uses_the_density_channel(climb):
     assert np.max(np.delete(error, ROLL)) < EE_DENSITY_OTHERS_MAX_PCT
 
 
-@needs_issue10
 def test_fit_check_fails_todays_held_input_fit(climb_noisy):
     """Held deflection on a continuous relay: Czq 106 % off while the accelerometer
     residuals are many times the noise; the fit check must say so (issue 10, item 4)."""

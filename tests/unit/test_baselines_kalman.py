@@ -184,7 +184,8 @@ def test_failure_becomes_result_with_time(flight):
     est = ExtendedKalmanEstimator()
     n = flight.n_samples
     out = _kalman.FilterOutput(np.zeros((n, 18)), np.ones((n, 18)), np.eye(18), 7,
-                               "covariance not positive definite (Cholesky failed)")
+                               "covariance not positive definite (Cholesky failed)",
+                               np.zeros((n, 9)))
     res = est.result(flight, out, np.ones(9), n_evaluations=7)
     assert not res.success
     assert f"t = {flight.t[7]:.4f} s" in res.message

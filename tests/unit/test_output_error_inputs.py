@@ -103,6 +103,9 @@ def test_switches_between_samples_need_the_events_input(reference_scenario, comm
     assert _worst(held, reference_scenario) > 1e-3
     oe_held = aeroid.make_estimator("output-error").fit(flight, rng=1)
     assert _worst(oe_held, reference_scenario) > BIAS_FLOOR
+    # ... and the held fit does not pass for a good one: the fit check flags it
+    assert not oe_held.success and "does not fit the data" in oe_held.message
+    assert events.success
     # midpoint sits in between: its switch error is uniform within half an interval
     mid = aeroid.make_estimator("output-error", {"input": "midpoint"}).fit(flight, rng=1)
     assert _worst(mid, reference_scenario) < _worst(oe_held, reference_scenario)
