@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import aeroid
 from aeroid.estimation import EstimationResult
 from aeroid.estimation._fitcheck import (
     RATIO_LIMIT,
