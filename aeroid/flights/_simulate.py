@@ -128,8 +128,10 @@ def record_flight(
     channels["delta"] = delta
     channels = noise.corrupt(channels, rng)
     positions = noise.perturb_positions(airframe.accel_positions, rng)
+    sd = noise.position_sd(positions)  # the estimators are told how uncertain they are
     seen = airframe.replace(accel1_position_m=tuple(positions[0]),
-                            accel2_position_m=tuple(positions[1]))
+                            accel2_position_m=tuple(positions[1]),
+                            accel1_position_sd_m=tuple(sd[0]), accel2_position_sd_m=tuple(sd[1]))
     metadata = {
         "noise": noise.to_dict(),
         "seed": None if seed is None else int(seed),

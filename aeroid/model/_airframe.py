@@ -73,9 +73,12 @@ AIRFRAME_KEYS = {
     "delta_max_deg": "delta_max_deg",
     "accel1_position_m": "accel1_position_m",
     "accel2_position_m": "accel2_position_m",
+    "accel1_position_sd_m": "accel1_position_sd_m",
+    "accel2_position_sd_m": "accel2_position_sd_m",
 }
-#: ``length_m`` appears in no equation, so it may be left out.
-OPTIONAL_AIRFRAME_KEYS = ("length_m",)
+#: ``length_m`` appears in no equation, so it may be left out; the positions' standard
+#: deviations default to 0 (known positions).
+OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
 #: File key -> attribute of ``[atmosphere]`` (exactly one is given).
 ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
                    "per_sample": "atmosphere_channel"}
@@ -128,6 +131,11 @@ class Airframe:
         ON-OFF fin deflection [deg], > 0.
     accel1_position_m, accel2_position_m : tuple of 3 float
         Accelerometer triad positions from the c.g. in body axes [m]; distinct.
+    accel1_position_sd_m, accel2_position_sd_m : tuple of 3 float
+        Standard deviation of each position component [m] (default 0: known). A
+        component with a positive sd is uncertain: output-error estimates it under that
+        Gaussian prior, the EKF/UKF carry it in their state (option
+        ``positions``).
     altitude_m : float or None
         Flight altitude [m] for the ISA density (held constant: the model has no
         position equations).
@@ -152,6 +160,8 @@ class Airframe:
     delta_max_deg: float
     accel1_position_m: tuple[float, float, float]
     accel2_position_m: tuple[float, float, float]
+    accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel2_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     length_m: float | None = None
     altitude_m: float | None = None
     given_density_kgm3: float | None = None
@@ -171,13 +181,16 @@ class Airframe:
             if not (is_number(value) and math.isfinite(value)):
                 raise AirframeError(f"airframe: {name} must be a finite number, got {value!r}")
             object.__setattr__(self, name, float(value))
-        for name in ("accel1_position_m", "accel2_position_m"):
+        for name in ("accel1_position_m", "accel2_position_m", "accel1_position_sd_m",
+                     "accel2_position_sd_m"):
             value = getattr(self, name)
             try:
                 vec = numbers(value, 3, f"airframe: {name}")
             except AirframeError:
                 raise AirframeError(
                     f"airframe: {name} must be 3 finite numbers, got {value!r}") from None
+            if name.endswith("_sd_m") and any(v < 0 for v in vec):
+                raise AirframeError(f"airframe: {name} must be >= 0 [m], got {list(vec)}")
             object.__setattr__(self, name, vec)
         self._check_atmosphere()
         self._check_ranges()
@@ -279,6 +292,11 @@ class Airframe:
         """Both triad positions, shape (2, 3) [m]."""
         return np.array([self.accel1_position_m, self.accel2_position_m])
 
+    @property
+    def accel_position_sd(self) -> np.ndarray:
+        """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
+        return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
+
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), shape (9,)."""
         return nominal() if self.prior is None else np.array(self.prior)
@@ -293,6 +311,8 @@ class Airframe:
         table: dict[str, Any] = {}
         for key, attr in AIRFRAME_KEYS.items():
             value = getattr(self, attr)
+            if key.endswith("_sd_m") and not any(value):
+                continue  # known positions: the default, left out of the file
             if value is not None:
                 table[key] = list(value) if isinstance(value, tuple) else value
         atmos = {key: getattr(self, attr) for key, attr in ATMOSPHERE_KEYS.items()

@@ -33,7 +33,7 @@ def flight(prior_off_flight):
 
 @pytest.fixture(scope="module")
 def const(flight):
-    return aeroid.constants(flight.airframe)
+    return aeroid.model.constants(flight.airframe)
 
 
 # --------------------------------------------------------------------------------------
@@ -59,7 +59,7 @@ def test_casadi_step_equals_propagate(flight, const):
         step = _model.step_function(const, flight.dt, substeps)
         for x, d in zip(states, deltas, strict=True):
             ours = np.asarray(step(x, theta, d)).ravel()
-            ref = aeroid.propagate(x, theta, np.array([d]), flight.dt, const,
+            ref = aeroid.model.propagate(x, theta, np.array([d]), flight.dt, const,
                                    substeps=substeps, backend="numpy")[0, 1]
             np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
 
@@ -71,7 +71,7 @@ def test_casadi_measurement_equals_accelerometers(flight, const):
     meas = _model.measurement_function(const)
     for x, d in zip(states, deltas, strict=True):
         ours = np.asarray(meas(x, theta, d, positions.ravel())).ravel()
-        ref = aeroid.accelerometers(x, d, theta, const, positions).ravel()
+        ref = aeroid.model.accelerometers(x, d, theta, const, positions).ravel()
         np.testing.assert_allclose(ours[:6], ref, rtol=MODEL_RTOL, atol=1e-10)
         np.testing.assert_array_equal(ours[6:], x[3:6])
 
