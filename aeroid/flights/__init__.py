@@ -21,6 +21,7 @@ from aeroid.flights._noise import (
     noise_from_dict,
 )
 from aeroid.flights._scenario import (
+    EVALUATIONS,
     Manoeuvre,
     Scenario,
     load_scenario,
@@ -29,7 +30,13 @@ from aeroid.flights._scenario import (
     scenario_from_dict,
 )
 from aeroid.flights._sidecar import FORMAT, sidecar_path
-from aeroid.flights._simulate import record_flight, simulate, simulate_scenario, simulate_truth
+from aeroid.flights._simulate import (
+    Truth,
+    record_flight,
+    simulate,
+    simulate_scenario,
+    simulate_truth,
+)
 
 __all__ = [
     "ACCEL_CHANNELS", "ANGLE_CHANNELS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
@@ -38,4 +45,5 @@ __all__ = [
     "make_flight", "make_noise", "noise_for", "noise_from_dict", "read_column_map",
     "read_flight", "record_flight", "reference_scenario", "scenario_from_dict", "sidecar_path",
     "simulate", "simulate_scenario", "simulate_truth", "write_flight",
+    "EVALUATIONS", "Truth",
 ]
