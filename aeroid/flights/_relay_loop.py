@@ -49,6 +49,34 @@ GRID_SNAP = 1e-9
 CHUNK_STEPS = 64
 
 
+class StepInput:
+    """The fin deflection over one grid step ``[ta, tend]``, cut at ``tb <= tend`` on demand.
+
+    ``knots``: distinct knot times strictly inside the step, ``right``/``left``: the
+    deflection just after/before each; ``start``: at ``ta`` (after a jump there);
+    ``end``: just before ``tend``.
+    """
+
+    def __init__(self, ta: float, tend: float, knots: np.ndarray, right: np.ndarray,
+                 left: np.ndarray, start: float, end: float) -> None:
+        self.ta, self.tend = ta, tend
+        self.knots = knots
+        self.starts = np.append(start, right)  # at the start of each piece
+        self.edges = np.append(ta, knots)      # start time of each piece
+        self.stops = np.append(left, end)      # just before the end of each piece
+        self.ends = np.append(knots, tend)     # end time of each piece
+
+    def pieces(self, tb: float) -> Pieces:
+        """Return the pieces of ``[ta, tb]`` as one interval (fractions of ``tb - ta``)."""
+        m = int(np.searchsorted(self.knots, tb, side="left"))  # knots before tb
+        t0, t1 = self.edges[m], self.ends[m]
+        v0, v1 = self.starts[m], self.stops[m]
+        at_tb = v0 + (v1 - v0) * (tb - t0) / (t1 - t0) if t1 > t0 else v1
+        ends = np.append((self.knots[:m] - self.ta) / (tb - self.ta), 1.0)
+        stops = np.append(self.stops[:m], at_tb)
+        return Pieces(ends[None, :], self.starts[None, :m + 1], stops[None, :])
+
+
 class RelayLoop:
     """One closed-loop truth integration (module docstring).
 
@@ -99,19 +127,21 @@ class RelayLoop:
         """Return ``s >= 0`` for state(s) ``x`` at time(s) ``when``."""
         return np.asarray(self.law.switching_function(x[..., PHI], when) >= 0.0)
 
-    def advance(self, x: np.ndarray, ta: float, tb: float) -> np.ndarray:
-        """Return the state at ``tb`` from ``x`` at ``ta`` (one RK4 step per piece)."""
-        if tb <= ta:
-            return x
+    def step_input(self, ta: float, tend: float) -> StepInput:
+        """Return the deflection over ``[ta, tend]`` as the schedule gives it now."""
         sched = self.schedule
         lo = np.searchsorted(sched.times, ta, side="right")
-        hi = np.searchsorted(sched.times, tb, side="left")
+        hi = np.searchsorted(sched.times, tend, side="left")
         inner = np.unique(sched.times[lo:hi])
-        ends = np.append((inner - ta) / (tb - ta), 1.0)[None, :]
-        start = np.append(sched.at(ta), sched.at(inner))[None, :]
-        stop = np.append(sched.before(inner), sched.before(tb))[None, :]
+        return StepInput(ta, tend, inner, sched.at(inner), sched.before(inner),
+                         float(sched.at(ta)), float(sched.before(tend)))
+
+    def advance(self, x: np.ndarray, step: StepInput, tb: float) -> np.ndarray:
+        """Return the state at ``tb`` from ``x`` at ``step.ta`` (one RK4 step per piece)."""
+        if tb <= step.ta:
+            return x
         self.evaluations += 1
-        return propagate(x, self.coefficients, Pieces(ends, start, stop), tb - ta, self.const,
+        return propagate(x, self.coefficients, step.pieces(tb), tb - step.ta, self.const,
                          backend=self.backend)[0, -1]
 
     def chunk(self, x: np.ndarray, j: int, jj: int) -> np.ndarray:
@@ -136,8 +166,10 @@ class RelayLoop:
     # finding the next switch -------------------------------------------------------------
     def locate(self, xa: np.ndarray, ta: float, lo: float, hi: float) -> float:
         """Return the zero of the switching function in ``(lo, hi]`` (continuous relay)."""
+        step = self.step_input(ta, hi)
+
         def s(when: float) -> float:
-            x = self.advance(xa, ta, when)
+            x = self.advance(xa, step, when)
             return float(self.law.switching_function(x[PHI], when))
 
         f_lo, f_hi = s(lo), s(hi)
@@ -185,6 +217,8 @@ class RelayLoop:
     def _first_flip(self, xa: np.ndarray, ta: float, tb: float, sign_a: bool, sign_b: bool,
                     first: int, last: int, rate: float) -> float | None:
         """Return the first control instant in the step whose sign differs, or None."""
+        step = self.step_input(ta, tb)
+
         def instant(m: int) -> float:
             return self.snap(m / rate)
 
@@ -192,7 +226,7 @@ class RelayLoop:
             when = instant(m)
             if when >= tb:
                 return bool(sign_b != self.sign)
-            return bool(self.positive(self.advance(xa, ta, when), when) != self.sign)
+            return bool(self.positive(self.advance(xa, step, when), when) != self.sign)
 
         if sign_a == sign_b:  # no crossing inside the step: every instant has sign_a
             return instant(first)

@@ -36,6 +36,9 @@ if TYPE_CHECKING:
 #: interpolated roll angle can tell (microseconds), far above float64's spacing at
 #: flight times of hours (1e-12 s at 1e3 s).
 SWITCH_TOL_S = 1e-11
+#: A first deflection this close to a stop (relative to ``delta_max``) is at the stop;
+#: farther inside, the fin is moving (:func:`law_schedule`).
+STOP_RTOL = 1e-9
 
 
 def _check(t: np.ndarray, phi: np.ndarray, phi_rate: np.ndarray | None, subdivisions: int
@@ -117,13 +120,18 @@ def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float 
     ``law.delay_s`` and rate limited (:meth:`FinLaw.actuate`).
 
     Before the record: the switches commanded in the ``delay_s`` before ``t[0]`` act
-    inside the record but cannot be located from it. The fin is taken to be at
-    ``initial`` at ``t[0]`` (pass the deflection logged at the first sample; default the
-    law's command at ``t[0]``, right when nothing was commanded in the delay before the
-    record) and at rest there, until the first switch acts. If ``initial`` differs from
-    the law's command at ``t[0]``, one switch to that command was commanded within the
-    delay before ``t[0]``; it is placed at ``t[0] + delay_s / 2`` (half-way through the
-    interval it acts in: at most ``delay_s / 2`` off; at ``t[0]`` without a delay).
+    inside the record but cannot be located from it. The fin is at ``initial`` at
+    ``t[0]`` (pass the deflection logged at the first sample; default the law's command
+    at ``t[0]``, right when nothing was commanded in the delay before the record):
+
+    * at the law's command at ``t[0]``: it rests there until the first located switch
+      acts;
+    * at the other stop: one switch to the command was commanded within the delay before
+      ``t[0]``; it acts at ``t[0] + delay_s / 2`` (half-way through the interval it acts
+      in: at most ``delay_s / 2`` off; at ``t[0]`` without a delay);
+    * between the stops (by more than :data:`STOP_RTOL` of ``delta_max``): a ramp in
+      progress (a rate limit), taken to be heading for the law's command at ``t[0]``
+      from ``t[0]`` on.
 
     Parameters
     ----------
@@ -147,9 +155,11 @@ def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float 
     if not math.isfinite(initial):
         raise ValueError(f"fin law schedule: initial deflection must be finite, got {initial}")
     if initial != command:
-        times = np.concatenate([[t0 - 0.5 * law.delay_s], times])
+        moving = abs(initial) < law.delta_max_rad * (1.0 - STOP_RTOL)
+        acts = t0 if moving else t0 + 0.5 * law.delay_s
+        times = np.concatenate([[acts - law.delay_s], times])
         values = np.concatenate([[command], values])
     return law.actuate(t0, initial, times, values)
 
 
-__all__ = ["SWITCH_TOL_S", "law_schedule", "locate_switches"]
+__all__ = ["STOP_RTOL", "SWITCH_TOL_S", "law_schedule", "locate_switches"]

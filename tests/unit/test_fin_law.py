@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +22,8 @@ from aeroid.model import FinLaw, RelayActuator, Schedule
 from aeroid.model._law_schedule import SWITCH_TOL_S
 
 DMAX = math.radians(8.0)
+#: The scenario files beside the studies.
+DATA = Path(__file__).resolve().parents[2] / "studies"
 #: Located instants on a roll angle the cubic reproduces exactly: the bisection's width
 #: plus rounding of the grid times.
 EXACT_TOL_S = 2 * SWITCH_TOL_S
@@ -187,6 +190,12 @@ def test_schedule_before_the_first_delayed_switch():
     np.testing.assert_array_equal(disagree.times[:3], [0.0, 0.002, 0.002])
     np.testing.assert_array_equal(disagree.values[:3], [-DMAX, -DMAX, DMAX])
     assert law.schedule(t, phi).times.size == agree.times.size  # default: the law at t[0]
+    # between the stops: a ramp in progress, heading for the law's command from t[0] on
+    ramping = law.replace(rate_limit_dps=1000.0)
+    moving = ramping.schedule(t, phi, initial=-0.5 * DMAX)
+    reach = 1.5 * DMAX / ramping.rate_limit_radps
+    np.testing.assert_allclose(moving.times[:2], [0.0, reach], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(moving.values[:2], [-0.5 * DMAX, DMAX])
 
 
 def test_schedule_input_errors_are_one_line():
@@ -262,3 +271,19 @@ def test_fin_law_fields_are_checked():
         with pytest.raises(AirframeError) as info:
             FinLaw(**kwargs)
         assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def test_schedule_follows_a_delayed_rate_limited_fin():
+    scenario = load_scenario(DATA / "delayed_relay_scenario.toml")
+    law = scenario.airframe.fin_law
+    flight = simulate(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                      rng=0)
+    assert abs(flight["delta"][0]) < 0.9 * DMAX  # the window opens on a ramp
+    sched = law.schedule(flight.t, flight["phi"], initial=flight["delta"][0])
+    knots = flight.metadata["delta_knots"]
+    truth = Schedule(np.array(knots["t"]), np.array(knots["delta"]))
+    fine = np.linspace(flight.t[0], flight.t[-1], 200_001)
+    # a ramp located SPLINE_INSTANT_TOL_S off is rate x that off (measured 3.5e-8 rad)
+    tol = law.rate_limit_radps * SPLINE_INSTANT_TOL_S
+    np.testing.assert_allclose(sched.at(fine), truth.at(fine), rtol=0, atol=tol)
+    np.testing.assert_allclose(sched.at(flight.t), flight["delta"], rtol=0, atol=tol)

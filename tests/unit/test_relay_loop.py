@@ -175,11 +175,13 @@ def test_time_varying_law_latched(reference_scenario, start):
 def test_continuous_flight_survives_its_file(reference_scenario, start, tmp_path):
     manoeuvre = dataclasses.replace(start, command_amplitude=((0.0, 0.5), (1.0, 0.7)),
                                     evaluation="continuous", rate_limit_dps=8000.0)
-    flight = simulate(reference_scenario.airframe, reference_scenario.coefficient_vector,
-                      manoeuvre, rng=0)
+    airframe = reference_scenario.airframe
+    airframe = airframe.replace(fin_law=manoeuvre.fin_law(airframe.delta_max_rad))
+    flight = simulate(airframe, reference_scenario.coefficient_vector, manoeuvre, rng=0)
     assert flight.metadata["actuator"]["command_amplitude"] == [[0.0, 0.5], [1.0, 0.7]]
     assert "command_amplitude" not in flight.metadata["manoeuvre"]
     flight.write(tmp_path / "f.csv")
     again = read_flight(tmp_path / "f.csv")
+    assert again.airframe == flight.airframe and again.airframe.fin_law.time_varying
     assert again.metadata["delta_knots"] == flight.metadata["delta_knots"]
     assert again.metadata["actuator"]["evaluation"] == "continuous"
