@@ -22,8 +22,8 @@ from aeroid.model import FinLaw, RelayActuator, Schedule
 from aeroid.model._law_schedule import SWITCH_TOL_S
 
 DMAX = math.radians(8.0)
-#: The scenario files beside the studies.
-DATA = Path(__file__).resolve().parents[2] / "studies"
+#: The scenario files of the studies.
+DATA = Path(__file__).resolve().parents[2] / "studies" / "scenarios"
 #: Located instants on a roll angle the cubic reproduces exactly: the bisection's width
 #: plus rounding of the grid times.
 EXACT_TOL_S = 2 * SWITCH_TOL_S
@@ -274,7 +274,7 @@ def test_fin_law_fields_are_checked():
 
 
 def test_schedule_follows_a_delayed_rate_limited_fin():
-    scenario = load_scenario(DATA / "delayed_relay_scenario.toml")
+    scenario = load_scenario(DATA / "delayed_relay.toml")
     law = scenario.airframe.fin_law
     flight = simulate(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                       rng=0)

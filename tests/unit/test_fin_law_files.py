@@ -172,10 +172,9 @@ STUDIES = Path(__file__).resolve().parents[2] / "studies"
 NEW_OPTIONS = ("input", "estimate_delay")
 
 
-@pytest.mark.parametrize("name", ["continuous_relay_scenario.toml",
-                                  "delayed_relay_scenario.toml"])
+@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml"])
 def test_relay_scenarios_tell_the_estimators_the_true_law(name):
-    scenario = load_scenario(STUDIES / name)
+    scenario = load_scenario(STUDIES / "scenarios" / name)
     assert scenario.manoeuvre.evaluation == "continuous"
     assert scenario.airframe.fin_law == scenario.manoeuvre.fin_law(
         scenario.airframe.delta_max_rad)
@@ -205,7 +204,7 @@ def _stripped(path: Path, tmp_path: Path) -> Path:
     return out
 
 
-@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml",
+@pytest.mark.parametrize("name", ["planned/continuous_relay.toml", "planned/delayed_relay.toml",
                                   "continuous_relay_today.toml"])
 def test_relay_studies_load_but_for_the_planned_options(name, tmp_path):
     study = load_study(_stripped(STUDIES / name, tmp_path))
@@ -216,6 +215,7 @@ def test_relay_studies_load_but_for_the_planned_options(name, tmp_path):
 
 @pytest.mark.xfail(strict=True, raises=StudyError,
                    reason="issue 10: estimator options input / estimate_delay not in aeroid yet")
-@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml"])
+@pytest.mark.parametrize("name", ["planned/continuous_relay.toml",
+                                  "planned/delayed_relay.toml"])
 def test_relay_studies_load_as_they_are(name):
     load_study(STUDIES / name)
