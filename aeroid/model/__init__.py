@@ -7,7 +7,7 @@ defined once, by name; numpy, numba and CasADi evaluate the same definitions.
 
 from aeroid.model import _equations as equations
 from aeroid.model import _symbolic as symbolic
-from aeroid.model._actuator import RelayActuator
+from aeroid.model._actuator import FinLaw, RelayActuator
 from aeroid.model._airframe import (
     Airframe,
     dumps_toml,
@@ -79,4 +79,5 @@ __all__ = [
     "lateral_from_pitch", "load_airframe", "nominal", "propagate",
     "read_toml", "reference_airframe", "reference_scenario_data", "regressors", "rk4",
     "rk4_step", "save_airframe", "state_derivative",
+    "FinLaw",
 ]

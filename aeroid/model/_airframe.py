@@ -23,6 +23,12 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     [prior]                                 # optional: the nine coefficients to start from
     Cx = -0.98                              # (all nine names; default: the nominal values)
 
+    [fin_law]                               # optional: the relay law (aeroid.model.FinLaw)
+    command_amplitude = 0.5                 # A, or [[t_s, A], ...] (piecewise linear)
+    command_phase_deg = 60.0                # phi0, or [[t_s, deg], ...]
+    delay_s = 0.0                           # optional actuator delay
+    rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
+
 There is no default atmosphere: leaving it out used to mean sea level, which made every
 coefficient of a flight at altitude 25-66 % low. ``per_sample`` is the planned format for
 a density that changes within the window; the model does not use it yet, so an
@@ -49,6 +55,7 @@ import numpy as np
 
 from aeroid.errors import AeroidWarning, AirframeError
 from aeroid.model import _atmosphere as atmosphere
+from aeroid.model._actuator import FinLaw
 from aeroid.model._coefficients import NAMES, nominal
 from aeroid.model._fileform import (
     check_keys,
@@ -85,7 +92,7 @@ ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kg
 #: Flight channels a per-sample atmosphere may name (planned; not yet used by the model).
 ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
 #: The tables of an airframe file.
-AIRFRAME_TABLES = ("airframe", "atmosphere", "prior")
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
 SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
 
@@ -146,6 +153,8 @@ class Airframe:
         ``per_sample``: ``"rho"``, ``"altitude"`` or ``"qbar"``); planned, not yet used.
     prior : tuple of 9 float or None
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
+    fin_law : FinLaw or None
+        The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -167,6 +176,7 @@ class Airframe:
     given_density_kgm3: float | None = None
     atmosphere_channel: str | None = None
     prior: tuple[float, ...] | None = field(default=None)
+    fin_law: FinLaw | None = None
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -196,6 +206,10 @@ class Airframe:
         self._check_ranges()
         if self.prior is not None:
             object.__setattr__(self, "prior", _prior_tuple(self.prior))
+        if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
+                self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
+            raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
+                                f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
 
     def _check_atmosphere(self) -> None:
         stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
@@ -320,6 +334,8 @@ class Airframe:
         out: dict[str, Any] = {"airframe": table, "atmosphere": atmos}
         if self.prior is not None:
             out["prior"] = dict(zip(NAMES, self.prior, strict=True))
+        if self.fin_law is not None:
+            out["fin_law"] = self.fin_law.to_table()
         return out
 
     @classmethod
@@ -346,8 +362,8 @@ class Airframe:
         known = (*AIRFRAME_TABLES, *other_tables)
         unknown = sorted(str(t) for t in data if t not in known)
         if unknown:
-            hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere] "
-                    "and [prior] (starting values go in [prior])"
+            hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
+                    "[prior] and [fin_law] (starting values go in [prior])"
                     if set(unknown) & set(SCENARIO_TABLES) else "")
             raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
                                 f"(allowed: {', '.join(known)}){hint}")
@@ -378,9 +394,14 @@ class Airframe:
             check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
             kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
         try:
-            return cls(**kwargs)
+            airframe = cls(**kwargs)
         except AirframeError as exc:
             raise AirframeError(f"{source}: {exc}") from None
+        if "fin_law" not in data:
+            return airframe
+        law = FinLaw.from_table(data["fin_law"], delta_max_rad=airframe.delta_max_rad,
+                                where=f"{source}: [fin_law]")
+        return airframe.replace(fin_law=law)
 
 
 def _prior_tuple(prior: Any) -> tuple[float, ...]:
