@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from aeroid.errors import AirframeError, StudyError
+from aeroid.errors import AirframeError
 from aeroid.flights import Manoeuvre, load_scenario, scenario_from_dict
 from aeroid.model import (
     Airframe,
@@ -204,7 +204,7 @@ def _stripped(path: Path, tmp_path: Path) -> Path:
     return out
 
 
-@pytest.mark.parametrize("name", ["planned/continuous_relay.toml", "planned/delayed_relay.toml",
+@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml",
                                   "continuous_relay_today.toml"])
 def test_relay_studies_load_but_for_the_planned_options(name, tmp_path):
     study = load_study(_stripped(STUDIES / name, tmp_path))
@@ -213,9 +213,6 @@ def test_relay_studies_load_but_for_the_planned_options(name, tmp_path):
                                                     "equation-error"}
 
 
-@pytest.mark.xfail(strict=True, raises=StudyError,
-                   reason="issue 10: estimator options input / estimate_delay not in aeroid yet")
-@pytest.mark.parametrize("name", ["planned/continuous_relay.toml",
-                                  "planned/delayed_relay.toml"])
+@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml"])
 def test_relay_studies_load_as_they_are(name):
     load_study(STUDIES / name)
