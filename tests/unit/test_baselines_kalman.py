@@ -186,7 +186,7 @@ def test_failure_becomes_result_with_time(flight):
     out = _kalman.FilterOutput(np.zeros((n, 18)), np.ones((n, 18)), np.eye(18), 7,
                                "covariance not positive definite (Cholesky failed)",
                                np.zeros((n, 9)))
-    res = est.result(flight, out, np.ones(9), n_evaluations=7)
+    res = est.result(flight, out, est.setup(flight), n_evaluations=7)
     assert not res.success
     assert f"t = {flight.t[7]:.4f} s" in res.message
     assert np.all(np.isnan(res.theta))
