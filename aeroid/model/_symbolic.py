@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import logging
 import os
 import shutil
 import subprocess
@@ -259,6 +260,8 @@ def compile_functions(functions: Sequence[ca.Function], name: str
         cache = cache_dir()
         library = cache / f"{name}_{digest.hexdigest()[:20]}.so"
         if not library.exists():
+            logging.getLogger("aeroid").info(
+                "compiling the model to C once (a few seconds; cached in %s)", cache)
             cache.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=cache) as tmp:
                 src = Path(tmp, f"{name}.c")
