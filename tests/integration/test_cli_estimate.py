@@ -399,7 +399,6 @@ def test_failed_fit_is_printed_and_exits_1(flight_csv, capsys, monkeypatch) -> N
 def test_first_compilations_are_announced(flight_csv, capsys, monkeypatch, tmp_path) -> None:
     """A fresh install compiles numba kernels and the C model: each is said in one line."""
     import aeroid.model
-
     from aeroid.model import _forward
 
     monkeypatch.setattr(aeroid.model, "kernels_cached", lambda: False)
