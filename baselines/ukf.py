@@ -4,8 +4,8 @@ Runs on :class:`filterpy.kalman.UnscentedKalmanFilter` with
 :class:`filterpy.kalman.MerweScaledSigmaPoints`. filterpy propagates sigma points one by
 one (``compute_process_sigmas`` loops over them with ``fx``); here that method is
 overridden so all 37 sigma points go through ONE batched call of
-:func:`aeroid.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
-all sigma points are computed in one call of :func:`aeroid.accelerometers` and handed to
+:func:`aeroid.model.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
+all sigma points are computed in one call of :func:`aeroid.model.accelerometers` and handed to
 filterpy's ``update`` in its iteration order (see :mod:`baselines._kalman`).
 """
 

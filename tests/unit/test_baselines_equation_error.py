@@ -61,7 +61,7 @@ def test_affine_form_reproduces_sensor_model(noisy_flight):
     delta = noisy_flight["delta"]
     acc = aeroid.model.accelerometers(states, delta, theta, const,
                                 noisy_flight.airframe.accel_positions).reshape(-1, 6)
-    wdot = aeroid.state_derivative(states, delta, theta, const)[:, 3:6]
+    wdot = aeroid.model.state_derivative(states, delta, theta, const)[:, 3:6]
     model = c + np.einsum("noc,c->no", A, theta)
     np.testing.assert_allclose(model, np.concatenate([acc, wdot], axis=1), rtol=0,
                                atol=AFFINE_ATOL * np.abs(acc).max())

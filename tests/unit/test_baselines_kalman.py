@@ -48,7 +48,7 @@ def test_casadi_rhs_equals_state_derivative(flight, const):
     theta = aeroid.nominal() * 1.1
     for x, d in zip(states, deltas, strict=True):
         ours = np.array(_model.rhs(x, d, theta, const)[0]).ravel().astype(float)
-        ref = aeroid.state_derivative(x, d, theta, const)
+        ref = aeroid.model.state_derivative(x, d, theta, const)
         np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
 
 

@@ -96,7 +96,7 @@ def test_compiled_model_equals_casadi_virtual_machine(noisy_flight):
 
 
 def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit):
-    """(sum J^T R^-1 J)^-1 with J by finite differences of aeroid.propagate/accelerometers."""
+    """(sum J^T R^-1 J)^-1 with J by finite differences of aeroid.model.propagate/accelerometers."""
     res = noisy_fit
     assert res.success, res.message
     est = OutputErrorEstimator()
