@@ -71,6 +71,8 @@ class FilterOutput:
     failed_at : int or None
         Sample index at which the covariance stopped being positive definite.
     reason : str
+    innovation : ndarray, shape (n, dim_z)
+        Measurement minus its prediction before each update (rows after a failure NaN).
     """
 
     x: np.ndarray
@@ -78,6 +80,7 @@ class FilterOutput:
     P: np.ndarray
     failed_at: int | None
     reason: str
+    innovation: np.ndarray
 
 
 class _NonlinearEKF(ExtendedKalmanFilter):
@@ -116,29 +119,50 @@ class _RowFeed:
         return row
 
 
-def _check(P: np.ndarray, x: np.ndarray) -> str:
-    """Return '' when P is positive definite and x finite, else the reason."""
+#: An updated covariance whose smallest eigenvalue is above ``-ROUNDING_RTOL`` times its
+#: largest is positive definite up to rounding: ``P - K S K^T`` cancels to the last digits
+#: when a measurement pins a direction exactly (noise-free flights: the measurement sd is
+#: 1e-4 of the signal while coefficient variances reach 1e5), and its eigenvalues are
+#: then known only to about ``n eps |P|`` (n = 18, eps = 2.2e-16: 4e-15). 1e-12 leaves a
+#: factor 250 above that; anything more negative is a real divergence.
+ROUNDING_RTOL = 1e-12
+
+
+def _check(P: np.ndarray, x: np.ndarray) -> tuple[str, np.ndarray]:
+    """Return ``('', P)`` when P is positive definite (up to rounding) and x finite.
+
+    A covariance that fails the Cholesky factorisation only by rounding
+    (:data:`ROUNDING_RTOL`) is replaced by the nearest positive definite matrix with the
+    same eigenvectors (eigenvalues clipped to ``ROUNDING_RTOL`` times the largest);
+    otherwise the reason is returned.
+    """
     if not np.all(np.isfinite(x)) or not np.all(np.isfinite(P)):
-        return "non-finite state or covariance"
+        return "non-finite state or covariance", P
     if np.any(np.diag(P) <= 0.0):
-        return "non-positive variance on the diagonal"
+        return "non-positive variance on the diagonal", P
     try:
         np.linalg.cholesky(P)
+        return "", P
     except np.linalg.LinAlgError:
-        return "covariance not positive definite (Cholesky failed)"
-    return ""
+        eig, vec = np.linalg.eigh(P)
+        if eig[0] < -ROUNDING_RTOL * eig[-1]:
+            return "covariance not positive definite (Cholesky failed)", P
+        eig = np.maximum(eig, ROUNDING_RTOL * eig[-1])
+        return "", (vec * eig) @ vec.T
 
 
 def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
-            reason: str) -> FilterOutput:
+            reason: str, innovation: np.ndarray) -> FilterOutput:
     if k is not None:
         xs[k:] = np.nan
         sds[k:] = np.nan
-    return FilterOutput(xs, sds, P, k, reason)
+        innovation[k:] = np.nan
+    return FilterOutput(xs, sds, P, k, reason, innovation)
 
 
 def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
-            R: np.ndarray, zs: np.ndarray) -> FilterOutput:
+            R: np.ndarray, zs: np.ndarray,
+            R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's EKF with the model's nonlinear prediction over measurements ``zs``.
 
     Sample 0 is an update of the prior ``(x0, P0)`` with ``zs[0]``; each later sample
@@ -152,6 +176,9 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         Initial and per-step process-noise covariance.
     R : ndarray, shape (dim_z, dim_z)
     zs : ndarray, shape (n, dim_z)
+    R_of : callable, optional
+        ``R_of(z_pred) -> (dim_z, dim_z)``: a measurement-noise covariance that depends
+        on the predicted measurement (a per-sample noise model); replaces ``R``.
 
     Returns
     -------
@@ -165,6 +192,7 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     ekf.R = np.asarray(R, dtype=float)
     xs = np.empty((n, model.dim_x))
     sds = np.empty((n, model.dim_x))
+    innov = np.empty((n, model.dim_z))
     for k in range(n):
         if k > 0:
             x_next, F = model.transition(ekf.x.ravel(), k - 1)
@@ -174,23 +202,27 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         z_hat, H = model.observe(ekf.x.ravel(), k)
         H = np.asarray(H, dtype=float)
         z_hat = np.asarray(z_hat, dtype=float).reshape(-1, 1)
+        innov[k] = zs[k] - z_hat.ravel()
         ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
-                   Hx=lambda _x, z_hat=z_hat: z_hat)
+                   Hx=lambda _x, z_hat=z_hat: z_hat,
+                   R=None if R_of is None else R_of(z_hat.ravel()))
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
-        reason = _check(ekf.P, ekf.x)
+        reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
-            return _finish(xs, sds, ekf.P, k, reason)
+            return _finish(xs, sds, ekf.P, k, reason, innov)
         xs[k] = ekf.x.ravel()
         sds[k] = np.sqrt(np.diag(ekf.P))
-    return _finish(xs, sds, ekf.P, None, "")
+    return _finish(xs, sds, ekf.P, None, "", innov)
 
 
 def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
-            kappa: float = 0.0) -> FilterOutput:
+            kappa: float = 0.0,
+            R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's UKF (Merwe scaled sigma points) with batched sigma-point propagation.
 
-    Same sequence and arguments as :func:`run_ekf`, plus the sigma-point parameters
+    Same sequence and arguments as :func:`run_ekf` (``R_of`` gets the sigma points'
+    weighted mean measurement), plus the sigma-point parameters
     ``alpha``, ``beta``, ``kappa`` of :class:`filterpy.kalman.MerweScaledSigmaPoints`.
     Needs ``model.transition_batch`` and ``model.observe_batch``.
     """
@@ -215,19 +247,22 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
     xs = np.empty((n, model.dim_x))
     sds = np.empty((n, model.dim_x))
+    innov = np.empty((n, model.dim_z))
     for k in range(n):
         if k > 0:
             step["k"] = k - 1
             try:
                 ukf.predict()
             except np.linalg.LinAlgError:
-                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed")
+                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed", innov)
         rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
-        ukf.update(zs[k], hx=_RowFeed(rows))
+        R_k = None if R_of is None else R_of(points.Wm @ rows)
+        ukf.update(zs[k], R=R_k, hx=_RowFeed(rows))
+        innov[k] = ukf.y
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
-        reason = _check(ukf.P, ukf.x)
+        reason, ukf.P = _check(ukf.P, ukf.x)
         if reason:
-            return _finish(xs, sds, ukf.P, k, reason)
+            return _finish(xs, sds, ukf.P, k, reason, innov)
         xs[k] = ukf.x
         sds[k] = np.sqrt(np.diag(ukf.P))
-    return _finish(xs, sds, ukf.P, None, "")
+    return _finish(xs, sds, ukf.P, None, "", innov)

@@ -11,7 +11,7 @@ sd of their channel).
 One-step (``one_step=True``): the six accelerations of eq. 28 and the SG derivatives of
 the measured p, q, r are each affine in the coefficients once the measured states are
 given (``a = c(x) + A(x) theta``; ``A`` and ``c`` are read off
-:func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` at the unit vectors),
+:func:`aeroid.model.accelerometers` and :func:`aeroid.model.state_derivative` at the unit vectors),
 so one weighted least-squares problem over all nine coefficients avoids inverting step
 1. Channel weights are the inverse residual sds of a first unweighted-by-channel pass
 (two passes); standard errors from the weighted normal matrix.
@@ -34,9 +34,9 @@ import numpy as np
 import scipy.linalg
 
 import aeroid
-from aeroid.estimation import _reconstruct as rc
-from aeroid.estimation._interface import EstimationResult, Estimator
-from aeroid.flights._flight import Flight
+from aeroid import estimation as rc
+from aeroid.estimation import EstimationResult, Estimator
+from aeroid.flights import Flight
 
 #: Regressor pairs with |correlation| above this are reported as collinear (Cl0/Clp on
 #: the reference flight: 0.9998).
@@ -142,16 +142,17 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:
     """Return ``c (n, 9)`` and ``A (n, 9, 9)`` with ``[a1, a2, pdot, qdot, rdot] = c + A theta``.
 
-    From :func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` evaluated at
+    From :func:`aeroid.model.accelerometers` and :func:`aeroid.model.state_derivative` evaluated at
     ``theta = 0`` and at the nine unit vectors (both are affine in the coefficients).
     """
-    const = aeroid.constants(flight.airframe)
+    const = aeroid.model.Constants(*(np.asarray(v, dtype=float)[:, None] if np.ndim(v) else v
+                                     for v in aeroid.flights.sample_constants(flight)))
     states = flight.states() if states is None else states
     delta = flight["delta"]
     basis = np.vstack([np.zeros(9), np.eye(9)])  # (10, 9)
-    acc = aeroid.accelerometers(states[:, None, :], delta[:, None], basis[None], const,
+    acc = aeroid.model.accelerometers(states[:, None, :], delta[:, None], basis[None], const,
                                 flight.airframe.accel_positions).reshape(len(states), 10, 6)
-    wdot = aeroid.state_derivative(states[:, None, :], delta[:, None], basis[None],
+    wdot = aeroid.model.state_derivative(states[:, None, :], delta[:, None], basis[None],
                                    const)[..., 3:6]
     out = np.concatenate([acc, wdot], axis=2)  # (n, 10, 9)
     c = out[:, 0, :]
@@ -258,11 +259,15 @@ class EquationErrorEstimator(Estimator):
             return self._one_step(flight)
         rec = rc.reconstruct(flight)
         X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
-        theta, cov, corr, sigma2, cost = solve_subproblems(X, y, rc.noise_sd(rec.fm),
+        theta, cov, corr, sigma2, cost = solve_subproblems(X, y, rc.estimate_noise_sd(rec.fm),
                                                            lateral_rows=self.lateral_rows,
                                                            covariance=self.covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank}
+        rows = tuple(row for _, row, _ in SUBPROBLEMS)
+        if self.lateral_rows:
+            rows = tuple(sorted(rows + tuple(LATERAL.values())))
+        info.update(rc.regression_fit(rec, X, y, theta, rows))
         return self._result(theta, cov, corr, cost, info)
 
     def _one_step(self, flight: Flight) -> EstimationResult:
@@ -275,7 +280,7 @@ class EquationErrorEstimator(Estimator):
             target = rc.smooth(target)
         if self.smoothing == "both":
             A = rc.smooth(A, axis=0)
-        sd = rc.noise_sd(meas)
+        sd = rc.estimate_noise_sd(meas)
         theta = cov = None
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
             Aw = (A / sd[None, :, None]).reshape(-1, 9)
@@ -286,6 +291,8 @@ class EquationErrorEstimator(Estimator):
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
         corr = _correlation(Aw)
         info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"]}
+        names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels
+        info["fit_residuals"] = {name: resid[:, j] for j, name in enumerate(names)}
         return self._result(theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
 
     def _result(self, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray, cost: float,

@@ -1,22 +1,16 @@
 """Output-error maximum-likelihood baseline (Klein & Morelli's output-error method, CasADi).
 
-Model: the airframe equations (eqs. 2-10) integrated with RK4 from the initial state,
-``delta`` held over each sample interval; outputs the six accelerations of eq. 28 at the
-estimator's sensor positions and ``p, q, r`` (:mod:`aeroid.model`, the same
-equations as :mod:`aeroid.model`). The whole record is one CasADi graph: the RK4 step
-is a CasADi Function, ``mapaccum`` runs it over the record with ``delta`` as an input
-sequence, and the output Jacobian with respect to the parameters comes from CasADi's
-algorithmic differentiation (forward sensitivities carried through the record). Built
-graphs are cached per (constants, dt, substeps, n_samples, parameter set) and, by
-default, the per-step functions are compiled to C (see ``compile_model``).
+Model: aeroid's output-error forward model (:func:`aeroid.model.symbolic_record`): the
+airframe equations integrated with RK4 from the initial state, ``delta`` held over each
+sample interval, outputs the six accelerations of eq. 28 at the estimator's sensor
+positions and ``p, q, r``, as one CasADi graph with exact forward sensitivities; by
+default its per-step functions are compiled to C (see ``compile_model``).
 
-Estimation (Klein & Morelli, ch. 6): measurement noise Gaussian, white, with unknown
-diagonal covariance ``R``; Gauss-Newton on the weighted least-squares cost
-``1/2 sum_k e_k^T R^-1 e_k`` with Levenberg damping (the damping grows tenfold on a
-rejected step), parameters scaled to order one (``theta / prior``); after every accepted
-step ``R`` is re-estimated from the residuals, ``R_jj = mean_k e_kj^2`` (the relaxation
-technique), until the Gauss-Newton step is below ``tol`` standard deviations and ``R``
-has settled. The Cramér-Rao covariance is ``(sum_k J_k^T R^-1 J_k)^-1`` (Fisher
+Estimation (Klein & Morelli, ch. 6; :mod:`baselines._gauss_newton`): measurement noise
+Gaussian, white, with unknown diagonal covariance ``R``; damped Gauss-Newton on the
+weighted least-squares cost with ``R`` re-estimated from the residuals after every
+accepted step (the relaxation technique); parameters scaled to order one
+(``theta / prior``). The Cramér-Rao covariance is ``(sum_k J_k^T R^-1 J_k)^-1`` (Fisher
 information) at the optimum; on a reference flight with the true sensor positions its
 standard deviations are within 10 % of the independent prototype's
 (reference/README.md), except Cx (0.012 % against 0.02 %), and over 50
@@ -26,22 +20,26 @@ Gaussian-noise flights the 95 % intervals covered the truth in 96 % of coefficie
 
 from __future__ import annotations
 
-import functools
-import hashlib
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Literal
 
-import casadi as ca
 import numpy as np
 
 import aeroid
-from aeroid.estimation._interface import EstimationResult, Estimator
-from aeroid.flights._flight import Flight
-from aeroid.model import _symbolic as _model
-from aeroid.model._dynamics import Constants
+from aeroid.estimation import EstimationResult, Estimator
+from aeroid.flights import INPUTS, Flight, model_constants
+from aeroid.model import OUTPUT_CHANNELS, ForwardModel
 from baselines import _common
+from baselines._gauss_newton import (
+    NOISE_MODELS,
+    Fit,
+    Problem,
+    gauss_newton,
+    posterior_information,
+    sandwich,
+)
+from baselines._oe_record import RecordModel
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -53,231 +51,11 @@ X0_NAMES = ("u0", "v0", "w0", "p0", "q0", "r0")
 #: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
 #: finite on noise-free data, far below any real noise level.
 R_FLOOR_REL = 1e-24
-#: Largest scaled parameter step per iteration (a trust region in units of the prior
-#: values; inf = none: a cap of 0.5 or 2 made fits from a 20 % wrong prior creep).
-MAX_STEP = math.inf
-#: A trial step is accepted when it does not raise the cost by more than this fraction
-#: (rounding: at a noise-free optimum the cost is flat to the last digits).
-COST_RTOL = 1e-12
-#: A step below this (in units of the prior values) with R settled also ends the fit.
-STALL_STEP = 1e-8
-#: R has settled when no R_jj changed by more than this fraction at the last update.
-R_SETTLED_RTOL = 1e-3
-#: Largest Levenberg damping tried before an iteration is declared stuck.
-MAX_DAMPING = 1e8
-
-
-@functools.lru_cache(maxsize=16)
-def output_functions(const: Constants, dt: float, substeps: int, n_samples: int,
-                     x0_free: tuple[int, ...], rx_free: tuple[int, ...] = (),
-                     compiled: bool = False
-                     ) -> tuple[ca.Function, ca.Function, bool]:
-    """Return the CasADi output model of a record and its parameter Jacobian.
-
-    Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; the next
-    ``len(x0_free)`` are offsets of those state components (indices into the state,
-    increasing) from the first measured sample (``x0 = x0_meas + p * scale``); the last
-    ``len(rx_free)`` are offsets of the x positions of those triads (0: triad 1, 1:
-    triad 2).
-
-    The Jacobian is propagated with the record (forward sensitivities): the RK4 step
-    ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
-    ``S_k = dx_k/dp`` (``jtimes``), ``S_{k+1} = dF/dx S_k + dF/dtheta dtheta/dp``, and
-    ``mapaccum`` carries ``(x, S)`` over the record; the outputs' Jacobian is
-    ``dh/dx S_k + dh/dtheta dtheta/dp + dh/dpos dpos/dp``. This is exact (the chain rule
-    through the discrete RK4 map) and several times faster than differentiating the
-    ``mapaccum`` graph as a whole.
-
-    Returns
-    -------
-    simulate : Function ``(p, scale, x0_meas (9), delta (1, n), pos (6)) -> Y (n, 9)``
-    jacobian : Function ``(same) -> (Y (n, 9), dY (9, n n_p))``
-        Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
-    is_compiled : bool
-        With ``compiled``, the per-step SX functions are compiled to C
-        (:func:`aeroid.model.compile_functions`); False when that failed.
-    """
-    n_x0 = len(x0_free)
-    n_rx = len(rx_free)
-    n_p = 9 + n_x0 + n_rx
-    # one step with sensitivities (SX)
-    x = ca.SX.sym("x", 9)
-    sens = ca.SX.sym("S", 9, n_p)
-    p9 = ca.SX.sym("p9", 9)
-    scale9 = ca.SX.sym("scale9", 9)
-    d = ca.SX.sym("delta")
-    theta = p9 * scale9
-    dtheta = ca.horzcat(ca.SX.eye(9), ca.SX.zeros(9, n_p - 9))  # d p9 / d p
-    x_next = _model.rk4_step(x, d, theta, const, dt, substeps)
-    s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
-    # symbol names unique per configuration: several compiled libraries may be loaded in
-    # one process
-    tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}r{''.join(map(str, rx_free)) or 'n'}"
-           f"s{substeps}h"
-           f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}")
-    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, d], [x_next, s_next])
-    # outputs with sensitivities (SX)
-    prx = ca.SX.sym("prx", 2)  # x-position offsets of triads 1 and 2 (scaled)
-    scale_rx = ca.SX.sym("scale_rx", 2)
-    pos0 = ca.SX.sym("pos", 6)
-    pos = pos0 + ca.vertcat(prx[0] * scale_rx[0], 0, 0, prx[1] * scale_rx[1], 0, 0)
-    y = _model.measurement(x, d, theta, pos, const)
-    drx = ca.SX.zeros(2, n_p)
-    for j, triad in enumerate(rx_free):
-        drx[triad, 9 + n_x0 + j] = 1.0
-    dy = ca.jtimes(y, ca.vertcat(x, p9, prx), ca.vertcat(sens, dtheta, drx))
-    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, pos0, prx, scale_rx], [y, dy])
-    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, pos0, prx, scale_rx], [y])
-    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, d], [x_next])
-    is_compiled = False
-    if compiled:
-        built = _model.compile_functions([step, out, step_plain, out_plain],
-                                         f"aeroid_oe_{tag}")
-        if built is not None:
-            step, out, step_plain, out_plain = built
-            is_compiled = True
-
-    # the record (MX graph of mapped SX functions)
-    p = ca.MX.sym("p", n_p)
-    scale = ca.MX.sym("scale", n_p)
-    x0_meas = ca.MX.sym("x0_meas", 9)
-    delta = ca.MX.sym("delta", 1, n_samples)
-    pos_given = ca.MX.sym("pos", 6)
-    pm, sm = p[:9], scale[:9]
-    prx_parts, srx_parts = [ca.MX(0.0), ca.MX(0.0)], [ca.MX(0.0), ca.MX(0.0)]
-    for j, triad in enumerate(rx_free):
-        prx_parts[triad] = p[9 + n_x0 + j]
-        srx_parts[triad] = scale[9 + n_x0 + j]
-    prx_m, srx_m = ca.vertcat(*prx_parts), ca.vertcat(*srx_parts)
-    x0 = x0_meas
-    s0 = ca.MX.zeros(9, n_p)
-    if n_x0:
-        select = np.zeros((9, n_x0))
-        select[list(x0_free), np.arange(n_x0)] = 1.0  # state component <- parameter
-        offsets = p[9:9 + n_x0] * scale[9:9 + n_x0]
-        x0 = x0_meas + ca.mtimes(ca.DM(select), offsets)
-        s0 = ca.horzcat(ca.MX.zeros(9, 9),
-                        ca.mtimes(ca.DM(select), ca.diag(scale[9:9 + n_x0])),
-                        ca.MX.zeros(9, n_p - 9 - n_x0))
-    m = n_samples - 1
-
-    def rep(v, k):
-        return ca.repmat(v, 1, k)
-
-    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m), delta[:, :m])
-    states = ca.horzcat(x0, xs)
-    Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples), delta,
-                                 rep(pos_given, n_samples), rep(prx_m, n_samples),
-                                 rep(srx_m, n_samples))
-    inputs = [p, scale, x0_meas, delta, pos_given]
-    simulate = ca.Function("oe_simulate", inputs, [ca.densify(Y.T)])
-    xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m), delta[:, :m])
-    states = ca.horzcat(x0, xs)
-    sens_all = ca.horzcat(s0, ss)  # 9 x (n_samples n_p), block k = S_k
-    Y, dY = out.map(n_samples)(states, sens_all, rep(pm, n_samples), rep(sm, n_samples),
-                               delta, rep(pos_given, n_samples), rep(prx_m, n_samples),
-                               rep(srx_m, n_samples))
-    # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
-    jacobian = ca.Function("oe_jacobian", inputs, [ca.densify(Y.T), ca.densify(dY)])
-    return simulate, jacobian, is_compiled
-
-
-class _Buffered:
-    """Evaluate a CasADi function on numpy buffers bound once (``Function.buffer``).
-
-    Converting CasADi's DM outputs to numpy cost as much as the evaluation itself
-    (measured: 40 % of a fit); here inputs and outputs are numpy arrays shared with
-    CasADi, read and written in place. Every output must be dense.
-    """
-
-    def __init__(self, fun: ca.Function, inputs: Sequence[np.ndarray]) -> None:
-        self.fun = fun
-        self.inputs = [np.ascontiguousarray(np.asarray(a, dtype=float).T.ravel())
-                       for a in inputs]  # column-major nonzeros
-        self.outputs = [np.empty(fun.nnz_out(i)) for i in range(fun.n_out())]
-        for i in range(fun.n_out()):
-            if fun.nnz_out(i) != fun.numel_out(i):
-                raise ValueError(f"{fun.name()}: output {i} is not dense")
-        self.buffer, self.evaluate = fun.buffer()
-        for i, a in enumerate(self.inputs):
-            self.buffer.set_arg(i, memoryview(a))
-        for i, r in enumerate(self.outputs):
-            self.buffer.set_res(i, memoryview(r))
-
-    def __call__(self, p: np.ndarray) -> list[np.ndarray]:
-        """Evaluate with input 0 set to ``p``; returns the output buffers (reused)."""
-        self.inputs[0][:] = p
-        self.evaluate()
-        if self.buffer.ret() != 0:
-            raise RuntimeError(f"{self.fun.name()}: evaluation failed")
-        return self.outputs
-
-
-@dataclass(frozen=True)
-class _Problem:
-    """A flight turned into arrays for the Gauss-Newton loop."""
-
-    z: np.ndarray          # (n, 9) measurements
-    scale: np.ndarray      # (n_p,)
-    x0_meas: np.ndarray    # (9,)
-    delta: np.ndarray      # (1, n)
-    pos: np.ndarray        # (6,)
-    simulate: _Buffered
-    jacobian: _Buffered
-    r_floor: np.ndarray    # (9,)
-    compiled: bool         # the per-step functions run as compiled C
-
-    def residuals(self, p: np.ndarray) -> np.ndarray:
-        """Return ``z - y(p)``, shape (n, 9)."""
-        (y,) = self.simulate(p)
-        n = self.z.shape[0]
-        return self.z - y.reshape(9, n).T
-
-    def residuals_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``z - y(p)`` (n, 9) and ``dy/dp`` (9, n, n_p)."""
-        y, dy = self.jacobian(p)
-        n = self.z.shape[0]
-        # dY (9, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) 9 + j
-        J = dy.reshape(n, -1, 9).transpose(2, 0, 1).copy()
-        return self.z - y.reshape(9, n).T, J
-
-    def noise(self, e: np.ndarray) -> np.ndarray:
-        """Return the ML estimate of diag(R), shape (9,), from residuals (floored)."""
-        return np.maximum(np.mean(e * e, axis=0), self.r_floor)
-
-
-def _cost(e: np.ndarray, r_diag: np.ndarray) -> float:
-    value = 0.5 * float(np.sum(e * e / r_diag))
-    return value if math.isfinite(value) else math.inf
-
-
-def _nll(e: np.ndarray, r_diag: np.ndarray) -> float:
-    """Negative log-likelihood without constants: ``n/2 sum log R_jj + cost``."""
-    return _cost(e, r_diag) + 0.5 * e.shape[0] * float(np.sum(np.log(r_diag)))
-
-
-def _fisher(J: np.ndarray, e: np.ndarray, r_diag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return the Fisher information ``sum J^T R^-1 J`` and gradient ``sum J^T R^-1 e``."""
-    w = 1.0 / np.sqrt(r_diag)
-    Jw = (J * w[:, None, None]).reshape(-1, J.shape[-1])
-    ew = (e * w[None, :]).T.reshape(-1)
-    return Jw.T @ Jw, Jw.T @ ew
-
-
-@dataclass(frozen=True)
-class _Fit:
-    p: np.ndarray
-    e: np.ndarray
-    J: np.ndarray
-    r_diag: np.ndarray
-    nll: float
-    history_p: list
-    history_cost: list
-    n_iterations: int
-    n_evaluations: int
-    converged: bool
-    message: str
-
+#: Names of the six accelerometer-position components.
+POSITION_NAMES = ("rx1", "ry1", "rz1", "rx2", "ry2", "rz2")
+#: Largest actuator delay accepted [s] (a starting value or a fixed delay): a tenth of a
+#: second is far beyond any fin actuator and beyond the fits' record lengths' sense.
+MAX_DELAY_S = 0.1
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(Estimator):
@@ -287,6 +65,35 @@ class OutputErrorEstimator(Estimator):
 
     Attributes
     ----------
+    input : {"hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled (:data:`aeroid.flights.INPUTS`):
+        held until the next sample (default: a relay latched at the log clock, the
+        paper's reference), switched halfway, at the flight's known switch instants, or by
+        the airframe's fin law on the measured roll angle. A relay that switches between
+        samples and is modelled as held biases Czq and Cmq by up to tens of percent
+        (measured on JSBSim flights, tests/crossengine/results.md).
+    estimate_delay : bool
+        Also estimate an actuator time delay (default False), reported in
+        ``info['delay_s']`` with ``info['delay_stderr_s']``.
+    delay_s : float
+        The delay [s]: its starting value when estimated, else a known delay (default 0).
+    noise_model : {"channel", "signal"}
+        Measurement-noise variance: per sample ``a_c + b_c yhat^2`` (default; the
+        paper's eq. 43 noise is proportional to the signal; :class:`baselines.
+        _gauss_newton.Problem`), or one per channel re-estimated from the residuals.
+        Default chosen by measurement: paper noise with its 10 % position error (positions
+        estimated, 4 flights) mean |error| 0.39 % against 5.3 % per channel; Gaussian IMU
+        (10 flights) 0.634 % against 0.650 % (``b_c`` comes out ~0: nothing lost).
+    positions : {"estimate", "consider", "known"}
+        What to do with accelerometer-position components the airframe calls uncertain
+        (``accel1_position_sd_m``, ``accel2_position_sd_m`` > 0): estimate them under that
+        Gaussian prior (MAP, default; reported in ``info['accel_positions_m']`` with
+        ``info['accel_position_stderr_m']``), keep them at the given values but add their
+        effect to the covariance (Schmidt consider analysis), or treat them as known.
+    covariance : {"fisher", "sandwich"}
+        ``fisher`` (default): the inverse information with the modelled noise;
+        ``sandwich``: ``M^-1 B M^-1`` with the scores' outer products, robust to a wrong
+        noise model (use it with ``noise_model="channel"``, not with ``signal``).
     estimate_initial_state : bool
         Also estimate the body rates ``p, q, r`` at the first sample (default True: the
         measured rates carry the sensor noise; a wrong initial roll rate puts the whole
@@ -301,13 +108,9 @@ class OutputErrorEstimator(Estimator):
     estimate_rx1, estimate_rx2 : bool
         Also estimate the x position of triad 1 / triad 2 (default False); reported in
         ``info['rx1_m']`` / ``info['rx2_m']``. One position is identifiable when the
-        other is right (tested on noise-free data). Finding: the paper's 10 % error on
-        the given positions biases Cza and Czd (mean |error| over 10 paper-noise
-        flights: Cza 2.6 %, Czd 15 % with the given positions; 0.14 %, 0.25 % with the
-        true ones), and because both x positions are perturbed, estimating rx1 alone
-        barely helps (2.3 %, 13 %) and estimating both does not either (Czd 16 %): at
-        each relay step both triads see ``dAz_i = (Czd Q S / m - Cmd Q S D rx_i / Iy)
-        d_delta``, two equations for Czd, rx1 and rx2 (measured; pitch rate pins Cmd).
+        other is right. They cannot undo an error in both positions: at each relay step
+        both triads see ``dAz_i = (Czd Q S / m - Cmd Q S D rx_i / Iy) d_delta``, two
+        equations for Czd, rx1 and rx2, so Czd stays confounded with the positions.
     substeps : int
         RK4 steps per sample interval (default 2: the outputs then match the 0.25 ms
         truth integration of the reference flight to ~1e-6 relative and a noise-free fit
@@ -348,6 +151,12 @@ class OutputErrorEstimator(Estimator):
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
+    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    estimate_delay: bool = False
+    delay_s: float = 0.0
+    noise_model: Literal["channel", "signal"] = "signal"
+    positions: Literal["estimate", "consider", "known"] = "estimate"
+    covariance: Literal["fisher", "sandwich"] = "fisher"
     estimate_initial_state: bool = True
     estimate_initial_velocity: bool = False
     estimate_rx1: bool = False
@@ -369,12 +178,46 @@ class OutputErrorEstimator(Estimator):
             raise ValueError(f"pso_iterations must be >= 0, got {self.pso_iterations}")
         if not self.tol > 0:
             raise ValueError(f"tol must be > 0, got {self.tol}")
+        if self.input not in INPUTS:
+            raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
+        if self.noise_model not in NOISE_MODELS:
+            raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
+                             f"got {self.noise_model!r}")
+        if not (math.isfinite(self.delay_s) and abs(self.delay_s) < MAX_DELAY_S):
+            raise ValueError(f"delay_s must be a number of seconds below {MAX_DELAY_S:g} in "
+                             f"magnitude, got {self.delay_s}")
 
     # ----------------------------------------------------------------------------------
-    def parameter_names(self) -> tuple[str, ...]:
+    def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
-        return tuple(names + [f"rx{t + 1}" for t in self.rx_free()])
+        names += [POSITION_NAMES[c] for c in position_free]
+        return tuple(names + (["delay_s"] if self.estimate_delay else []))
+
+    def consider_term(self, flight: Flight, best: Fit, scale: np.ndarray) -> np.ndarray:
+        """The uncertain positions' share of the covariance (Schmidt consider analysis).
+
+        ``S C S^T`` with ``S = -M^-1 M_pc`` the sensitivity of the estimate to the
+        considered components (``M_pc = J_p^T R^-1 J_c`` at the optimum) and ``C`` their
+        prior covariance; in physical units, shape (n_p, n_p).
+        """
+        sd = flight.airframe.accel_position_sd.ravel()
+        considered = [int(c) for c in np.flatnonzero(sd > 0)]
+        if not considered:
+            return np.zeros((scale.size, scale.size))
+        wide_free = tuple(sorted(set(considered) | {3 * t for t in self.rx_free()}))
+        wide: RecordModel = self.problem(flight, position_free=wide_free).model  # type: ignore
+        first = 9 + len(self.x0_free())
+        p = np.zeros(wide.scale.size)
+        p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
+        _, J = wide.outputs_jacobian(p)
+        columns = [first + wide_free.index(c) for c in considered]
+        w = 1.0 / np.sqrt(np.broadcast_to(best.r_diag, best.e.shape)).T  # (m, n)
+        Jc = (J[:, :, columns] * (sd[considered] / wide.scale[columns]) * w[:, :, None])
+        Jp = best.J * w[:, :, None]
+        Jp_flat, Jc_flat = Jp.reshape(-1, Jp.shape[-1]), Jc.reshape(-1, len(considered))
+        S = -np.linalg.solve(Jp_flat.T @ Jp_flat, Jp_flat.T @ Jc_flat)  # per unit sd
+        return (S @ S.T) * np.outer(scale, scale)
 
     def rx_free(self) -> tuple[int, ...]:
         """Triads (0, 1) whose x position is estimated."""
@@ -386,137 +229,64 @@ class OutputErrorEstimator(Estimator):
             X0_RATES if self.estimate_initial_state else ())
         return tuple(sorted(free))
 
-    def problem(self, flight: Flight) -> _Problem:
-        """Return the flight's arrays and cached CasADi functions."""
-        const = aeroid.constants(flight.airframe)
-        n = flight.n_samples
-        simulate, jacobian, is_compiled = output_functions(
-            const, flight.dt, self.substeps, n, self.x0_free(), self.rx_free(),
-            self.compile_model)
+    def position_free(self, flight: Flight) -> tuple[int, ...]:
+        """Estimated position components (indices into ``[x1, y1, z1, x2, y2, z2]``)."""
+        free = {3 * t for t in self.rx_free()}
+        if self.positions == "estimate":
+            free |= set(np.flatnonzero(flight.airframe.accel_position_sd.ravel() > 0).tolist())
+        return tuple(sorted(free))
+
+    def problem(self, flight: Flight, position_free: tuple[int, ...] | None = None) -> Problem:
+        """Return the fit of ``flight``: measurements, record model, noise model, prior.
+
+        Uncertain position components (``Airframe.accel_position_sd``) estimated under
+        ``positions="estimate"`` carry a Gaussian prior centred on the given position.
+        """
+        position_free = self.position_free(flight) if position_free is None else position_free
         prior = flight.airframe.prior_vector()
         pos = flight.airframe.accel_positions.ravel()
+        pos_sd = flight.airframe.accel_position_sd.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
-        scale.append([max(abs(pos[3 * t]), 0.1) for t in self.rx_free()])
+        scale.append([pos_sd[c] if pos_sd[c] > 0 else max(abs(pos[c]), 0.1)
+                      for c in position_free])
+        if self.estimate_delay:
+            scale.append([flight.dt])
+        scale = np.concatenate(scale)
+        weight = np.zeros(scale.size)
+        if self.positions == "estimate":
+            first = 9 + len(self.x0_free())
+            for j, c in enumerate(position_free):
+                if pos_sd[c] > 0:
+                    weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
         z = _common.measurements(flight)
-        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         x0 = flight.states()[0]
         x0[3:6] = _common.smoothed_start(z[:, 6:9])
-        scale = np.concatenate(scale)
-        delta = flight["delta"][None, :]
-        inputs = [np.zeros(scale.size), scale, x0, delta, pos]
-        return _Problem(z=z, scale=scale, x0_meas=x0, delta=delta, pos=pos,
-                        simulate=_Buffered(simulate, inputs),
-                        jacobian=_Buffered(jacobian, inputs), r_floor=r_floor,
-                        compiled=is_compiled)
+        model = RecordModel(flight, input=self.input, substeps=self.substeps,
+                            x0_free=self.x0_free(), position_free=position_free,
+                            compiled=self.compile_model, x0=x0, scale=scale,
+                            delay_s=self.delay_s, estimate_delay=self.estimate_delay)
+        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
+        has_prior = bool(np.any(weight > 0))
+        return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
+                       prior_mean=np.zeros(scale.size) if has_prior else None,
+                       prior_weight=weight if has_prior else None)
 
-    def gauss_newton(self, prob: _Problem, p0: np.ndarray) -> _Fit:
-        """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``.
+    def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
+        """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
+        return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol)
 
-        Each iteration: the Fisher information ``M`` and gradient ``g`` at the current
-        point with the current ``R``; if the undamped Gauss-Newton step ``M^-1 g`` is
-        below ``tol`` Cramér-Rao standard deviations in every parameter, ``R`` is
-        re-estimated and the fit has converged once ``R`` has settled (relative change
-        below :data:`R_SETTLED_RTOL`); otherwise a Levenberg-damped step that lowers the
-        cost (damping x10 per rejected trial, /10 after a success) is taken and ``R`` is
-        re-estimated from the new residuals (relaxation at every step: holding ``R``
-        until Gauss-Newton converged, Klein & Morelli's textbook variant, took 2-3x more
-        iterations on the reference flight).
-        """
-        p = np.array(p0, dtype=float)
-        e, J = prob.residuals_jacobian(p)
-        n_eval = 1
-        if not np.all(np.isfinite(e)):
-            raise FloatingPointError("the model diverges at the starting point")
-        r_diag = prob.noise(e)
-        damping = 1e-3
-        history_p = [p.copy()]
-        history_cost = [_nll(e, r_diag)]
-        converged, message, it = False, "", 0
-        for it in range(1, self.max_iterations + 1):
-            cost = _cost(e, r_diag)
-            M, g = _fisher(J, e, r_diag)
-            try:
-                cov_now = np.linalg.inv(M)
-                ratio = np.abs(cov_now @ g) / np.sqrt(np.abs(np.diag(cov_now)) + 1e-300)
-                small = bool(np.all(np.isfinite(ratio)) and np.max(ratio) < self.tol)
-            except np.linalg.LinAlgError:
-                ratio = np.full(p.size, np.inf)
-                small = False
-            if small:
-                r_new = prob.noise(e)
-                settled = bool(np.max(np.abs(r_new / r_diag - 1.0)) < R_SETTLED_RTOL)
-                r_diag = r_new
-                history_cost[-1] = _nll(e, r_diag)
-                if settled:
-                    converged = True
-                    message = f"converged after {it} iterations"
-                    break
-                continue
-            diag = np.diag(M).copy()
-            diag[diag <= 0] = 1.0
-            while True:
-                try:
-                    step = np.linalg.solve(M + damping * np.diag(diag), g)
-                except np.linalg.LinAlgError:
-                    step = np.full_like(p, np.nan)
-                if np.all(np.isfinite(step)):
-                    longest = float(np.max(np.abs(step)))
-                    if longest > MAX_STEP:
-                        step *= MAX_STEP / longest
-                    e_new = prob.residuals(p + step)
-                    n_eval += 1
-                    if _cost(e_new, r_diag) <= cost * (1.0 + COST_RTOL):
-                        break
-                damping *= 10.0
-                if damping > MAX_DAMPING:
-                    break
-            if damping > MAX_DAMPING:
-                # no step lowers the cost: a numerical minimum (noise-free data end here,
-                # the cost being at rounding level); accepted when the Gauss-Newton step
-                # is within one standard deviation
-                converged = bool(np.all(np.isfinite(ratio)) and np.max(ratio) < 1.0)
-                message = ("converged: no cost-decreasing step (numerical minimum)"
-                           if converged else "no cost-decreasing step (damping limit reached)")
-                break
-            near_gauss_newton = damping <= 1e-2
-            damping = max(damping / 10.0, 1e-12)
-            p = p + step
-            e, J = prob.residuals_jacobian(p)
-            n_eval += 1
-            r_new = prob.noise(e)
-            settled = bool(np.max(np.abs(r_new / r_diag - 1.0)) < R_SETTLED_RTOL)
-            r_diag = r_new
-            history_p.append(p.copy())
-            history_cost.append(_nll(e, r_diag))
-            if settled and near_gauss_newton and float(np.max(np.abs(step))) < STALL_STEP:
-                # noise-free data: the residuals are the model's own discretisation error,
-                # the standard deviations shrink with them and the sd-relative test is
-                # never met; nearly undamped steps have stopped moving the parameters
-                converged = True
-                message = f"converged after {it} iterations (parameters stalled)"
-                break
-        else:
-            message = f"max_iterations ({self.max_iterations}) reached"
-        return _Fit(p, e, J, r_diag, history_cost[-1], history_p, history_cost, it, n_eval,
-                    converged, message)
-
-    def warm_start(self, prob: _Problem, flight: Flight, rng: np.random.Generator
+    def warm_start(self, prob: Problem, flight: Flight, rng: np.random.Generator
                    ) -> tuple[np.ndarray, int]:
         """Return the best coefficients of a short PSO run and its evaluation count."""
-        from aeroid.estimation._pso import minimize
+        from aeroid.estimation import minimize
 
-        const = aeroid.constants(flight.airframe)
-        delta = flight["delta"]
-        positions = flight.airframe.accel_positions
+        record_model: RecordModel = prob.model  # type: ignore[assignment]
+        model = ForwardModel(model_constants(flight), record_model.record(self.delay_s),
+                             flight.airframe.accel_positions, substeps=self.substeps)
 
         def cost(thetas: np.ndarray) -> np.ndarray:
-            states = aeroid.propagate(prob.x0_meas, thetas, delta[:-1], flight.dt, const,
-                                      substeps=self.substeps)
-            acc = aeroid.accelerometers(states, delta[None, :], thetas[:, None, :], const,
-                                        positions).reshape(len(thetas), -1, 6)
-            y = np.concatenate([acc, states[:, :, 3:6]], axis=2)
-            ms = np.mean((prob.z[None] - y) ** 2, axis=1)
+            ms = np.mean((prob.z[None] - model.outputs(record_model.x0, thetas)) ** 2, axis=1)
             with np.errstate(all="ignore"):
                 out = np.sum(np.log(np.maximum(ms, prob.r_floor)), axis=1)
             return np.where(np.isfinite(out), out, np.inf)
@@ -529,18 +299,22 @@ class OutputErrorEstimator(Estimator):
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
         prob = self.problem(flight)
-        n_p = prob.scale.size
+        model: RecordModel = prob.model  # type: ignore[assignment]
+        scale = model.scale
+        n_p = scale.size
         prior = flight.airframe.prior_vector()
         first = np.zeros(n_p)
-        first[:9] = prior / prob.scale[:9]
+        first[:9] = prior / scale[:9]
+        if self.estimate_delay:
+            first[-1] = self.delay_s / scale[-1]
         extra_evals = 0
         if self.pso_warm_start:
             theta_pso, extra_evals = self.warm_start(prob, flight, rng)
-            first[:9] = theta_pso / prob.scale[:9]
+            first[:9] = theta_pso / scale[:9]
         starts = [first]
         for _ in range(self.n_starts - 1):
             p = first.copy()
-            p[:9] = prior * (1.0 + 0.2 * rng.standard_normal(9)) / prob.scale[:9]
+            p[:9] = prior * (1.0 + 0.2 * rng.standard_normal(9)) / scale[:9]
             starts.append(p)
         fits, failures = [], []
         for p0 in starts:
@@ -553,28 +327,45 @@ class OutputErrorEstimator(Estimator):
         best = min(fits, key=lambda f: f.nll)
         n_evals = extra_evals + sum(f.n_evaluations for f in fits)
         n_iter = sum(f.n_iterations for f in fits)
-        M, _ = _fisher(best.J, best.e, best.r_diag)
+        M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
         try:
             cov_p = np.linalg.inv(M)
         except np.linalg.LinAlgError:
             cov_p = np.full_like(M, np.nan)
-        cov_phys = cov_p * np.outer(prob.scale, prob.scale)
-        phys = best.p * prob.scale
+        if self.covariance == "sandwich":
+            cov_p = sandwich(cov_p, best.J, best.e, best.r_diag)
+        cov_phys = cov_p * np.outer(scale, scale)
+        if self.positions == "consider":
+            cov_phys = cov_phys + self.consider_term(flight, best, scale)
+        phys = best.p * scale
         theta = phys[:9]
         cov = cov_phys[:9, :9]
         hist_p = np.array(best.history_p)
         history = {"axis": "iteration", "step": np.arange(len(hist_p)),
-                   "theta": hist_p[:, :9] * prob.scale[:9],
+                   "theta": hist_p[:, :9] * scale[:9],
                    "cost": np.array(best.history_cost)}
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
-        info = {"R": best.r_diag, "fisher": M, "parameter_names": self.parameter_names(),
+        position_free = model.position_free
+        info = {"R": best.r_diag, "fisher": M,
+                "parameter_names": self.parameter_names(position_free),
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
-                "starts": len(starts), "failed_starts": failures, "compiled": prob.compiled,
-                "start_costs": [f.nll for f in fits]}
-        n_rx = len(self.rx_free())
-        for j, t in enumerate(self.rx_free()):
-            info[f"rx{t + 1}_m"] = prob.pos[3 * t] + phys[phys.size - n_rx + j]
+                "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
+                "start_costs": [f.nll for f in fits], "input": self.input,
+                "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
+        first_pos = 9 + len(self.x0_free())
+        positions = model.pos.copy()
+        position_sd = np.zeros(6)
+        for j, c in enumerate(position_free):
+            positions[c] += phys[first_pos + j]
+            position_sd[c] = stderr_phys[first_pos + j]
+        info["accel_positions_m"] = positions.reshape(2, 3)
+        info["accel_position_stderr_m"] = position_sd.reshape(2, 3)
+        for t in self.rx_free():
+            info[f"rx{t + 1}_m"] = positions[3 * t]
+        if self.estimate_delay:
+            info["delay_s"] = float(phys[-1])
+            info["delay_stderr_s"] = float(stderr_phys[-1])
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,

@@ -30,10 +30,9 @@ from typing import ClassVar, Literal
 import numpy as np
 
 import aeroid
-from aeroid.estimation import _objectives as objectives
-from aeroid.estimation import _reconstruct as reconstruct
-from aeroid.estimation._interface import EstimationResult, Estimator
-from aeroid.flights._flight import Flight
+from aeroid import estimation
+from aeroid.estimation import EstimationResult, Estimator
+from aeroid.flights import Flight
 
 
 @contextlib.contextmanager
@@ -92,6 +91,9 @@ class PyswarmsEstimator(Estimator):
         EBM smoothing (default "both").
     v_max : float
         Velocity clamp as a fraction of each range (default 0.2, eq. 19).
+    input : {"hold", "midpoint", "events", "law"}
+        EAM objective only: how the deflection between samples is modelled (default
+        ``hold``; :data:`aeroid.flights.INPUTS`).
 
     Notes
     -----
@@ -112,22 +114,35 @@ class PyswarmsEstimator(Estimator):
     weighting: Literal["noise", "relative"] = "noise"
     smoothing: Literal["both", "forces", "none"] = "both"
     v_max: float = 0.2
+    input: Literal["hold", "midpoint", "events", "law"] = "hold"
 
     def __post_init__(self) -> None:
         if self.objective not in ("ebm", "eam"):
             raise ValueError(f"objective must be 'ebm' or 'eam', got {self.objective!r}")
-        if self.n_particles < 2 or self.n_iterations < 1:
-            raise ValueError("n_particles must be >= 2 and n_iterations >= 1")
+        if not (2 <= self.n_particles <= estimation.MAX_PARTICLES
+                and 1 <= self.n_iterations <= estimation.MAX_ITERATIONS):
+            raise ValueError(f"n_particles must be in 2..{estimation.MAX_PARTICLES} and "
+                             f"n_iterations in 1..{estimation.MAX_ITERATIONS}")
         if not self.v_max > 0:
             raise ValueError(f"v_max must be > 0, got {self.v_max}")
 
     def cost_function(self, flight: Flight):
         """Return the objective ``theta (P, 9) -> (P,)``."""
         if self.objective == "ebm":
-            rec = reconstruct.reconstruct(flight)
-            return objectives.ebm_cost(flight, rec, weighting=self.weighting,
+            rec = estimation.reconstruct(flight)
+            return estimation.ebm_cost(flight, rec, weighting=self.weighting,
                                        smoothing=self.smoothing)
-        return objectives.OutputErrorCost(flight, weighting=self.weighting)
+        return estimation.OutputErrorCost(flight, weighting=self.weighting, input=self.input)
+
+    def fit_entries(self, flight: Flight, cost, theta: np.ndarray) -> dict:
+        """Residuals of the objective's model at ``theta`` for the fit check."""
+        if self.objective == "eam":
+            predicted = cost.predict(theta)[0]
+            return {"fit_residuals": {name: cost.measured[:, j] - predicted[:, j]
+                                      for j, name in enumerate(estimation.EAM_OUTPUTS)}}
+        rec = estimation.reconstruct(flight)
+        X, y = estimation.ebm_regression(flight, rec, smoothing=self.smoothing)
+        return estimation.regression_fit(rec, X, y, theta, estimation.EBM_ROWS)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it)."""
@@ -157,8 +172,12 @@ class PyswarmsEstimator(Estimator):
         hist_cost = np.asarray(optimizer.cost_history, dtype=float)
         history = {"axis": "iteration", "step": np.arange(1, len(hist_cost) + 1),
                    "theta": np.tile(theta, (len(hist_cost), 1)), "cost": hist_cost}
+        info = {"objective": self.objective, "bounds": bounds}
+        info.update(self.fit_entries(flight, cost, theta))
         return EstimationResult(
-            estimator=self.name, theta=theta, cost=float(best_cost), success=True,
+            estimator=self.name, theta=theta, cost=float(best_cost),
+            success=bool(np.isfinite(best_cost)),
+            warnings=estimation.box_edge_warnings(theta, bounds),
             message=f"{self.n_iterations} iterations", n_evaluations=count["n"],
             n_iterations=self.n_iterations, history=history,
-            info={"objective": self.objective, "bounds": bounds})
+            info=info)

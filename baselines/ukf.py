@@ -4,8 +4,8 @@ Runs on :class:`filterpy.kalman.UnscentedKalmanFilter` with
 :class:`filterpy.kalman.MerweScaledSigmaPoints`. filterpy propagates sigma points one by
 one (``compute_process_sigmas`` loops over them with ``fx``); here that method is
 overridden so all 37 sigma points go through ONE batched call of
-:func:`aeroid.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
-all sigma points are computed in one call of :func:`aeroid.accelerometers` and handed to
+:func:`aeroid.model.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
+all sigma points are computed in one call of :func:`aeroid.model.accelerometers` and handed to
 filterpy's ``update`` in its iteration order (see :mod:`baselines._kalman`).
 """
 
@@ -16,8 +16,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from aeroid.estimation._interface import EstimationResult
-from aeroid.flights._flight import Flight
+from aeroid.estimation import EstimationResult
+from aeroid.flights import Flight, flight_record
 from baselines import _common, _kalman
 
 
@@ -26,9 +26,17 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
     """Augmented-state UKF (filterpy, Merwe scaled sigma points, batched propagation).
 
     Options are those of :class:`baselines._common.AugmentedFilterOptions` plus the
-    sigma-point parameters ``alpha`` (default 0.5: sigma points at about
-    ``0.5 sqrt(18) = 2.1`` standard deviations), ``beta`` (default 2, Gaussian) and
-    ``kappa`` (default 0). Result and failure handling as for the EKF.
+    sigma-point parameters below. Result and failure handling as for the EKF.
+
+    Attributes
+    ----------
+    alpha : float
+        Spread of the sigma points (default 0.5: about ``0.5 sqrt(18) = 2.1`` standard
+        deviations from the mean).
+    beta : float
+        Prior knowledge of the distribution (default 2, optimal for a Gaussian).
+    kappa : float
+        Secondary scaling of the sigma points (default 0).
     """
 
     name: ClassVar[str] = "ukf"
@@ -46,9 +54,12 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
-        x0, P0, Q, R, zs, meas_sd = self.setup(flight)
-        model = _common.augmented_model(flight, self.substeps)
-        out = _kalman.run_ukf(model, x0, P0, Q, R, zs, alpha=self.alpha, beta=self.beta,
-                              kappa=self.kappa)
+        setup = self.setup(flight)
+        model = _common.augmented_model(
+            flight, self.substeps, flight_record(flight, self.input, self.delay_s),
+            setup.position_free)
+        out = _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                              alpha=self.alpha, beta=self.beta, kappa=self.kappa,
+                              R_of=setup.R_of)
         n_sigma = 2 * model.dim_x + 1
-        return self.result(flight, out, meas_sd, n_evaluations=n_sigma * len(zs))
+        return self.result(flight, out, setup, n_evaluations=n_sigma * len(setup.zs))

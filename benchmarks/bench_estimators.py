@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aeroid.estimation._interface import make_estimator
+from aeroid.estimation import make_estimator
 from aeroid.flights._noise import PaperNoise
 from aeroid.flights._scenario import reference_scenario
 from aeroid.flights._simulate import simulate_scenario

@@ -1,24 +1,67 @@
 """Command line: ``aeroid simulate | estimate | methods | study``.
 
-Bad input (a missing file, malformed TOML, an unknown option value, an invalid
-flight) exits with status 2 and one line on stderr saying what and where; ``--debug``
-shows the traceback instead.
+Bad input (a missing file, malformed TOML, an unknown option value, an invalid flight,
+a number out of range) exits with status 2 and one line on stderr saying what and
+where; ``--debug`` shows the traceback instead. Warnings about input that is accepted
+but suspect (:class:`aeroid.errors.AeroidWarning`) are one line each on stderr,
+``aeroid: warning: MESSAGE``.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
-from collections.abc import Sequence
+import textwrap
+import warnings
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from aeroid import __version__
-from aeroid.errors import UsageError
+from aeroid.errors import AeroidWarning
+
+#: Most local worker processes (``--jobs``, ``--dask-local``). Each is a Python process
+#: with numpy, numba and CasADi loaded (~150 MB): 256 is more than any machine we target
+#: has cores, and far below what would exhaust the process table or the memory.
+MAX_WORKERS = 256
+
+_DESCRIPTION = """\
+aeroid: estimate the nine aerodynamic coefficients of a rolling airframe from flight
+data (accelerometers, rates, attitude), with the paper's EAM-PSO, EBM-PSO, SEBM-PSO and
+baselines (EKF, UKF, output-error, equation-error, pyswarms), and compare them in
+seeded Monte Carlo studies."""
+
+_EPILOG = """\
+examples:
+  aeroid simulate --seed 1 -o flight.csv        # the paper's reference flight
+  aeroid estimate flight.csv --method sebm-pso  # fit it, print estimates and errors
+  aeroid methods                                # list the methods
+  aeroid methods --options eam-pso              # a method's options
+  aeroid study --runs 5                         # a small Monte Carlo study
+
+Run 'aeroid COMMAND --help' for a command's options. Exit status: 0 done, 1 the method
+failed (estimate: result still printed), 2 bad input (one line on stderr)."""
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line on stderr (exit status 2)."""
+    """An argument parser whose errors are one line on stderr (exit status 2).
+
+    ``epilog_factory`` (optional) makes the epilog when help is shown, so help that
+    lists the installed methods costs nothing on other calls.
+    """
+
+    def __init__(self, *args: Any, epilog_factory: Callable[[], str] | None = None,
+                 **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
+        super().__init__(*args, **kwargs)
+        self._epilog_factory = epilog_factory
+
+    def format_help(self) -> str:
+        """Return the help text (with the lazily made epilog, if any)."""
+        if self._epilog_factory is not None:
+            self.epilog = self._epilog_factory()
+        return super().format_help()
 
     def error(self, message: str) -> NoReturn:
         """Print ``PROG: error: MESSAGE (see PROG --help)`` and exit with status 2."""
@@ -26,39 +69,108 @@ class _Parser(argparse.ArgumentParser):
                      f"(see {self.prog} --help)\n")
 
 
+def _para(text: str) -> str:
+    """Return ``text`` wrapped for help output (the formatter keeps line breaks as given)."""
+    return textwrap.fill(" ".join(text.split()), 80)
+
+
+def _int_in(low: int, high: int | None = None) -> Callable[[str], int]:
+    """Return an argparse type: an integer in ``[low, high]`` (no upper bound for None)."""
+    def parse(text: str) -> int:
+        value = int(text)  # ValueError: argparse says "invalid int value: 'x'"
+        if value < low or (high is not None and value > high):
+            span = f">= {low}" if high is None else f"in [{low}, {high}]"
+            raise argparse.ArgumentTypeError(f"must be an integer {span}, got {value}")
+        return value
+
+    parse.__name__ = "int"
+    return parse
+
+
 def _add_simulate(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("simulate", help="simulate a flight of a scenario and write it as CSV")
+    p = sub.add_parser(
+        "simulate", help="simulate a flight of a scenario and write it as CSV",
+        description=_para("Simulate the flight of a scenario (default: the paper's reference "
+                    "scenario) with a sensor-noise model and write it as CSV (or Parquet) "
+                          "with a JSON sidecar holding the airframe and the true "
+                          "coefficients."),
+        epilog="examples:\n"
+               "  aeroid simulate --seed 1 -o flight.csv\n"
+               "  aeroid simulate --noise none -o clean.csv\n"
+               "  aeroid simulate --scenario my-scenario.toml --noise gaussian --seed 7 \\\n"
+               "      -o f.parquet")
     p.add_argument("--scenario", type=Path, help="scenario TOML (default: embedded reference)")
     p.add_argument("--noise", choices=["paper", "gaussian", "none"], default="paper",
                    help="sensor noise model (default: paper, eq. 43)")
-    p.add_argument("--seed", type=int, default=None, help="random seed of the noise")
+    p.add_argument("--seed", type=_int_in(0), default=None,
+                   help="random seed of the noise, an integer >= 0")
     p.add_argument("-o", "--output", type=Path, required=True, help="flight CSV to write")
 
 
+def _methods_epilog() -> str:
+    from aeroid.cli._estimate import methods_table
+
+    return ("examples:\n"
+            "  aeroid estimate flight.csv --method sebm-pso\n"
+            "  aeroid estimate flight.csv --method eam-pso --seed 1 \\\n"
+            "      --option n_particles=100 --option n_iterations=50\n"
+            "  aeroid estimate log.csv --airframe airframe.toml --columns map.toml \\\n"
+            "      --degrees --method equation-error --json\n\n"
+            "methods ('aeroid methods --options NAME' lists a method's options):\n"
+            + methods_table(indent="  ") + "\n\n"
+            "Exit status: 0 done, 1 the method failed (its result is still printed), "
+            "2 bad input.")
+
+
 def _add_estimate(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("estimate", help="estimate the nine coefficients from a flight")
+    p = sub.add_parser(
+        "estimate", help="estimate the nine coefficients from a flight",
+        description=_para("Estimate the nine aerodynamic coefficients from one flight log by one "
+                    "method and print them with their standard errors (and, for a "
+                    "simulated flight, the error against its true coefficients). A log "
+                    "without aeroid's JSON sidecar needs --airframe."),
+        epilog_factory=_methods_epilog)
     p.add_argument("flight", type=Path, help="flight CSV (or .parquet)")
     p.add_argument("--method", required=True, help="estimator name (see 'aeroid methods')")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help="estimator option (repeatable)")
-    p.add_argument("--seed", type=int, default=None, help="random seed of the estimator")
+                   help="estimator option (repeatable; see 'aeroid methods --options NAME')")
+    p.add_argument("--seed", type=_int_in(0), default=None,
+                   help="random seed of the estimator, an integer >= 0")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--airframe", type=Path, help="airframe TOML (a log without sidecar)")
     p.add_argument("--columns", type=Path, help="TOML column map {file name = channel}")
     p.add_argument("--degrees", action="store_true", help="angles in deg, rates in deg/s")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:
-    sub.add_parser("methods", help="list the available estimators")
+    p = sub.add_parser(
+        "methods", help="list the available estimators (or one method's options)",
+        description=_para("List every installed estimator (built-ins and plug-ins of the "
+                    "'aeroid.estimators' entry-point group) with a one-line description, "
+                    "or, with --options, one method's options: type, default, meaning."),
+        epilog="examples:\n  aeroid methods\n  aeroid methods --options sebm-pso")
+    p.add_argument("--options", metavar="NAME", help="show the options of method NAME")
 
 
 def _add_study(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("study", help="run a Monte Carlo study (default: the quick study)")
+    p = sub.add_parser(
+        "study", help="run a Monte Carlo study (default: the quick study)",
+        description=_para("Run a seeded Monte Carlo study: simulate the runs of each noise "
+                    "condition, fit every estimator, and write results and a report. "
+                    "Without a file it runs the quick default study."),
+        epilog="examples:\n"
+               "  aeroid study --runs 5\n"
+               "  aeroid study studies/paper_table5.toml --jobs 4\n"
+               "  aeroid study studies/paper_table5.toml --jobs 4 --resume   "
+               "# after an interruption")
     p.add_argument("study", nargs="?", type=Path, help="study TOML (default: quick study)")
-    p.add_argument("--runs", type=int, help="override the number of runs")
-    p.add_argument("--jobs", type=int, default=1, help="local worker processes")
+    p.add_argument("--runs", type=_int_in(1), help="override the number of runs")
+    p.add_argument("--jobs", type=_int_in(1, MAX_WORKERS), default=1,
+                   help="local worker processes")
     p.add_argument("--scheduler", help="Dask scheduler address")
-    p.add_argument("--dask-local", type=int, metavar="N", help="start a local Dask cluster")
+    p.add_argument("--dask-local", type=_int_in(1, MAX_WORKERS), metavar="N",
+                   help="start a local Dask cluster")
     p.add_argument("--out", type=Path, help="output folder (default: results/<study>)")
     p.add_argument("--resume", action="store_true",
                    help="complete the study in --out (same design and code): run only "
@@ -70,10 +182,10 @@ def _add_study(sub: argparse._SubParsersAction) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser."""
-    parser = _Parser(prog="aeroid", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="aeroid", description=_DESCRIPTION, epilog=_EPILOG)
     parser.add_argument("--version", action="version", version=f"aeroid {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_simulate(sub)
     _add_estimate(sub)
     _add_methods(sub)
@@ -81,28 +193,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def cmd_simulate(args: argparse.Namespace) -> int:
-    """Run ``aeroid simulate``."""
-    from aeroid.flights._scenario import load_scenario, noise_for, reference_scenario_data
-    from aeroid.flights._simulate import simulate
-    from aeroid.model._airframe import read_toml
-
-    scenario = load_scenario(args.scenario)
-    data = read_toml(args.scenario) if args.scenario else reference_scenario_data()
-    noise = noise_for(data, args.noise)
-    flight = simulate(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                      noise, rng=args.seed)
-    if not args.output.parent.exists():
-        raise UsageError(f"{args.output}: folder {args.output.parent} does not exist")
-    sidecar = flight.write(args.output)
-    print(f"wrote {args.output} ({flight.n_samples} samples, noise {args.noise}, "
-          f"seed {args.seed}) and {sidecar}")
-    return 0
-
-
 def _dispatch(args: argparse.Namespace) -> int:
     if args.command == "simulate":
-        return cmd_simulate(args)
+        from aeroid.cli._simulate import simulate
+
+        return simulate(args)
     if args.command in ("estimate", "methods"):
         from aeroid.cli import _estimate as commands
 
@@ -112,14 +207,37 @@ def _dispatch(args: argparse.Namespace) -> int:
     return study_commands.study(args)
 
 
+def _show_warning(original: Callable[..., None]) -> Callable[..., None]:
+    """Return a ``warnings.showwarning`` printing an AeroidWarning as one line."""
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: Any = None, line: str | None = None) -> None:
+        if issubclass(category, AeroidWarning):
+            print(f"aeroid: warning: {' '.join(str(message).split())}", file=sys.stderr)
+        else:
+            original(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``aeroid`` command; returns the exit status."""
     from aeroid.errors import USER_ERRORS
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    quiet = bool(getattr(args, "quiet", False))
+    notices = _notices(quiet)
     try:
-        return _dispatch(args)
+        if args.command in ("estimate", "simulate", "study") and not quiet:
+            from aeroid.model import kernels_cached
+
+            if not kernels_cached():
+                print("aeroid: compiling the numerical kernels once (about 20-60 s; "
+                      "cached for later runs)", file=sys.stderr)
+        with warnings.catch_warnings():
+            warnings.simplefilter("default", AeroidWarning)
+            warnings.showwarning = _show_warning(warnings.showwarning)
+            return _dispatch(args)
     except USER_ERRORS as exc:
         if args.debug:
             raise
@@ -127,10 +245,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"aeroid: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        hint = ("; finished fits are saved: rerun with --resume to complete the study"
+        hint = ("; run the same command with --resume to complete only what is missing"
                 if args.command == "study" else "")
         print(f"aeroid: interrupted{hint}", file=sys.stderr)
         return 130
+    finally:
+        logging.getLogger("aeroid").removeHandler(notices)
+
+
+class _NoticeHandler(logging.Handler):
+    """Prints aeroid's notices (logger ``aeroid``, level INFO) as ``aeroid: message``."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        """Write one line on stderr."""
+        print(f"aeroid: {record.getMessage()}", file=sys.stderr)
+
+
+def _notices(quiet: bool) -> logging.Handler:
+    """Attach the notice handler for one command (silent with ``--quiet``)."""
+    handler = _NoticeHandler(level=logging.WARNING if quiet else logging.INFO)
+    logger = logging.getLogger("aeroid")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    return handler
 
 
 if __name__ == "__main__":  # pragma: no cover

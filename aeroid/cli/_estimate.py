@@ -3,21 +3,33 @@
 User errors (unreadable or invalid flight, unknown method or option, malformed
 ``--option``) raise the classes of :data:`aeroid.errors.USER_ERRORS`; the CLI prints
 them as one line and exits with status 2.
+
+Progress: a fit of a method that reports progress (the paper's PSO methods, every
+iteration) shows a tqdm bar on stderr while it runs, and the bar is removed when the
+fit ends. It is shown only when stderr is a terminal, and never with ``--quiet`` or when
+``--json`` output goes to a pipe or file (:func:`progress_wanted`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
+import math
+import sys
+import textwrap
 from typing import Any
 
-from aeroid.errors import EstimatorError, FlightError
-from aeroid.estimation._interface import available, load_errors, make_estimator
-from aeroid.flights._flight import read_flight
-from aeroid.model._airframe import load_airframe, read_toml
+from aeroid.errors import EstimatorError
+from aeroid.estimation._progress import ProgressEvent
+from aeroid.estimation._registry import available, get_estimator, load_errors, make_estimator
+from aeroid.flights._files import read_column_map, read_flight
+from aeroid.model._airframe import load_airframe
 
-__all__ = ["estimate", "methods", "parse_options", "read_column_map"]
+__all__ = ["ProgressBar", "estimate", "methods", "methods_table", "option_text",
+           "parse_options", "progress_wanted", "read_column_map"]
+
+#: Width of wrapped option descriptions in ``aeroid methods --options``.
+TEXT_WIDTH = 88
 
 
 def parse_options(pairs: list[str] | None) -> dict[str, str]:
@@ -40,23 +52,49 @@ def parse_options(pairs: list[str] | None) -> dict[str, str]:
     return options
 
 
-def read_column_map(path: Path) -> dict[str, str]:
-    """Return ``{name in the file: aeroid channel}`` from a TOML file.
+def progress_wanted(*, quiet: bool, json_output: bool, stderr_tty: bool,
+                    stdout_tty: bool) -> bool:
+    """Return True when ``aeroid estimate`` should draw a progress bar.
 
-    The mapping is the file's top-level string keys, or its ``[columns]`` table.
-
-    Raises
-    ------
-    FlightError
-        One line naming the file when a value is not a channel-name string.
+    Only on a terminal (a bar in a log file is noise), never with ``--quiet``, and not
+    when ``--json`` goes to a pipe or file (a script is reading; it wants no chatter).
     """
-    data: dict[str, Any] = read_toml(path)
-    table = data.get("columns", data) if isinstance(data.get("columns"), dict) else data
-    bad = sorted(k for k, v in table.items() if not isinstance(v, str))
-    if bad:
-        raise FlightError(f"{path}: column map values must be channel names (strings); "
-                          f"check {', '.join(map(repr, bad))}")
-    return dict(table)
+    return not quiet and stderr_tty and not (json_output and not stdout_tty)
+
+
+class ProgressBar:
+    """A progress listener that draws one tqdm bar per stage on stderr.
+
+    Parameters
+    ----------
+    label : str
+        Prefix of the bar (the method's name).
+    """
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self._bar: Any = None
+        self._key: tuple[str, int] | None = None
+
+    def __call__(self, event: ProgressEvent) -> None:
+        """Show ``event`` (a new stage or total starts a new bar)."""
+        from tqdm import tqdm
+
+        key = (event.stage, event.total)
+        if key != self._key:
+            self.close()
+            self._key = key
+            self._bar = tqdm(total=event.total, desc=f"{self.label} {event.stage}".strip(),
+                             unit="it", file=sys.stderr, leave=False, dynamic_ncols=True)
+        if math.isfinite(event.cost):
+            self._bar.set_postfix_str(f"best cost {event.cost:.4g}", refresh=False)
+        self._bar.update(event.done - self._bar.n)
+
+    def close(self) -> None:
+        """Remove the current bar, if any."""
+        if self._bar is not None:
+            self._bar.close()
+        self._bar, self._key = None, None
 
 
 def estimate(args: argparse.Namespace) -> int:
@@ -71,21 +109,79 @@ def estimate(args: argparse.Namespace) -> int:
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
     flight = read_flight(args.flight, airframe=airframe, columns=columns,
                          angles_in_degrees=bool(getattr(args, "degrees", False)))
-    result = estimator.fit(flight, rng=getattr(args, "seed", None))
-    if getattr(args, "json", False):
+    json_output = bool(getattr(args, "json", False))
+    bar = None
+    if progress_wanted(quiet=bool(getattr(args, "quiet", False)), json_output=json_output,
+                       stderr_tty=sys.stderr.isatty(), stdout_tty=sys.stdout.isatty()):
+        bar = ProgressBar(args.method)
+    try:
+        result = estimator.fit(flight, rng=getattr(args, "seed", None), progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    if json_output:
         print(json.dumps(result.to_json_dict(), indent=2))
     else:
         print(result.summary(flight.true_coefficients))
     return 0 if result.success else 1
 
 
-def methods(args: argparse.Namespace) -> int:
-    """Run ``aeroid methods``: list every estimator and any plug-in that failed to load."""
+def methods_table(indent: str = "") -> str:
+    """Return one line per installed method: its name and description."""
     classes = available(refresh=True)
     width = max((len(n) for n in classes), default=0)
+    lines = []
     for name in sorted(classes):
         cls = classes[name]
-        print(f"{name:<{width}}  {cls.description or cls.__doc__ or ''}".rstrip())
+        text = cls.description or (cls.__doc__ or "").strip().split("\n")[0]
+        lines += textwrap.wrap(text, TEXT_WIDTH, initial_indent=f"{indent}{name:<{width}}  ",
+                               subsequent_indent=" " * (len(indent) + width + 2),
+                               break_on_hyphens=False) or [name]
+    return "\n".join(lines)
+
+
+def _value_text(value: Any) -> str:
+    """Return an option value as it would be typed: TOML-like (true, [1, 2], none)."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_value_text(v) for v in value) + "]"
+    return str(value)
+
+
+def option_text(name: str) -> str:
+    """Return a method's options for people: ``name : type = default`` and a description.
+
+    Raises
+    ------
+    EstimatorError
+        For an unknown method (one line listing the available ones).
+    """
+    cls = get_estimator(name)
+    infos = cls.describe_options()
+    lines = [f"{name}: {cls.description}".rstrip(": ")]
+    if not infos:
+        lines.append("no options")
+        return "\n".join(lines)
+    lines.append("options (aeroid estimate ... --option KEY=VALUE; lists as [1, 2]):")
+    for info in infos:
+        lines.append(f"  {info.name} : {info.type} = {_value_text(info.default)}")
+        text = info.description or "(undocumented)"
+        lines += textwrap.wrap(text, TEXT_WIDTH, initial_indent=" " * 6,
+                               subsequent_indent=" " * 6)
+    return "\n".join(lines)
+
+
+def methods(args: argparse.Namespace) -> int:
+    """Run ``aeroid methods``: list every estimator (or one method's options) and any
+    plug-in that failed to load."""
+    if getattr(args, "options", None):
+        print(option_text(args.options))
+        return 0
+    print(methods_table())
+    print("\nA method's options: aeroid methods --options NAME")
     errors = load_errors()
     if errors:
         print("\nplug-ins that failed to load:")

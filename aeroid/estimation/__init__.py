@@ -1,23 +1,22 @@
 """Estimation: the Estimator interface and registry, objectives, reconstruction, PSO, floor.
 
 This is the plug-in tier: a third-party estimator subclasses :class:`Estimator` and may
-use the objectives, the EBM reconstruction and the PSO defined here.
+use the objectives, the EBM reconstruction, the PSO, :func:`report_progress` and
+:func:`box_edge_warnings` defined here.
+
+Modules, one job each (imports point down the list, never up): ``_result`` (the result
+type), ``_options`` (option values from text, option descriptions), ``_progress``
+(progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
+(names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
+``_reconstruct``, ``_objectives``, ``_floor``, ``_pso_methods`` (what the paper's methods
+share), and the methods ``_eam``, ``_ebm``, ``_sebm``, which import none of one another.
+``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
+from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._floor import cramer_rao_sd
-from aeroid.estimation._interface import (
-    ENTRY_POINT_GROUP,
-    EstimationResult,
-    Estimator,
-    available,
-    failed_result,
-    get_estimator,
-    load_errors,
-    make_estimator,
-    prior_bounds,
-    register,
-)
 from aeroid.estimation._objectives import (
+    EAM_OUTPUTS,
     EBM_ROWS,
     SEBM_PROBLEMS,
     OutputErrorCost,
@@ -26,22 +25,81 @@ from aeroid.estimation._objectives import (
     ebm_cost,
     sebm_costs,
 )
+from aeroid.estimation._options import OptionInfo
+from aeroid.estimation._progress import ProgressEvent, report_progress
 from aeroid.estimation._pso import PSOResult, minimize
+from aeroid.estimation._pso_methods import MAX_ITERATIONS, MAX_PARTICLES
 from aeroid.estimation._reconstruct import (
+    SMOOTHING_CHOICES,
     Reconstruction,
     accel_only_matrix,
     ebm_regression,
-    noise_sd,
-    rate_derivatives,
     reconstruct,
+    regression_fit,
+)
+from aeroid.estimation._registry import (
+    ENTRY_POINT_GROUP,
+    available,
+    get_estimator,
+    load_errors,
+    make_estimator,
+    register,
+)
+from aeroid.estimation._result import (
+    EDGE_FRACTION,
+    EstimationResult,
+    box_edge_warnings,
+    failed_result,
+)
+from aeroid.estimation._signals import (
+    estimate_noise_law,
+    estimate_noise_sd,
+    rate_derivatives,
     smooth,
+    switch_free_samples,
 )
 
+# The paper's methods register themselves on import (after the registry exists).
+from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
+
 __all__ = [
-    "EBM_ROWS", "ENTRY_POINT_GROUP", "SEBM_PROBLEMS", "EstimationResult", "Estimator",
-    "OutputErrorCost", "PSOResult", "QuadraticCost", "Reconstruction", "accel_only_matrix",
-    "available", "channel_weights", "cramer_rao_sd", "ebm_cost", "ebm_regression",
-    "failed_result", "get_estimator", "load_errors", "make_estimator", "minimize",
-    "noise_sd", "prior_bounds", "rate_derivatives", "reconstruct", "register", "sebm_costs",
+    "estimate_noise_law",
+    "EAM_OUTPUTS",
+    "EBM_ROWS",
+    "EDGE_FRACTION",
+    "ENTRY_POINT_GROUP",
+    "EstimationResult",
+    "Estimator",
+    "MAX_ITERATIONS",
+    "MAX_PARTICLES",
+    "OptionInfo",
+    "OutputErrorCost",
+    "PSOResult",
+    "ProgressEvent",
+    "QuadraticCost",
+    "Reconstruction",
+    "SEBM_PROBLEMS",
+    "SMOOTHING_CHOICES",
+    "accel_only_matrix",
+    "available",
+    "box_edge_warnings",
+    "channel_weights",
+    "cramer_rao_sd",
+    "ebm_cost",
+    "ebm_regression",
+    "estimate_noise_sd",
+    "failed_result",
+    "get_estimator",
+    "load_errors",
+    "make_estimator",
+    "minimize",
+    "prior_bounds",
+    "rate_derivatives",
+    "reconstruct",
+    "register",
+    "regression_fit",
+    "report_progress",
+    "sebm_costs",
     "smooth",
+    "switch_free_samples",
 ]

@@ -12,39 +12,31 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from aeroid.estimation import _pso as pso
-from aeroid.estimation._interface import EstimationResult, Estimator, prior_bounds, register
+from aeroid.errors import EstimatorError
+from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._objectives import (
     EAM_ROLL_WINDOW,
     GUARD_FRACTION,
-    WEIGHTINGS,
     OutputErrorCost,
 )
+from aeroid.estimation._pso_methods import (
+    MAX_SUBSTEPS,
+    check_common_options,
+    check_swarm_size,
+    pso_history,
+    run_pso,
+)
+from aeroid.estimation._registry import register
+from aeroid.estimation._result import EstimationResult
 from aeroid.flights._flight import Flight
 
-__all__ = ["EAMPSO", "check_common_options", "pso_history"]
+__all__ = ["EAMPSO", "MAX_SWARM_STATE_BYTES"]
 
-
-def check_common_options(est: Any) -> None:
-    """Raise ValueError (one line) on bad PSO/cost options shared by the paper's methods."""
-    if est.weighting not in WEIGHTINGS:
-        raise ValueError(f"weighting must be one of {', '.join(WEIGHTINGS)}")
-    if est.topology not in ("ring", "global"):
-        raise ValueError("topology must be 'ring' or 'global'")
-    if not (0.0 <= est.guard_fraction < 1.0):
-        raise ValueError(f"guard_fraction must be in [0, 1), got {est.guard_fraction}")
-    if est.n_iterations < 0:
-        raise ValueError(f"n_iterations must be >= 0, got {est.n_iterations}")
-    if est.box is not None and len(est.box) != 18:
-        raise ValueError(f"box needs 18 numbers [low0, high0, ..., low8, high8], "
-                         f"got {len(est.box)}")
-
-
-def pso_history(res: pso.PSOResult) -> dict[str, Any]:
-    """Return the result history (axis 'iteration') of one PSO run over all nine coefficients."""
-    return {"axis": "iteration", "step": np.arange(res.history_cost.size),
-            "cost": np.asarray(res.history_cost, dtype=float),
-            "theta": np.asarray(res.history_x, dtype=float)}
+#: Largest simulated swarm EAM-PSO allocates, n_particles x samples x 9 states x 8 bytes
+#: (checked before the first simulation): 4 GiB, a third of a small workstation's memory.
+#: The paper's swarm on the 501-sample reference flight needs 16 MB; a long log with a
+#: large swarm is refused with one line instead of exhausting the machine.
+MAX_SWARM_STATE_BYTES = 4 * 2**30
 
 
 @register
@@ -54,30 +46,38 @@ class EAMPSO(Estimator):
 
     Options
     -------
-    n_particles, n_iterations : int
-        Swarm size and iterations (paper: 450 x 200; section 4.1 says 100, Table 5 200).
+    n_particles : int
+        Swarm size (paper: 450).
+    n_iterations : int
+        Iterations of the swarm, at least 1 (paper: 200; section 4.1 says 100).
     weighting : {"noise", "relative"}
-        Cost weighting (:mod:`aeroid.estimation`): "noise" (default, maximum likelihood)
-        or "relative" (eq. 23 with the guard).
+        Cost weighting: "noise" (default, maximum likelihood with per-channel noise
+        levels estimated from the data) or "relative" (the paper's eq. 23 with the guard).
     guard_fraction : float
-        Guard of the relative weighting.
+        Guard of the relative weighting, as a fraction of each channel's mean square.
     box : 18 numbers or None
         Search box ``[low0, high0, ...]``; default the airframe's prior x [0.5, 1.5].
     topology : {"ring", "global"}
+        Neighbourhood of the swarm: the paper's singly-linked ring, or global best.
     interpolation : bool
-        The quadratic interpolation operator (eqs. 20-22).
+        Apply the paper's quadratic interpolation operator (eqs. 20-22).
     warm_start : bool
         Put one particle at the prior (default False, as the paper: random swarm).
     substeps : int
-        RK4 steps per 2 ms sample interval (1 is accurate to ~1e-5 relative here).
+        RK4 steps per sample interval (1 is accurate to ~1e-5 relative here).
     stall_iterations : int or None
         Stop when the best cost has not improved for this many iterations.
     initial_state : {"smoothed", "kinematic"}
-        Initial rates of the simulation: SG-smoothed measured rates (default, notes
-        "EAM"; p over ``roll_window`` samples) or p0 from the measured roll angle
+        Initial rates of the simulation: SG-smoothed measured rates (default; p over
+        ``roll_window`` samples) or p0 from the measured roll angle
         (:class:`aeroid.estimation.OutputErrorCost`).
     roll_window : int
-        SG window for the initial roll rate [samples] (default 501).
+        Savitzky-Golay window for the initial roll rate [samples] (default 501).
+    input : {"hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled (default ``hold``, the paper's
+        latched relay; :data:`aeroid.flights.INPUTS`).
+    delay_s : float
+        A known actuator delay [s] applied to that deflection (default 0).
     """
 
     name: ClassVar[str] = "eam-pso"
@@ -96,34 +96,53 @@ class EAMPSO(Estimator):
     stall_iterations: int | None = None
     initial_state: Literal["smoothed", "kinematic"] = "smoothed"
     roll_window: int = EAM_ROLL_WINDOW
+    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    delay_s: float = 0.0
 
     def __post_init__(self) -> None:
         check_common_options(self)
-        if self.n_particles < 3:
-            raise ValueError(f"n_particles must be >= 3, got {self.n_particles}")
+        check_swarm_size(self.n_particles)
         if self.roll_window < 1 or self.roll_window % 2 == 0:
             raise ValueError(f"roll_window must be a positive odd integer, got {self.roll_window}")
-        if self.substeps < 1:
-            raise ValueError(f"substeps must be >= 1, got {self.substeps}")
+        if not 1 <= self.substeps <= MAX_SUBSTEPS:
+            raise ValueError(f"substeps must be in [1, {MAX_SUBSTEPS}] (MAX_SUBSTEPS: more only "
+                             f"cost time), got {self.substeps}")
+        if self.stall_iterations is not None and self.stall_iterations < 1:
+            raise ValueError(f"stall_iterations must be >= 1 or none, "
+                             f"got {self.stall_iterations}")
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
-        """Estimate the nine coefficients by output error (see class docstring)."""
+        """Estimate the nine coefficients by output error (see class docstring).
+
+        Raises
+        ------
+        EstimatorError
+            When the swarm's simulated states would exceed :data:`MAX_SWARM_STATE_BYTES`.
+        """
+        need = self.n_particles * flight.n_samples * 9 * 8
+        if need > MAX_SWARM_STATE_BYTES:
+            raise EstimatorError(
+                f"{self.name}: {self.n_particles} particles x {flight.n_samples} samples need "
+                f"{need / 2**30:.1f} GiB of simulated states (limit "
+                f"{MAX_SWARM_STATE_BYTES / 2**30:.0f} GiB): use fewer particles or a "
+                "shorter window")
         bounds = prior_bounds(flight.airframe, self.box)
         cost = OutputErrorCost(flight, weighting=self.weighting,
                                guard_fraction=self.guard_fraction, substeps=self.substeps,
-                               initial_state=self.initial_state, roll_window=self.roll_window)
+                               initial_state=self.initial_state, roll_window=self.roll_window,
+                               input=self.input, delay_s=self.delay_s)
         x0 = flight.airframe.prior_vector()[None, :] if self.warm_start else None
-        res = pso.minimize(cost, bounds, n_particles=self.n_particles,
-                           n_iterations=self.n_iterations, rng=rng, topology=self.topology,
-                           interpolation=self.interpolation, x0=x0,
-                           stall_iterations=self.stall_iterations)
+        res, warnings = run_pso(self, cost, bounds, rng, n_particles=self.n_particles, x0=x0,
+                                stall_iterations=self.stall_iterations)
         info: dict[str, Any] = {
             "weighting": self.weighting, "n_particles": self.n_particles,
             "bounds": bounds, "t": flight.t, "outputs": ("ax1", "ay1", "az1", "p", "q", "r"),
             "measured": cost.measured, "predicted": cost.predict(res.x)[0],
             "state0": cost.state0, "initial_state": self.initial_state,
         }
+        info["fit_residuals"] = {name: info["measured"][:, j] - info["predicted"][:, j]
+                                 for j, name in enumerate(info["outputs"])}
         return EstimationResult(
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
-            message=res.message, n_evaluations=res.n_evaluations,
+            message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,
             n_iterations=res.n_iterations, history=pso_history(res), info=info)

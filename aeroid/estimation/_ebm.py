@@ -11,51 +11,34 @@ is reported in ``info["closed_form_theta"]`` as the yardstick of the PSO.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
-from aeroid.estimation import _pso as pso
-from aeroid.estimation._eam import check_common_options, pso_history
-from aeroid.estimation._interface import EstimationResult, Estimator, prior_bounds, register
+from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._objectives import EBM_ROWS, GUARD_FRACTION, ebm_cost
+from aeroid.estimation._pso_methods import (
+    check_common_options,
+    check_step_one_options,
+    check_swarm_size,
+    pso_history,
+    reconstruction_info,
+    run_pso,
+    step_one,
+)
 from aeroid.estimation._reconstruct import (
-    DERIVATIVE_POLYORDER,
     DERIVATIVE_WINDOW,
     RATE_WEIGHT,
     ROLL_DERIVATIVE_WINDOW,
     SMOOTHING_WINDOW,
-    Reconstruction,
-    reconstruct,
+    ebm_regression,
+    regression_fit,
 )
+from aeroid.estimation._registry import register
+from aeroid.estimation._result import EstimationResult
 from aeroid.flights._flight import Flight
 
-__all__ = ["EBMPSO", "check_step_one_options", "reconstruction_info", "step_one"]
-
-
-def reconstruction_info(rec: Reconstruction) -> dict[str, Any]:
-    """Return the step-1 arrays stored in ``info`` (the paper's Figs. 9-12)."""
-    return {"t": rec.t, "fm_raw": rec.fm, "fm_smooth": rec.fm_smooth,
-            "fm_names": ("FAX", "FAY", "FAZ", "MX", "MY", "MZ"), "row_sd": rec.row_sd}
-
-
-def check_step_one_options(est: Any) -> None:
-    """Raise ValueError (one line) on bad step-1 options (checked at construction)."""
-    if not (np.isfinite(est.rate_weight) and est.rate_weight > 0):
-        raise ValueError(f"rate_weight must be > 0, got {est.rate_weight}")
-    for name, low in (("smoothing_window", 1), ("derivative_window", DERIVATIVE_POLYORDER + 1),
-                      ("roll_derivative_window", 3)):
-        value = getattr(est, name)
-        if value < low or value % 2 == 0:
-            raise ValueError(f"{name} must be an odd integer >= {low}, got {value}")
-
-
-def step_one(est: Any, flight: Flight) -> Reconstruction:
-    """Run EBM step 1 with the estimator's reconstruction options."""
-    return reconstruct(flight, rate_weight=est.rate_weight,
-                       smoothing_window=est.smoothing_window,
-                       derivative_window=est.derivative_window,
-                       roll_derivative_window=est.roll_derivative_window)
+__all__ = ["EBMPSO"]
 
 
 @register
@@ -65,19 +48,34 @@ class EBMPSO(Estimator):
 
     Options
     -------
-    n_particles, n_iterations : int
-        Paper: 450 x 200.
+    n_particles : int
+        Swarm size (paper: 450).
+    n_iterations : int
+        Iterations of the swarm, at least 1 (paper: 200).
     weighting : {"noise", "relative"}
-        Noise-weighted (default) or the paper's relative eq. 34 with the guard.
+        Noise-weighted rows (default) or the paper's relative eq. 34 with the guard.
     smoothing : {"both", "forces", "none"}
-        "both" (default) smooths targets and regressors, "forces" only the targets (the
-        paper's way), "none" neither (notes, "Smoothing").
+        Savitzky-Golay smoothing of targets and regressors ("both", default), of the
+        targets only ("forces", the paper's way), or of neither.
     lateral : bool
         Also fit F_AY and M_Z (default False: the paper's four rows F_AX, F_AZ, M_X, M_Y).
-    guard_fraction, box, topology, interpolation
-        As for EAM-PSO.
-    rate_weight, smoothing_window, derivative_window, roll_derivative_window
-        Step-1 options (:func:`aeroid.estimation.reconstruct`).
+    guard_fraction : float
+        Guard of the relative weighting, as a fraction of each row's mean square.
+    box : 18 numbers or None
+        Search box ``[low0, high0, ...]``; default the airframe's prior x [0.5, 1.5].
+    topology : {"ring", "global"}
+        Neighbourhood of the swarm: the paper's singly-linked ring, or global best.
+    interpolation : bool
+        Apply the paper's quadratic interpolation operator (eqs. 20-22).
+    rate_weight : float
+        Step 1: weight of the rate-derivative rows against the accelerometer rows
+        (:func:`aeroid.estimation.reconstruct`).
+    smoothing_window : int
+        Step 1: Savitzky-Golay window of the force and moment smoothing (eq. 32) [samples].
+    derivative_window : int
+        Step 1: Savitzky-Golay window of the pitch and yaw rate derivatives [samples].
+    roll_derivative_window : int
+        Step 1: Savitzky-Golay window of the roll rate derivative [samples].
     """
 
     name: ClassVar[str] = "ebm-pso"
@@ -101,8 +99,7 @@ class EBMPSO(Estimator):
     def __post_init__(self) -> None:
         check_common_options(self)
         check_step_one_options(self)
-        if self.n_particles < 3:
-            raise ValueError(f"n_particles must be >= 3, got {self.n_particles}")
+        check_swarm_size(self.n_particles)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Reconstruct, smooth and fit (see class docstring)."""
@@ -111,14 +108,14 @@ class EBMPSO(Estimator):
         cost = ebm_cost(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
                         rows=rows, guard_fraction=self.guard_fraction)
         bounds = prior_bounds(flight.airframe, self.box)
-        res = pso.minimize(cost, bounds, n_particles=self.n_particles,
-                           n_iterations=self.n_iterations, rng=rng, topology=self.topology,
-                           interpolation=self.interpolation)
+        res, warnings = run_pso(self, cost, bounds, rng, n_particles=self.n_particles)
         info = reconstruction_info(rec)
         info.update({"weighting": self.weighting, "smoothing": self.smoothing,
                      "rows": rows, "n_particles": self.n_particles, "bounds": bounds,
                      "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min})
+        X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
+        info.update(regression_fit(rec, X, y, res.x, tuple(rows)))
         return EstimationResult(
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
-            message=res.message, n_evaluations=res.n_evaluations,
+            message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,
             n_iterations=res.n_iterations, history=pso_history(res), info=info)

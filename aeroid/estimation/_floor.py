@@ -79,15 +79,15 @@ import numpy as np
 
 from aeroid.flights._flight import Flight
 from aeroid.flights._noise import GaussianNoise, NoiseModel, NoNoise, PaperNoise
+from aeroid.flights._record import flight_record
 from aeroid.flights._scenario import Scenario
 from aeroid.flights._simulate import simulate
 from aeroid.model._airframe import Airframe
 from aeroid.model._coefficients import N_COEFFICIENTS, as_vector
-from aeroid.model._dynamics import STATE_NAMES, Constants, P, R, accelerometers, constants
-from aeroid.model._integrate import propagate
+from aeroid.model._dynamics import OUTPUT_CHANNELS, constants
+from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
+from aeroid.model._inputs import Record
 
-#: Output channels of the output-error model, in the column order of every (n, 9) array.
-OUTPUT_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r")
 #: Channel subsets: ``both`` triads and the rates (default), or ``triad1`` and the rates
 #: (the EAM output set: triad 1 at [Rx1, 0, 0] only).
 CHANNEL_SETS: dict[str, tuple[int, ...]] = {
@@ -101,8 +101,6 @@ NOISE_FORMS: tuple[str, ...] = ("heteroscedastic", "homoscedastic")
 PROTOTYPE_FLOOR: dict[str, object] = {
     "noise_form": "homoscedastic", "channels": "triad1", "estimate_initial": ("p", "q", "r"),
 }
-#: Relative central-difference step of the sensitivities (see the module docstring).
-DEFAULT_REL_STEP = 1e-5
 #: RK4 steps per sample interval of the model (0.25 ms at 500 Hz: the truth's step).
 DEFAULT_SUBSTEPS = 8
 
@@ -118,20 +116,27 @@ class OutputErrorInputs(NamedTuple):
         Recorded fin deflection at every sample [rad], held over ``[t_k, t_k + dt)``.
     dt : float
         Sample interval [s].
+    record : Record or None
+        The inputs in time (deflection between samples, per-sample quantities); None:
+        ``delta`` held over each interval, the airframe's constants.
     """
 
     state0: np.ndarray
     delta: np.ndarray
     dt: float
+    record: Record | None = None
 
 
-def inputs_from_flight(flight: Flight) -> OutputErrorInputs:
-    """Return the model inputs of ``flight``: its first state, recorded delta and dt.
+def inputs_from_flight(flight: Flight, input: str = "hold") -> OutputErrorInputs:  # noqa: A002
+    """Return the model inputs of ``flight``: its first state, the deflection and dt.
 
-    For a noisy flight the first sample's measured p, q, r are used as they are; for
-    the floor pass the noise-free flight (``cramer_rao_sd`` does).
+    ``input`` is how the deflection between samples is modelled
+    (:data:`aeroid.flights.INPUTS`); per-sample channels of the flight are used. For a
+    noisy flight the first sample's measured p, q, r are used as they are; for the floor
+    pass the noise-free flight (``cramer_rao_sd`` does).
     """
-    return OutputErrorInputs(flight.states()[0], flight["delta"], flight.dt)
+    record = flight_record(flight, input)
+    return OutputErrorInputs(flight.states()[0], record.delta, flight.dt, record)
 
 
 def _as_inputs(flight_or_inputs: Flight | OutputErrorInputs) -> OutputErrorInputs:
@@ -142,7 +147,8 @@ def _as_inputs(flight_or_inputs: Flight | OutputErrorInputs) -> OutputErrorInput
         delta = np.asarray(flight_or_inputs.delta, dtype=float).reshape(-1)
         if state0.shape != (9,) or delta.size < 2:
             raise ValueError("fisher: inputs need state0 of shape (9,) and at least 2 samples")
-        return OutputErrorInputs(state0, delta, float(flight_or_inputs.dt))
+        return OutputErrorInputs(state0, delta, float(flight_or_inputs.dt),
+                                 flight_or_inputs.record)
     raise TypeError(
         f"fisher: expected a Flight or OutputErrorInputs, got {type(flight_or_inputs).__name__}"
     )
@@ -153,6 +159,13 @@ def _positions(airframe: Airframe, positions: np.ndarray | None) -> np.ndarray:
     if pos.shape != (2, 3) or not np.all(np.isfinite(pos)):
         raise ValueError(f"fisher: positions must be 2 x 3 finite values [m], got {pos.shape}")
     return pos
+
+
+def _forward_model(airframe: Airframe, inputs: OutputErrorInputs, positions: np.ndarray | None,
+                   substeps: int) -> ForwardModel:
+    record = inputs.record or Record.held(inputs.delta, inputs.dt)
+    return ForwardModel(constants(airframe), record, _positions(airframe, positions),
+                        substeps=substeps)
 
 
 def model_outputs(
@@ -185,20 +198,9 @@ def model_outputs(
     inputs = _as_inputs(flight_or_inputs)
     theta = np.asarray(coefficients, dtype=float)
     single = theta.ndim == 1
-    theta = np.atleast_2d(as_vector(theta))
-    const = constants(airframe)
-    pos = _positions(airframe, positions)
-    states = propagate(inputs.state0, theta, inputs.delta[:-1], inputs.dt, const,
-                       substeps=substeps)
-    out = _outputs(states, inputs.delta, theta, const, pos)
+    model = _forward_model(airframe, inputs, positions, substeps)
+    out = model.outputs(inputs.state0, as_vector(np.atleast_2d(theta)))
     return out[0] if single else out
-
-
-def _outputs(states: np.ndarray, delta: np.ndarray, theta: np.ndarray, const: Constants,
-             pos: np.ndarray) -> np.ndarray:
-    # states (n_sets, n, 9), delta (n,), theta (n_sets, 9) -> (n_sets, n, 9)
-    acc = accelerometers(states, delta[None, :], theta[:, None, :], const, pos)
-    return np.concatenate([acc.reshape(*states.shape[:2], 6), states[..., P:R + 1]], axis=-1)
 
 
 def output_sensitivities(
@@ -221,37 +223,12 @@ def output_sensitivities(
     integrated in one batched call.
     """
     inputs = _as_inputs(flight_or_inputs)
-    theta = as_vector(np.asarray(coefficients, dtype=float))
-    if theta.shape != (N_COEFFICIENTS,):
-        raise ValueError(f"fisher: coefficients must have shape (9,), got {theta.shape}")
-    if not (math.isfinite(rel_step) and 0 < rel_step < 1):
-        raise ValueError(f"fisher: rel_step must be in (0, 1), got {rel_step}")
-    unknown = [name for name in estimate_initial if name not in STATE_NAMES]
-    if unknown:
-        raise ValueError(f"fisher: unknown state name(s) {unknown} in estimate_initial "
-                         f"(expected some of {', '.join(STATE_NAMES)})")
-    idx = [STATE_NAMES.index(name) for name in estimate_initial]
-    x0 = inputs.state0
-    n_par = N_COEFFICIENTS + len(idx)
-    step = np.concatenate([rel_step * np.where(theta != 0, np.abs(theta), 1.0),
-                           rel_step * np.maximum(np.abs(x0[idx]), 1.0)])
-    thetas = np.tile(theta, (2 * n_par, 1))
-    states = np.tile(x0, (2 * n_par, 1))
-    for j in range(n_par):
-        for sign, row in ((1.0, j), (-1.0, n_par + j)):
-            if j < N_COEFFICIENTS:
-                thetas[row, j] += sign * step[j]
-            else:
-                states[row, idx[j - N_COEFFICIENTS]] += sign * step[j]
-    const = constants(airframe)
-    pos = _positions(airframe, positions)
-    traj = propagate(states, thetas, inputs.delta[:-1], inputs.dt, const, substeps=substeps)
-    y = _outputs(traj, inputs.delta, thetas, const, pos)
-    jac = (y[:n_par] - y[n_par:]) / (2.0 * step[:, None, None])
-    return np.moveaxis(jac, 0, -1)
+    model = _forward_model(airframe, inputs, positions, substeps)
+    return model.sensitivities(inputs.state0, coefficients, free_states=estimate_initial,
+                               rel_step=rel_step)
 
 
-def noise_sd(
+def model_noise_sd(
     noise_model: NoiseModel,
     outputs: np.ndarray,
     *,
@@ -357,7 +334,7 @@ def output_error_information(
         Initial state, recorded delta, sample interval (:func:`inputs_from_flight`).
     noise_sd : float or ndarray, broadcastable to (n, 9)
         Error standard deviation per sample and output channel
-        (:data:`OUTPUT_CHANNELS`) [m/s^2, rad/s] (:func:`noise_sd` builds it).
+        (:data:`OUTPUT_CHANNELS`) [m/s^2, rad/s] (:func:`model_noise_sd` builds it).
     positions : ndarray, shape (2, 3), optional
         Triad positions [m]; default ``airframe.accel_positions``.
     channels : {"both", "triad1"}
@@ -389,6 +366,7 @@ def cramer_rao_sd(
     noise_form: str = "heteroscedastic",
     channels: str = "both",
     estimate_initial: tuple[str, ...] = (),
+    input: str = "hold",  # noqa: A002 - the estimators' option name
 ) -> np.ndarray:
     """Return the Cramér-Rao standard deviations of the nine coefficients, shape (9,).
 
@@ -399,17 +377,20 @@ def cramer_rao_sd(
         ``metadata["true_coefficients"]`` (a simulated flight) and is linearised about
         its recorded initial state and delta (use a noise-free flight for the exact floor).
     noise_model : PaperNoise or GaussianNoise
-        The measurement errors (see :func:`noise_sd`; position errors are not noise).
+        The measurement errors (see :func:`model_noise_sd`; position errors are not noise).
     positions : {"true", "estimator"}
         Triad positions of the model: the true ones (default) or the estimator's copy.
     noise_form : {"heteroscedastic", "homoscedastic"}
-        Paper noise only, see :func:`noise_sd`.
+        Paper noise only, see :func:`model_noise_sd`.
     channels : {"both", "triad1"}
         Outputs: both triads and p, q, r (default), or triad 1 and p, q, r.
     estimate_initial : tuple of str
         Initial-state components estimated jointly as nuisance parameters (default
         none). ``**PROTOTYPE_FLOOR`` (homoscedastic, triad 1, initial p, q, r estimated)
         reproduces the reference README's figures.
+    input : {"hold", "midpoint", "events", "law"}
+        How the model's deflection between samples is taken
+        (:data:`aeroid.flights.INPUTS`); per-sample channels of the flight are used.
 
     Returns
     -------
@@ -438,9 +419,9 @@ def cramer_rao_sd(
     else:
         raise ValueError(
             f"cramer_rao_sd: positions must be 'true' or 'estimator', got {positions!r}")
-    inputs = inputs_from_flight(flight)
+    inputs = inputs_from_flight(flight, input)
     outputs = model_outputs(flight.airframe, theta, inputs, positions=pos)
-    sd = noise_sd(noise_model, outputs, noise_form=noise_form)
+    sd = model_noise_sd(noise_model, outputs, noise_form=noise_form)
     info = output_error_information(flight.airframe, theta, inputs, sd, positions=pos,
                                     channels=channels, estimate_initial=estimate_initial)
     cov = np.linalg.inv(info)

@@ -8,7 +8,7 @@ Weighting (notes, "Objectives")
 ``"noise"`` (default)
     Maximum likelihood for Gaussian noise: each channel's residual is divided by the
     channel's noise sd, estimated from the data with
-    :func:`aeroid.estimation.noise_sd` (robust spread of the residual of the 7-point
+    :func:`aeroid.estimation.estimate_noise_sd` (robust spread of the residual of the 7-point
     SG smoother; for the EBM's reconstructed forces, of the *unsmoothed* series). One
     constant per channel.
 ``"relative"``
@@ -35,17 +35,12 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.signal import savgol_filter
 
-from aeroid.estimation._reconstruct import Reconstruction, ebm_regression, noise_sd, smooth
+from aeroid.estimation._reconstruct import Reconstruction, ebm_regression
+from aeroid.estimation._signals import estimate_noise_sd, smooth
 from aeroid.flights._flight import Flight
-from aeroid.model._dynamics import PHI, THETA, P, Q, R, constants
-from aeroid.model._integrate import propagate
-
-try:
-    import numba
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover
-    HAVE_NUMBA = False
+from aeroid.flights._record import flight_record, model_constants
+from aeroid.model._dynamics import PHI, THETA, P, Q, R
+from aeroid.model._forward import ForwardModel
 
 __all__ = [
     "EAM_OUTPUTS",
@@ -99,7 +94,7 @@ def channel_weights(z: np.ndarray, weighting: str = "noise", *,
         Measured channels (the denominators of the relative form).
     weighting : {"noise", "relative"}
     sd : ndarray, shape (m,), optional
-        Noise sd per channel for ``"noise"`` (default :func:`noise_sd` of ``z``).
+        Noise sd per channel for ``"noise"`` (default :func:`estimate_noise_sd` of ``z``).
     guard_fraction : float
         Relative form only: samples with ``|z| < guard_fraction * RMS`` get weight 0.
 
@@ -111,7 +106,7 @@ def channel_weights(z: np.ndarray, weighting: str = "noise", *,
     _check_weighting(weighting, guard_fraction)
     z = np.asarray(z, dtype=float)
     if weighting == "noise":
-        sd = noise_sd(z) if sd is None else np.asarray(sd, dtype=float)
+        sd = estimate_noise_sd(z) if sd is None else np.asarray(sd, dtype=float)
         return np.broadcast_to(1.0 / sd**2, z.shape).copy()
     rms = np.sqrt(np.mean(z * z, axis=0))
     keep = np.abs(z) >= guard_fraction * rms
@@ -214,7 +209,7 @@ def ebm_cost(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
     rows = _check_rows(rows)
     X, y = ebm_regression(flight, rec, smoothing=smoothing)
     X, y = X[:, rows], y[:, rows]
-    w = channel_weights(y, weighting, sd=noise_sd(rec.fm[:, rows]),
+    w = channel_weights(y, weighting, sd=estimate_noise_sd(rec.fm[:, rows]),
                         guard_fraction=guard_fraction)
     return QuadraticCost(X, y, w)
 
@@ -230,7 +225,7 @@ def sebm_costs(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
     scales each cost).
     """
     X, y = ebm_regression(flight, rec, smoothing=smoothing)
-    sd = noise_sd(rec.fm)
+    sd = estimate_noise_sd(rec.fm)
     out = []
     for label, row, cols, _ in SEBM_PROBLEMS:
         yr = y[:, [row]]
@@ -249,66 +244,6 @@ def _check_rows(rows: Sequence[int]) -> list[int]:
 # --------------------------------------------------------------------------------------
 # EAM: output error
 # --------------------------------------------------------------------------------------
-def _outputs_numpy(states: np.ndarray, delta: np.ndarray, theta: np.ndarray, k: tuple,
-                   pos: np.ndarray) -> np.ndarray:
-    """Triad-1 accelerations (eq. 28) and rates, shape (P, n, 6), from states (P, n, 9)."""
-    from aeroid.model._dynamics import Constants, accelerometers
-
-    const = Constants(*k)
-    acc = accelerometers(states, delta, theta[:, None, :], const, pos[None, :])[..., 0, :]
-    return np.concatenate([acc, states[..., [P, Q, R]]], axis=-1)
-
-
-if HAVE_NUMBA:
-
-    @numba.njit(cache=True, parallel=True, fastmath=False)
-    def _cost_numba(states, delta, theta, k, pos, z, w):  # pragma: no cover - compiled
-        n_sets, n = states.shape[0], states.shape[1]
-        out = np.empty(n_sets)
-        rho, area, diam, mass, ix, iy, iz, thrust = k[0], k[1], k[2], k[3], k[4], k[5], \
-            k[6], k[7]
-        rx, ry, rz = pos[0], pos[1], pos[2]
-        for i in numba.prange(n_sets):
-            c = theta[i]
-            acc = 0.0
-            for s in range(n):
-                x = states[i, s]
-                u, v, ww, p, q, r = x[0], x[1], x[2], x[3], x[4], x[5]
-                speed = np.sqrt(u * u + v * v + ww * ww)
-                alpha = np.arctan2(ww, u)
-                beta = np.arcsin(v / speed)
-                qs = 0.5 * rho * speed * speed * area
-                qsd = qs * diam
-                kd = diam / (2.0 * speed)
-                d = delta[s]
-                fax = qs * c[0]
-                fay = qs * (c[1] * beta - c[3] * kd * r)
-                faz = qs * (c[1] * alpha + c[2] * d + c[3] * kd * q)
-                mx = qsd * (c[4] + c[5] * kd * p)
-                my = qsd * (c[6] * alpha + c[7] * d + c[8] * kd * q)
-                mz = qsd * (-c[6] * beta + c[8] * kd * r)
-                pd = mx / ix
-                qd = (iz - ix) / iy * p * r + my / iy
-                rd = (ix - iy) / iz * p * q + mz / iz
-                # w x R and w x (w x R)
-                cx = q * rz - r * ry
-                cy = r * rx - p * rz
-                cz = p * ry - q * rx
-                ax = (fax + thrust) / mass + (qd * rz - rd * ry) + (q * cz - r * cy)
-                ay = fay / mass + (rd * rx - pd * rz) + (r * cx - p * cz)
-                az = faz / mass + (pd * ry - qd * rx) + (p * cy - q * cx)
-                e0 = z[s, 0] - ax
-                e1 = z[s, 1] - ay
-                e2 = z[s, 2] - az
-                e3 = z[s, 3] - p
-                e4 = z[s, 4] - q
-                e5 = z[s, 5] - r
-                acc += (w[s, 0] * e0 * e0 + w[s, 1] * e1 * e1 + w[s, 2] * e2 * e2
-                        + w[s, 3] * e3 * e3 + w[s, 4] * e4 * e4 + w[s, 5] * e5 * e5)
-            out[i] = acc / n
-        return out
-
-
 class OutputErrorCost:
     """EAM output-error cost (eq. 23, or its noise-weighted form), vectorised over a swarm.
 
@@ -347,6 +282,11 @@ class OutputErrorCost:
         How the initial rates are taken (above).
     roll_window : int
         SG window for p0 with ``"smoothed"`` [samples].
+    input : {"hold", "midpoint", "events", "law"}
+        How the deflection between samples is modelled (:data:`aeroid.flights.INPUTS`);
+        the flight's per-sample channels (density, mass, thrust, inertias) are used.
+    delay_s : float
+        Actuator time delay of the input [s].
 
     Attributes
     ----------
@@ -359,7 +299,8 @@ class OutputErrorCost:
     def __init__(self, flight: Flight, *, weighting: str = "noise",
                  guard_fraction: float = GUARD_FRACTION, substeps: int = 1,
                  backend: str = "auto", initial_state: str = "smoothed",
-                 roll_window: int = EAM_ROLL_WINDOW) -> None:
+                 roll_window: int = EAM_ROLL_WINDOW, input: str = "hold",  # noqa: A002
+                 delay_s: float = 0.0) -> None:
         _check_weighting(weighting, guard_fraction)
         if initial_state not in INITIAL_STATES:
             raise ValueError(f"initial_state must be one of {', '.join(INITIAL_STATES)}, "
@@ -368,8 +309,6 @@ class OutputErrorCost:
             raise ValueError(f"substeps must be >= 1, got {substeps}")
         if backend not in ("auto", "numba", "numpy"):
             raise ValueError(f"backend must be auto, numba or numpy, got {backend!r}")
-        self.const = constants(flight.airframe)
-        self.dt = flight.dt
         self.delta = flight["delta"]
         self.measured = np.column_stack([flight[c] for c in EAM_OUTPUTS])
         self.weights = channel_weights(self.measured, weighting, guard_fraction=guard_fraction)
@@ -388,39 +327,21 @@ class OutputErrorCost:
             q0, r0 = self.state0[Q], self.state0[R]
             self.state0[P] = phidot - (q0 * np.sin(phi) + r0 * np.cos(phi)) * np.tan(theta)
         self.initial_state = initial_state
-        self.position = np.ascontiguousarray(flight.airframe.accel_positions[0])
-        self.substeps = int(substeps)
-        self.backend = "numba" if backend == "auto" and HAVE_NUMBA else backend
-        if self.backend == "auto":
-            self.backend = "numpy"
+        self.record = flight_record(flight, input, delay_s)
+        self.model = ForwardModel(model_constants(flight), self.record,
+                                  flight.airframe.accel_positions[:1], substeps=substeps,
+                                  backend=backend)
 
     def simulate(self, theta: np.ndarray) -> np.ndarray:
         """Return the predicted states, shape (P, n, 9)."""
-        theta = np.atleast_2d(np.asarray(theta, dtype=float))
-        return propagate(self.state0, theta, self.delta[:-1], self.dt, self.const,
-                         substeps=self.substeps, backend=self.backend)
+        return self.model.states(self.state0, theta)
 
     def predict(self, theta: np.ndarray) -> np.ndarray:
         """Return predicted outputs ``ax1, ay1, az1, p, q, r``, shape (P, n, 6)."""
-        theta = np.atleast_2d(np.asarray(theta, dtype=float))
-        with np.errstate(all="ignore"):
-            return _outputs_numpy(self.simulate(theta), self.delta, theta, tuple(self.const),
-                                  self.position)
+        return self.model.outputs(self.state0, theta)
 
     def __call__(self, theta: np.ndarray) -> np.ndarray | float:
         """Return J for ``theta`` (P, 9) -> (P,) or (9,) -> float; non-finite -> +inf."""
         t = np.asarray(theta, dtype=float)
-        theta2 = np.ascontiguousarray(np.atleast_2d(t))
-        states = self.simulate(theta2)
-        with np.errstate(all="ignore"):
-            if self.backend == "numba":
-                cost = _cost_numba(states, self.delta, theta2, tuple(float(v) for v in self.const),
-                                   self.position, self.measured, self.weights)
-            else:
-                pred = _outputs_numpy(states, self.delta, theta2, tuple(self.const),
-                                      self.position)
-                cost = np.sum(self.weights * (self.measured - pred) ** 2, axis=(1, 2)) / len(
-                    self.delta)
-        cost = np.where(np.isfinite(cost), cost, np.inf)
+        cost = self.model.cost(self.state0, np.atleast_2d(t), self.measured, self.weights)
         return float(cost[0]) if t.ndim == 1 else cost
-

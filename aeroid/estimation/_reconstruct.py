@@ -16,7 +16,8 @@ angular acceleration along ``R2 - R1``. Decision (notes): three further rows
 the nine rows are solved per sample by weighted least squares.
 
 Weights (a decision the notes leave open): each row is divided by the noise standard
-deviation of its measurement, estimated from the data (:func:`noise_sd`): for an
+deviation of its measurement, estimated from the data
+(:func:`aeroid.estimation.estimate_noise_sd`): for an
 accelerometer channel the robust (MAD) spread of its residual from the 7-point SG
 smoother; for a rate-derivative row the same estimate for p, q or r times the noise gain
 ``||h||`` of the SG derivative filter, and the rate rows are further scaled by
@@ -36,37 +37,37 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.signal import savgol_coeffs, savgol_filter
+from scipy.signal import savgol_coeffs
 
+from aeroid.estimation._signals import (
+    DERIVATIVE_POLYORDER,
+    DERIVATIVE_WINDOW,
+    ROLL_DERIVATIVE_WINDOW,
+    ROLL_POLYORDER,
+    SMOOTHING_POLYORDER,
+    SMOOTHING_WINDOW,
+    estimate_noise_sd,
+    rate_derivatives,
+    smooth,
+)
 from aeroid.flights._flight import Flight
+from aeroid.flights._record import sample_constants
+from aeroid.model import _equations as eq
 from aeroid.model._airframe import Airframe
 from aeroid.model._dynamics import FM_NAMES, Constants, constants, regressors
 
 __all__ = [
+    "RATE_WEIGHT",
+    "SMOOTHING_CHOICES",
     "Reconstruction",
     "accel_only_matrix",
     "ebm_regression",
-    "noise_sd",
-    "rate_derivatives",
+    "regression_fit",
     "reconstruct",
-    "smooth",
+    "sensor_matrix",
+    "sensor_offset",
 ]
 
-#: Width of the paper's smoother (eq. 32): 7 points, quadratic.
-SMOOTHING_WINDOW = 7
-SMOOTHING_POLYORDER = 2
-#: Default SG window for the rate derivatives [samples]. The roll-rate noise of the
-#: paper (+-5 %, about 2.5 rad/s) swamps the roll acceleration (~4 rad/s^2); a wider
-#: window lowers the derivative noise as 1/window^1.5 but biases the q, r derivatives
-#: (they oscillate at the roll frequency, ~8 Hz = 62 samples per cycle at 500 Hz).
-#: 9 samples with a quartic have a gain error of -7e-5 at 62 samples per cycle (its
-#: frequency response; a quadratic of the same width: -2 %).
-DERIVATIVE_WINDOW = 9
-DERIVATIVE_POLYORDER = 4
-#: The roll rate is slow (time constant ~3 s, no roll-frequency oscillation), so its
-#: derivative takes a wide window: the noise falls as window^-1.5 at no visible bias.
-ROLL_DERIVATIVE_WINDOW = 101
-ROLL_POLYORDER = 2
 #: Factor on the inverse-noise-sd weight of the three rate-derivative rows. Measured on
 #: the reference flight with the paper's noise (8 seeds, second step by least squares):
 #: with factor 1 the q, r derivative rows pull the accelerometer-observable directions
@@ -75,116 +76,57 @@ ROLL_POLYORDER = 2
 #: the result no longer changes (83/49 %): the rates then only complete the direction
 #: the accelerometers cannot see (rank 5 -> 6). 1e-3 sits on that plateau.
 RATE_WEIGHT = 1e-3
-#: Gaussian consistency factor of the median absolute deviation.
-MAD_TO_SD = 1.4826
-#: Floor of an estimated noise level, relative to the channel RMS (a noise-free channel
-#: would otherwise get an infinite weight).
-NOISE_FLOOR_FRACTION = 1e-9
 #: Names of the nine rows of the step-1 system.
 ROW_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "pdot", "qdot", "rdot")
 
 
-def smooth(x: np.ndarray, window: int = SMOOTHING_WINDOW, polyorder: int = SMOOTHING_POLYORDER,
-           axis: int = 0) -> np.ndarray:
-    """Savitzky-Golay smoother of eq. 32 (``scipy.signal.savgol_filter``).
+def _body_rates(omega: np.ndarray) -> eq.State:
+    """A state whose only non-zero components are the body rates ``omega`` (n, 3)."""
+    zero = np.zeros(omega.shape[0])
+    return eq.State(zero, zero, zero, omega[:, 0], omega[:, 1], omega[:, 2], zero, zero, zero)
 
-    With the defaults (width 7, quadratic) the interior weights are the paper's
-    ``(-2, 3, 6, 7, 6, 3, -2) / 21``; the ends use scipy's polynomial fit (``mode='interp'``).
 
-    Parameters
-    ----------
-    x : ndarray, shape (..., n, ...)
-        Signal sampled uniformly along ``axis``.
-    window : int
-        Odd window length [samples], ``polyorder < window <= n``.
-    polyorder : int
-    axis : int
+def _columns(fields) -> np.ndarray:
+    """Stack element-wise results (arrays and scalars) as the columns of an (n, k) array."""
+    return np.column_stack(np.broadcast_arrays(*fields))
 
-    Returns
-    -------
-    ndarray, same shape as ``x``
+
+def _unit_loads() -> eq.Loads:
+    return eq.Loads(*np.eye(len(FM_NAMES)))  # field j is the unit vector e_j over the loads
+
+
+def _per_load(const: Constants) -> Constants:
+    """Constants with per-sample fields (n,) made (n, 1), to broadcast over the six loads."""
+    return Constants(*(np.asarray(v, dtype=float)[:, None] if np.ndim(v) else v
+                       for v in const))
+
+
+def sensor_matrix(const: Constants, positions: np.ndarray) -> np.ndarray:
+    """Return ``A`` (3 n_triads, 6), or (n, 3 n_triads, 6) for per-sample mass or inertia.
+
+    Eq. 28 with eqs. 5-7 is affine in the loads, ``a_m = A FM + B(w)``; the columns of
+    ``A`` are the model's accelerometer readings for unit loads with no rotation and no
+    thrust (those go to ``B``), so this is the model's eq. 28, not a second writing of it.
     """
-    x = np.asarray(x, dtype=float)
-    _check_window(window, polyorder, x.shape[axis])
-    return savgol_filter(x, window, polyorder, axis=axis, mode="interp")
+    still = eq.State(*np.zeros(len(eq.STATE_NAMES)))
+    free = _per_load(const._replace(thrust=0.0))
+    return np.concatenate([np.stack(np.broadcast_arrays(
+        *eq.accelerometer(still, _unit_loads(), free, *pos)), axis=-2)
+        for pos in np.asarray(positions, dtype=float)], axis=-2)
 
 
-def _check_window(window: int, polyorder: int, n: int) -> None:
-    if window % 2 != 1 or window < 1:
-        raise ValueError(f"Savitzky-Golay window must be a positive odd integer, got {window}")
-    if not 0 <= polyorder < window:
-        raise ValueError(f"Savitzky-Golay polyorder must be in [0, window), got {polyorder}")
-    if window > n:
-        raise ValueError(f"Savitzky-Golay window {window} exceeds the {n} samples")
+def inertia_rows(const: Constants) -> np.ndarray:
+    """Return ``[0, J^-1]`` (3, 6), or (n, 3, 6) per sample: eqs. 5-7 per unit load."""
+    return np.stack(np.broadcast_arrays(*eq.angular_acceleration(
+        0.0, 0.0, 0.0, _unit_loads(), _per_load(const))), axis=-2)
 
 
-def noise_sd(x: np.ndarray, axis: int = 0) -> np.ndarray:
-    """Robust estimate of the white-noise standard deviation of sampled signals.
-
-    The residual ``e = x - smooth(x)`` of the 7-point quadratic SG smoother removes the
-    smooth signal; for white noise of sd ``s`` its sd is ``s sqrt(1 - h0)`` with
-    ``h0 = 7/21`` the filter's centre weight. The residual's spread is taken as
-    ``1.4826 MAD`` (robust to the jumps of a relay-driven signal), floored at
-    ``NOISE_FLOOR_FRACTION`` times the channel RMS.
-
-    Parameters
-    ----------
-    x : ndarray, shape (n, ...) (``axis`` = the time axis)
-
-    Returns
-    -------
-    ndarray, shape of ``x`` without ``axis``
-        Noise sd in the units of ``x``.
-    """
-    x = np.moveaxis(np.asarray(x, dtype=float), axis, 0)
-    resid = x - smooth(x, SMOOTHING_WINDOW, SMOOTHING_POLYORDER, axis=0)
-    h0 = savgol_coeffs(SMOOTHING_WINDOW, SMOOTHING_POLYORDER)[SMOOTHING_WINDOW // 2]
-    mad = np.median(np.abs(resid - np.median(resid, axis=0)), axis=0)
-    sd = MAD_TO_SD * mad / np.sqrt(1.0 - h0)
-    rms = np.sqrt(np.mean(x * x, axis=0))
-    return np.maximum(sd, NOISE_FLOOR_FRACTION * np.maximum(rms, np.finfo(float).tiny))
-
-
-def rate_derivatives(flight: Flight, window: int = DERIVATIVE_WINDOW,
-                     polyorder: int = DERIVATIVE_POLYORDER, *,
-                     roll_window: int | None = None, roll_polyorder: int = ROLL_POLYORDER
-                     ) -> np.ndarray:
-    """Return SG derivatives of the measured p, q, r, shape (n, 3) [rad/s^2].
-
-    ``scipy.signal.savgol_filter(..., deriv=1, delta=dt)``; ends by polynomial fit.
-    ``window``/``polyorder`` apply to q and r; p uses ``roll_window`` (default: the
-    same as ``window``) and ``roll_polyorder`` when a roll window is given.
-    """
-    rates = np.column_stack([flight["p"], flight["q"], flight["r"]])
-    _check_window(window, polyorder, rates.shape[0])
-    out = savgol_filter(rates, window, polyorder, deriv=1, delta=flight.dt, axis=0,
-                        mode="interp")
-    if roll_window is not None:
-        _check_window(roll_window, roll_polyorder, rates.shape[0])
-        out[:, 0] = savgol_filter(rates[:, 0], roll_window, roll_polyorder, deriv=1,
-                                  delta=flight.dt, mode="interp")
-    return out
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """Return ``[v]x`` with ``[v]x y = v x y``, shape (..., 3, 3)."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    zero = np.zeros_like(x)
-    return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1),
-                     np.stack([-y, x, zero], -1)], -2)
-
-
-def _inertia_inverse(const: Constants) -> np.ndarray:
-    return np.diag([1.0 / const.ix, 1.0 / const.iy, 1.0 / const.iz])
-
-
-def _accel_matrix(const: Constants, positions: np.ndarray) -> np.ndarray:
-    """Rows of eq. 28 per triad, ``[I/m, -[R]x J^-1]``: shape (3 n_triads, 6)."""
-    blocks = []
-    jinv = _inertia_inverse(const)
-    for pos in np.asarray(positions, dtype=float):
-        blocks.append(np.hstack([np.eye(3) / const.mass, -_skew(pos) @ jinv]))
-    return np.vstack(blocks)
+def sensor_offset(const: Constants, positions: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Return ``B(w)`` (n, 3 n_triads): thrust, gyroscopic and centripetal terms of eq. 28."""
+    x = _body_rates(omega)
+    none = eq.Loads(*np.zeros(len(FM_NAMES)))
+    return _columns([axis for pos in np.asarray(positions, dtype=float)
+                     for axis in eq.accelerometer(x, none, const, *pos)])
 
 
 def accel_only_matrix(airframe: Airframe) -> np.ndarray:
@@ -198,16 +140,7 @@ def accel_only_matrix(airframe: Airframe) -> np.ndarray:
     -------
     ndarray, shape (6, 6) [1/kg, 1/(kg m)]
     """
-    return _accel_matrix(constants(airframe), airframe.accel_positions)
-
-
-def _gyroscopic(omega: np.ndarray, const: Constants) -> np.ndarray:
-    """``wdot - J^-1 M`` of eqs. 5-7, shape (n, 3) [rad/s^2]."""
-    p, q, r = omega[:, 0], omega[:, 1], omega[:, 2]
-    g = np.zeros_like(omega)
-    g[:, 1] = (const.iz - const.ix) / const.iy * p * r
-    g[:, 2] = (const.ix - const.iy) / const.iz * p * q
-    return g
+    return sensor_matrix(constants(airframe), airframe.accel_positions)
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,6 +163,9 @@ class Reconstruction:
     row_sd : ndarray, shape (9,)
         Noise sd assumed for the rows ``ax1..az2`` [m/s^2] and ``pdot, qdot, rdot``
         [rad/s^2] (weights are ``1 / row_sd``; the rate rows also times ``rate_weight``).
+    fm_sd : ndarray, shape (6,)
+        Noise sd of each reconstructed load: the rows' sds propagated through the solve
+        (the median over samples when mass or inertia vary) [N, N m].
     residual : ndarray, shape (n, 9)
         Row residuals ``model - measurement`` of the solved system (rate rows NaN when
         not used).
@@ -245,6 +181,7 @@ class Reconstruction:
     omega_dot: np.ndarray
     omega_dot_sg: np.ndarray | None
     row_sd: np.ndarray
+    fm_sd: np.ndarray
     residual: np.ndarray
     rate_rows: bool
     rank: int
@@ -304,23 +241,19 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     """
     if not (np.isfinite(rate_weight) and rate_weight > 0):
         raise ValueError(f"rate_weight must be a positive number, got {rate_weight!r}")
-    const = constants(flight.airframe)
+    const = sample_constants(flight)
     n = flight.n_samples
     accel = flight.accelerations().reshape(n, 6)
     omega = np.column_stack([flight["p"], flight["q"], flight["r"]])
     positions = flight.airframe.accel_positions
-    gyro = _gyroscopic(omega, const)
-    # B of eq. 30: thrust, gyroscopic part of wdot x R, centripetal w x (w x R).
-    offsets = []
-    for pos in positions:
-        pos_b = np.broadcast_to(pos, omega.shape)
-        b = -np.cross(pos_b, gyro) + np.cross(omega, np.cross(omega, pos_b))
-        b[:, 0] += const.thrust / const.mass
-        offsets.append(b)
-    matrix = _accel_matrix(const, positions)
-    z = accel - np.hstack(offsets)
+    # eqs. 5-7: wdot = J^-1 M + g(w); the rate rows see J^-1 M = wdot - g(w)
+    none = eq.Loads(*np.zeros(len(FM_NAMES)))
+    gyro = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2], none,
+                                            const))
+    matrix = sensor_matrix(const, positions)
+    z = accel - sensor_offset(const, positions, omega)
     row_sd = np.full(9, np.nan)
-    row_sd[:6] = noise_sd(accel)
+    row_sd[:6] = estimate_noise_sd(accel)
     wdot_sg = None
     if rate_rows:
         roll_window = min(roll_derivative_window, n - 1 + n % 2)
@@ -330,22 +263,36 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
                  for w, o in ((roll_window, ROLL_POLYORDER),
                               (derivative_window, derivative_polyorder),
                               (derivative_window, derivative_polyorder))]
-        row_sd[6:] = noise_sd(omega) * np.asarray(gains)
-        matrix = np.vstack([matrix, np.hstack([np.zeros((3, 3)), _inertia_inverse(const)])])
+        row_sd[6:] = estimate_noise_sd(omega) * np.asarray(gains)
+        rows = inertia_rows(const)
+        if rows.ndim != matrix.ndim:  # one of them per sample
+            matrix, rows = (np.broadcast_to(a, (n, *a.shape[-2:])) for a in (matrix, rows))
+        matrix = np.concatenate([matrix, rows], axis=-2)
         z = np.hstack([z, wdot_sg - gyro])
-    weights = 1.0 / row_sd[: matrix.shape[0]]
+    n_rows = matrix.shape[-2]
+    weights = 1.0 / row_sd[:n_rows]
     if rate_rows:
         weights[6:] *= rate_weight
     weighted = weights[:, None] * matrix
-    fm = (z * weights) @ np.linalg.pinv(weighted).T
-    rank = int(np.linalg.matrix_rank(weighted))
-    model = fm @ matrix.T
+    gain = np.linalg.pinv(weighted) * weights  # fm = gain z, per sample or shared
+    if matrix.ndim == 2:  # one matrix for the whole flight: one pseudo-inverse
+        fm = z @ gain.T
+        model = fm @ matrix.T
+    else:  # per-sample mass or inertia
+        fm = np.einsum("kij,kj->ki", gain, z)
+        model = np.einsum("kij,kj->ki", matrix, fm)
+    # the sensors' noise propagated into the loads: sqrt(diag(G diag(row_sd^2) G^T))
+    fm_sd = np.sqrt(np.median(np.sum((gain * row_sd[:n_rows]) ** 2, axis=-1).reshape(
+        -1, len(FM_NAMES)), axis=0))
+    rank = int(np.min(np.linalg.matrix_rank(weighted)))
     residual = np.full((n, 9), np.nan)
-    residual[:, : matrix.shape[0]] = model - z
-    omega_dot = fm[:, 3:] @ _inertia_inverse(const) + gyro
+    residual[:, :n_rows] = model - z
+    omega_dot = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2],
+                                                 eq.Loads(*fm.T), const))
     fm_smooth = smooth(fm, smoothing_window, min(SMOOTHING_POLYORDER, smoothing_window - 1))
     return Reconstruction(t=flight.t, fm=fm, fm_smooth=fm_smooth, omega_dot=omega_dot,
-                          omega_dot_sg=wdot_sg, row_sd=row_sd, residual=residual,
+                          omega_dot_sg=wdot_sg, row_sd=row_sd, fm_sd=fm_sd,
+                          residual=residual,
                           rate_rows=rate_rows, rank=rank, smoothing_window=smoothing_window,
                           derivative_window=derivative_window)
 
@@ -390,7 +337,7 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
         raise ValueError(f"reconstruction has {rec.fm.shape[0]} samples, flight "
                          f"{flight.n_samples}")
     window = rec.smoothing_window if window is None else int(window)
-    X = regressors(flight.states(), flight["delta"], constants(flight.airframe))
+    X = regressors(flight.states(), flight["delta"], sample_constants(flight))
     if smoothing == "none" or window == 1:
         return X, rec.fm.copy()
     polyorder = min(SMOOTHING_POLYORDER, window - 1)
@@ -400,3 +347,18 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
         X = smooth(X, window, polyorder, axis=0)
     return X, y
 
+
+def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.ndarray,
+                   rows: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
+    """Return the fit-check entries of an EBM second step: residuals and yardsticks.
+
+    For each used row of ``F_AX .. M_Z``: the residual ``y - X theta`` of the regression
+    (``fit_residuals``) and, as the yardstick, the sensors' noise propagated into that
+    load (``fit_noise_sd``, :attr:`Reconstruction.fm_sd`: the roll moment's comes from
+    the wide roll-rate derivative, whose coloured noise a smoother's residual cannot
+    see); see :mod:`aeroid.estimation._fitcheck`.
+    """
+    theta = np.asarray(theta, dtype=float)
+    return {"fit_residuals": {FM_NAMES[r]: y[:, r] - X[:, r] @ theta for r in rows},
+            "fit_noise_sd": {FM_NAMES[r]: float(rec.fm_sd[r]) for r in rows},
+            "fit_signals": {FM_NAMES[r]: rec.fm[:, r] for r in rows}}

@@ -12,17 +12,26 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from aeroid.estimation import _pso as pso
-from aeroid.estimation._eam import check_common_options
-from aeroid.estimation._ebm import check_step_one_options, reconstruction_info, step_one
-from aeroid.estimation._interface import EstimationResult, Estimator, prior_bounds, register
+from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
+from aeroid.estimation._pso_methods import (
+    check_common_options,
+    check_step_one_options,
+    check_swarm_size,
+    reconstruction_info,
+    run_pso,
+    step_one,
+)
 from aeroid.estimation._reconstruct import (
     DERIVATIVE_WINDOW,
     RATE_WEIGHT,
     ROLL_DERIVATIVE_WINDOW,
     SMOOTHING_WINDOW,
+    ebm_regression,
+    regression_fit,
 )
+from aeroid.estimation._registry import register
+from aeroid.estimation._result import EstimationResult
 from aeroid.flights._flight import Flight
 from aeroid.model._coefficients import NAMES
 
@@ -41,11 +50,29 @@ class SEBMPSO(Estimator):
     n_particles : 4 ints
         Swarm sizes of the F_AX, F_AZ, M_X, M_Y problems (paper: 50, 150, 100, 150).
     n_iterations : int
-        Iterations of each problem (paper: 200).
-    weighting, smoothing, guard_fraction, box, topology, interpolation
-        As for EBM-PSO.
-    rate_weight, smoothing_window, derivative_window, roll_derivative_window
-        Step-1 options.
+        Iterations of each problem, at least 1 (paper: 200).
+    weighting : {"noise", "relative"}
+        Noise-weighted rows (default) or the paper's relative eqs. 39-42 with the guard.
+    smoothing : {"both", "forces", "none"}
+        Savitzky-Golay smoothing of targets and regressors ("both", default), of the
+        targets only ("forces", the paper's way), or of neither.
+    guard_fraction : float
+        Guard of the relative weighting, as a fraction of each row's mean square.
+    box : 18 numbers or None
+        Search box ``[low0, high0, ...]``; default the airframe's prior x [0.5, 1.5].
+    topology : {"ring", "global"}
+        Neighbourhood of each swarm: the paper's singly-linked ring, or global best.
+    interpolation : bool
+        Apply the paper's quadratic interpolation operator (eqs. 20-22).
+    rate_weight : float
+        Step 1: weight of the rate-derivative rows against the accelerometer rows
+        (:func:`aeroid.estimation.reconstruct`).
+    smoothing_window : int
+        Step 1: Savitzky-Golay window of the force and moment smoothing (eq. 32) [samples].
+    derivative_window : int
+        Step 1: Savitzky-Golay window of the pitch and yaw rate derivatives [samples].
+    roll_derivative_window : int
+        Step 1: Savitzky-Golay window of the roll rate derivative [samples].
 
     Notes
     -----
@@ -74,8 +101,10 @@ class SEBMPSO(Estimator):
     def __post_init__(self) -> None:
         check_common_options(self)
         check_step_one_options(self)
-        if len(self.n_particles) != 4 or min(self.n_particles) < 3:
+        if len(self.n_particles) != 4:
             raise ValueError(f"n_particles needs 4 swarm sizes >= 3, got {self.n_particles}")
+        for n in self.n_particles:
+            check_swarm_size(n)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Reconstruct, smooth and solve the four problems (see class docstring)."""
@@ -85,13 +114,15 @@ class SEBMPSO(Estimator):
         closed = np.empty(len(NAMES))
         subproblems: dict[str, Any] = {}
         runs = []
-        for (label, cols, cost), n_particles in zip(
-                sebm_costs(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
-                           guard_fraction=self.guard_fraction),
-                self.n_particles, strict=True):
-            res = pso.minimize(cost, bounds[list(cols)], n_particles=n_particles,
-                               n_iterations=self.n_iterations, rng=rng,
-                               topology=self.topology, interpolation=self.interpolation)
+        warnings: list[str] = []
+        problems = sebm_costs(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
+                              guard_fraction=self.guard_fraction)
+        for k, ((label, cols, cost), n_particles) in enumerate(
+                zip(problems, self.n_particles, strict=True)):
+            res, found = run_pso(self, cost, bounds[list(cols)], rng, n_particles=n_particles,
+                                 names=[NAMES[c] for c in cols],
+                                 stage=f"{label} {k + 1}/{len(self.n_particles)}")
+            warnings += [f"{label}: {w}" for w in found]
             theta[list(cols)] = res.x
             closed[list(cols)] = cost.theta_opt
             runs.append((cols, res))
@@ -114,11 +145,14 @@ class SEBMPSO(Estimator):
                      "subproblems": subproblems, "closed_form_theta": closed,
                      "closed_form_cost": float(sum(s["closed_form_cost"]
                                                    for s in subproblems.values()))})
+        X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
+        info.update(regression_fit(rec, X, y, theta, tuple(row for _, row, _, _ in SEBM_PROBLEMS)))
         success = all(res.success for _, res in runs)
         messages = sorted({res.message for _, res in runs})
         return EstimationResult(
             estimator=self.name, theta=theta, cost=float(hist_cost[-1]), success=success,
-            message="; ".join(messages), n_evaluations=sum(r.n_evaluations for _, r in runs),
+            message="; ".join(messages), warnings=tuple(warnings),
+            n_evaluations=sum(r.n_evaluations for _, r in runs),
             n_iterations=max(r.n_iterations for _, r in runs),
             history={"axis": "iteration", "step": np.arange(n_steps), "cost": hist_cost,
                      "theta": hist_theta},

@@ -1,15 +1,15 @@
 """Flight data and simulation: the Flight type, its files, noise models, scenarios, simulate."""
 
-from aeroid.flights._flight import (
+from aeroid.flights._channels import (
     ANGLE_CHANNELS,
+    CHANNELS,
     OPTIONAL_CHANNELS,
     REQUIRED_CHANNELS,
     STATE_CHANNELS,
-    Flight,
-    make_flight,
-    read_flight,
-    sidecar_path,
+    UNITS,
 )
+from aeroid.flights._files import read_column_map, read_flight, write_flight
+from aeroid.flights._flight import Flight, make_flight
 from aeroid.flights._noise import (
     ACCEL_CHANNELS,
     RATE_CHANNELS,
@@ -20,7 +20,16 @@ from aeroid.flights._noise import (
     make_noise,
     noise_from_dict,
 )
+from aeroid.flights._record import (
+    INPUTS,
+    exogenous,
+    flight_record,
+    model_constants,
+    sample_constants,
+    schedule,
+)
 from aeroid.flights._scenario import (
+    EVALUATIONS,
     Manoeuvre,
     Scenario,
     load_scenario,
@@ -28,13 +37,22 @@ from aeroid.flights._scenario import (
     reference_scenario,
     scenario_from_dict,
 )
-from aeroid.flights._simulate import record_flight, simulate, simulate_scenario, simulate_truth
+from aeroid.flights._sidecar import FORMAT, sidecar_path
+from aeroid.flights._simulate import (
+    Truth,
+    record_flight,
+    simulate,
+    simulate_scenario,
+    simulate_truth,
+)
 
 __all__ = [
-    "ACCEL_CHANNELS", "ANGLE_CHANNELS", "OPTIONAL_CHANNELS", "RATE_CHANNELS",
-    "REQUIRED_CHANNELS", "STATE_CHANNELS", "Flight", "GaussianNoise", "Manoeuvre",
-    "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario", "make_flight",
-    "make_noise", "noise_for", "noise_from_dict", "read_flight", "record_flight",
-    "reference_scenario", "scenario_from_dict", "sidecar_path", "simulate",
-    "simulate_scenario", "simulate_truth",
+    "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
+    "ACCEL_CHANNELS", "ANGLE_CHANNELS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
+    "RATE_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS", "UNITS", "Flight", "GaussianNoise",
+    "Manoeuvre", "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario",
+    "make_flight", "make_noise", "noise_for", "noise_from_dict", "read_column_map",
+    "read_flight", "record_flight", "reference_scenario", "scenario_from_dict", "sidecar_path",
+    "simulate", "simulate_scenario", "simulate_truth", "write_flight",
+    "EVALUATIONS", "Truth",
 ]

@@ -17,13 +17,31 @@ Noise models
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, fields
 from typing import Any, Protocol
 
 import numpy as np
 
-ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
-RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
+from aeroid.errors import AirframeError
+from aeroid.model._dynamics import ACCEL_CHANNELS, RATE_CHANNELS
+from aeroid.model._fileform import is_number
+
+
+def _check_options(model: Any) -> None:
+    """Refuse options that are not finite non-negative numbers (a boolean is not one).
+
+    Run at construction, so a study or scenario with ``rates_xi = "x"`` stops with one
+    line before its first flight instead of in the middle of a study.
+    """
+    for f in fields(model):
+        if f.name == "name":
+            continue
+        value = getattr(model, f.name)
+        if not (is_number(value) and math.isfinite(value) and value >= 0):
+            raise AirframeError(f"noise model {model.name!r}: {f.name} must be a finite "
+                                f"number >= 0, got {value!r}")
+        object.__setattr__(model, f.name, float(value))
 
 
 class NoiseModel(Protocol):
@@ -38,6 +56,10 @@ class NoiseModel(Protocol):
 
     def perturb_positions(self, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Return the estimator's copy of the triad positions, shape (2, 3)."""
+        ...
+
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """Return the sd of the position error of each component given ``positions`` (2, 3)."""
         ...
 
     def to_dict(self) -> dict[str, Any]:
@@ -58,6 +80,9 @@ class PaperNoise:
     accel_position_xi: float = 0.1
     name: str = field(default="paper", init=False)
 
+    def __post_init__(self) -> None:
+        _check_options(self)
+
     def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
                 ) -> dict[str, np.ndarray]:
         """Apply multiplicative uniform noise to the accelerations and rates."""
@@ -75,6 +100,10 @@ class PaperNoise:
         positions = np.asarray(positions, dtype=float)
         u = rng.random(positions.shape)
         return positions * (1.0 + self.accel_position_xi * (2.0 * u - 1.0))
+
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """``xi |R| / sqrt(3)``: the sd of the uniform +-xi relative error, per component."""
+        return self.accel_position_xi * np.abs(np.asarray(positions, dtype=float)) / math.sqrt(3)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
@@ -105,6 +134,9 @@ class GaussianNoise:
     position_sd_m: float = 0.0
     name: str = field(default="gaussian", init=False)
 
+    def __post_init__(self) -> None:
+        _check_options(self)
+
     def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
                 ) -> dict[str, np.ndarray]:
         """Add Gaussian noise to the accelerations and rates."""
@@ -121,6 +153,10 @@ class GaussianNoise:
         """Add Gaussian position error with ``position_sd_m``."""
         positions = np.asarray(positions, dtype=float)
         return positions + self.position_sd_m * rng.standard_normal(positions.shape)
+
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """``position_sd_m`` for every component."""
+        return np.full(np.shape(positions), float(self.position_sd_m))
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
@@ -143,6 +179,10 @@ class NoNoise:
         """Return the positions unchanged."""
         return np.asarray(positions, dtype=float).copy()
 
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """Zero: the positions are known."""
+        return np.zeros(np.shape(positions))
+
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
         return {"model": self.name}
@@ -156,25 +196,28 @@ def make_noise(name: str, **options: Any) -> NoiseModel:
 
     Raises
     ------
-    ValueError
-        One line naming the unknown model or option.
+    AirframeError
+        One line naming the unknown model, an unknown option or an option of the wrong
+        type (a ``ValueError``).
     """
     try:
         cls = NOISE_MODELS[name]
-    except KeyError:
-        raise ValueError(
+    except (KeyError, TypeError):
+        raise AirframeError(
             f"unknown noise model {name!r} (expected one of {', '.join(NOISE_MODELS)})"
         ) from None
     try:
         return cls(**options)  # type: ignore[no-any-return]
     except TypeError:
-        allowed = [f for f in cls.__dataclass_fields__ if f != "name"]
-        raise ValueError(
+        allowed = [f.name for f in fields(cls) if f.name != "name"]
+        raise AirframeError(
             f"noise model {name!r}: unknown option(s) {sorted(options)}; allowed {allowed}"
         ) from None
 
 
 def noise_from_dict(data: dict[str, Any]) -> NoiseModel:
-    """Rebuild a noise model from :meth:`to_dict` output."""
+    """Rebuild a noise model from :meth:`to_dict` output (``{"model": NAME, **options}``)."""
     data = dict(data)
+    if "model" not in data:
+        raise AirframeError(f"noise settings {data!r} name no model")
     return make_noise(data.pop("model"), **data)

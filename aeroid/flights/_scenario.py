@@ -1,13 +1,35 @@
 """Scenarios: an airframe, its true coefficients, a manoeuvre and a noise model.
 
 The scenario file format is ``aeroid/data/reference-scenario.toml`` (the embedded
-default, copied from the project's reference): tables ``[airframe]``, ``[atmosphere]``,
-``[actuator]``, ``[initial_state]``, ``[recording]``, ``[coefficients]``, ``[noise.paper]``
-and optionally ``[prior]`` and ``[noise.gaussian]``.
+default, copied from the project's reference): the airframe file's tables
+``[airframe]``, ``[atmosphere]`` (required) and ``[prior]`` (optional), then
+``[initial_state]`` and ``[coefficients]`` (required), ``[actuator]`` and ``[recording]``
+(keys left out take the paper's values, :class:`Manoeuvre`) and ``[noise.paper]``,
+``[noise.gaussian]``, ``[noise.none]`` (options of each noise model; optional). Unknown
+tables and keys and values of the wrong type are one-line errors naming the file.
+
+``[actuator]`` is the TRUE fin law the simulator flies: the keys of the airframe file's
+``[fin_law]`` (:mod:`aeroid.model._actuator`; here all optional, the paper's ``A = 0.5``,
+``phi0 = 60 deg``, no delay, no rate limit by default) and how the law is evaluated::
+
+    [actuator]
+    command_amplitude = 0.5          # or [[t_s, A], ...]
+    command_phase_deg = 60.0         # or [[t_s, deg], ...]
+    delay_s = 0.0
+    rate_limit_dps = 8000.0          # left out: none
+    evaluation = "latched"           # "latched" (default: at each sample instant, held),
+                                     # "continuous" (switch instants located in the truth)
+    # control_rate_Hz = 2000.0       # a digital relay latched at its own clock instead
+
+A scenario may also carry the airframe file's ``[fin_law]``: what the simulated flights'
+airframe tells the estimators (their ``law`` input). It is independent of ``[actuator]``,
+so a study can give the estimators a law that differs from the truth (a wrong delay);
+left out, the flights' airframe has no fin law.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,10 +38,31 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import AirframeError
-from aeroid.flights._noise import NoiseModel, make_noise
-from aeroid.model._airframe import Airframe, read_toml, reference_scenario_data
-from aeroid.model._coefficients import as_vector
+from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.model._actuator import FIN_LAW_KEYS, FinLaw, Profile, profile
+from aeroid.model._airframe import (
+    SCENARIO_TABLES,
+    Airframe,
+    read_toml,
+    reference_scenario_data,
+)
+from aeroid.model._coefficients import NAMES
 from aeroid.model._dynamics import STATE_NAMES
+from aeroid.model._fileform import check_keys, check_table, integer, number, numbers, text
+
+#: Most RK4 steps one simulated truth may take (window end x rate x substeps): 1e8 steps
+#: are minutes of integration and, at 500 Hz and 8 substeps, 7 hours of flight whose
+#: (n, 9) sampled states alone take 900 MB: a window beyond it is a typo, refused before
+#: anything is allocated.
+MAX_TRUTH_STEPS = 1e8
+
+#: How the simulator evaluates the fin law (:class:`Manoeuvre`).
+EVALUATIONS = ("latched", "continuous", "control_rate")
+#: Manoeuvre fields added for the fin law, with their defaults: left out of
+#: :meth:`Manoeuvre.describe` when at the default, so that a study's fingerprint of a
+#: manoeuvre without them stays what it was.
+FIN_LAW_DEFAULTS = {"delay_s": 0.0, "rate_limit_dps": None, "evaluation": "latched",
+                    "control_rate_hz": None}
 
 _STATE_KEYS = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps",
                "phi_deg", "theta_deg", "psi_deg")
@@ -27,14 +70,15 @@ _STATE_KEYS = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps",
 
 @dataclass(frozen=True, kw_only=True)
 class Manoeuvre:
-    """The flight to simulate: relay law, initial state and recording window.
+    """The flight to simulate: fin law and its evaluation, initial state, recording window.
 
     Attributes
     ----------
-    command_amplitude : float
-        ``A`` of the relay law (:mod:`aeroid.model`).
-    command_phase_deg : float
-        ``phi0`` [deg].
+    command_amplitude : float or tuple of (time_s, value) pairs
+        ``A`` of the relay law (:class:`aeroid.model.FinLaw`), constant or piecewise
+        linear in time.
+    command_phase_deg : float or tuple of (time_s, value) pairs
+        ``phi0`` [deg], the same.
     initial_state : tuple of 9 float
         State at t = 0 [m/s, rad/s, rad] in :data:`aeroid.model.STATE_NAMES` order.
     sample_rate_hz : float
@@ -43,33 +87,91 @@ class Manoeuvre:
         Recorded window [s], both ends included.
     truth_substeps : int
         RK4 steps per sample interval for the truth.
+    delay_s : float
+        Actuator time delay [s], >= 0.
+    rate_limit_dps : float or None
+        Actuator rate limit [deg/s]; None: none (a switch is a jump).
+    evaluation : {"latched", "continuous", "control_rate"}
+        ``latched``: the law evaluated at each sample instant and held to the next (the
+        paper's digital relay at the log clock); ``continuous``: switched where the
+        switching function of the true roll angle crosses zero; ``control_rate``: a
+        digital relay latched at its own clock, ``control_rate_hz``.
+    control_rate_hz : float or None
+        The relay's clock [Hz] (``control_rate`` only); its instants are ``m /
+        control_rate_hz`` from t = 0.
     """
 
-    command_amplitude: float = 0.5
-    command_phase_deg: float = 60.0
+    command_amplitude: Profile = 0.5
+    command_phase_deg: Profile = 60.0
     initial_state: tuple[float, ...] = (501.7, 0, 0, 0, 0, 0, 0, math.radians(5.0), 0)
     sample_rate_hz: float = 500.0
     window_s: tuple[float, float] = (5.0, 6.0)
     truth_substeps: int = 8
+    delay_s: float = 0.0
+    rate_limit_dps: float | None = None
+    evaluation: str = "latched"
+    control_rate_hz: float | None = None
 
     def __post_init__(self) -> None:
-        state = tuple(float(x) for x in self.initial_state)
-        if len(state) != 9 or not all(math.isfinite(x) for x in state):
-            raise ValueError("manoeuvre: initial_state must be 9 finite numbers")
+        for name in ("command_amplitude", "command_phase_deg"):
+            object.__setattr__(self, name, profile(getattr(self, name), f"manoeuvre: {name}"))
+        try:
+            law = self.fin_law(1.0)  # checks the delay and the rate limit
+        except AirframeError as exc:
+            raise AirframeError(str(exc).replace("fin law:", "manoeuvre:")) from None
+        object.__setattr__(self, "delay_s", law.delay_s)
+        object.__setattr__(self, "rate_limit_dps", law.rate_limit_dps)
+        if self.evaluation not in EVALUATIONS:
+            raise AirframeError(f"manoeuvre: evaluation must be one of "
+                                f"{', '.join(map(repr, EVALUATIONS))}, got {self.evaluation!r}")
+        if (self.evaluation == "control_rate") != (self.control_rate_hz is not None):
+            raise AirframeError("manoeuvre: control_rate_Hz goes with evaluation = "
+                                "\"control_rate\" and nothing else")
+        if self.control_rate_hz is not None:
+            rate = number(self.control_rate_hz, "manoeuvre: control_rate_Hz")
+            if rate <= 0:
+                raise AirframeError(f"manoeuvre: control_rate_Hz must be positive, got {rate:g}")
+            object.__setattr__(self, "control_rate_hz", rate)
+        state = numbers(self.initial_state, 9, "manoeuvre: initial_state")
         object.__setattr__(self, "initial_state", state)
-        t0, t1 = (float(x) for x in self.window_s)
+        t0, t1 = numbers(self.window_s, 2, "manoeuvre: window_s")
         if not (0.0 <= t0 < t1):
-            raise ValueError(f"manoeuvre: window_s must satisfy 0 <= start < end, got {t0, t1}")
+            raise AirframeError(
+                f"manoeuvre: window_s must satisfy 0 <= start < end, got {t0, t1}")
         object.__setattr__(self, "window_s", (t0, t1))
-        if not self.sample_rate_hz > 0:
-            raise ValueError("manoeuvre: sample_rate_hz must be positive")
-        if int(self.truth_substeps) < 1:
-            raise ValueError("manoeuvre: truth_substeps must be >= 1")
+        rate = number(self.sample_rate_hz, "manoeuvre: sample_rate_hz")
+        if not rate > 0:
+            raise AirframeError("manoeuvre: sample_rate_hz must be positive")
+        object.__setattr__(self, "sample_rate_hz", rate)
+        substeps = integer(self.truth_substeps, "manoeuvre: truth_substeps")
+        if substeps < 1:
+            raise AirframeError("manoeuvre: truth_substeps must be >= 1")
+        steps = t1 * rate * substeps
+        if steps > MAX_TRUTH_STEPS:
+            raise AirframeError(
+                f"manoeuvre: {t1:g} s at {rate:g} Hz x {substeps} substeps is {steps:.3g} "
+                f"RK4 steps (limit {MAX_TRUTH_STEPS:.0e}); shorten window_s")
 
     @property
     def dt(self) -> float:
         """Sample interval [s]."""
         return 1.0 / self.sample_rate_hz
+
+    def fin_law(self, delta_max_rad: float) -> FinLaw:
+        """Return the manoeuvre's fin law for a fin throw ``delta_max_rad`` [rad]."""
+        return FinLaw(delta_max_rad=delta_max_rad, command_amplitude=self.command_amplitude,
+                      command_phase_deg=self.command_phase_deg, delay_s=self.delay_s,
+                      rate_limit_dps=self.rate_limit_dps)
+
+    def describe(self) -> dict[str, Any]:
+        """Return the fields as a dict, leaving out the fin-law fields at their defaults.
+
+        A manoeuvre of the paper's latched relay describes as before the fin-law fields
+        existed (:data:`FIN_LAW_DEFAULTS`): study fingerprints made from it stay valid.
+        """
+        fields = dataclasses.asdict(self)
+        return {k: v for k, v in fields.items()
+                if k not in FIN_LAW_DEFAULTS or v != FIN_LAW_DEFAULTS[k]}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -88,43 +190,75 @@ class Scenario:
         return np.array(self.coefficients)
 
 
+#: Keys of the scenario tables (the airframe's own tables are checked by ``Airframe``).
+ACTUATOR_KEYS = (*FIN_LAW_KEYS, "evaluation", "control_rate_Hz")
+RECORDING_KEYS = ("sample_rate_Hz", "window_s", "truth_rk4_substeps")
+
+
 def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Scenario:
     """Build a scenario from the parsed file form (see the module docstring).
+
+    Every table and key is checked: unknown tables and keys, missing initial-state keys
+    or coefficients, and values of the wrong type are errors. ``[actuator]`` and
+    ``[recording]`` keys left out take the :class:`Manoeuvre` defaults (the paper's).
 
     Raises
     ------
     AirframeError
         One line naming ``source`` and the table or key that is wrong.
     """
+    airframe = Airframe.from_dict(data, source=source, other_tables=SCENARIO_TABLES)
+    act = check_table(data.get("actuator", {}), f"{source}: [actuator]")
+    check_keys(act, ACTUATOR_KEYS, f"{source}: [actuator]")
+    init = check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
+    check_keys(init, _STATE_KEYS, f"{source}: [initial_state]", required=_STATE_KEYS)
+    state = [number(init[k], f"{source}: [initial_state] {k}") for k in _STATE_KEYS]
+    state[6:9] = [math.radians(x) for x in state[6:9]]
+    rec = check_table(data.get("recording", {}), f"{source}: [recording]")
+    check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
+    options = _actuator_options(act, f"{source}: [actuator]")
+    if "sample_rate_Hz" in rec:
+        options["sample_rate_hz"] = number(rec["sample_rate_Hz"],
+                                           f"{source}: [recording] sample_rate_Hz")
+    if "window_s" in rec:
+        options["window_s"] = numbers(rec["window_s"], 2, f"{source}: [recording] window_s")
+    if "truth_rk4_substeps" in rec:
+        options["truth_substeps"] = integer(rec["truth_rk4_substeps"],
+                                            f"{source}: [recording] truth_rk4_substeps")
+    if "coefficients" not in data:
+        raise AirframeError(f"{source}: no [coefficients] table (the true coefficients)")
+    table = check_table(data["coefficients"], f"{source}: [coefficients]")
+    check_keys(table, NAMES, f"{source}: [coefficients]", required=NAMES)
+    coefficients = tuple(number(table[n], f"{source}: [coefficients] {n}") for n in NAMES)
+    noise_tables = check_table(data.get("noise", {}), f"{source}: [noise]")
+    check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
+    noise_options = {name: check_table(table, f"{source}: [noise.{name}]")
+                     for name, table in noise_tables.items()}
     try:
-        airframe = Airframe.from_dict(data, source=source)
-        act = data.get("actuator", {})
-        init = data.get("initial_state", {})
-        missing = [k for k in _STATE_KEYS if k not in init]
-        if missing:
-            raise AirframeError(f"{source}: [initial_state] is missing {', '.join(missing)}")
-        state = [float(init[k]) for k in _STATE_KEYS]
-        state[6:9] = [math.radians(x) for x in state[6:9]]
-        rec = data.get("recording", {})
-        manoeuvre = Manoeuvre(
-            command_amplitude=float(act.get("command_amplitude", 0.5)),
-            command_phase_deg=float(act.get("command_phase_deg", 60.0)),
-            initial_state=tuple(state),
-            sample_rate_hz=float(rec.get("sample_rate_Hz", 500.0)),
-            window_s=tuple(rec.get("window_s", (5.0, 6.0))),  # type: ignore[arg-type]
-            truth_substeps=int(rec.get("truth_rk4_substeps", 8)),
-        )
-        if "coefficients" not in data:
-            raise AirframeError(f"{source}: no [coefficients] table (the true coefficients)")
-        coefficients = tuple(float(x) for x in as_vector(data["coefficients"]))
-        noise_tables = data.get("noise", {})
-        noise = make_noise("paper", **noise_tables.get("paper", {}))
-    except (ValueError, TypeError) as exc:
-        if isinstance(exc, AirframeError) and str(exc).startswith(source):
-            raise
+        manoeuvre = Manoeuvre(initial_state=tuple(state), **options)
+        models = {name: make_noise(name, **opts) for name, opts in noise_options.items()}
+    except ValueError as exc:
         raise AirframeError(f"{source}: {exc}") from None
+    noise = models.get("paper") or make_noise("paper")
     return Scenario(airframe=airframe, coefficients=coefficients, manoeuvre=manoeuvre,
                     noise=noise, name=Path(source).stem)
+
+
+def _actuator_options(act: Any, where: str) -> dict[str, Any]:
+    """Return the :class:`Manoeuvre` options of an ``[actuator]`` table."""
+    options: dict[str, Any] = {}
+    for key in ("command_amplitude", "command_phase_deg"):
+        if key in act:
+            options[key] = profile(act[key], f"{where} {key}")
+    for key, field in (("delay_s", "delay_s"), ("rate_limit_dps", "rate_limit_dps"),
+                       ("control_rate_Hz", "control_rate_hz")):
+        if key in act:
+            options[field] = number(act[key], f"{where} {key}")
+    if "evaluation" in act:
+        options["evaluation"] = text(act["evaluation"], f"{where} evaluation")
+    elif "control_rate_Hz" in act:
+        options["evaluation"] = "control_rate"
+    return options
 
 
 def noise_for(scenario_data: dict[str, Any], name: str) -> NoiseModel:
@@ -144,4 +278,5 @@ def reference_scenario() -> Scenario:
     return load_scenario(None)
 
 
-__all__ = ["Manoeuvre", "Scenario", "load_scenario", "reference_scenario", "STATE_NAMES"]
+__all__ = ["EVALUATIONS", "FIN_LAW_DEFAULTS", "Manoeuvre", "Scenario", "load_scenario",
+           "reference_scenario", "STATE_NAMES"]

@@ -5,7 +5,9 @@ The equations of motion (paper eqs. 2-16) and the lever-arm accelerometers (eq. 
 defined once, by name; numpy, numba and CasADi evaluate the same definitions.
 """
 
-from aeroid.model._actuator import RelayActuator
+from aeroid.model import _equations as equations
+from aeroid.model import _symbolic as symbolic
+from aeroid.model._actuator import FinLaw, RelayActuator
 from aeroid.model._airframe import (
     Airframe,
     dumps_toml,
@@ -26,11 +28,15 @@ from aeroid.model._coefficients import (
     lateral_from_pitch,
     nominal,
 )
+from aeroid.model._compiled import kernels_cached
 from aeroid.model._dynamics import (
+    ACCEL_CHANNELS,
     FM_NAMES,
     N_STATE,
+    OUTPUT_CHANNELS,
     PHI,
     PSI,
+    RATE_CHANNELS,
     STATE_NAMES,
     THETA,
     Constants,
@@ -43,20 +49,36 @@ from aeroid.model._dynamics import (
     accelerometers,
     aero_forces_moments,
     air_data,
+    as_coefficients,
+    as_state,
     constants,
     derivative_from_forces,
-    lever_arm_acceleration,
     regressors,
     state_derivative,
+)
+from aeroid.model._equations import Coefficients, Loads, State, Trig
+from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
+from aeroid.model._inputs import (
+    EXOGENOUS,
+    Pieces,
+    Record,
+    Schedule,
+    exogenous_table,
+    with_exogenous,
 )
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
 
 __all__ = [
+    "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",
+    "Trig", "as_coefficients", "as_state", "equations", "Buffered", "ForwardModel",
+    "symbolic", "symbolic_record", "EXOGENOUS", "Pieces", "Record", "Schedule",
+    "exogenous_table", "with_exogenous", "kernels_cached",
     "FM_NAMES", "G0", "HAVE_NUMBA", "LABELS", "NAMES", "NOMINAL", "N_COEFFICIENTS", "N_STATE",
     "PHI", "PSI", "STATE_NAMES", "THETA", "Airframe", "Constants", "P", "Q", "R",
     "RelayActuator", "U", "V", "W", "accelerometers", "aero_forces_moments", "air_data",
     "as_dict", "as_vector", "constants", "derivative_from_forces", "dumps_toml",
-    "lateral_from_pitch", "lever_arm_acceleration", "load_airframe", "nominal", "propagate",
+    "lateral_from_pitch", "load_airframe", "nominal", "propagate",
     "read_toml", "reference_airframe", "reference_scenario_data", "regressors", "rk4",
     "rk4_step", "save_airframe", "state_derivative",
+    "FinLaw",
 ]

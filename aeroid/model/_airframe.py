@@ -1,10 +1,42 @@
-"""The airframe: geometry, mass, inertia, thrust, fin throw, sensor positions, prior.
+"""The airframe: geometry, mass, inertia, thrust, fin throw, sensor positions, atmosphere, prior.
 
-An airframe file is the ``[airframe]`` table of the reference scenario file
-(``aeroid/data/reference-scenario.toml``), optionally with a ``[prior]`` table of the
-nine coefficients (the pre-flight prediction, e.g. DATCOM or CFD, that estimators start
-from) and an ``[atmosphere]`` table (``altitude_m``). Files written by hand, by other
-tools and by :func:`save_airframe` share this format.
+File format (TOML; the ``[airframe]``, ``[atmosphere]`` and ``[prior]`` tables of the
+reference scenario file ``aeroid/data/reference-scenario.toml``)::
+
+    [airframe]
+    diameter_m = 0.127                      # reference diameter D; S = pi D^2 / 4
+    length_m = 2.79                         # optional, informative (used in no equation)
+    mass_kg = 70.0
+    Ix_kgm2 = 0.18
+    Iy_kgm2 = 40.0
+    Iz_kgm2 = 40.0
+    thrust_N = 740.0                        # along body +x, >= 0
+    delta_max_deg = 8.0                     # ON-OFF fin deflection, > 0
+    accel1_position_m = [0.6, 0.0, 0.0]     # triad positions from the c.g., body axes
+    accel2_position_m = [-0.6, 0.01, 0.01]
+
+    [atmosphere]                            # required: exactly one of
+    altitude_m = 10000.0                    #   ISA density at this altitude, or
+    # density_kgm3 = 0.4127                 #   this density, or
+    # per_sample = "rho"                    #   a flight channel: "rho", "altitude" or "qbar"
+
+    [prior]                                 # optional: the nine coefficients to start from
+    Cx = -0.98                              # (all nine names; default: the nominal values)
+
+    [fin_law]                               # optional: the relay law (aeroid.model.FinLaw)
+    command_amplitude = 0.5                 # A, or [[t_s, A], ...] (piecewise linear)
+    command_phase_deg = 60.0                # phi0, or [[t_s, deg], ...]
+    delay_s = 0.0                           # optional actuator delay
+    rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
+
+There is no default atmosphere: leaving it out used to mean sea level, which made every
+coefficient of a flight at altitude 25-66 % low. ``per_sample`` is the planned format for
+a density that changes within the window; the model does not use it yet, so an
+estimator given such an airframe stops with one line (``Airframe.density_kgm3`` and
+``Flight.validate`` say so). Unknown tables and keys, booleans or text where numbers
+belong and values outside physical ranges (:data:`LIMITS`) are one-line errors naming the
+file and the key. Files written by :func:`save_airframe` and by ``Flight.write`` (the
+JSON sidecar holds the same tables) read back equal.
 """
 
 from __future__ import annotations
@@ -12,6 +44,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -20,11 +53,23 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.errors import AirframeError
+from aeroid.errors import AeroidWarning, AirframeError
 from aeroid.model import _atmosphere as atmosphere
-from aeroid.model._coefficients import NAMES, as_vector, nominal
+from aeroid.model._actuator import FinLaw
+from aeroid.model._coefficients import NAMES, nominal
+from aeroid.model._fileform import (
+    check_keys,
+    check_table,
+    dumps_toml,
+    is_number,
+    number,
+    numbers,
+    read_toml,
+    text,
+)
 
-_AIRFRAME_KEYS = {
+#: File key -> attribute of ``[airframe]``.
+AIRFRAME_KEYS = {
     "diameter_m": "diameter_m",
     "length_m": "length_m",
     "mass_kg": "mass_kg",
@@ -35,37 +80,87 @@ _AIRFRAME_KEYS = {
     "delta_max_deg": "delta_max_deg",
     "accel1_position_m": "accel1_position_m",
     "accel2_position_m": "accel2_position_m",
+    "accel1_position_sd_m": "accel1_position_sd_m",
+    "accel2_position_sd_m": "accel2_position_sd_m",
 }
+#: ``length_m`` appears in no equation, so it may be left out; the positions' standard
+#: deviations default to 0 (known positions).
+OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
+#: File key -> attribute of ``[atmosphere]`` (exactly one is given).
+ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
+                   "per_sample": "atmosphere_channel"}
+#: Flight channels a per-sample atmosphere may name (planned; not yet used by the model).
+ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
+#: The tables of an airframe file.
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
+#: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
+SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
 
+#: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
+LIMITS: dict[str, tuple[float, float]] = {
+    # 1 mm (a dart) to 10 m (a launch vehicle); a diameter in mm or cm lands outside.
+    "diameter_m": (1e-3, 10.0),
+    # 100 m exceeds any airframe; a length in mm lands outside.
+    "length_m": (1e-3, 100.0),
+    # Dead Sea shore to 20 km: the ISA model here holds its 216.65 K layer above 11 km
+    # and is wrong above 20 km (give density_kgm3 for a flight higher up).
+    "altitude_m": (-500.0, 20_000.0),
+    # the air at 65 km to the densest surface air (1.42 kg/m^3 at -40 C) with margin.
+    "density_kgm3": (1e-4, 1.5),
+    # a fin throw is positive; beyond 45 deg a fin stalls and the linear Czd/Cmd mean nothing.
+    "delta_max_deg": (0.0, 45.0),
+}
+#: A fin throw below this [deg] is accepted with a warning: 0.14 "deg" is 8 deg in radians.
+DELTA_MAX_WARN_DEG = 1.0
+#: Closest accelerometer triads [m]. At R1 == R2 the two triads measure the same point
+#: and the angular acceleration of eq. 29 is rank-deficient; closer than 1 mm their
+#: difference is far below any accelerometer's noise.
+MIN_SENSOR_SEPARATION_M = 1e-3
 
 
 @dataclass(frozen=True, kw_only=True)
 class Airframe:
-    """A rolling airframe with constant mass properties.
+    """A rolling airframe with constant mass properties and a stated atmosphere.
 
     Attributes
     ----------
-    diameter_m, length_m : float
-        Reference diameter D [m] (reference area S = pi D^2 / 4) and length [m].
+    diameter_m : float
+        Reference diameter D [m] (reference area S = pi D^2 / 4).
+    length_m : float or None
+        Length [m]; informative only.
     mass_kg : float
         Mass [kg].
     ix_kgm2, iy_kgm2, iz_kgm2 : float
         Principal moments of inertia [kg m^2]; no products of inertia.
     thrust_n : float
-        Thrust [N] along body +x through the c.g., known to every estimator.
+        Thrust [N] along body +x through the c.g., known to every estimator; >= 0.
     delta_max_deg : float
-        ON-OFF fin deflection [deg].
+        ON-OFF fin deflection [deg], > 0.
     accel1_position_m, accel2_position_m : tuple of 3 float
-        Accelerometer triad positions from the c.g. in body axes [m].
-    altitude_m : float
+        Accelerometer triad positions from the c.g. in body axes [m]; distinct.
+    accel1_position_sd_m, accel2_position_sd_m : tuple of 3 float
+        Standard deviation of each position component [m] (default 0: known). A
+        component with a positive sd is uncertain: output-error estimates it under that
+        Gaussian prior, the EKF/UKF carry it in their state (option
+        ``positions``).
+    altitude_m : float or None
         Flight altitude [m] for the ISA density (held constant: the model has no
         position equations).
+    given_density_kgm3 : float or None
+        Air density [kg/m^3] stated directly (file key ``density_kgm3``).
+    atmosphere_channel : str or None
+        Name of the flight channel carrying the atmosphere per sample (file key
+        ``per_sample``: ``"rho"``, ``"altitude"`` or ``"qbar"``); planned, not yet used.
     prior : tuple of 9 float or None
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
+    fin_law : FinLaw or None
+        The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
+
+    Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
+    is given.
     """
 
     diameter_m: float
-    length_m: float
     mass_kg: float
     ix_kgm2: float
     iy_kgm2: float
@@ -74,35 +169,101 @@ class Airframe:
     delta_max_deg: float
     accel1_position_m: tuple[float, float, float]
     accel2_position_m: tuple[float, float, float]
-    altitude_m: float = 0.0
+    accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel2_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    length_m: float | None = None
+    altitude_m: float | None = None
+    given_density_kgm3: float | None = None
+    atmosphere_channel: str | None = None
     prior: tuple[float, ...] | None = field(default=None)
+    fin_law: FinLaw | None = None
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            if value is None and name == "length_m":
+                continue
+            if not (is_number(value) and math.isfinite(value) and value > 0):
                 raise AirframeError(f"airframe: {name} must be a positive number, got {value!r}")
-        for name in ("thrust_n", "delta_max_deg", "altitude_m"):
+            object.__setattr__(self, name, float(value))
+        for name in ("thrust_n", "delta_max_deg"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value)):
+            if not (is_number(value) and math.isfinite(value)):
                 raise AirframeError(f"airframe: {name} must be a finite number, got {value!r}")
-        for name in ("accel1_position_m", "accel2_position_m"):
+            object.__setattr__(self, name, float(value))
+        for name in ("accel1_position_m", "accel2_position_m", "accel1_position_sd_m",
+                     "accel2_position_sd_m"):
             value = getattr(self, name)
             try:
-                vec = tuple(float(x) for x in value)
-            except (TypeError, ValueError):
-                raise AirframeError(f"airframe: {name} must be 3 numbers, got {value!r}") from None
-            if len(vec) != 3 or not all(math.isfinite(x) for x in vec):
-                raise AirframeError(f"airframe: {name} must be 3 finite numbers, got {value!r}")
+                vec = numbers(value, 3, f"airframe: {name}")
+            except AirframeError:
+                raise AirframeError(
+                    f"airframe: {name} must be 3 finite numbers, got {value!r}") from None
+            if name.endswith("_sd_m") and any(v < 0 for v in vec):
+                raise AirframeError(f"airframe: {name} must be >= 0 [m], got {list(vec)}")
             object.__setattr__(self, name, vec)
+        self._check_atmosphere()
+        self._check_ranges()
         if self.prior is not None:
-            try:
-                prior = as_vector(self.prior)
-            except ValueError as exc:
-                raise AirframeError(f"airframe prior: {exc}") from None
-            if prior.shape != (9,) or not np.all(np.isfinite(prior)):
-                raise AirframeError("airframe prior: expected 9 finite values")
-            object.__setattr__(self, "prior", tuple(float(x) for x in prior))
+            object.__setattr__(self, "prior", _prior_tuple(self.prior))
+        if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
+                self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
+            raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
+                                f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
+
+    def _check_atmosphere(self) -> None:
+        stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
+        if len(stated) != 1:
+            raise AirframeError(
+                "airframe: state the atmosphere with exactly one of altitude_m, density_kgm3 "
+                f"or per_sample (got {', '.join(stated) or 'none'})")
+        for key in ("altitude_m", "density_kgm3"):
+            value = getattr(self, ATMOSPHERE_KEYS[key])
+            if value is None:
+                continue
+            if not (is_number(value) and math.isfinite(value)):
+                raise AirframeError(f"airframe: {key} must be a finite number, got {value!r}")
+            low, high = LIMITS[key]
+            if not low <= value <= high:
+                raise AirframeError(f"airframe: {key} {value:g} is outside {low:g}..{high:g}"
+                                    + (" (give density_kgm3 above 20 km)"
+                                       if key == "altitude_m" else ""))
+            object.__setattr__(self, ATMOSPHERE_KEYS[key], float(value))
+        channel = self.atmosphere_channel
+        if channel is not None and channel not in ATMOSPHERE_CHANNELS:
+            raise AirframeError(f"airframe: per_sample must be one of "
+                                f"{', '.join(map(repr, ATMOSPHERE_CHANNELS))}, got {channel!r}")
+
+    def _check_ranges(self) -> None:
+        for name in ("diameter_m", "length_m"):
+            value = getattr(self, name)
+            low, high = LIMITS[name]
+            if value is not None and not low <= value <= high:
+                raise AirframeError(f"airframe: {name} {value:g} is outside {low:g}..{high:g} "
+                                    "(metres?)")
+        if self.thrust_n < 0:
+            raise AirframeError(f"airframe: thrust_n must be >= 0 (thrust acts along body +x; "
+                                f"a coasting airframe has 0), got {self.thrust_n:g}")
+        low, high = LIMITS["delta_max_deg"]
+        if not low < self.delta_max_deg <= high:
+            raise AirframeError(f"airframe: delta_max_deg must be in ({low:g}, {high:g}] deg, "
+                                f"got {self.delta_max_deg:g}")
+        if self.delta_max_deg < DELTA_MAX_WARN_DEG:
+            warnings.warn(f"airframe: delta_max_deg {self.delta_max_deg:g} deg is very small "
+                          f"(radians? {self.delta_max_deg:g} rad = "
+                          f"{math.degrees(self.delta_max_deg):.3g} deg)",
+                          AeroidWarning, stacklevel=4)
+        gap = float(np.linalg.norm(np.subtract(self.accel1_position_m, self.accel2_position_m)))
+        if gap < MIN_SENSOR_SEPARATION_M:
+            raise AirframeError(
+                f"airframe: accelerometer triads {gap:.3g} m apart (need at least "
+                f"{MIN_SENSOR_SEPARATION_M:g} m: at one point the angular acceleration of "
+                f"eq. 29 is rank-deficient)")
+        if self.length_m is not None:
+            for name in ("accel1_position_m", "accel2_position_m"):
+                if float(np.linalg.norm(getattr(self, name))) > self.length_m:
+                    raise AirframeError(f"airframe: {name} {list(getattr(self, name))} is "
+                                        f"farther from the c.g. than length_m {self.length_m:g}")
 
     # Derived quantities -------------------------------------------------------------
     @property
@@ -112,12 +273,27 @@ class Airframe:
 
     @property
     def density_kgm3(self) -> float:
-        """ISA air density at :attr:`altitude_m` [kg/m^3]."""
+        """Air density [kg/m^3]: the given one, or ISA at :attr:`altitude_m`.
+
+        Raises
+        ------
+        AirframeError
+            For a per-sample atmosphere: the density is then the flight's.
+        """
+        if self.given_density_kgm3 is not None:
+            return self.given_density_kgm3
+        if self.altitude_m is None:
+            raise AirframeError(
+                f"airframe: no single density: the atmosphere is per sample (channel "
+                f"{self.atmosphere_channel!r}); take the flight's values "
+                "(aeroid.flights.sample_constants)")
         return float(atmosphere.density(self.altitude_m))
 
     @property
     def speed_of_sound_mps(self) -> float:
-        """ISA speed of sound at :attr:`altitude_m` [m/s]."""
+        """ISA speed of sound at :attr:`altitude_m` [m/s] (needs an altitude)."""
+        if self.altitude_m is None:
+            raise AirframeError("airframe: the speed of sound needs [atmosphere] altitude_m")
         return float(atmosphere.speed_of_sound(self.altitude_m))
 
     @property
@@ -129,6 +305,11 @@ class Airframe:
     def accel_positions(self) -> np.ndarray:
         """Both triad positions, shape (2, 3) [m]."""
         return np.array([self.accel1_position_m, self.accel2_position_m])
+
+    @property
+    def accel_position_sd(self) -> np.ndarray:
+        """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
+        return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
 
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), shape (9,)."""
@@ -142,80 +323,100 @@ class Airframe:
     def to_dict(self) -> dict[str, Any]:
         """Return the file form: ``{"airframe": {...}, "atmosphere": {...}, "prior": {...}}``."""
         table: dict[str, Any] = {}
-        for key, attr in _AIRFRAME_KEYS.items():
+        for key, attr in AIRFRAME_KEYS.items():
             value = getattr(self, attr)
-            table[key] = list(value) if isinstance(value, tuple) else value
-        out: dict[str, Any] = {"airframe": table, "atmosphere": {"altitude_m": self.altitude_m}}
+            if key.endswith("_sd_m") and not any(value):
+                continue  # known positions: the default, left out of the file
+            if value is not None:
+                table[key] = list(value) if isinstance(value, tuple) else value
+        atmos = {key: getattr(self, attr) for key, attr in ATMOSPHERE_KEYS.items()
+                 if getattr(self, attr) is not None}
+        out: dict[str, Any] = {"airframe": table, "atmosphere": atmos}
         if self.prior is not None:
             out["prior"] = dict(zip(NAMES, self.prior, strict=True))
+        if self.fin_law is not None:
+            out["fin_law"] = self.fin_law.to_table()
         return out
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], *, source: str = "airframe") -> Airframe:
-        """Build an airframe from the file form (see :meth:`to_dict`).
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "airframe",
+                  other_tables: tuple[str, ...] = ()) -> Airframe:
+        """Build an airframe from the file form (see :meth:`to_dict` and the module docstring).
+
+        Parameters
+        ----------
+        data : mapping
+            The parsed file.
+        source : str
+            The file (or other origin) named in error messages.
+        other_tables : tuple of str
+            Further tables the caller reads itself (a scenario file's); any other
+            table is an error.
 
         Raises
         ------
         AirframeError
-            One line naming ``source`` and the missing, unknown or invalid key.
+            One line naming ``source`` and the missing, unknown or invalid table or key.
         """
-        if "airframe" not in data:
-            raise AirframeError(f"{source}: no [airframe] table")
-        table = data["airframe"]
-        missing = [k for k in _AIRFRAME_KEYS if k not in table]
-        if missing:
-            raise AirframeError(f"{source}: [airframe] is missing {', '.join(missing)}")
-        unknown = sorted(set(table) - set(_AIRFRAME_KEYS))
+        data = check_table(data, source)
+        known = (*AIRFRAME_TABLES, *other_tables)
+        unknown = sorted(str(t) for t in data if t not in known)
         if unknown:
-            raise AirframeError(f"{source}: [airframe] has unknown key(s) {', '.join(unknown)}")
-        kwargs: dict[str, Any] = {attr: table[key] for key, attr in _AIRFRAME_KEYS.items()}
-        kwargs["altitude_m"] = float(data.get("atmosphere", {}).get("altitude_m", 0.0))
+            hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
+                    "[prior] and [fin_law] (starting values go in [prior])"
+                    if set(unknown) & set(SCENARIO_TABLES) else "")
+            raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
+                                f"(allowed: {', '.join(known)}){hint}")
+        for name in ("airframe", "atmosphere"):
+            if name not in data:
+                what = ("exactly one of altitude_m, density_kgm3 or per_sample; aeroid "
+                        "assumes no sea level" if name == "atmosphere" else "the airframe")
+                raise AirframeError(f"{source}: no [{name}] table ({what})")
+        table = check_table(data["airframe"], f"{source}: [airframe]")
+        required = [k for k in AIRFRAME_KEYS if k not in OPTIONAL_AIRFRAME_KEYS]
+        check_keys(table, AIRFRAME_KEYS, f"{source}: [airframe]", required)
+        kwargs: dict[str, Any] = {}
+        for key, attr in AIRFRAME_KEYS.items():
+            if key not in table:
+                continue
+            where = f"{source}: [airframe] {key}"
+            kwargs[attr] = (numbers(table[key], 3, where) if key.startswith("accel")
+                            else number(table[key], where))
+        atmos = check_table(data["atmosphere"], f"{source}: [atmosphere]")
+        check_keys(atmos, ATMOSPHERE_KEYS, f"{source}: [atmosphere]")
+        for key, attr in ATMOSPHERE_KEYS.items():
+            if key in atmos:
+                where = f"{source}: [atmosphere] {key}"
+                kwargs[attr] = (text(atmos[key], where) if key == "per_sample"
+                                else number(atmos[key], where))
         if "prior" in data:
-            kwargs["prior"] = data["prior"]
+            prior = check_table(data["prior"], f"{source}: [prior]")
+            check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
+            kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
         try:
-            return cls(**kwargs)
+            airframe = cls(**kwargs)
         except AirframeError as exc:
             raise AirframeError(f"{source}: {exc}") from None
+        if "fin_law" not in data:
+            return airframe
+        law = FinLaw.from_table(data["fin_law"], delta_max_rad=airframe.delta_max_rad,
+                                where=f"{source}: [fin_law]")
+        return airframe.replace(fin_law=law)
 
 
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int | float):
-        return repr(float(value)) if isinstance(value, float) else str(value)
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    raise TypeError(f"cannot write {type(value).__name__} to TOML")
-
-
-def dumps_toml(data: Mapping[str, Mapping[str, Any]]) -> str:
-    """Write a two-level mapping (tables of scalars and lists) as TOML text."""
-    lines: list[str] = []
-    for table, entries in data.items():
-        lines.append(f"[{table}]")
-        lines.extend(f"{key} = {_toml_value(value)}" for key, value in entries.items())
-        lines.append("")
-    return "\n".join(lines)
-
-
-def read_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file, turning every failure into a one-line ``AirframeError``."""
-    path = Path(path)
+def _prior_tuple(prior: Any) -> tuple[float, ...]:
+    """Return a prior (mapping of the nine names or 9 values) as a tuple of floats."""
+    if isinstance(prior, Mapping):
+        check_keys(prior, NAMES, "airframe prior", required=NAMES)
+        prior = [prior[n] for n in NAMES]
     try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise AirframeError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise AirframeError(f"{path}: malformed TOML ({exc})") from None
-    except OSError as exc:
-        raise AirframeError(f"{path}: cannot read ({exc.strerror})") from None
+        return numbers(prior, 9, "airframe prior")
+    except AirframeError:
+        raise AirframeError(f"airframe prior: expected 9 finite values, got {prior!r}") from None
 
 
 def load_airframe(path: str | Path) -> Airframe:
-    """Load an airframe from a TOML file (the scenario file format's tables)."""
+    """Load an airframe file (tables ``[airframe]``, ``[atmosphere]``, optional ``[prior]``)."""
     return Airframe.from_dict(read_toml(path), source=str(path))
 
 
@@ -236,4 +437,10 @@ def reference_airframe() -> Airframe:
     The reference file has no ``[prior]`` table; the prior then defaults to the
     nominal coefficients (see :meth:`Airframe.prior_vector`).
     """
-    return Airframe.from_dict(reference_scenario_data(), source="reference-scenario.toml")
+    return Airframe.from_dict(reference_scenario_data(), source="reference-scenario.toml",
+                              other_tables=SCENARIO_TABLES)
+
+
+__all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
+           "Airframe", "LIMITS", "SCENARIO_TABLES", "dumps_toml", "load_airframe",
+           "read_toml", "reference_airframe", "reference_scenario_data", "save_airframe"]

@@ -1,56 +1,49 @@
-"""Rigid-body equations of motion of the rolling airframe (paper eqs. 2-10, 14-16).
+"""The equations on numpy arrays: states (..., 9), coefficients (..., 9), loads (..., 6).
 
-Body axes, flat non-rotating earth, no wind, symmetric cruciform airframe with
-``Iy = Iz`` allowed but not required, no products of inertia, thrust on body +x
-through the c.g. The lateral coefficients follow the symmetry ties of eq. 1 and the
-side force has no fin term (one fin pair acts in pitch only; notes, "Model").
+Thin array plumbing over :mod:`aeroid.model._equations` (the one definition): the last
+axis is split into named fields, the element-wise equations are evaluated, and the
+results are stacked back. Leading axes broadcast, so one call evaluates a whole swarm.
 
-Every function is batched: ``state`` has shape ``(..., 9)`` and ``coefficients``
-``(..., 9)``; leading axes broadcast, so one call evaluates a whole swarm.
-
-State layout (SI, radians): ``u, v, w`` [m/s], ``p, q, r`` [rad/s], ``phi, theta, psi``
-[rad], indexed by the names below.
+Array layouts (named once here): the state ``u, v, w`` [m/s], ``p, q, r`` [rad/s],
+``phi, theta, psi`` [rad] (:data:`STATE_NAMES`, indices :data:`U` ... :data:`PSI`); the
+aerodynamic loads ``F_AX, F_AY, F_AZ`` [N], ``M_X, M_Y, M_Z`` [N m] (:data:`FM_NAMES`);
+the measured outputs of the two accelerometer triads and the rate gyros
+(:data:`OUTPUT_CHANNELS`).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
+from aeroid.model import _equations as eq
 from aeroid.model._airframe import Airframe
 from aeroid.model._atmosphere import G0
-from aeroid.model._coefficients import CL0, CLP, CMA, CMD, CMQ, CX, CZA, CZD, CZQ
+from aeroid.model._coefficients import N_COEFFICIENTS
+from aeroid.model._equations import Constants
 
-U, V, W, P, Q, R, PHI, THETA, PSI = range(9)
-STATE_NAMES: tuple[str, ...] = ("u", "v", "w", "p", "q", "r", "phi", "theta", "psi")
-N_STATE = 9
-#: Aerodynamic force and moment layout: F_AX, F_AY, F_AZ [N], M_X, M_Y, M_Z [N m].
-FM_NAMES: tuple[str, ...] = ("FAX", "FAY", "FAZ", "MX", "MY", "MZ")
-
-
-class Constants(NamedTuple):
-    """Model constants as plain floats (a tuple, so compiled kernels take it too).
-
-    ``rho`` [kg/m^3], ``area`` S [m^2], ``diameter`` D [m], ``mass`` [kg], inertias
-    [kg m^2], ``thrust`` [N], ``gravity`` [m/s^2].
-    """
-
-    rho: float
-    area: float
-    diameter: float
-    mass: float
-    ix: float
-    iy: float
-    iz: float
-    thrust: float
-    gravity: float
+STATE_NAMES: tuple[str, ...] = eq.STATE_NAMES
+N_STATE = len(STATE_NAMES)
+U, V, W, P, Q, R, PHI, THETA, PSI = range(N_STATE)
+#: Aerodynamic force and moment layout.
+FM_NAMES: tuple[str, ...] = eq.LOAD_NAMES
+#: Accelerometer channels: triad 1 then triad 2, body x, y, z [m/s^2].
+ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
+#: Rate-gyro channels [rad/s].
+RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
+#: The measured outputs of the model: both triads, then the body rates.
+OUTPUT_CHANNELS: tuple[str, ...] = ACCEL_CHANNELS + RATE_CHANNELS
 
 
 def constants(airframe: Airframe) -> Constants:
-    """Return the model constants of ``airframe`` (ISA density at its altitude)."""
+    """Return the model constants of ``airframe`` (its air density, standard gravity).
+
+    With a per-sample atmosphere (``[atmosphere] per_sample``) the constant density is
+    NaN: only the flight's per-sample values may be used (:mod:`aeroid.flights`), and a
+    computation that forgot them fails instead of using a wrong density.
+    """
+    per_sample = getattr(airframe, "atmosphere_channel", None) is not None
     return Constants(
-        rho=airframe.density_kgm3,
+        rho=float("nan") if per_sample else airframe.density_kgm3,
         area=airframe.area_m2,
         diameter=airframe.diameter_m,
         mass=airframe.mass_kg,
@@ -62,137 +55,79 @@ def constants(airframe: Airframe) -> Constants:
     )
 
 
+def as_state(state: np.ndarray) -> eq.State:
+    """Return the named fields of ``state`` (..., 9) (views, no copy)."""
+    state = np.asarray(state, dtype=float)
+    return eq.State(*np.moveaxis(state, -1, 0))
+
+
+def as_coefficients(coefficients: np.ndarray) -> eq.Coefficients:
+    """Return the named fields of ``coefficients`` (..., 9) (views, no copy)."""
+    coefficients = np.asarray(coefficients, dtype=float)
+    return eq.Coefficients(*np.moveaxis(coefficients, -1, 0))
+
+
+def _stack(fields: tuple) -> np.ndarray:
+    return np.stack(np.broadcast_arrays(*fields), axis=-1)
+
+
 def air_data(state: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return total speed V_T [m/s], alpha [rad] and beta [rad] (eqs. 14-16).
-
-    ``alpha = arctan(w / u)`` is evaluated with ``arctan2`` (equal for u > 0).
-    """
-    u, v, w = state[..., U], state[..., V], state[..., W]
-    speed = np.sqrt(u * u + v * v + w * w)
-    return speed, np.arctan2(w, u), np.arcsin(v / speed)
+    """Return total speed V_T [m/s], alpha [rad] and beta [rad] of ``state`` (..., 9)."""
+    x = as_state(state)
+    return eq.air_data(x.u, x.v, x.w)
 
 
-def regressors(state: np.ndarray, delta: np.ndarray | float, const: Constants) -> np.ndarray:
-    """Return the aerodynamic regressors: forces and moments are linear in the coefficients.
-
-    ``FM[..., i] = sum_j X[..., i, j] * C[..., j]`` with ``X`` of shape ``(..., 6, 9)``:
-    every force and moment of eqs. 2-7 is linear in the nine coefficients (notes,
-    "EBM first step"), so this matrix serves the simulator, the EBM second step and the
-    closed-form equation-error fits alike.
+def aero_forces_moments(state: np.ndarray, delta: np.ndarray | float, coefficients: np.ndarray,
+                        const: Constants) -> np.ndarray:
+    """Return the aerodynamic forces and moments, shape (..., 6) [N, N m] (eqs. 2-7).
 
     Parameters
     ----------
     state : ndarray, shape (..., 9)
     delta : ndarray or float, broadcastable to ``state.shape[:-1]`` [rad]
+    coefficients : ndarray, shape (..., 9)
     const : Constants
     """
-    speed, alpha, beta = air_data(state)
-    qbar_s = 0.5 * const.rho * speed * speed * const.area
-    qbar_sd = qbar_s * const.diameter
-    k = const.diameter / (2.0 * speed)
-    delta = np.broadcast_to(np.asarray(delta, dtype=float), speed.shape)
-    X = np.zeros((*speed.shape, 6, 9))
-    X[..., 0, CX] = qbar_s
-    X[..., 1, CZA] = qbar_s * beta
-    X[..., 1, CZQ] = -qbar_s * k * state[..., R]
-    X[..., 2, CZA] = qbar_s * alpha
-    X[..., 2, CZD] = qbar_s * delta
-    X[..., 2, CZQ] = qbar_s * k * state[..., Q]
-    X[..., 3, CL0] = qbar_sd
-    X[..., 3, CLP] = qbar_sd * k * state[..., P]
-    X[..., 4, CMA] = qbar_sd * alpha
-    X[..., 4, CMD] = qbar_sd * delta
-    X[..., 4, CMQ] = qbar_sd * k * state[..., Q]
-    X[..., 5, CMA] = -qbar_sd * beta
-    X[..., 5, CMQ] = qbar_sd * k * state[..., R]
-    return X
+    loads = eq.aerodynamic_loads(as_state(state), as_coefficients(coefficients),
+                                 np.asarray(delta, dtype=float), const)
+    return _stack(loads)
 
 
-def aero_forces_moments(
-    state: np.ndarray, delta: np.ndarray | float, coefficients: np.ndarray, const: Constants
-) -> np.ndarray:
-    """Return aerodynamic forces and moments, shape (..., 6) [N, N m] (eqs. 2-7).
+def regressors(state: np.ndarray, delta: np.ndarray | float, const: Constants) -> np.ndarray:
+    """Return the regressors ``X`` (..., 6, 9): the loads are linear in the coefficients.
 
-    ``F_AX = Q S Cx``; ``F_AY = Q S (Cza beta - Czq D/(2V) r)``;
-    ``F_AZ = Q S (Cza alpha + Czd delta + Czq D/(2V) q)``; ``M_X = Q S D (Cl0 + Clp D/(2V) p)``;
-    ``M_Y = Q S D (Cma alpha + Cmd delta + Cmq D/(2V) q)``;
-    ``M_Z = Q S D (-Cma beta + Cmq D/(2V) r)``.
+    ``FM[..., i] = sum_j X[..., i, j] * C[..., j]``. Column ``j`` is the loads evaluated
+    with the unit coefficient vector ``e_j`` (eqs. 2-7 are linear in the coefficients), so
+    this matrix is the same model as :func:`aero_forces_moments`, not a second writing of
+    it. It serves the EBM second step and the equation-error fits.
     """
-    speed, alpha, beta = air_data(state)
-    c = np.asarray(coefficients, dtype=float)
-    qs = 0.5 * const.rho * speed * speed * const.area
-    qsd = qs * const.diameter
-    k = const.diameter / (2.0 * speed)
-    p, q, r = state[..., P], state[..., Q], state[..., R]
-    fm = np.empty(np.broadcast_shapes(speed.shape, c.shape[:-1], np.shape(delta)) + (6,))
-    fm[..., 0] = qs * c[..., CX]
-    fm[..., 1] = qs * (c[..., CZA] * beta - c[..., CZQ] * k * r)
-    fm[..., 2] = qs * (c[..., CZA] * alpha + c[..., CZD] * delta + c[..., CZQ] * k * q)
-    fm[..., 3] = qsd * (c[..., CL0] + c[..., CLP] * k * p)
-    fm[..., 4] = qsd * (c[..., CMA] * alpha + c[..., CMD] * delta + c[..., CMQ] * k * q)
-    fm[..., 5] = qsd * (-c[..., CMA] * beta + c[..., CMQ] * k * r)
-    return fm
+    x = as_state(np.asarray(state, dtype=float)[..., None, :])  # fields (..., 1)
+    unit = eq.Coefficients(*np.eye(N_COEFFICIENTS))  # fields (9,)
+    delta = np.asarray(delta, dtype=float)[..., None]
+    # constants given per sample (array fields) get the coefficient axis too
+    const = Constants(*(np.asarray(v, dtype=float)[..., None] if np.ndim(v) else v
+                        for v in const))
+    return np.stack(np.broadcast_arrays(*eq.aerodynamic_loads(x, unit, delta, const)), axis=-2)
 
 
 def derivative_from_forces(state: np.ndarray, fm: np.ndarray, const: Constants) -> np.ndarray:
-    """Return d(state)/dt, shape (..., 9), from aerodynamic forces and moments (eqs. 2-10)."""
-    u, v, w = state[..., U], state[..., V], state[..., W]
-    p, q, r = state[..., P], state[..., Q], state[..., R]
-    phi, theta = state[..., PHI], state[..., THETA]
-    g = const.gravity
-    sphi, cphi = np.sin(phi), np.cos(phi)
-    sth, cth = np.sin(theta), np.cos(theta)
-    out = np.empty(np.broadcast_shapes(state.shape, fm.shape[:-1] + (9,)))
-    out[..., U] = r * v - q * w - g * sth + (fm[..., 0] + const.thrust) / const.mass
-    out[..., V] = -r * u + p * w + g * cth * sphi + fm[..., 1] / const.mass
-    out[..., W] = q * u - p * v + g * cth * cphi + fm[..., 2] / const.mass
-    out[..., P] = fm[..., 3] / const.ix
-    out[..., Q] = (const.iz - const.ix) / const.iy * p * r + fm[..., 4] / const.iy
-    out[..., R] = (const.ix - const.iy) / const.iz * p * q + fm[..., 5] / const.iz
-    out[..., PHI] = p + (q * sphi + r * cphi) * sth / cth
-    out[..., THETA] = q * cphi - r * sphi
-    out[..., PSI] = (q * sphi + r * cphi) / cth
-    return out
+    """Return d(state)/dt, shape (..., 9), from aerodynamic loads ``fm`` (..., 6) (eqs. 2-10)."""
+    x = as_state(state)
+    loads = eq.Loads(*np.moveaxis(np.asarray(fm, dtype=float), -1, 0))
+    return _stack(eq.derivative(x, loads, const, eq.trig(x)))
 
 
-def state_derivative(
-    state: np.ndarray, delta: np.ndarray | float, coefficients: np.ndarray, const: Constants
-) -> np.ndarray:
-    """Return d(state)/dt, shape (..., 9), for fin deflection ``delta`` [rad] (eqs. 2-10).
-
-    Note eq. 5 has no ``(Iy - Iz) q r`` term: the paper's model, exact for Iy = Iz.
-    """
-    return derivative_from_forces(state, aero_forces_moments(state, delta, coefficients, const),
-                                  const)
+def state_derivative(state: np.ndarray, delta: np.ndarray | float, coefficients: np.ndarray,
+                     const: Constants) -> np.ndarray:
+    """Return d(state)/dt, shape (..., 9), for fin deflection ``delta`` [rad] (eqs. 2-10)."""
+    x = as_state(state)
+    return _stack(eq.state_derivative(x, as_coefficients(coefficients),
+                                      np.asarray(delta, dtype=float), const, eq.trig(x)))
 
 
-def lever_arm_acceleration(
-    specific_force: np.ndarray, omega: np.ndarray, omega_dot: np.ndarray, position: np.ndarray
-) -> np.ndarray:
-    """Return ``f + wdot x R + w x (w x R)`` (eq. 28), shape (..., 3) [m/s^2].
-
-    Parameters
-    ----------
-    specific_force : ndarray, shape (..., 3)
-        ``(F_A + F_T) / m`` [m/s^2].
-    omega, omega_dot : ndarray, shape (..., 3)
-        Body rates [rad/s] and their derivatives [rad/s^2].
-    position : ndarray, shape (..., 3) or (3,)
-        Sensor position from the c.g. [m].
-    """
-    position = np.broadcast_to(np.asarray(position, dtype=float), omega.shape)
-    return (specific_force + np.cross(omega_dot, position)
-            + np.cross(omega, np.cross(omega, position)))
-
-
-def accelerometers(
-    state: np.ndarray,
-    delta: np.ndarray | float,
-    coefficients: np.ndarray,
-    const: Constants,
-    positions: np.ndarray,
-) -> np.ndarray:
-    """Return the readings of accelerometer triads, shape (..., n_triads, 3) [m/s^2].
+def accelerometers(state: np.ndarray, delta: np.ndarray | float, coefficients: np.ndarray,
+                   const: Constants, positions: np.ndarray) -> np.ndarray:
+    """Return the readings of accelerometer triads, shape (..., n_triads, 3) [m/s^2] (eq. 28).
 
     Parameters
     ----------
@@ -203,14 +138,9 @@ def accelerometers(
     positions : ndarray, shape (n_triads, 3)
         Triad positions from the c.g. [m].
     """
-    fm = aero_forces_moments(state, delta, coefficients, const)
-    xdot = derivative_from_forces(state, fm, const)
-    force = fm[..., :3].copy()
-    force[..., 0] += const.thrust
-    specific = force / const.mass
-    omega = state[..., [P, Q, R]]
-    omega_dot = xdot[..., [P, Q, R]]
+    x = as_state(state)
+    loads = eq.aerodynamic_loads(x, as_coefficients(coefficients),
+                                 np.asarray(delta, dtype=float), const)
     positions = np.asarray(positions, dtype=float)
-    return np.stack(
-        [lever_arm_acceleration(specific, omega, omega_dot, pos) for pos in positions], axis=-2
-    )
+    return np.stack([_stack(eq.accelerometer(x, loads, const, *pos)) for pos in positions],
+                    axis=-2)

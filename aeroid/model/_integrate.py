@@ -3,21 +3,13 @@
 Two layers:
 
 * :func:`rk4` integrates any batched right-hand side ``fun(t, x, *args)`` with numpy.
-* :func:`propagate` integrates the airframe model (:mod:`aeroid.model`) for many
-  coefficient sets at once with the fin deflection held constant over each sample
+* :func:`propagate` integrates the airframe model (:mod:`aeroid.model._equations`) for
+  many coefficient sets at once with the fin deflection held constant over each sample
   interval (zero-order hold of the measured ``delta``). This is the hot loop of the
   output-error estimators (EAM-PSO: ~400 passes over 450 coefficient sets), so it has a
-  compiled backend (numba) and a pure-numpy backend that gives the same numbers (tested
-  to 1e-12 of each channel's range) for readers and for platforms without numba.
-
-The compiled kernel (benchmarks/bench_foundation.py, results/foundation.md): each
-coefficient set is integrated by one thread with its state in nine scalars (no per-set
-allocation); the right-hand side is inlined; the RK4 stages get sin/cos of phi and
-theta from the step's start values by the addition theorem (one libm sin/cos pair per
-angle and step instead of four); fast-math without ``nnan``/``ninf``
-(:data:`FASTMATH_FLAGS`). ``parallel=True`` (``prange`` over the sets, numba's default
-thread count, never changed here) from :data:`PARALLEL_MIN_SETS` sets on; a serial
-kernel below, where starting the threads would cost more than the work.
+  compiled backend (numba kernels of the same equations, :mod:`aeroid.model._compiled`)
+  and a pure-numpy backend that gives the same numbers (tested to 1e-12 of each
+  channel's range) for readers and for platforms without numba.
 """
 
 from __future__ import annotations
@@ -28,14 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from aeroid.model import _compiled
+from aeroid.model import _inputs as inputs
+from aeroid.model._compiled import HAVE_NUMBA, PARALLEL_MIN_SETS
 from aeroid.model._dynamics import N_STATE, Constants, state_derivative
-
-try:  # numba is a runtime dependency, but the numpy path must work without it
-    import numba
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover - exercised only where numba is missing
-    HAVE_NUMBA = False
+from aeroid.model._inputs import Pieces
 
 
 def rk4_step(fun: Callable[..., np.ndarray], t: float, x: np.ndarray, dt: float,
@@ -75,165 +64,51 @@ def rk4(fun: Callable[..., np.ndarray], x0: np.ndarray, t0: float, dt: float, n_
     return out
 
 
-def _model_rhs(_t: float, x: np.ndarray, delta: float, coefficients: np.ndarray,
-               const: Constants) -> np.ndarray:
-    return state_derivative(x, delta, coefficients, const)
+def _rk4_numpy(x: np.ndarray, coefficients: np.ndarray, deltas: tuple[float, float, float],
+               consts: tuple[Constants, Constants, Constants], h: float) -> np.ndarray:
+    """One RK4 step of ``h`` with the deflection and constants at start, middle and end."""
+    k1 = state_derivative(x, deltas[0], coefficients, consts[0])
+    k2 = state_derivative(x + 0.5 * h * k1, deltas[1], coefficients, consts[1])
+    k3 = state_derivative(x + 0.5 * h * k2, deltas[1], coefficients, consts[1])
+    k4 = state_derivative(x + h * k3, deltas[2], coefficients, consts[2])
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray,
-                     dt: float, const: Constants, substeps: int) -> np.ndarray:
-    n_sets, n_samples = state0.shape[0], delta.shape[0] + 1
-    out = np.empty((n_sets, n_samples, N_STATE))
+def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, pieces: Pieces,
+                     exo: np.ndarray | None, dt: float, const: Constants,
+                     substeps: int) -> np.ndarray:
+    """The numba kernel's algorithm (:func:`aeroid.model._compiled.integrate_set`) in numpy."""
+    n_sets, n_int = state0.shape[0], pieces.end.shape[0]
+    out = np.empty((n_sets, n_int + 1, N_STATE))
     x = state0.copy()
     out[:, 0] = x
-    h = dt / substeps
-    for k in range(n_samples - 1):
-        for _ in range(substeps):
-            x = rk4_step(_model_rhs, 0.0, x, h, delta[k], coefficients, const)
-        out[:, k + 1] = x
+    k_a = k_b = const
+    for s in range(n_int):
+        if exo is not None:
+            k_a = inputs.with_exogenous(const, exo[s])
+            k_b = inputs.with_exogenous(const, exo[s + 1])
+        f_start = 0.0
+        for piece in range(pieces.end.shape[1]):
+            f_end = float(pieces.end[s, piece])
+            length = f_end - f_start
+            if length > 0.0:
+                d_start = float(pieces.start[s, piece])
+                d_span = float(pieces.stop[s, piece]) - d_start
+                h = length * dt / substeps
+                for sub in range(substeps):
+                    u = (sub / substeps, (sub + 0.5) / substeps, (sub + 1.0) / substeps)
+                    deltas = tuple(d_start + d_span * ui for ui in u)
+                    consts = (const, const, const) if exo is None else tuple(
+                        inputs.lerp(k_a, k_b, f_start + length * ui) for ui in u)
+                    x = _rk4_numpy(x, coefficients, deltas, consts, h)
+            f_start = f_end
+        out[:, s + 1] = x
     return out
 
 
-#: numba fast-math flags of the compiled kernel: reassociation, contraction (FMA),
-#: reciprocals, approximate functions, signed zeros; NOT ``nnan``/``ninf``, so a diverging
-#: trajectory still yields inf/NaN (the estimators' costs rely on it). Agreement with the
-#: numpy backend is tested to 1e-12 relative.
-FASTMATH_FLAGS = {"nsz", "arcp", "contract", "afn", "reassoc"}
-#: Below this many coefficient sets :func:`propagate` uses the serial compiled kernel:
-#: starting the thread pool costs ~0.1-1 ms per call, more than integrating a few sets
-#: (the simulator calls propagate once per sample with one set).
-PARALLEL_MIN_SETS = 16
-
-if HAVE_NUMBA:
-
-    @numba.njit(cache=True, inline="always", fastmath=FASTMATH_FLAGS)
-    def _sincos_shift(s0, c0, d):  # pragma: no cover - compiled
-        # sin(a + d), cos(a + d) from s0 = sin(a), c0 = cos(a) by the addition theorem,
-        # with sin(d), cos(d) from their Taylor series when |d| < 0.1 (terms to d^11 and
-        # d^12: truncation < 1e-19, i.e. rounding-level) and from libm otherwise. The RK4
-        # stages move phi and theta by a small d = h/2 * rate, so this replaces 12 of the
-        # 16 sin/cos calls of a step by a few multiplications.
-        if abs(d) < 0.1:
-            d2 = d * d
-            sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (
-                1.0 - d2 / 72.0 * (1.0 - d2 / 110.0)))))
-            cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0 * (
-                1.0 - d2 / 90.0 * (1.0 - d2 / 132.0)))))
-        else:
-            sd = math.sin(d)
-            cd = math.cos(d)
-        return s0 * cd + c0 * sd, c0 * cd - s0 * sd
-
-    @numba.njit(cache=True, inline="always", fastmath=FASTMATH_FLAGS)
-    def _rhs_scalar(u, v, w, p, q, r, sphi, cphi, sth, cth, delta, cx, cza, czd, czq, cl0,
-                    clp, cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust,
-                    g):  # pragma: no cover - compiled
-        # Eqs. 2-10 on scalars, the algebra of aeroid.model.state_derivative; psi does
-        # not enter, phi and theta enter through their sines and cosines.
-        speed2 = u * u + v * v + w * w
-        inv_speed = 1.0 / math.sqrt(speed2)
-        alpha = math.atan(w / u) if u > 0.0 else math.atan2(w, u)  # atan: ~10 % faster
-        beta = math.asin(v * inv_speed)
-        qs = half_rho_s * speed2
-        qsd = qs * diam
-        kd = 0.5 * diam * inv_speed
-        fax = qs * cx
-        fay = qs * (cza * beta - czq * kd * r)
-        faz = qs * (cza * alpha + czd * delta + czq * kd * q)
-        mx = qsd * (cl0 + clp * kd * p)
-        my = qsd * (cma * alpha + cmd * delta + cmq * kd * q)
-        mz = qsd * (-cma * beta + cmq * kd * r)
-        qr = q * sphi + r * cphi
-        inv_cth = 1.0 / cth
-        return (r * v - q * w - g * sth + (fax + thrust) / mass,
-                -r * u + p * w + g * cth * sphi + fay / mass,
-                q * u - p * v + g * cth * cphi + faz / mass,
-                mx / ix,
-                (iz - ix) / iy * p * r + my / iy,
-                (ix - iy) / iz * p * q + mz / iz,
-                p + qr * sth * inv_cth,
-                q * cphi - r * sphi,
-                qr * inv_cth)
-
-    @numba.njit(cache=True, fastmath=FASTMATH_FLAGS)
-    def _integrate_set(x, c, delta, h, substeps, k, out):  # pragma: no cover - compiled
-        # One coefficient set over all samples; the state lives in 9 scalars (registers),
-        # no per-set allocation. k = Constants as a tuple (rho, area, diameter, mass, ix,
-        # iy, iz, thrust, gravity).
-        half_rho_s = 0.5 * k[0] * k[1]
-        diam, mass, ix, iy, iz, thrust, g = k[2], k[3], k[4], k[5], k[6], k[7], k[8]
-        cx, cza, czd, czq, cl0, clp, cma, cmd, cmq = (c[0], c[1], c[2], c[3], c[4], c[5],
-                                                     c[6], c[7], c[8])
-        x0, x1, x2, x3, x4, x5, x6, x7, x8 = (x[0], x[1], x[2], x[3], x[4], x[5], x[6],
-                                               x[7], x[8])
-        hh = 0.5 * h
-        h6 = h / 6.0
-        for j in range(9):
-            out[0, j] = x[j]
-        for s in range(delta.shape[0]):
-            d = delta[s]
-            for _ in range(substeps):
-                sf, cf = math.sin(x6), math.cos(x6)
-                st, ct = math.sin(x7), math.cos(x7)
-                a0, a1, a2, a3, a4, a5, a6, a7, a8 = _rhs_scalar(
-                    x0, x1, x2, x3, x4, x5, sf, cf, st, ct, d, cx, cza, czd, czq, cl0, clp,
-                    cma, cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
-                sf2, cf2 = _sincos_shift(sf, cf, hh * a6)
-                st2, ct2 = _sincos_shift(st, ct, hh * a7)
-                b0, b1, b2, b3, b4, b5, b6, b7, b8 = _rhs_scalar(
-                    x0 + hh * a0, x1 + hh * a1, x2 + hh * a2, x3 + hh * a3, x4 + hh * a4,
-                    x5 + hh * a5, sf2, cf2, st2, ct2, d, cx, cza, czd, czq, cl0, clp, cma,
-                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
-                sf2, cf2 = _sincos_shift(sf, cf, hh * b6)
-                st2, ct2 = _sincos_shift(st, ct, hh * b7)
-                e0, e1, e2, e3, e4, e5, e6, e7, e8 = _rhs_scalar(
-                    x0 + hh * b0, x1 + hh * b1, x2 + hh * b2, x3 + hh * b3, x4 + hh * b4,
-                    x5 + hh * b5, sf2, cf2, st2, ct2, d, cx, cza, czd, czq, cl0, clp, cma,
-                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
-                sf2, cf2 = _sincos_shift(sf, cf, h * e6)
-                st2, ct2 = _sincos_shift(st, ct, h * e7)
-                f0, f1, f2, f3, f4, f5, f6, f7, f8 = _rhs_scalar(
-                    x0 + h * e0, x1 + h * e1, x2 + h * e2, x3 + h * e3, x4 + h * e4,
-                    x5 + h * e5, sf2, cf2, st2, ct2, d, cx, cza, czd, czq, cl0, clp, cma,
-                    cmd, cmq, half_rho_s, diam, mass, ix, iy, iz, thrust, g)
-                x0 = x0 + h6 * (a0 + 2.0 * b0 + 2.0 * e0 + f0)
-                x1 = x1 + h6 * (a1 + 2.0 * b1 + 2.0 * e1 + f1)
-                x2 = x2 + h6 * (a2 + 2.0 * b2 + 2.0 * e2 + f2)
-                x3 = x3 + h6 * (a3 + 2.0 * b3 + 2.0 * e3 + f3)
-                x4 = x4 + h6 * (a4 + 2.0 * b4 + 2.0 * e4 + f4)
-                x5 = x5 + h6 * (a5 + 2.0 * b5 + 2.0 * e5 + f5)
-                x6 = x6 + h6 * (a6 + 2.0 * b6 + 2.0 * e6 + f6)
-                x7 = x7 + h6 * (a7 + 2.0 * b7 + 2.0 * e7 + f7)
-                x8 = x8 + h6 * (a8 + 2.0 * b8 + 2.0 * e8 + f8)
-            out[s + 1, 0] = x0
-            out[s + 1, 1] = x1
-            out[s + 1, 2] = x2
-            out[s + 1, 3] = x3
-            out[s + 1, 4] = x4
-            out[s + 1, 5] = x5
-            out[s + 1, 6] = x6
-            out[s + 1, 7] = x7
-            out[s + 1, 8] = x8
-
-    @numba.njit(cache=True, parallel=True)
-    def _propagate_parallel(state0, coefficients, delta, h, substeps, k):  # pragma: no cover
-        n_sets = state0.shape[0]
-        out = np.empty((n_sets, delta.shape[0] + 1, 9))
-        for i in numba.prange(n_sets):
-            _integrate_set(state0[i], coefficients[i], delta, h, substeps, k, out[i])
-        return out
-
-    @numba.njit(cache=True)
-    def _propagate_serial(state0, coefficients, delta, h, substeps, k):  # pragma: no cover
-        n_sets = state0.shape[0]
-        out = np.empty((n_sets, delta.shape[0] + 1, 9))
-        for i in range(n_sets):
-            _integrate_set(state0[i], coefficients[i], delta, h, substeps, k, out[i])
-        return out
-
-
-def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, dt: float,
-              const: Constants, *, substeps: int = 1, backend: str = "auto") -> np.ndarray:
+def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | Pieces,
+              dt: float, const: Constants, *, substeps: int = 1, backend: str = "auto",
+              exogenous: np.ndarray | None = None) -> np.ndarray:
     """Integrate the airframe model for many coefficient sets with RK4.
 
     Parameters
@@ -241,16 +116,22 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
     state0 : ndarray, shape (9,) or (n_sets, 9)
         Initial state(s) [m/s, rad/s, rad]; one state is shared by all sets.
     coefficients : ndarray, shape (9,) or (n_sets, 9)
-    delta : ndarray, shape (n_samples - 1,)
-        Fin deflection [rad] held constant over each sample interval
-        ``[t_k, t_k + dt)`` (zero-order hold of the recorded ``delta``).
+    delta : ndarray, shape (n_samples - 1,), or Pieces
+        Fin deflection [rad]: held constant over each sample interval
+        ``[t_k, t_k + dt)`` (an array: zero-order hold of the recorded ``delta``), or
+        the pieces of a :class:`aeroid.model.Schedule` (switch instants and ramps inside
+        the intervals; every piece gets ``substeps`` RK4 steps).
     dt : float
         Sample interval [s].
     const : Constants
     substeps : int
-        RK4 steps per sample interval.
+        RK4 steps per sample interval (per piece).
     backend : {"auto", "numba", "numpy"}
         ``auto`` takes numba when it is installed.
+    exogenous : ndarray, shape (n_samples, 7), optional
+        Air density, mass, thrust, inertias and gravity at every sample
+        (:data:`aeroid.model.EXOGENOUS` columns, :func:`aeroid.model.exogenous_table`),
+        interpolated linearly in time within each interval; default the constants.
 
     Returns
     -------
@@ -280,7 +161,17 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
                          f"{coefficients.shape[0]} coefficient sets do not broadcast")
     state0 = np.ascontiguousarray(np.broadcast_to(state0, (n_sets, N_STATE)))
     coefficients = np.ascontiguousarray(np.broadcast_to(coefficients, (n_sets, 9)))
-    delta = np.ascontiguousarray(delta, dtype=float).reshape(-1)
+    pieces = delta if isinstance(delta, Pieces) else inputs.held(delta)
+    pieces = Pieces(*(np.ascontiguousarray(a, dtype=float) for a in pieces))
+    if pieces.end.ndim != 2 or pieces.start.shape != pieces.end.shape \
+            or pieces.stop.shape != pieces.end.shape:
+        raise ValueError("propagate: the deflection pieces must be three (n - 1, S) arrays")
+    n_samples = pieces.end.shape[0] + 1
+    if exogenous is not None:
+        exogenous = np.ascontiguousarray(exogenous, dtype=float)
+        if exogenous.shape != (n_samples, len(inputs.EXOGENOUS)):
+            raise ValueError(f"propagate: exogenous must have shape ({n_samples}, "
+                             f"{len(inputs.EXOGENOUS)}), got {exogenous.shape}")
     substeps = int(substeps)
     dt = float(dt)
     if substeps < 1:
@@ -292,11 +183,15 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray, d
     if backend == "numba":
         if not HAVE_NUMBA:
             raise ValueError("propagate: backend 'numba' requested but numba is not installed")
-        kernel = _propagate_parallel if n_sets >= PARALLEL_MIN_SETS else _propagate_serial
+        kernel = (_compiled.propagate_parallel if n_sets >= PARALLEL_MIN_SETS
+                  else _compiled.propagate_serial)
+        varying = exogenous is not None
+        table = exogenous if varying else np.zeros((1, len(inputs.EXOGENOUS)))
         with np.errstate(all="ignore"):
-            return kernel(state0, coefficients, delta, dt / substeps, substeps,
-                          tuple(float(v) for v in const))
+            return kernel(state0, coefficients, pieces.end, pieces.start, pieces.stop, table,
+                          varying, dt, substeps, Constants(*(float(v) for v in const)))
     if backend == "numpy":
         with np.errstate(all="ignore"):
-            return _propagate_numpy(state0, coefficients, delta, dt, const, substeps)
+            return _propagate_numpy(state0, coefficients, pieces, exogenous, dt, const,
+                                    substeps)
     raise ValueError(f"propagate: unknown backend {backend!r} (expected auto, numba or numpy)")

@@ -1,11 +1,9 @@
-"""The airframe model written once in CasADi form, for exact Jacobians (private).
+"""The model on CasADi symbols, for exact derivatives (algorithmic differentiation).
 
-The equations are those of :mod:`aeroid.model` (eqs. 2-10, 14-16) and of
-:func:`aeroid.flights.accelerometers` (eq. 28), written with operations that work on
-CasADi ``SX``/``MX`` symbols (and on floats). Tests check that these functions equal
-aeroid's numpy model (:func:`aeroid.state_derivative`, :func:`aeroid.propagate`,
-:func:`aeroid.accelerometers`) to rounding, so the baselines fit exactly the model the
-simulator integrates.
+The equations are not written here: :mod:`aeroid.model._equations` is evaluated on CasADi
+``SX`` symbols (numpy's element-wise functions dispatch to CasADi objects in CasADi's
+numpy mode, set once below), so the baselines differentiate exactly the model the
+simulator integrates. Tests check these functions against the numpy evaluation.
 
 Built CasADi functions are cached per (constants, dt, substeps) with
 :func:`functools.lru_cache`, so repeated fits on flights of the same airframe and sample
@@ -16,28 +14,43 @@ library on disk.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
+import logging
 import os
 import shutil
 import subprocess
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import casadi as ca
 
-from aeroid.model._dynamics import Constants
+from aeroid.model import _equations as eq
+from aeroid.model import _inputs as inputs
+from aeroid.model._coefficients import N_COEFFICIENTS
+from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, Constants
 
-#: Measurement layout of every baseline: both triads, then the body rates (section 4.3).
-MEASUREMENT_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r")
-N_MEASUREMENTS = 9
-N_STATE = 9
-N_COEF = 9
+# numpy functions on CasADi symbols return CasADi values (not the legacy behaviour, which
+# CasADi 3.8 announces with a FutureWarning); older CasADi versions lack the setting.
+with contextlib.suppress(AttributeError):  # pragma: no branch - absent before CasADi 3.8
+    ca.GlobalOptions.setNumpyMode(1)
+
+N_OUTPUTS = len(OUTPUT_CHANNELS)
+
+
+def _state(x) -> eq.State:
+    return eq.State(*(x[i] for i in range(N_STATE)))
+
+
+def _coefficients(theta) -> eq.Coefficients:
+    return eq.Coefficients(*(theta[i] for i in range(N_COEFFICIENTS)))
 
 
 def rhs(x, delta, theta, const: Constants):
-    """Return d(state)/dt and the aerodynamic forces/moments (eqs. 2-10), CasADi-compatible.
+    """Return d(state)/dt (a CasADi vector of 9) and the aerodynamic loads (eqs. 2-10).
 
     Parameters
     ----------
@@ -48,96 +61,77 @@ def rhs(x, delta, theta, const: Constants):
     theta : casadi SX/MX or sequence, length 9
         Coefficients in ``aeroid.NAMES`` order.
     const : Constants
-
-    Returns
-    -------
-    xdot : casadi vector (9,)
-    fm : list of 6 expressions
-        ``F_AX, F_AY, F_AZ`` [N], ``M_X, M_Y, M_Z`` [N m].
     """
-    u, v, w, p, q, r, phi, th = (x[i] for i in range(8))
-    c = [theta[i] for i in range(9)]
-    speed = ca.sqrt(u * u + v * v + w * w)
-    alpha = ca.atan2(w, u)
-    beta = ca.asin(v / speed)
-    qs = 0.5 * const.rho * speed * speed * const.area
-    qsd = qs * const.diameter
-    k = const.diameter / (2.0 * speed)
-    fax = qs * c[0]
-    fay = qs * (c[1] * beta - c[3] * k * r)
-    faz = qs * (c[1] * alpha + c[2] * delta + c[3] * k * q)
-    mx = qsd * (c[4] + c[5] * k * p)
-    my = qsd * (c[6] * alpha + c[7] * delta + c[8] * k * q)
-    mz = qsd * (-c[6] * beta + c[8] * k * r)
-    g = const.gravity
-    sphi, cphi = ca.sin(phi), ca.cos(phi)
-    sth, cth = ca.sin(th), ca.cos(th)
-    xdot = ca.vertcat(
-        r * v - q * w - g * sth + (fax + const.thrust) / const.mass,
-        -r * u + p * w + g * cth * sphi + fay / const.mass,
-        q * u - p * v + g * cth * cphi + faz / const.mass,
-        mx / const.ix,
-        (const.iz - const.ix) / const.iy * p * r + my / const.iy,
-        (const.ix - const.iy) / const.iz * p * q + mz / const.iz,
-        p + (q * sphi + r * cphi) * sth / cth,
-        q * cphi - r * sphi,
-        (q * sphi + r * cphi) / cth,
-    )
-    return xdot, [fax, fay, faz, mx, my, mz]
+    state = _state(x)
+    loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
+    return ca.vertcat(*eq.derivative(state, loads, const, eq.trig(state))), loads
 
 
 def measurement(x, delta, theta, positions, const: Constants):
-    """Return the nine measurements ``[a1 (3), a2 (3), p, q, r]`` (eq. 28), CasADi-compatible.
-
-    ``a_R = (F_A + F_T) / m + wdot x R + w x (w x R)`` at each triad position ``R``.
+    """Return the outputs ``[a1 (3), a2 (3), ..., p, q, r]`` (eq. 28 at each triad, gyros).
 
     Parameters
     ----------
     x, delta, theta, const
         As in :func:`rhs`.
-    positions : casadi vector of length 6 or sequence
-        ``[x1, y1, z1, x2, y2, z2]`` triad positions from the c.g. [m].
+    positions : casadi vector of length 3 n_triads, or sequence
+        ``[x1, y1, z1, x2, y2, z2, ...]`` triad positions from the c.g. [m].
     """
-    xdot, fm = rhs(x, delta, theta, const)
-    p, q, r = x[3], x[4], x[5]
-    pd, qd, rd = xdot[3], xdot[4], xdot[5]
-    fx = (fm[0] + const.thrust) / const.mass
-    fy = fm[1] / const.mass
-    fz = fm[2] / const.mass
+    state = _state(x)
+    loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
     out = []
-    for j in range(2):
-        rx, ry, rz = positions[3 * j], positions[3 * j + 1], positions[3 * j + 2]
-        # w x R
-        cx, cy, cz = q * rz - r * ry, r * rx - p * rz, p * ry - q * rx
-        out += [
-            fx + (qd * rz - rd * ry) + (q * cz - r * cy),
-            fy + (rd * rx - pd * rz) + (r * cx - p * cz),
-            fz + (pd * ry - qd * rx) + (p * cy - q * cx),
-        ]
-    return ca.vertcat(*out, p, q, r)
+    n_triads = (positions.shape[0] if hasattr(positions, "shape") else len(positions)) // 3
+    for j in range(n_triads):
+        out += eq.accelerometer(state, loads, const, positions[3 * j], positions[3 * j + 1],
+                                positions[3 * j + 2])
+    return ca.vertcat(*out, *eq.rate_gyros(state))
+
+
+def _rk4(x, theta, deltas, consts, h):
+    """One RK4 step of ``h`` with the deflection and constants at start, middle and end."""
+    k1 = rhs(x, deltas[0], theta, consts[0])[0]
+    k2 = rhs(x + 0.5 * h * k1, deltas[1], theta, consts[1])[0]
+    k3 = rhs(x + 0.5 * h * k2, deltas[1], theta, consts[1])[0]
+    k4 = rhs(x + h * k3, deltas[2], theta, consts[2])[0]
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
+def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Constants | None,
+                  dt: float, substeps: int):
+    """Return the state one sample interval later: the pieces of a schedule, RK4 each.
+
+    The same scheme as the numba kernel (:func:`aeroid.model._compiled.integrate_set`):
+    piece ``j`` ends at the fraction ``end[j]`` of the interval, the deflection goes
+    linearly from ``start[j]`` to ``stop[j]`` within it, and it gets ``substeps`` RK4
+    steps; the constants are interpolated linearly from ``const_a`` (the interval's
+    start) to ``const_b`` (its end; None: ``const_a`` throughout). A zero-length piece
+    is a step of length zero.
+    """
+    f_start = 0.0
+    for j in range(len(end) if not hasattr(end, "shape") else end.shape[0]):
+        length = end[j] - f_start
+        h = length * dt / substeps
+        d_span = stop[j] - start[j]
+        for sub in range(substeps):
+            u = (sub / substeps, (sub + 0.5) / substeps, (sub + 1.0) / substeps)
+            deltas = [start[j] + d_span * ui for ui in u]
+            consts = [const_a] * 3 if const_b is None else [
+                inputs.lerp(const_a, const_b, f_start + length * ui) for ui in u]
+            x = _rk4(x, theta, deltas, consts, h)
+        f_start = end[j]
+    return x
 
 
 def rk4_step(x, delta, theta, const: Constants, dt: float, substeps: int):
-    """Return the state after ``substeps`` RK4 steps of ``dt / substeps`` with ``delta`` held.
-
-    The same scheme as :func:`aeroid.model.propagate` (zero-order hold of ``delta``
-    over the sample interval).
-    """
-    h = dt / substeps
-    for _ in range(substeps):
-        k1 = rhs(x, delta, theta, const)[0]
-        k2 = rhs(x + 0.5 * h * k1, delta, theta, const)[0]
-        k3 = rhs(x + 0.5 * h * k2, delta, theta, const)[0]
-        k4 = rhs(x + h * k3, delta, theta, const)[0]
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return x
+    """Return the state after ``substeps`` RK4 steps of ``dt / substeps`` with ``delta`` held."""
+    return interval_step(x, theta, [1.0], [delta], [delta], const, None, dt, substeps)
 
 
 @functools.lru_cache(maxsize=32)
 def step_function(const: Constants, dt: float, substeps: int) -> ca.Function:
     """Return the CasADi Function ``step(x (9), theta (9), delta) -> x_next (9)``."""
     x = ca.SX.sym("x", N_STATE)
-    theta = ca.SX.sym("theta", N_COEF)
+    theta = ca.SX.sym("theta", N_COEFFICIENTS)
     delta = ca.SX.sym("delta")
     return ca.Function("step", [x, theta, delta],
                        [rk4_step(x, delta, theta, const, dt, substeps)],
@@ -148,7 +142,7 @@ def step_function(const: Constants, dt: float, substeps: int) -> ca.Function:
 def measurement_function(const: Constants) -> ca.Function:
     """Return the CasADi Function ``meas(x (9), theta (9), delta, positions (6)) -> y (9)``."""
     x = ca.SX.sym("x", N_STATE)
-    theta = ca.SX.sym("theta", N_COEF)
+    theta = ca.SX.sym("theta", N_COEFFICIENTS)
     delta = ca.SX.sym("delta")
     pos = ca.SX.sym("pos", 6)
     return ca.Function("meas", [x, theta, delta, pos],
@@ -156,27 +150,76 @@ def measurement_function(const: Constants) -> ca.Function:
                        ["x", "theta", "delta", "pos"], ["y"])
 
 
-@functools.lru_cache(maxsize=32)
-def augmented_functions(const: Constants, dt: float, substeps: int) -> tuple[ca.Function, ...]:
+class IntervalSymbols(NamedTuple):
+    """Symbols of one sample interval's inputs (:func:`interval_symbols`)."""
+
+    pieces: ca.SX      # (3 S,): end, start, stop of the S pieces
+    exo_a: ca.SX       # (7,) or (0,): exogenous row at the interval's start
+    exo_b: ca.SX       # (7,) or (0,): at its end
+
+
+def interval_symbols(n_pieces: int, varying: bool) -> IntervalSymbols:
+    """Return fresh symbols for an interval's pieces and exogenous rows."""
+    n_exo = len(inputs.EXOGENOUS) if varying else 0
+    return IntervalSymbols(ca.SX.sym("pieces", 3 * n_pieces), ca.SX.sym("exo_a", n_exo),
+                        ca.SX.sym("exo_b", n_exo))
+
+
+def interval_step_symbolic(x, theta, sym: IntervalSymbols, const: Constants, dt: float,
+                           substeps: int):
+    """:func:`interval_step` on the symbols of :func:`interval_symbols`."""
+    n_pieces = sym.pieces.shape[0] // 3
+    end, start, stop = (sym.pieces[i * n_pieces:(i + 1) * n_pieces] for i in range(3))
+    if sym.exo_a.shape[0]:
+        return interval_step(x, theta, end, start, stop, inputs.with_exogenous(const, sym.exo_a),
+                             inputs.with_exogenous(const, sym.exo_b), dt, substeps)
+    return interval_step(x, theta, end, start, stop, const, None, dt, substeps)
+
+
+def sample_constants(const: Constants, exo) -> Constants:
+    """The constants at a sample: ``const`` with the exogenous row ``exo`` (empty: none)."""
+    return inputs.with_exogenous(const, exo) if exo.shape[0] else const
+
+
+def augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int = 1,
+                        varying: bool = False, position_free: tuple[int, ...] = ()
+                        ) -> tuple[ca.Function, ...]:
     """Return the augmented-state (18) model of the Kalman filters with exact Jacobians.
 
-    The augmented state is ``z = [x (9), theta (9)]`` with constant coefficients.
+    The augmented state is ``z = [x (9), theta (9), d (m)]`` with constant coefficients
+    and, for the ``m`` position components named in ``position_free`` (indices into
+    ``[x1, y1, z1, x2, y2, z2]``), constant offsets ``d`` from the given positions.
 
     Returns
     -------
-    f : Function ``(z (18), delta) -> (z_next (18), F (18, 18))``
-        RK4 transition and its Jacobian ``d z_next / d z`` (CasADi AD).
-    h : Function ``(z (18), delta, positions (6)) -> (y (9), H (9, 18))``
+    f : Function ``(z (18 + m), pieces (3 S), exo_a, exo_b) -> (z_next, F)``
+        One sample interval (:func:`interval_step`) and its Jacobian ``d z_next / d z``.
+    h : Function ``(z, delta, exo, positions (6)) -> (y (9), H (9, 18 + m))``
         Measurement and its Jacobian.
     """
-    z = ca.SX.sym("z", N_STATE + N_COEF)
+    return _augmented_functions(inputs.normalised(const, varying), float(dt), int(substeps),
+                                int(n_pieces), bool(varying), tuple(position_free))
+
+
+@functools.lru_cache(maxsize=32)
+def _augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
+                         varying: bool, position_free: tuple[int, ...]
+                         ) -> tuple[ca.Function, ...]:
+    n_free = len(position_free)
+    z = ca.SX.sym("z", N_STATE + N_COEFFICIENTS + n_free)
+    sym = interval_symbols(n_pieces, varying)
     delta = ca.SX.sym("delta")
-    pos = ca.SX.sym("pos", 6)
-    x, theta = z[:N_STATE], z[N_STATE:]
-    z_next = ca.vertcat(rk4_step(x, delta, theta, const, dt, substeps), theta)
-    f = ca.Function("f_aug", [z, delta], [z_next, ca.jacobian(z_next, z)])
-    y = measurement(x, delta, theta, pos, const)
-    h = ca.Function("h_aug", [z, delta, pos], [y, ca.jacobian(y, z)])
+    exo = ca.SX.sym("exo", sym.exo_a.shape[0])
+    pos_given = ca.SX.sym("pos", 6)
+    x, theta = z[:N_STATE], z[N_STATE:N_STATE + N_COEFFICIENTS]
+    offsets = z[N_STATE + N_COEFFICIENTS:]
+    z_next = ca.vertcat(interval_step_symbolic(x, theta, sym, const, dt, substeps),
+                        z[N_STATE:])
+    f = ca.Function("f_aug", [z, *sym], [z_next, ca.jacobian(z_next, z)])
+    pos = ca.vertcat(*[pos_given[c] + offsets[position_free.index(c)]
+                       if c in position_free else pos_given[c] for c in range(6)])
+    y = measurement(x, delta, theta, pos, sample_constants(const, exo))
+    h = ca.Function("h_aug", [z, delta, exo, pos_given], [y, ca.jacobian(y, z)])
     return f, h
 
 
@@ -217,6 +260,8 @@ def compile_functions(functions: Sequence[ca.Function], name: str
         cache = cache_dir()
         library = cache / f"{name}_{digest.hexdigest()[:20]}.so"
         if not library.exists():
+            logging.getLogger("aeroid").info(
+                "compiling the model to C once (a few seconds; cached in %s)", cache)
             cache.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=cache) as tmp:
                 src = Path(tmp, f"{name}.c")

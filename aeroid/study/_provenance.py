@@ -24,6 +24,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from aeroid._version import __version__
+
 #: Distributions whose versions can change a study's numbers (the numerical stack, the
 #: JIT compiler and the baselines' libraries). ``None`` stands for "not installed".
 KEY_PACKAGES = ("aeroid-toolkit", "numpy", "scipy", "numba", "llvmlite", "pandas",
@@ -115,8 +117,6 @@ def code_identity(estimator_classes: Iterable[type] = ()) -> dict[str, Any]:
     ``platform``, ``cpu`` (:func:`cpu_name`), ``packages`` (:func:`package_versions`)
     and ``id`` (:func:`code_id`: version, source and packages, not the CPU).
     """
-    from aeroid import __version__
-
     source = source_hash(estimator_sources(estimator_classes))
     packages = package_versions()
     return {"aeroid": __version__, "source": source,

@@ -6,12 +6,15 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from aeroid.cli import main
+from aeroid.errors import AeroidWarning
+from aeroid.estimation import available, get_estimator
 from aeroid.flights._flight import Flight
 from aeroid.model._airframe import save_airframe
 from aeroid.model._coefficients import NAMES
@@ -82,9 +85,171 @@ def test_methods_lists_the_papers_estimators(capsys) -> None:
     (["--method", "ebm-pso", "--option", "colour=red"], "unknown option(s) colour"),
     (["--method", "ebm-pso", "--option", "n_particles"], "expected KEY=VALUE"),
     (["--method", "ebm-pso", "--option", "n_particles=many"], "expects an integer"),
+    (["--method", "ebm-pso", "--option", "n_particles=100000000"],
+     "n_particles must be in [3, 10000]"),
+    (["--method", "eam-pso", "--option", "n_iterations=0"], "n_iterations must be in [1, "),
 ])
 def test_bad_method_or_option_exit_2(flight_csv, capsys, extra, fragment) -> None:
     assert fragment in _one_line_error(capsys, ["estimate", str(flight_csv), *extra])
+
+
+def _parser_error(capsys, argv: list[str]) -> str:
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+@pytest.mark.parametrize(("argv", "fragment"), [
+    (["estimate", "f.csv", "--method", "ebm-pso", "--seed", "-1"],
+     "aeroid estimate: error: argument --seed: must be an integer >= 0, got -1"),
+    (["estimate", "f.csv", "--method", "ebm-pso", "--seed", "1e3"], "invalid int value: '1e3'"),
+    (["study", "--runs", "0"], "argument --runs: must be an integer >= 1, got 0"),
+    (["study", "--jobs", "-2"], "argument --jobs: must be an integer in [1, 256], got -2"),
+    (["study", "--dask-local", "100000"], "argument --dask-local: must be an integer in [1, 2"),
+])
+def test_numeric_arguments_out_of_range_exit_2(capsys, argv, fragment) -> None:
+    assert fragment in _parser_error(capsys, argv)
+
+
+def _help(capsys, argv: list[str]) -> str:
+    with pytest.raises(SystemExit) as info:
+        main([*argv, "--help"])
+    assert info.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_help_is_plain_text_with_descriptions_and_examples(capsys) -> None:
+    top = _help(capsys, [])
+    assert "``" not in top and "aeroid estimate flight.csv --method sebm-pso" in top
+    for command in ("simulate", "estimate", "methods", "study"):
+        text = _help(capsys, [command])
+        assert "``" not in text
+        assert "examples:\n  aeroid " + command in text
+        description = text.split("\n\n")[1]
+        assert len(description.split()) >= 10, (command, description)
+
+
+def test_estimate_help_lists_every_method_and_how_to_see_options(capsys) -> None:
+    text = _help(capsys, ["estimate"])
+    assert "aeroid methods --options NAME" in text
+    for name, cls in available().items():
+        assert f"  {name}  " in text and cls.description.split()[0] in text
+
+
+def test_methods_options_prints_types_defaults_and_descriptions(capsys) -> None:
+    assert main(["methods", "--options", "sebm-pso"]) == 0
+    out = capsys.readouterr().out
+    assert "  n_particles : list of int = [50, 150, 100, 150]\n      Swarm sizes of" in out
+    assert "  weighting : {noise, relative} = noise\n" in out
+    assert "  box : list of float or none = none\n" in out
+    for name in get_estimator("sebm-pso").option_names():
+        assert f"\n  {name} : " in out
+    assert "A method's options" not in out
+    assert main(["methods"]) == 0
+    assert "A method's options: aeroid methods --options NAME" in capsys.readouterr().out
+    assert "unknown method 'nope'" in _one_line_error(capsys, ["methods", "--options", "nope"])
+
+
+@pytest.mark.parametrize(("quiet", "json_output", "stderr_tty", "stdout_tty", "wanted"), [
+    (False, False, True, True, True),
+    (False, False, True, False, True),  # a table to a file, the bar on the terminal
+    (False, True, True, True, True),
+    (False, True, True, False, False),  # JSON to a pipe: a script is reading
+    (True, False, True, True, False),  # --quiet
+    (False, False, False, True, False),  # stderr not a terminal (a log file)
+])
+def test_progress_bar_only_where_a_person_watches(quiet, json_output, stderr_tty,
+                                                 stdout_tty, wanted) -> None:
+    from aeroid.cli._estimate import progress_wanted
+
+    assert progress_wanted(quiet=quiet, json_output=json_output, stderr_tty=stderr_tty,
+                           stdout_tty=stdout_tty) is wanted
+
+
+def test_progress_bar_drawn_on_stderr_and_results_unchanged(flight_csv, capsys,
+                                                           monkeypatch) -> None:
+    from aeroid.cli import _estimate as commands
+
+    args = ["estimate", str(flight_csv), "--method", "ebm-pso", "--seed", "2", "--json",
+            "--option", "n_iterations=5"]
+    assert main(args) == 0
+    quiet = capsys.readouterr()
+    assert quiet.err == ""  # stderr is not a terminal under pytest: no bar
+    monkeypatch.setattr(commands, "progress_wanted", lambda **kwargs: True)
+    assert main(args) == 0
+    drawn = capsys.readouterr()
+    assert "ebm-pso PSO" in drawn.err and "/5" in drawn.err
+    assert json.loads(drawn.out)["coefficients"] == json.loads(quiet.out)["coefficients"]
+
+
+def _scripted(monkeypatch, result=None, warn: str | None = None):
+    """Make ``aeroid estimate`` use an estimator that warns and returns ``result``."""
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from aeroid.cli import _estimate as commands
+    from aeroid.estimation import EstimationResult, Estimator
+
+    @dataclass(frozen=True, kw_only=True)
+    class Scripted(Estimator):
+        name: ClassVar[str] = "scripted"
+
+        def run(self, flight, rng):
+            if warn:
+                warnings.warn(warn, AeroidWarning, stacklevel=2)
+            return result or EstimationResult(estimator=self.name, theta=np.ones(9))
+
+    monkeypatch.setattr(commands, "make_estimator", lambda name, options: Scripted())
+
+
+def test_estimate_prints_each_aeroid_warning_as_one_line(flight_csv, capsys,
+                                                        monkeypatch) -> None:
+    _scripted(monkeypatch, warn="flight.csv: q looks like deg/s\n(use --degrees)")
+    assert main(["estimate", str(flight_csv), "--method", "scripted"]) == 0
+    assert capsys.readouterr().err == (
+        "aeroid: warning: flight.csv: q looks like deg/s (use --degrees)\n")
+
+
+def test_estimate_says_compiled_or_interpreted(flight_csv, capsys, monkeypatch) -> None:
+    from aeroid.estimation import EstimationResult
+
+    _scripted(monkeypatch, EstimationResult(estimator="scripted", theta=np.ones(9),
+                                            info={"compiled": False}))
+    assert main(["estimate", str(flight_csv), "--method", "scripted"]) == 0
+    assert "model evaluated interpreted" in capsys.readouterr().out
+    assert main(["estimate", str(flight_csv), "--method", "scripted", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["compiled"] is False
+
+
+def test_estimate_shows_result_warnings(flight_csv, capsys) -> None:
+    """SEBM-PSO under the paper's noise ends on its box (test_paper_estimators)."""
+    args = ["estimate", str(flight_csv), "--method", "sebm-pso", "--seed", "1"]
+    assert main(args) == 0
+    table = capsys.readouterr().out.splitlines()
+    assert table[1].startswith("warning: FAZ: on the edge of the search box")
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["warnings"]) == 3 and out["warnings"][0] == table[1][len("warning: "):]
+
+
+@pytest.mark.parametrize(("command", "expected"), [
+    (["study"], "aeroid: interrupted; run the same command with --resume to complete only "
+                "what is missing\n"),
+    (["estimate", "f.csv", "--method", "ebm-pso"], "aeroid: interrupted\n"),
+])
+def test_interrupt_is_one_line_and_suggests_resume_for_a_study(capsys, monkeypatch, command,
+                                                               expected) -> None:
+    import aeroid.cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(aeroid.cli, "_dispatch", interrupted)
+    assert main(command) == 130
+    assert capsys.readouterr().err == expected
 
 
 def _write(tmp_path: Path, flight: Flight, name: str = "f.csv", sidecar: bool = True) -> Path:
@@ -185,6 +350,11 @@ def test_plugin_found_by_methods_and_runs_through_estimate(tmp_path, flight_csv,
     assert listed.returncode == 0, listed.stderr
     assert "test-plugin-mean" in listed.stdout
     assert "centre of the prior search box" in listed.stdout
+    options = _run(["methods", "--options", "test-plugin-mean"], env)
+    assert options.returncode == 0, options.stderr
+    assert "\n  scale : float = 0.5\n      Half-width" in options.stdout
+    assert ("Half-width of the box as a fraction of the prior (the box is prior x "
+            "[1 - scale, 1 + scale]).") in " ".join(options.stdout.split())
     ran = _run(["estimate", str(flight_csv), "--method", "test-plugin-mean", "--json",
                 "--option", "scale=0.2"], env)
     assert ran.returncode == 0, ran.stderr
@@ -224,3 +394,22 @@ def test_failed_fit_is_printed_and_exits_1(flight_csv, capsys, monkeypatch) -> N
     out = json.loads(capsys.readouterr().out)
     assert out["success"] is False
     assert out["message"] == "singular system at t = 5.1 s"
+
+
+def test_first_compilations_are_announced(flight_csv, capsys, monkeypatch, tmp_path) -> None:
+    """A fresh install compiles numba kernels and the C model: each is said in one line."""
+    import aeroid.model
+    from aeroid.model import _forward
+
+    monkeypatch.setattr(aeroid.model, "kernels_cached", lambda: False)
+    monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "casadi"))
+    _forward._symbolic_record.cache_clear()  # built models are cached per process
+    assert main(["estimate", str(flight_csv), "--method", "output-error", "--json"]) in (0, 1)
+    err = capsys.readouterr().err
+    assert "aeroid: compiling the numerical kernels once" in err
+    assert f"aeroid: compiling the model to C once (a few seconds; cached in {tmp_path}" in err
+    # quiet: nothing
+    monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "again"))
+    _forward._symbolic_record.cache_clear()
+    main(["estimate", str(flight_csv), "--method", "output-error", "--json", "--quiet"])
+    assert "compiling" not in capsys.readouterr().err

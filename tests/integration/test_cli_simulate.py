@@ -12,7 +12,11 @@ import pytest
 
 from aeroid import __version__
 from aeroid.cli import main
-from aeroid.flights._flight import read_flight
+from aeroid.errors import AeroidWarning
+from aeroid.flights import read_flight
+from aeroid.flights._noise import NoNoise
+from aeroid.flights._scenario import load_scenario
+from aeroid.flights._simulate import simulate_scenario
 from aeroid.model._airframe import dumps_toml, reference_scenario_data
 
 
@@ -29,6 +33,11 @@ def test_simulate_in_process_writes_the_paper_flight(tmp_path, capsys, paper_fli
     assert flight.metadata["seed"] == 1
 
 
+#: CSV round trip of a float written with 17 significant digits: exact; the Gaussian
+#: flight is compared after one addition, so allow a few ulps of the largest channel.
+ADDITIVE_NOISE_ATOL = 1e-12
+
+
 def test_simulate_noise_none_and_gaussian(tmp_path, capsys, clean_flight):
     out = tmp_path / "clean.csv"
     assert main(["simulate", "--noise", "none", "-o", str(out)]) == 0
@@ -37,7 +46,16 @@ def test_simulate_noise_none_and_gaussian(tmp_path, capsys, clean_flight):
     assert main(["simulate", "--noise", "gaussian", "--seed", "4", "-o", str(out)]) == 0
     flight = read_flight(out)
     assert flight.metadata["noise"]["model"] == "gaussian"
-    assert not np.array_equal(flight["ay2"], clean_flight["ay2"])
+    # GaussianNoise's documented draw order: the six accelerations as one (n, 6) block of
+    # standard normals first, then p, q, r; defaults 0.05 m/s^2 and 0.005 rad/s
+    draws = np.random.default_rng(4)
+    n = clean_flight.n_samples
+    for names, sd, block in ((("ax1", "ay1", "az1", "ax2", "ay2", "az2"), 0.05,
+                              draws.standard_normal((n, 6))),
+                             (("p", "q", "r"), 0.005, draws.standard_normal((n, 3)))):
+        for j, name in enumerate(names):
+            np.testing.assert_allclose(flight[name], clean_flight[name] + sd * block[:, j],
+                                       rtol=0, atol=ADDITIVE_NOISE_ATOL)
     capsys.readouterr()
 
 
@@ -53,7 +71,9 @@ def test_simulate_with_a_scenario_file(tmp_path, capsys, clean_flight):
     flight = read_flight(out)
     assert flight.n_samples == 101
     assert flight.metadata["true_coefficients"]["Cx"] == -1.2
-    assert not np.array_equal(flight["ax1"], clean_flight["ax1"][:101])
+    # the file's scenario, simulated in this process, is what the command wrote
+    expected = simulate_scenario(load_scenario(scenario), NoNoise(), rng=0)
+    pd.testing.assert_frame_equal(flight.data, expected.data, check_exact=True)
     capsys.readouterr()
 
 
@@ -81,6 +101,8 @@ def _bad_toml(tmp_path):
          "invalid choice: 'laplace'"),
         (lambda tmp: ["simulate", "--seed", "one", "-o", str(tmp / "f.csv")],
          "invalid int value"),
+        (lambda tmp: ["simulate", "--seed", "-1", "-o", str(tmp / "f.csv")],
+         "--seed: must be an integer >= 0, got -1"),
         (lambda tmp: ["simulate", "-o", str(tmp / "no" / "such" / "f.csv")],
          "does not exist"),
     ],
@@ -116,3 +138,29 @@ def test_subprocess_simulate_and_bad_input(tmp_path, paper_flight):
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "Traceback" not in bad.stderr
     assert not (tmp_path / "g.csv").exists()
+
+
+def test_simulate_help_has_a_description_and_examples(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["simulate", "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "Simulate the flight of a scenario" in out
+    assert "examples:\n  aeroid simulate --seed 1 -o flight.csv" in out
+
+
+def test_simulate_prints_each_aeroid_warning_as_one_line(tmp_path, capsys, monkeypatch):
+    import warnings
+
+    from aeroid.flights import _simulate
+
+    original = _simulate.simulate
+
+    def warn_then_simulate(*args, **kwargs):
+        warnings.warn("scenario: thrust is negative\n(a brake?)", AeroidWarning, stacklevel=2)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(_simulate, "simulate", warn_then_simulate)
+    assert main(["simulate", "--noise", "none", "-o", str(tmp_path / "f.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err == "aeroid: warning: scenario: thrust is negative (a brake?)\n"

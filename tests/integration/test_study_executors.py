@@ -110,4 +110,4 @@ def test_cli_interrupt_suggests_resume(tmp_path, capsys, monkeypatch):
 
     monkeypatch.setattr(_study, "study", interrupted)
     assert main(["study", "--no-progress"]) == 130
-    assert "rerun with --resume" in capsys.readouterr().err
+    assert "run the same command with --resume" in capsys.readouterr().err

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from aeroid.estimation._benchmark_functions import rastrigin, rosenbrock, sphere
 from aeroid.estimation._pso import minimize
 
 N_SEEDS = 30
@@ -15,18 +16,6 @@ SPHERE_TOL = 1e-8
 ROSENBROCK_TOL = 1e-2
 # Rastrigin: non-global local minima cost >= ~1, so this means "global basin found".
 RASTRIGIN_TOL = 1e-6
-
-
-def sphere(x):
-    return np.sum(x**2, axis=1)
-
-
-def rosenbrock(x):
-    return np.sum(100.0 * (x[:, 1:] - x[:, :-1] ** 2) ** 2 + (1.0 - x[:, :-1]) ** 2, axis=1)
-
-
-def rastrigin(x):
-    return 10.0 * x.shape[1] + np.sum(x**2 - 10.0 * np.cos(2.0 * np.pi * x), axis=1)
 
 
 CASES = [

@@ -33,7 +33,7 @@ def flight(prior_off_flight):
 
 @pytest.fixture(scope="module")
 def const(flight):
-    return aeroid.constants(flight.airframe)
+    return aeroid.model.constants(flight.airframe)
 
 
 # --------------------------------------------------------------------------------------
@@ -48,7 +48,7 @@ def test_casadi_rhs_equals_state_derivative(flight, const):
     theta = aeroid.nominal() * 1.1
     for x, d in zip(states, deltas, strict=True):
         ours = np.array(_model.rhs(x, d, theta, const)[0]).ravel().astype(float)
-        ref = aeroid.state_derivative(x, d, theta, const)
+        ref = aeroid.model.state_derivative(x, d, theta, const)
         np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
 
 
@@ -59,7 +59,7 @@ def test_casadi_step_equals_propagate(flight, const):
         step = _model.step_function(const, flight.dt, substeps)
         for x, d in zip(states, deltas, strict=True):
             ours = np.asarray(step(x, theta, d)).ravel()
-            ref = aeroid.propagate(x, theta, np.array([d]), flight.dt, const,
+            ref = aeroid.model.propagate(x, theta, np.array([d]), flight.dt, const,
                                    substeps=substeps, backend="numpy")[0, 1]
             np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
 
@@ -71,7 +71,7 @@ def test_casadi_measurement_equals_accelerometers(flight, const):
     meas = _model.measurement_function(const)
     for x, d in zip(states, deltas, strict=True):
         ours = np.asarray(meas(x, theta, d, positions.ravel())).ravel()
-        ref = aeroid.accelerometers(x, d, theta, const, positions).ravel()
+        ref = aeroid.model.accelerometers(x, d, theta, const, positions).ravel()
         np.testing.assert_allclose(ours[:6], ref, rtol=MODEL_RTOL, atol=1e-10)
         np.testing.assert_array_equal(ours[6:], x[3:6])
 
@@ -81,8 +81,9 @@ def test_augmented_jacobians_equal_finite_differences(flight, const):
     z = np.concatenate([flight.states()[200], aeroid.nominal()])
     d = flight["delta"][200]
     pos = flight.airframe.accel_positions.ravel()
-    _, F = f(z, d)
-    _, H = h(z, d, pos)
+    piece = np.array([1.0, d, d])  # one piece held over the interval
+    _, F = f(z, piece, [], [])
+    _, H = h(z, d, [], pos)
     F, H = np.asarray(F), np.asarray(H)
     F_fd, H_fd = np.empty((18, 18)), np.empty((9, 18))
     for j in range(18):
@@ -90,8 +91,10 @@ def test_augmented_jacobians_equal_finite_differences(flight, const):
         zp, zm = z.copy(), z.copy()
         zp[j] += step
         zm[j] -= step
-        F_fd[:, j] = (np.asarray(f(zp, d)[0]) - np.asarray(f(zm, d)[0])).ravel() / (2 * step)
-        H_fd[:, j] = (np.asarray(h(zp, d, pos)[0]) - np.asarray(h(zm, d, pos)[0])).ravel() / (
+        F_fd[:, j] = (np.asarray(f(zp, piece, [], [])[0])
+                      - np.asarray(f(zm, piece, [], [])[0])).ravel() / (2 * step)
+        H_fd[:, j] = (np.asarray(h(zp, d, [], pos)[0])
+                      - np.asarray(h(zm, d, [], pos)[0])).ravel() / (
             2 * step)
     np.testing.assert_allclose(F, F_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(F).max())
     np.testing.assert_allclose(H, H_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(H).max())
@@ -181,37 +184,12 @@ def test_failure_becomes_result_with_time(flight):
     est = ExtendedKalmanEstimator()
     n = flight.n_samples
     out = _kalman.FilterOutput(np.zeros((n, 18)), np.ones((n, 18)), np.eye(18), 7,
-                               "covariance not positive definite (Cholesky failed)")
-    res = est.result(flight, out, np.ones(9), n_evaluations=7)
+                               "covariance not positive definite (Cholesky failed)",
+                               np.zeros((n, 9)))
+    res = est.result(flight, out, est.setup(flight), n_evaluations=7)
     assert not res.success
     assert f"t = {flight.t[7]:.4f} s" in res.message
     assert np.all(np.isnan(res.theta))
-
-
-# --------------------------------------------------------------------------------------
-# Measurement-noise estimate
-# --------------------------------------------------------------------------------------
-def test_noise_sd_from_data_recovers_white_noise_sd():
-    rng = np.random.default_rng(5)
-    n = 20000
-    t = np.arange(n) * 0.002
-    sd_true = np.array([0.1, 2.0])
-    signal = np.column_stack([np.sin(2 * np.pi * 2 * t), 50 + 3 * t])
-    y = signal + sd_true * rng.standard_normal((n, 2))
-    delta = np.zeros(n)
-    sd = _common.noise_sd_from_data(y, delta, floor_rel=1e-6)
-    # sd of an sd estimate from n samples ~ sd / sqrt(2 n) = 0.5 %; the SG residual is a
-    # moving average (correlated), so allow 4x that
-    np.testing.assert_allclose(sd, sd_true, rtol=0.02)
-
-
-def test_noise_sd_from_data_ignores_relay_jumps():
-    rng = np.random.default_rng(6)
-    n = 5000
-    delta = np.where((np.arange(n) // 50) % 2 == 0, 1.0, -1.0)
-    y = (10.0 * delta + 0.05 * rng.standard_normal(n))[:, None]
-    sd = _common.noise_sd_from_data(y, delta, floor_rel=1e-6)
-    np.testing.assert_allclose(sd, [0.05], rtol=0.05)
 
 
 # --------------------------------------------------------------------------------------
@@ -268,3 +246,24 @@ def test_filter_options_are_checked():
         UnscentedKalmanEstimator.from_options({"measurement_noise": "magic"})
     with pytest.raises(aeroid.EstimatorError, match="alpha"):
         UnscentedKalmanEstimator.from_options({"alpha": "2.0"})
+
+
+def test_covariance_check_repairs_rounding_only():
+    # a covariance spanning 10 decades whose smallest eigenvalue came out -1e-15 of the
+    # largest (rounding of P - K S K^T) is repaired; -1e-6 of the largest is a divergence
+    rng = np.random.default_rng(3)
+    vec = np.linalg.qr(rng.standard_normal((6, 6)))[0]
+    for smallest, repaired in ((-1e-13, True), (-1e-6, False)):
+        eig = np.array([smallest * 1e2, 1e-8, 1e-4, 1.0, 1e2, 1.0])
+        P = (vec * eig) @ vec.T
+        P = 0.5 * (P + P.T)
+        assert np.all(np.diag(P) > 0)
+        with pytest.raises(np.linalg.LinAlgError):
+            np.linalg.cholesky(P)
+        reason, fixed = _kalman._check(P, np.zeros(6))
+        if repaired:
+            assert reason == ""
+            np.linalg.cholesky(fixed)
+            np.testing.assert_allclose(fixed, P, rtol=0, atol=1e-9)
+        else:
+            assert "not positive definite" in reason

@@ -69,7 +69,9 @@ def test_ebm_objective_is_aeroids_and_bounded_by_closed_form(flight):
 
 def test_eam_objective_runs(flight):
     res = PyswarmsEstimator(objective="eam", **CHEAP).fit(flight, rng=0)
-    assert res.success
+    # a cheap swarm ends short of the optimum: the fit check judges it, from its residuals
+    ratio = res.info["fit_check"]["ratio"]
+    assert res.success == (max(ratio.values()) <= 3.0)
     eam = objectives.OutputErrorCost(flight)
     np.testing.assert_allclose(res.cost, eam(res.theta), rtol=1e-10)
 

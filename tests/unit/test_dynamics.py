@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from aeroid.estimation import accel_only_matrix
 from aeroid.model._airframe import reference_airframe
 from aeroid.model._atmosphere import G0
 from aeroid.model._dynamics import (
@@ -20,7 +21,6 @@ from aeroid.model._dynamics import (
     air_data,
     constants,
     derivative_from_forces,
-    lever_arm_acceleration,
     regressors,
     state_derivative,
 )
@@ -191,18 +191,14 @@ def _eq29_matrix(positions: np.ndarray, mass: float, inertia: np.ndarray) -> np.
 
 
 def test_eq29_matrix_equals_the_implemented_eq28(const, clean_flight, reference_scenario):
-    # A from the closed form, column by column from lever_arm_acceleration, and
-    # A FM + B = accelerometers() on the reference flight (B: the gyroscopic and
-    # centripetal terms and the thrust)
+    # The library's A (EBM step 1, read off the model's eq. 28) against the closed form
+    # written here from the paper, and A FM + B = accelerometers() on the reference flight
+    # (B: the gyroscopic and centripetal terms and the thrust, also written here)
     inertia = np.array([const.ix, const.iy, const.iz])
     positions = reference_scenario.airframe.accel_positions
-    a = _eq29_matrix(positions, const.mass, inertia)
-    for j in range(6):
-        unit = np.zeros(6)
-        unit[j] = 1.0
-        column = [lever_arm_acceleration(unit[:3] / const.mass, np.zeros(3), unit[3:] / inertia,
-                                         pos) for pos in positions]
-        np.testing.assert_allclose(np.concatenate(column), a[:, j], rtol=1e-15, atol=1e-18)
+    a = accel_only_matrix(reference_scenario.airframe)
+    closed = _eq29_matrix(positions, const.mass, inertia)
+    np.testing.assert_allclose(a, closed, rtol=1e-14, atol=1e-14 * np.abs(closed).max())
     state = clean_flight.states()[200]
     delta = clean_flight["delta"][200]
     truth = reference_scenario.coefficient_vector
@@ -215,15 +211,25 @@ def test_eq29_matrix_equals_the_implemented_eq28(const, clean_flight, reference_
     np.testing.assert_allclose(a @ fm + b, readings, rtol=1e-12, atol=1e-12)
 
 
-def test_eq29_accelerometer_only_system_has_rank_5(const):
+def _random_airframe(rng: np.random.Generator):
+    inertia = np.array([rng.uniform(0.1, 1.0), *np.repeat(rng.uniform(5, 50), 2)])
+    if rng.random() < 0.5:
+        inertia = rng.uniform(0.1, 50.0, 3)  # no symmetry at all
+    positions = rng.uniform(-1.0, 1.0, (2, 3))
+    return reference_airframe().replace(
+        mass_kg=float(rng.uniform(10, 100)), ix_kgm2=float(inertia[0]),
+        iy_kgm2=float(inertia[1]), iz_kgm2=float(inertia[2]),
+        accel1_position_m=tuple(positions[0]), accel2_position_m=tuple(positions[1]))
+
+
+def test_eq29_accelerometer_only_system_has_rank_5():
+    # the matrix the reconstruction uses, for random geometries, mass and inertia
     rng = np.random.default_rng(29)
     for _ in range(25):
-        positions = rng.uniform(-1.0, 1.0, (2, 3))
-        inertia = np.array([rng.uniform(0.1, 1.0), *np.repeat(rng.uniform(5, 50), 2)])
-        if rng.random() < 0.5:
-            inertia = rng.uniform(0.1, 50.0, 3)  # no symmetry at all
-        mass = rng.uniform(10, 100)
-        a = _eq29_matrix(positions, mass, inertia)
+        airframe = _random_airframe(rng)
+        a = accel_only_matrix(airframe)
+        positions = airframe.accel_positions
+        inertia = np.array([airframe.ix_kgm2, airframe.iy_kgm2, airframe.iz_kgm2])
         assert np.linalg.matrix_rank(a) == 5
         null = np.linalg.svd(a)[2][-1]
         assert np.linalg.norm(a @ null) < 1e-12 * np.linalg.norm(a)
@@ -234,14 +240,14 @@ def test_eq29_accelerometer_only_system_has_rank_5(const):
         assert np.linalg.norm(np.cross(wdot, baseline)) < 1e-10 * np.linalg.norm(wdot) * \
             np.linalg.norm(baseline)
         # ... with the force that cancels its tangential acceleration at R1
-        np.testing.assert_allclose(force / mass, np.cross(positions[0], wdot), rtol=1e-8,
-                                   atol=1e-10 * np.linalg.norm(wdot))
+        np.testing.assert_allclose(force / airframe.mass_kg, np.cross(positions[0], wdot),
+                                   rtol=1e-8, atol=1e-10 * np.linalg.norm(wdot))
 
 
 def test_eq29_rank_5_on_the_reference_geometry(const):
     inertia = np.array([const.ix, const.iy, const.iz])
     positions = reference_airframe().accel_positions
-    a = _eq29_matrix(positions, const.mass, inertia)
+    a = accel_only_matrix(reference_airframe())
     assert np.linalg.matrix_rank(a) == 5
     null = np.linalg.svd(a)[2][-1]
     wdot = null[3:] / inertia

@@ -12,8 +12,8 @@ from aeroid.estimation._floor import (
     cramer_rao_sd,
     information_from_sensitivities,
     inputs_from_flight,
+    model_noise_sd,
     model_outputs,
-    noise_sd,
     output_error_information,
     output_sensitivities,
 )
@@ -117,7 +117,7 @@ def test_gaussian_floor_equals_sigma2_inverse_jtj(reference_scenario, short_inpu
     np.testing.assert_allclose(cov / scale, direct / scale, rtol=0, atol=1e-5)
     # and through the noise model (one sd for accelerations and rates)
     noise = GaussianNoise(accel_sd_mps2=sigma, rate_sd_radps=sigma)
-    sd = noise_sd(noise, model_outputs(reference_scenario.airframe, nominal(), short_inputs))
+    sd = model_noise_sd(noise, model_outputs(reference_scenario.airframe, nominal(), short_inputs))
     np.testing.assert_array_equal(sd, sigma)
 
 
@@ -133,10 +133,10 @@ def test_scaling_with_the_noise_level_is_exact(reference_scenario):
 
 def test_heteroscedastic_sd_follows_eq43(reference_scenario, short_inputs):
     outputs = model_outputs(reference_scenario.airframe, nominal(), short_inputs)
-    sd = noise_sd(PaperNoise(), outputs)
+    sd = model_noise_sd(PaperNoise(), outputs)
     # U[-xi, xi] has standard deviation xi / sqrt(3)
     np.testing.assert_allclose(sd, np.abs(outputs) * 0.05 / np.sqrt(3), rtol=1e-15)
-    homo = noise_sd(PaperNoise(), outputs, noise_form="homoscedastic")
+    homo = model_noise_sd(PaperNoise(), outputs, noise_form="homoscedastic")
     np.testing.assert_allclose(homo[0] ** 2 * 3 / 0.05**2, np.mean(outputs**2, axis=0),
                                rtol=1e-13)
 
@@ -221,7 +221,7 @@ def test_weighted_least_squares_attains_the_floor(reference_scenario, clean_flig
     airframe, theta = reference_scenario.airframe, nominal()
     inputs = inputs_from_flight(clean_flight)
     clean = model_outputs(airframe, theta, inputs)
-    sd = noise_sd(noise, clean)
+    sd = model_noise_sd(noise, clean)
     floor = cramer_rao_sd(clean_flight, noise)
     estimates = []
     for _ in range(150):

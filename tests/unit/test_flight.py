@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from aeroid.errors import FlightError
-from aeroid.flights._flight import (
+from aeroid.flights import (
     ANGLE_CHANNELS,
     REQUIRED_CHANNELS,
     make_flight,
@@ -179,14 +179,9 @@ def test_bad_column_map(clean_flight, reference_scenario, tmp_path, columns, mes
         read_flight(path, airframe=reference_scenario.airframe, columns=columns)
 
 
-def test_missing_file_and_malformed_sidecar(clean_flight, tmp_path):
+def test_missing_file(tmp_path):
     with pytest.raises(FlightError, match="no such file"):
         read_flight(tmp_path / "absent.csv")
-    path = tmp_path / "f.csv"
-    clean_flight.write(path)
-    sidecar_path(path).write_text("{not json")
-    with pytest.raises(FlightError, match="malformed flight sidecar"):
-        read_flight(path)
 
 
 def test_make_flight_derives_air_data(clean_flight):

@@ -135,7 +135,7 @@ def test_numba_and_numpy_backends_agree(clean_flight, reference_scenario):
 @needs_numba
 def test_sincos_shift_equals_libm():
     # the kernel's sin(a + d), cos(a + d) by the addition theorem, both branches
-    from aeroid.model._integrate import _sincos_shift
+    from aeroid.model._compiled import sincos_shift as _sincos_shift
 
     rng = np.random.default_rng(3)
     steps = np.concatenate([np.geomspace(1e-10, 0.3, 40), [0.0999999, 0.1, 1.0, 3.0]])

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from aeroid.estimation import estimate_noise_sd, reconstruct
 from aeroid.estimation._objectives import (
     EBM_ROWS,
     GUARD_FRACTION,
@@ -15,7 +16,6 @@ from aeroid.estimation._objectives import (
     ebm_cost,
     sebm_costs,
 )
-from aeroid.estimation._reconstruct import noise_sd, reconstruct
 
 #: Quadratic form vs residual form: both exact; the difference is round-off of sums of
 #: ~1e3 terms with condition ~1e6.
@@ -56,7 +56,7 @@ def test_relative_weights_guard_small_denominators() -> None:
 def test_noise_weights_are_inverse_variance() -> None:
     z = np.random.default_rng(1).standard_normal((500, 3)) * [1.0, 2.0, 4.0]
     w = channel_weights(z, "noise")
-    np.testing.assert_allclose(w, np.broadcast_to(1.0 / noise_sd(z) ** 2, z.shape))
+    np.testing.assert_allclose(w, np.broadcast_to(1.0 / estimate_noise_sd(z) ** 2, z.shape))
     with pytest.raises(ValueError, match="weighting"):
         channel_weights(z, "ml")
 

@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import pytest
 import scipy.optimize
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation._interface import make_estimator, prior_bounds
+from aeroid.estimation import EDGE_FRACTION, make_estimator, prior_bounds
+from aeroid.estimation import _eam as eam
 from aeroid.estimation._objectives import ebm_cost, sebm_costs
 from aeroid.estimation._reconstruct import reconstruct
-from aeroid.flights._flight import Flight
+from aeroid.model._coefficients import NAMES
 
 #: Noise-free EBM-PSO / SEBM-PSO with the paper's relative weighting, |error| in % per
 #: coefficient (Cx ... Cmq). (On noise-free data the noise weighting's per-channel sd
@@ -43,8 +42,8 @@ CLOSED_FORM_RTOL = 1e-3
 SEED = 1
 
 
-def _bounded_optimum(cost, bounds: np.ndarray) -> float:
-    """Minimum of the weighted least-squares cost over the box (scipy lsq_linear, BVLS)."""
+def _bounded_solution(cost, bounds: np.ndarray) -> np.ndarray:
+    """Minimiser of the weighted least-squares cost over the box (scipy BVLS)."""
     sw = np.sqrt(cost.weights.reshape(-1) / cost.n_samples)
     A = cost.X.reshape(-1, cost.n_params) * sw[:, None]
     b = cost.y.reshape(-1) * sw
@@ -52,7 +51,12 @@ def _bounded_optimum(cost, bounds: np.ndarray) -> float:
     res = scipy.optimize.lsq_linear(A * scale, b, bounds=(bounds[:, 0] / scale,
                                                           bounds[:, 1] / scale),
                                     method="bvls", tol=1e-14)
-    return float(cost.direct(res.x * scale))
+    return res.x * scale
+
+
+def _bounded_optimum(cost, bounds: np.ndarray) -> float:
+    """Minimum of the weighted least-squares cost over the box."""
+    return float(cost.direct(_bounded_solution(cost, bounds)))
 
 
 @pytest.fixture(scope="module")
@@ -71,8 +75,11 @@ def test_noise_free_ebm_recovers_truth(clean_flight, method, tol) -> None:
 
 def test_noise_free_eam_recovers_truth_reduced_swarm(clean_flight) -> None:
     result = make_estimator("eam-pso", EAM_REDUCED).fit(clean_flight, rng=SEED)
-    assert result.success, result.message
     err = result.relative_error_pct(clean_flight.true_coefficients)
+    # noise-free: the reduced swarm's residuals are several times the 0.1 % resolution
+    # of the fit check, which says so (issue 11: the PSO does not reach its optimum)
+    ratio = result.info["fit_check"]["ratio"]
+    assert result.success == (max(ratio.values()) <= 3.0)
     assert np.all(err < EAM_REDUCED_TOL_PCT), err
 
 
@@ -95,16 +102,47 @@ def test_ebm_pso_reaches_the_closed_form_optimum(paper_flight, weighting) -> Non
     assert cost.cost_min <= best * (1 + 1e-12)
 
 
-def test_sebm_pso_reaches_each_closed_form_optimum(paper_flight, paper_results) -> None:
-    result = paper_results["sebm-pso"]
+@pytest.mark.parametrize("smoothing", ["both", "forces"])
+def test_sebm_pso_reaches_each_closed_form_optimum(paper_flight, paper_results, smoothing) -> None:
+    """Each sub-problem's PSO cost is within CLOSED_FORM_RTOL above the bounded optimum of
+    the same objective (scipy BVLS) and never below it: the option reaches the cost."""
+    result = (paper_results["sebm-pso"] if smoothing == "both" else
+              make_estimator("sebm-pso", {"smoothing": smoothing}).fit(paper_flight, rng=SEED))
+    assert result.info["smoothing"] == smoothing
     bounds = prior_bounds(paper_flight.airframe)
     total = 0.0
-    for label, cols, cost in sebm_costs(paper_flight, reconstruct(paper_flight)):
+    for label, cols, cost in sebm_costs(paper_flight, reconstruct(paper_flight),
+                                        smoothing=smoothing):
         best = _bounded_optimum(cost, bounds[list(cols)])
         got = result.info["subproblems"][label]["cost"]
-        assert got <= best * (1 + CLOSED_FORM_RTOL), label
+        assert best * (1 - 1e-12) <= got <= best * (1 + CLOSED_FORM_RTOL), label
         total += got
     np.testing.assert_allclose(result.cost, total, rtol=1e-12)
+
+
+def test_sebm_warns_exactly_where_the_bounded_optimum_is_on_the_box(paper_flight,
+                                                                   paper_results) -> None:
+    """Under the paper's noise some sub-problems' optima lie outside the default box; the
+    coefficients BVLS puts on a wall are the ones the warnings name, and no others."""
+    result = paper_results["sebm-pso"]
+    bounds = prior_bounds(paper_flight.airframe)
+    on_wall = []
+    for _, cols, cost in sebm_costs(paper_flight, reconstruct(paper_flight)):
+        x = _bounded_solution(cost, bounds[list(cols)])
+        box = bounds[list(cols)]
+        margin = EDGE_FRACTION * (box[:, 1] - box[:, 0])
+        on_wall += [NAMES[c] for c, xj, (lo, hi), m in zip(cols, x, box, margin, strict=True)
+                    if xj - lo <= m or hi - xj <= m]
+    assert on_wall, "the reference flight no longer has an optimum on the box: pick another"
+    text = " ".join(result.warnings)
+    flagged = [name for name in NAMES if f"{name} = " in text]
+    assert flagged == on_wall
+    assert all("edge of the search box" in w and "\n" not in w for w in result.warnings)
+
+
+def test_no_warning_when_the_optimum_is_inside_the_box(clean_flight) -> None:
+    result = make_estimator("sebm-pso", {"weighting": "relative"}).fit(clean_flight, rng=SEED)
+    assert result.warnings == ()
 
 
 def test_noise_free_closed_form_is_inside_the_box_and_matches_lstsq(clean_flight) -> None:
@@ -138,22 +176,6 @@ def test_sebm_keeps_each_subproblem_history(paper_results) -> None:
     assert sub["FAZ"]["history_theta"].shape == (201, 3)
 
 
-def test_estimators_never_read_the_truth(paper_flight, paper_results) -> None:
-    meta = copy.deepcopy(paper_flight.metadata)
-    meta["true_coefficients"] = {k: 1e6 for k in meta["true_coefficients"]}
-    meta["true_accel_positions_m"] = [[9.0, 9.0, 9.0], [9.0, 9.0, 9.0]]
-    blind = Flight(paper_flight.data.copy(), paper_flight.airframe, meta)
-    for method, result in paper_results.items():
-        again = make_estimator(method).fit(blind, rng=SEED)
-        np.testing.assert_array_equal(again.theta, result.theta)
-
-
-def test_smoothing_forces_only_differs_from_both(paper_flight, paper_results) -> None:
-    forces = make_estimator("sebm-pso", {"smoothing": "forces"}).fit(paper_flight, rng=SEED)
-    assert forces.info["smoothing"] == "forces"
-    assert not np.array_equal(forces.theta, paper_results["sebm-pso"].theta)
-
-
 @pytest.mark.parametrize(("method", "options", "match"), [
     ("sebm-pso", {"n_particles": "[50, 150]"}, "4 swarm sizes"),
     ("ebm-pso", {"weighting": "ml"}, "weighting"),
@@ -162,6 +184,13 @@ def test_smoothing_forces_only_differs_from_both(paper_flight, paper_results) ->
     ("sebm-pso", {"derivative_window": "8"}, "derivative_window"),
     ("ebm-pso", {"rate_weight": "0"}, "rate_weight"),
     ("eam-pso", {"initial_state": "zero"}, "initial_state"),
+    ("eam-pso", {"n_iterations": "0"}, "n_iterations must be in \\[1, 100000\\]"),
+    ("sebm-pso", {"n_iterations": "0"}, "n_iterations"),
+    ("ebm-pso", {"n_particles": "100000000"}, "n_particles must be in \\[3, 10000\\]"),
+    ("sebm-pso", {"n_particles": "[50, 150, 100, 20000]"}, "n_particles"),
+    ("eam-pso", {"substeps": "1000"}, "substeps"),
+    ("eam-pso", {"stall_iterations": "0"}, "stall_iterations"),
+    ("ebm-pso", {"box": "[" + ", ".join(["2, 1"] * 9) + "]"}, "low < high"),
 ])
 def test_bad_options_are_one_line_errors(method, options, match) -> None:
     with pytest.raises(EstimatorError, match=match) as info:
@@ -176,3 +205,31 @@ def test_user_box_is_used(paper_flight) -> None:
                                          "n_iterations": 30}).fit(paper_flight, rng=SEED)
     assert np.all(result.theta >= box[:, 0]) and np.all(result.theta <= box[:, 1])
     np.testing.assert_array_equal(result.info["bounds"], box)
+
+
+def test_eam_refuses_a_swarm_too_large_for_the_flight(paper_flight, monkeypatch) -> None:
+    """Checked before the first simulation: one line, not a failed fit or a dead machine."""
+    est = make_estimator("eam-pso", {"n_particles": 10, "n_iterations": 1})
+    need = 10 * paper_flight.n_samples * 9 * 8
+    monkeypatch.setattr(eam, "MAX_SWARM_STATE_BYTES", need - 1)
+    with pytest.raises(EstimatorError, match="particles x 501 samples need"):
+        est.fit(paper_flight, rng=SEED)
+    monkeypatch.setattr(eam, "MAX_SWARM_STATE_BYTES", need)
+    assert np.all(np.isfinite(est.fit(paper_flight, rng=SEED).theta))
+
+
+@pytest.mark.parametrize(("method", "options", "stages"), [
+    ("ebm-pso", {"n_iterations": 7}, ["PSO"]),
+    ("eam-pso", {"n_particles": 5, "n_iterations": 3}, ["PSO"]),
+    ("sebm-pso", {"n_iterations": 4, "n_particles": [5, 5, 5, 5]},
+     ["FAX 1/4", "FAZ 2/4", "MX 3/4", "MY 4/4"]),
+])
+def test_pso_methods_report_every_iteration(paper_flight, method, options, stages) -> None:
+    events = []
+    result = make_estimator(method, options).fit(paper_flight, rng=SEED, progress=events.append)
+    n = options["n_iterations"]
+    expected = [(stage, k, n) for stage in stages for k in range(n + 1)]
+    assert [(e.stage, e.done, e.total) for e in events] == expected
+    # the reported cost is the best so far: the history's, iteration by iteration
+    if method != "sebm-pso":
+        np.testing.assert_array_equal([e.cost for e in events[1:]], result.history["cost"][1:])

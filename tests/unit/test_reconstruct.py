@@ -8,7 +8,6 @@ import pytest
 from aeroid.estimation._reconstruct import (
     accel_only_matrix,
     ebm_regression,
-    noise_sd,
     rate_derivatives,
     reconstruct,
     smooth,
@@ -27,9 +26,6 @@ POLY_DERIVATIVE_ATOL = 1e-8
 #: 1e-3-weighted rate rows' derivative bias), M_X 4.2e-4 (the one direction only the
 #: 101-point roll-rate derivative sees; its bias at the record ends). Margin x5.
 RECON_RTOL = np.array([1e-11, 1e-4, 1e-4, 2e-3, 1e-4, 1e-4])
-#: noise_sd on 20000 samples of white Gaussian noise: the MAD estimator's relative
-#: standard error is ~1.1 % at this n (x 1/sqrt(1 - h0) is exact); 5 % is > 4 sigma.
-NOISE_SD_RTOL = 0.05
 
 
 def test_smoother_is_the_papers_eq32_weights_in_the_interior() -> None:
@@ -107,13 +103,6 @@ def test_rate_derivatives_exact_on_quadratics(clean_flight) -> None:
     d = rate_derivatives(flight, roll_window=101)
     expected = np.column_stack([3.0 - 3.0 * (t - 5), -8.0 * (t - 5), np.full_like(t, 2.0)])
     np.testing.assert_allclose(d, expected, atol=POLY_DERIVATIVE_ATOL)
-
-
-def test_noise_sd_recovers_white_noise_level() -> None:
-    rng = np.random.default_rng(2)
-    t = np.arange(20000) * 0.002
-    x = 5 * np.sin(2 * np.pi * 0.5 * t) + 0.3 * rng.standard_normal(t.size)
-    assert abs(noise_sd(x) / 0.3 - 1) < NOISE_SD_RTOL
 
 
 def test_ebm_regression_smoothing_modes(clean_flight) -> None:

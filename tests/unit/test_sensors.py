@@ -9,6 +9,7 @@ import pytest
 from scipy import stats
 from scipy.integrate import solve_ivp
 
+from aeroid.errors import AirframeError
 from aeroid.flights._noise import (
     ACCEL_CHANNELS,
     RATE_CHANNELS,
@@ -189,3 +190,18 @@ def test_make_noise_and_round_trip():
         make_noise("laplace")
     with pytest.raises(ValueError, match="unknown option"):
         make_noise("gaussian", sigma=1.0)
+
+
+@pytest.mark.parametrize(("name", "options", "message"), [
+    ("paper", {"rates_xi": "x"}, "noise model 'paper': rates_xi must be a finite number >= 0, "
+                                 "got 'x'"),
+    ("paper", {"accelerations_xi": True}, "accelerations_xi must be a finite number >= 0"),
+    ("paper", {"accel_position_xi": -0.1}, "accel_position_xi must be a finite number >= 0"),
+    ("gaussian", {"accel_sd_mps2": [0.05]}, "accel_sd_mps2 must be a finite number >= 0"),
+    ("gaussian", {"rate_sd_radps": float("nan")}, "rate_sd_radps must be a finite number"),
+    ("laplace", {}, "unknown noise model 'laplace'"),
+])
+def test_noise_options_are_checked_at_construction(name, options, message):
+    with pytest.raises(AirframeError) as info:
+        make_noise(name, **options)
+    assert message in str(info.value) and "\n" not in str(info.value)

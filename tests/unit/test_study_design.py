@@ -138,8 +138,10 @@ BAD = [
     (GOOD.replace("runs = 4", "runs = 90000") + '[[estimators]]\nlabel = "Q"\nmethod = "other"\n'
      '[[estimators]]\nlabel = "R"\nmethod = "other"\n', "= 1080000 fits is over the limit"),
     (GOOD.replace("accel_sd_mps2 = 0.1", 'accel_sd_mps2 = "0.1"'),
-     "[[noise]] #2 (imu): option accel_sd_mps2 must be a finite number >= 0, got '0.1'"),
-    (GOOD.replace("rates_xi = 0.02", "rates_xi = true"), "option rates_xi must be a finite"),
+     "[[noise]] #2 (imu): noise model 'gaussian': accel_sd_mps2 must be a finite number >= 0, "
+     "got '0.1'"),
+    (GOOD.replace("rates_xi = 0.02", "rates_xi = true"),
+     "rates_xi must be a finite number >= 0, got True"),
     (GOOD.replace("accel_sd_mps2 = 0.1", "accel_sd_mps2 = -0.1"), "got -0.1"),
     (GOOD.replace("accel_sd_mps2 = 0.1", "accel_sd_mps2 = nan"), "got nan"),
     (GOOD.replace('model = "gaussian"', "model = 3"), "(imu): model must be a string"),

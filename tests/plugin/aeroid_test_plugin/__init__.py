@@ -15,7 +15,14 @@ from aeroid import EstimationResult, Estimator, Flight, prior_bounds
 
 @dataclass(frozen=True, kw_only=True)
 class PriorMeanEstimator(Estimator):
-    """Return the centre of the prior search box (``scale`` x prior), a trivial estimator."""
+    """Return the centre of the prior search box (``scale`` x prior), a trivial estimator.
+
+    Options
+    -------
+    scale : float
+        Half-width of the box as a fraction of the prior (the box is prior x [1 - scale,
+        1 + scale]). Its centre is the prior whatever the scale.
+    """
 
     name: ClassVar[str] = "test-plugin-mean"
     description: ClassVar[str] = "test plug-in: centre of the prior search box"

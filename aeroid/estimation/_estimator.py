@@ -1,0 +1,170 @@
+"""The estimator interface: :class:`Estimator` and the default search box, :func:`prior_bounds`.
+
+An estimator is a frozen, keyword-only dataclass that holds options only (no state is
+kept on ``self``: one instance serves many runs and processes). Subclasses implement
+:meth:`Estimator.run`; callers use :meth:`Estimator.fit`, which validates the flight,
+times the run, passes progress reports to the caller's listener and turns any failure
+inside the method into ``success=False`` with a message (failure is data: a study
+records it and goes on).
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+import time
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from aeroid.errors import AeroidError, EstimatorError
+from aeroid.estimation._fitcheck import apply_fit_check, floor_warnings
+from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
+from aeroid.estimation._progress import ProgressCallback, progress_listener
+from aeroid.estimation._result import EstimationResult, failed_result
+from aeroid.flights._flight import Flight
+from aeroid.model._airframe import Airframe
+from aeroid.model._coefficients import NAMES
+
+__all__ = ["Estimator", "prior_bounds"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Estimator(abc.ABC):
+    """Base class of every estimator: a frozen keyword-only dataclass of options.
+
+    Subclasses set the class variables :attr:`name` and :attr:`description`, declare
+    their options as dataclass fields with defaults and type hints (used to parse
+    ``--option key=value`` and study files) and document each in the class docstring's
+    ``Options`` (or ``Attributes``) section (``aeroid methods --options NAME`` prints
+    the first sentence of each entry), and implement :meth:`run`.
+    """
+
+    name: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+
+    @abc.abstractmethod
+    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+        """Estimate the nine coefficients from a validated ``flight``.
+
+        Implementations read the airframe from ``flight.airframe`` and never read
+        ``flight.metadata["true_coefficients"]``. They may raise on failure:
+        :meth:`fit` turns that into ``success=False``. Long methods may report progress
+        with :func:`aeroid.estimation.report_progress`.
+        """
+
+    def fit(self, flight: Flight, *, rng: np.random.Generator | int | None = None,
+            progress: ProgressCallback | None = None) -> EstimationResult:
+        """Validate ``flight``, run the method, time it; never raise for a numerical failure.
+
+        Parameters
+        ----------
+        flight : Flight
+        rng : Generator, int or None
+            Source of the method's random draws (``np.random.default_rng(rng)``).
+        progress : callable or None
+            ``progress(event)`` with a :class:`aeroid.estimation.ProgressEvent`, called
+            by methods that report progress (the paper's PSO methods: every iteration).
+
+        Raises
+        ------
+        FlightError
+            When the flight is invalid (missing channel, NaN, bad time base...).
+        EstimatorError
+            When ``rng`` is not a valid seed or generator.
+        AeroidError
+            Any other bad input the method finds (e.g. a swarm too large for the flight);
+            every other exception inside the method gives ``success=False``.
+        """
+        flight.validate()
+        try:
+            generator = np.random.default_rng(rng)
+        except (TypeError, ValueError) as exc:
+            raise EstimatorError(f"{self.name or type(self).__name__}: bad seed {rng!r}: "
+                                 f"{' '.join(str(exc).split())}") from None
+        start = time.perf_counter()
+        try:
+            with np.errstate(all="ignore"), progress_listener(progress):
+                result = self.run(flight, generator)
+        except AeroidError:
+            raise  # bad input found by the method (data, options): a user error, one line
+        except Exception as exc:  # failure is data (module docstring)
+            text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+            result = failed_result(self.name, f"{type(exc).__name__}: {text}".rstrip(": "))
+        elapsed = time.perf_counter() - start
+        if result.success and not np.all(np.isfinite(result.theta)):
+            result = dataclasses.replace(result, success=False,
+                                         message=result.message or "non-finite estimate")
+        result = apply_fit_check(result, flight)
+        info = dict(result.info)
+        info.setdefault("options", self.options())
+        result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
+        extra = floor_warnings(result, flight)
+        if extra:
+            result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
+        return result
+
+    def options(self) -> dict[str, Any]:
+        """Return the options as a dict (field name -> value)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def option_names(cls) -> tuple[str, ...]:
+        """Return the names of the options."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def describe_options(cls) -> list[OptionInfo]:
+        """Return each option's name, type, default and one-line description."""
+        return describe_options(cls)
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, Any] | None = None) -> Estimator:
+        """Build the estimator from options given as values or as text (``"450"``).
+
+        Raises
+        ------
+        EstimatorError
+            One line naming the estimator and the unknown or invalid option.
+        """
+        options = dict(options or {})
+        owner = cls.name or cls.__name__
+        allowed = cls.option_names()
+        unknown = sorted(set(options) - set(allowed))
+        if unknown:
+            raise EstimatorError(
+                f"{owner}: unknown option(s) {', '.join(unknown)} "
+                f"(options: {', '.join(allowed) or 'none'})"
+            )
+        hints = typing.get_type_hints(cls)
+        kwargs = {}
+        for key, value in options.items():
+            if isinstance(value, str):
+                value = parse_value(value)
+            kwargs[key] = coerce(key, value, hints.get(key, Any), owner)
+        try:
+            return cls(**kwargs)
+        except (TypeError, ValueError) as exc:
+            raise EstimatorError(f"{owner}: {exc}") from None
+
+
+def prior_bounds(airframe: Airframe, box: Any = None,
+                 scale: tuple[float, float] = (0.5, 1.5)) -> np.ndarray:
+    """Return the PSO search box, shape (9, 2) [low, high] per coefficient.
+
+    The box is the airframe's prior (nominal values when it has none) times ``scale``,
+    sorted per coefficient (negative coefficients flip), or ``box`` when given: a
+    (9, 2) array-like, or a flat list of 18 numbers ``[low0, high0, low1, ...]``.
+    The true coefficients are never read.
+    """
+    if box is not None:
+        arr = np.asarray(box, dtype=float).reshape(len(NAMES), 2)
+        if not (np.all(np.isfinite(arr)) and np.all(arr[:, 0] < arr[:, 1])):
+            raise EstimatorError("search box: need 9 finite [low, high] pairs with low < high")
+        return arr
+    prior = airframe.prior_vector()
+    ends = np.stack([prior * scale[0], prior * scale[1]], axis=1)
+    return np.sort(ends, axis=1)

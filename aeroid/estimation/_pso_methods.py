@@ -1,0 +1,144 @@
+"""What the paper's three PSO methods share: option checks, limits, step 1, the PSO run.
+
+EAM-PSO, EBM-PSO and SEBM-PSO (:mod:`aeroid.estimation._eam`, ``_ebm``, ``_sebm``) each
+use these helpers and none of the others: the methods do not import one another.
+
+Limits: option values are bounded when the estimator is built, before anything is
+allocated, so a typo (``n_particles = 100000000``) is a one-line error instead of a
+machine out of memory; each bound below says why it is where it is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from aeroid.estimation import _pso as pso
+from aeroid.estimation._objectives import WEIGHTINGS
+from aeroid.estimation._progress import pso_callback
+from aeroid.estimation._reconstruct import DERIVATIVE_POLYORDER, Reconstruction, reconstruct
+from aeroid.estimation._result import box_edge_warnings
+from aeroid.flights._flight import Flight
+from aeroid.model._coefficients import NAMES
+
+__all__ = [
+    "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "check_common_options",
+    "check_step_one_options", "check_swarm_size", "pso_history", "reconstruction_info",
+    "run_pso", "step_one",
+]
+
+#: Largest swarm. EAM-PSO simulates the whole swarm at once and holds its states,
+#: n_particles x samples x 9 float64: 10,000 particles on the 501-sample reference flight
+#: are 360 MB (22x the paper's 450 particles); beyond that memory, not the search, binds.
+MAX_PARTICLES = 10_000
+#: Most iterations. The history keeps the best point of every iteration and the run time
+#: grows linearly: 100,000 iterations (500x the paper's 200) of the paper's EAM-PSO swarm
+#: would take about three hours here.
+MAX_ITERATIONS = 100_000
+#: Most RK4 steps per sample interval (EAM-PSO). One step per 2 ms sample is accurate to
+#: ~1e-5 relative on the reference flight; 100 put the truncation error below round-off,
+#: so more only multiply the run time.
+MAX_SUBSTEPS = 100
+
+
+def check_swarm_size(n_particles: int, *, minimum: int = 3) -> None:
+    """Raise ValueError (one line) unless ``minimum <= n_particles <= MAX_PARTICLES``.
+
+    ``minimum`` is 3 with the quadratic interpolation, which needs two other particles.
+    """
+    if not minimum <= n_particles <= MAX_PARTICLES:
+        raise ValueError(f"n_particles must be in [{minimum}, {MAX_PARTICLES}] "
+                         f"(MAX_PARTICLES: memory), got {n_particles}")
+
+
+def check_common_options(est: Any) -> None:
+    """Raise ValueError (one line) on bad PSO/cost options shared by the paper's methods.
+
+    ``n_iterations`` must be at least 1: with 0 the answer would be the best point of the
+    random initial swarm, a guess that looks like an estimate.
+    """
+    if est.weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {', '.join(WEIGHTINGS)}")
+    if est.topology not in ("ring", "global"):
+        raise ValueError("topology must be 'ring' or 'global'")
+    if not (0.0 <= est.guard_fraction < 1.0):
+        raise ValueError(f"guard_fraction must be in [0, 1), got {est.guard_fraction}")
+    if not 1 <= est.n_iterations <= MAX_ITERATIONS:
+        raise ValueError(f"n_iterations must be in [1, {MAX_ITERATIONS}] (0 would return the "
+                         f"best point of the random initial swarm), got {est.n_iterations}")
+    if est.box is not None:
+        if len(est.box) != 18:
+            raise ValueError(f"box needs 18 numbers [low0, high0, ..., low8, high8], "
+                             f"got {len(est.box)}")
+        box = np.asarray(est.box, dtype=float).reshape(9, 2)
+        if not (np.all(np.isfinite(box)) and np.all(box[:, 0] < box[:, 1])):
+            raise ValueError("box needs 9 finite [low, high] pairs with low < high")
+
+
+def check_step_one_options(est: Any) -> None:
+    """Raise ValueError (one line) on bad step-1 options (checked at construction)."""
+    if not (np.isfinite(est.rate_weight) and est.rate_weight > 0):
+        raise ValueError(f"rate_weight must be > 0, got {est.rate_weight}")
+    for name, low in (("smoothing_window", 1), ("derivative_window", DERIVATIVE_POLYORDER + 1),
+                      ("roll_derivative_window", 3)):
+        value = getattr(est, name)
+        if value < low or value % 2 == 0:
+            raise ValueError(f"{name} must be an odd integer >= {low}, got {value}")
+
+
+def step_one(est: Any, flight: Flight) -> Reconstruction:
+    """Run EBM step 1 with the estimator's reconstruction options."""
+    return reconstruct(flight, rate_weight=est.rate_weight,
+                       smoothing_window=est.smoothing_window,
+                       derivative_window=est.derivative_window,
+                       roll_derivative_window=est.roll_derivative_window)
+
+
+def reconstruction_info(rec: Reconstruction) -> dict[str, Any]:
+    """Return the step-1 arrays stored in ``info`` (the paper's Figs. 9-12)."""
+    return {"t": rec.t, "fm_raw": rec.fm, "fm_smooth": rec.fm_smooth,
+            "fm_names": ("FAX", "FAY", "FAZ", "MX", "MY", "MZ"), "row_sd": rec.row_sd}
+
+
+def pso_history(res: pso.PSOResult) -> dict[str, Any]:
+    """Return the result history (axis 'iteration') of one PSO run over all nine coefficients."""
+    return {"axis": "iteration", "step": np.arange(res.history_cost.size),
+            "cost": np.asarray(res.history_cost, dtype=float),
+            "theta": np.asarray(res.history_x, dtype=float)}
+
+
+def run_pso(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *,
+            n_particles: int, names: Sequence[str] = NAMES, stage: str = "PSO",
+            **kwargs: Any) -> tuple[pso.PSOResult, tuple[str, ...]]:
+    """Run the modified PSO with the estimator's options; report progress; check the edges.
+
+    Parameters
+    ----------
+    est : estimator
+        Provides ``n_iterations``, ``topology`` and ``interpolation``.
+    cost : callable
+        ``cost(theta (P, d)) -> (P,)``.
+    bounds : ndarray, shape (d, 2)
+    rng : numpy.random.Generator
+    n_particles : int
+    names : sequence of str, length d
+        Names of the searched coefficients (for the warnings).
+    stage : str
+        Name of this run in the progress reports.
+    **kwargs
+        Passed to :func:`aeroid.estimation.minimize` (``x0``, ``stall_iterations``).
+
+    Returns
+    -------
+    PSOResult
+    tuple of str
+        The run's warnings: :func:`aeroid.estimation.box_edge_warnings` of its answer
+        (none when the run failed: its message says why).
+    """
+    res = pso.minimize(cost, bounds, n_particles=n_particles, n_iterations=est.n_iterations,
+                       rng=rng, topology=est.topology, interpolation=est.interpolation,
+                       callback=pso_callback(est.n_iterations, stage), **kwargs)
+    warnings = box_edge_warnings(res.x, bounds, names) if res.success else ()
+    return res, warnings

@@ -1,0 +1,230 @@
+"""What every estimator returns: :class:`EstimationResult`, and its warnings.
+
+A result is data: failure is ``success=False`` with a one-line ``message``; a result that
+succeeded but should not be trusted blindly carries ``warnings``, one line each (an
+estimate on the edge of its search box, for example). :func:`box_edge_warnings` is the
+shared test for box-bounded methods (the paper's PSO methods and any plug-in with a box).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from aeroid.model._coefficients import NAMES
+
+__all__ = ["EDGE_FRACTION", "EstimationResult", "box_edge_warnings", "failed_result"]
+
+#: An estimate closer to a wall of its search box than this fraction of the box's width
+#: is reported as on the edge. The modified PSO clips every particle to the box, so a
+#: swarm pressed against a wall ends exactly on it (distance 0); 1e-3 of the width (0.1 %
+#: of the prior with the default box, prior x [0.5, 1.5]) also catches a swarm still
+#: sliding onto the wall, and flags an interior optimum only when it is so close to the
+#: wall that the box may well cut the true optimum off.
+EDGE_FRACTION = 1e-3
+
+
+def _one_line(text: Any) -> str:
+    return " ".join(str(text).split())
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class EstimationResult:
+    """What every estimator returns.
+
+    Attributes
+    ----------
+    estimator : str
+        Registered name of the method.
+    names : tuple of str
+        Coefficient names (:data:`aeroid.model.NAMES`).
+    theta : ndarray, shape (9,)
+        Estimates (NaN where the method failed).
+    stderr, covariance : ndarray or None
+        Standard errors (9,) and covariance (9, 9) when the method has them.
+    cost : float
+        Final cost of the method's own objective; NaN for methods without one (the
+        Kalman filters).
+    success : bool
+    message : str
+        Why the method stopped, or why it failed (one line).
+    warnings : tuple of str
+        Reasons to doubt a successful result, one line each (e.g. an estimate on the edge
+        of its search box); empty when there are none. Shown by :meth:`summary`,
+        :meth:`to_row` and :meth:`to_json_dict`.
+    n_evaluations, n_iterations : int
+        Objective (or model) evaluations and iterations.
+    wall_time_s : float
+        Set by :meth:`aeroid.estimation.Estimator.fit`.
+    history : dict of str -> ndarray
+        ``axis`` ("iteration" or "time") plus ``step`` (n,), ``theta`` (n, 9) and,
+        where defined, ``cost`` (n,) and ``theta_sd`` (n, 9): the convergence history
+        of the paper's Figs. 4-8 and 13-16.
+    info : dict
+        Method-specific extras (e.g. reconstructed forces, options used, weighting).
+        ``info["compiled"]`` (bool), where a method has a compiled and an interpreted
+        path, is shown by :meth:`summary` and :meth:`to_json_dict`.
+    """
+
+    estimator: str
+    theta: np.ndarray
+    names: tuple[str, ...] = NAMES
+    stderr: np.ndarray | None = None
+    covariance: np.ndarray | None = None
+    cost: float = math.nan
+    success: bool = True
+    message: str = ""
+    warnings: tuple[str, ...] = ()
+    n_evaluations: int = 0
+    n_iterations: int = 0
+    wall_time_s: float = 0.0
+    history: dict[str, Any] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "theta", np.asarray(self.theta, dtype=float).reshape(-1))
+        if self.stderr is not None:
+            object.__setattr__(self, "stderr", np.asarray(self.stderr, dtype=float).reshape(-1))
+        found = (self.warnings,) if isinstance(self.warnings, str) else tuple(self.warnings)
+        object.__setattr__(self, "warnings", tuple(_one_line(w) for w in found))
+
+    def as_dict(self) -> dict[str, float]:
+        """Return estimates as name -> value."""
+        return {n: float(v) for n, v in zip(self.names, self.theta, strict=True)}
+
+    def relative_error_pct(self, truth: np.ndarray) -> np.ndarray:
+        """Return ``|theta - truth| / |truth| * 100`` per coefficient (the paper's figure)."""
+        truth = np.asarray(truth, dtype=float)
+        return np.abs(self.theta - truth) / np.abs(truth) * 100.0
+
+    def _compiled_text(self) -> str | None:
+        compiled = self.info.get("compiled") if isinstance(self.info, dict) else None
+        if compiled is None:
+            return None
+        return "model evaluated compiled" if compiled else "model evaluated interpreted"
+
+    def summary(self, truth: np.ndarray | None = None) -> str:
+        """Return a table for people: estimate, standard error and, given truth, error %.
+
+        The head says ``ok`` or ``FAILED`` with the message, then one ``warning:`` line per
+        warning, then the counts (and the cost, for methods that have one).
+        """
+        status = "ok" if self.success else "FAILED"
+        lines = [f"{self.estimator}: {status}" + (f" ({self.message})" if self.message else "")]
+        lines += [f"warning: {w}" for w in self.warnings]
+        counts = (f"{self.n_evaluations} evaluations, {self.n_iterations} iterations, "
+                  f"{self.wall_time_s:.3f} s")
+        if math.isfinite(self.cost):
+            counts = f"cost {self.cost:.6g}, " + counts
+        compiled = self._compiled_text()
+        lines.append(counts + (f", {compiled}" if compiled else ""))
+        head = f"{'coef':>5} {'estimate':>14} {'std err':>12}"
+        if truth is not None:
+            head += f" {'truth':>12} {'error %':>9}"
+        lines.append(head)
+        errors = self.relative_error_pct(truth) if truth is not None else None
+        for j, name in enumerate(self.names):
+            se = "" if self.stderr is None else f"{self.stderr[j]:.4g}"
+            row = f"{name:>5} {self.theta[j]:>14.6g} {se:>12}"
+            if truth is not None and errors is not None:
+                row += f" {truth[j]:>12.6g} {errors[j]:>9.3f}"
+            lines.append(row)
+        return "\n".join(lines)
+
+    def to_row(self) -> dict[str, Any]:
+        """Return one flat row for tables: scalars, then each estimate and standard error.
+
+        ``warnings`` is one string, the warnings joined by ``"; "`` (empty when none).
+        """
+        row: dict[str, Any] = {
+            "estimator": self.estimator,
+            "success": bool(self.success),
+            "message": self.message,
+            "warnings": "; ".join(self.warnings),
+            "cost": float(self.cost),
+            "n_evaluations": int(self.n_evaluations),
+            "n_iterations": int(self.n_iterations),
+            "wall_time_s": float(self.wall_time_s),
+        }
+        for j, name in enumerate(self.names):
+            row[name] = float(self.theta[j])
+            row[f"{name}_stderr"] = math.nan if self.stderr is None else float(self.stderr[j])
+        return row
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """Return the CLI's JSON form (non-finite numbers become ``null``)."""
+        def clean(x: float) -> float | None:
+            return None if not math.isfinite(x) else float(x)
+
+        out = {
+            "method": self.estimator,
+            "coefficients": {n: clean(v) for n, v in self.as_dict().items()},
+            "stderr": None if self.stderr is None else
+            {n: clean(float(v)) for n, v in zip(self.names, self.stderr, strict=True)},
+            "success": bool(self.success),
+            "message": self.message,
+            "warnings": list(self.warnings),
+            "cost": clean(float(self.cost)),
+            "n_evaluations": int(self.n_evaluations),
+            "n_iterations": int(self.n_iterations),
+            "wall_time_s": float(self.wall_time_s),
+        }
+        compiled = self.info.get("compiled") if isinstance(self.info, dict) else None
+        if compiled is not None:
+            out["compiled"] = bool(compiled)
+        return out
+
+
+def failed_result(estimator: str, message: str, **fields: Any) -> EstimationResult:
+    """Return a ``success=False`` result with NaN estimates."""
+    return EstimationResult(estimator=estimator, theta=np.full(len(NAMES), np.nan),
+                            success=False, message=message, **fields)
+
+
+def box_edge_warnings(theta: np.ndarray, bounds: np.ndarray,
+                      names: Sequence[str] = NAMES, *,
+                      fraction: float = EDGE_FRACTION) -> tuple[str, ...]:
+    """Return a warning when an estimate lies on (or next to) a wall of its search box.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (d,)
+        Estimates, in the box's units.
+    bounds : ndarray, shape (d, 2)
+        The box, ``[low, high]`` per estimate.
+    names : sequence of str, length d
+        Names of the estimates (default the nine coefficients).
+    fraction : float
+        Distance to a wall, as a fraction of the box's width, at or below which an
+        estimate counts as on the edge (:data:`EDGE_FRACTION`).
+
+    Returns
+    -------
+    tuple of str
+        Empty, or one line naming every estimate on an edge, which edge and the box: the
+        method's optimum may lie outside the box, so widen it (option ``box``) or move
+        the prior.
+    """
+    theta = np.asarray(theta, dtype=float).reshape(-1)
+    bounds = np.asarray(bounds, dtype=float).reshape(-1, 2)
+    if theta.size != bounds.shape[0] or len(names) != theta.size:
+        raise ValueError(f"box_edge_warnings: {theta.size} estimates, {bounds.shape[0]} "
+                         f"bounds and {len(names)} names")
+    low, high = bounds[:, 0], bounds[:, 1]
+    margin = fraction * (high - low)
+    found = []
+    for j, name in enumerate(names):
+        if not math.isfinite(theta[j]):
+            continue
+        if theta[j] - low[j] <= margin[j]:
+            found.append(f"{name} = {theta[j]:.6g} at low end of [{low[j]:.6g}, {high[j]:.6g}]")
+        elif high[j] - theta[j] <= margin[j]:
+            found.append(f"{name} = {theta[j]:.6g} at high end of [{low[j]:.6g}, {high[j]:.6g}]")
+    if not found:
+        return ()
+    return (f"on the edge of the search box (the optimum may lie outside it; widen the "
+            f"box or move the prior): {', '.join(found)}",)

@@ -1,0 +1,197 @@
+"""Signal helpers: the Savitzky-Golay smoother of eq. 32, SG derivatives of the rates,
+and the one estimator of a channel's noise level from the data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import savgol_coeffs, savgol_filter
+
+from aeroid.flights import Flight
+
+#: Width of the paper's smoother (eq. 32): 7 points, quadratic.
+SMOOTHING_WINDOW = 7
+SMOOTHING_POLYORDER = 2
+#: Gaussian consistency factor of the median absolute deviation.
+MAD_TO_SD = 1.4826
+#: Floor of an estimated noise level, relative to the channel RMS (a noise-free channel
+#: would otherwise get an infinite weight).
+NOISE_FLOOR_FRACTION = 1e-9
+#: Default SG window for the rate derivatives [samples]. The roll-rate noise of the
+#: paper (+-5 %, about 2.5 rad/s) swamps the roll acceleration (~4 rad/s^2); a wider
+#: window lowers the derivative noise as 1/window^1.5 but biases the q, r derivatives
+#: (they oscillate at the roll frequency, ~8 Hz = 62 samples per cycle at 500 Hz).
+#: 9 samples with a quartic have a gain error of -7e-5 at 62 samples per cycle (its
+#: frequency response; a quadratic of the same width: -2 %).
+DERIVATIVE_WINDOW = 9
+DERIVATIVE_POLYORDER = 4
+#: The roll rate is slow (time constant ~3 s, no roll-frequency oscillation), so its
+#: derivative takes a wide window: the noise falls as window^-1.5 at no visible bias.
+ROLL_DERIVATIVE_WINDOW = 101
+ROLL_POLYORDER = 2
+
+
+def smooth(x: np.ndarray, window: int = SMOOTHING_WINDOW, polyorder: int = SMOOTHING_POLYORDER,
+           axis: int = 0) -> np.ndarray:
+    """Savitzky-Golay smoother of eq. 32 (``scipy.signal.savgol_filter``).
+
+    With the defaults (width 7, quadratic) the interior weights are the paper's
+    ``(-2, 3, 6, 7, 6, 3, -2) / 21``; the ends use scipy's polynomial fit (``mode='interp'``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (..., n, ...)
+        Signal sampled uniformly along ``axis``.
+    window : int
+        Odd window length [samples], ``polyorder < window <= n``.
+    polyorder : int
+    axis : int
+
+    Returns
+    -------
+    ndarray, same shape as ``x``
+    """
+    x = np.asarray(x, dtype=float)
+    _check_window(window, polyorder, x.shape[axis])
+    return savgol_filter(x, window, polyorder, axis=axis, mode="interp")
+
+
+def _check_window(window: int, polyorder: int, n: int) -> None:
+    if window % 2 != 1 or window < 1:
+        raise ValueError(f"Savitzky-Golay window must be a positive odd integer, got {window}")
+    if not 0 <= polyorder < window:
+        raise ValueError(f"Savitzky-Golay polyorder must be in [0, window), got {polyorder}")
+    if window > n:
+        raise ValueError(f"Savitzky-Golay window {window} exceeds the {n} samples")
+
+
+def estimate_noise_sd(x: np.ndarray, axis: int = 0, *, statistic: str = "mad",
+                      use: np.ndarray | None = None,
+                      floor_fraction: float = NOISE_FLOOR_FRACTION) -> np.ndarray:
+    """Estimate the white-noise standard deviation of sampled signals from the data alone.
+
+    The residual ``e = x - smooth(x)`` of the 7-point quadratic SG smoother (eq. 32)
+    removes the smooth signal; for white noise of sd ``s`` its sd is ``s sqrt(1 - h0)``
+    with ``h0 = 7/21`` the filter's centre weight, so ``s = spread(e) / sqrt(2/3)``.
+    This is the one noise-level estimator of aeroid (the EBM weights, the objectives'
+    noise weighting, equation error and the filters' measurement noise use it).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, ...) (``axis`` = the time axis)
+    axis : int
+    statistic : {"mad", "rms"}
+        Spread of the residual: ``1.4826 MAD`` (default; robust to the jumps of a
+        relay-driven signal) or the RMS (efficient for Gaussian noise when the jumps are
+        left out with ``use``).
+    use : ndarray of bool, shape (n,), optional
+        Samples whose residual enters the spread (default all), e.g.
+        :func:`switch_free_samples`.
+    floor_fraction : float
+        Lower bound as a fraction of each channel's RMS (a noise-free channel would
+        otherwise get an infinite weight).
+
+    Returns
+    -------
+    ndarray, shape of ``x`` without ``axis``
+        Noise sd in the units of ``x``.
+    """
+    if statistic not in ("mad", "rms"):
+        raise ValueError(f"statistic must be 'mad' or 'rms', got {statistic!r}")
+    x = np.moveaxis(np.asarray(x, dtype=float), axis, 0)
+    resid = x - smooth(x, SMOOTHING_WINDOW, SMOOTHING_POLYORDER, axis=0)
+    if use is not None:
+        resid = resid[np.asarray(use, dtype=bool)]
+    h0 = savgol_coeffs(SMOOTHING_WINDOW, SMOOTHING_POLYORDER)[SMOOTHING_WINDOW // 2]
+    if statistic == "mad":
+        spread = MAD_TO_SD * np.median(np.abs(resid - np.median(resid, axis=0)), axis=0)
+    else:
+        spread = np.sqrt(np.mean(resid**2, axis=0))
+    sd = spread / np.sqrt(1.0 - h0)
+    rms = np.sqrt(np.mean(x * x, axis=0))
+    return np.maximum(sd, floor_fraction * np.maximum(rms, np.finfo(float).tiny))
+
+
+def switch_free_samples(delta: np.ndarray, window: int = SMOOTHING_WINDOW) -> np.ndarray:
+    """Return the samples whose ``window``-point neighbourhood holds no relay switch, (n,) bool.
+
+    A step in ``delta`` makes the accelerations jump, which the smoother cannot follow.
+    When fewer than ``max(10, n / 10)`` samples are switch-free, all are returned.
+    """
+    delta = np.asarray(delta, dtype=float)
+    n = delta.size
+    half = window // 2
+    clean = np.ones(n, dtype=bool)
+    for j in np.flatnonzero(np.diff(delta) != 0.0) + 1:  # delta changes between j-1 and j
+        clean[max(j - half - 1, 0): j + half + 1] = False
+    if clean.sum() < max(10, n // 10):
+        clean[:] = True
+    return clean
+
+
+def rate_derivatives(flight: Flight, window: int = DERIVATIVE_WINDOW,
+                     polyorder: int = DERIVATIVE_POLYORDER, *,
+                     roll_window: int | None = None, roll_polyorder: int = ROLL_POLYORDER
+                     ) -> np.ndarray:
+    """Return SG derivatives of the measured p, q, r, shape (n, 3) [rad/s^2].
+
+    ``scipy.signal.savgol_filter(..., deriv=1, delta=dt)``; ends by polynomial fit.
+    ``window``/``polyorder`` apply to q and r; p uses ``roll_window`` (default: the
+    same as ``window``) and ``roll_polyorder`` when a roll window is given.
+    """
+    rates = np.column_stack([flight["p"], flight["q"], flight["r"]])
+    _check_window(window, polyorder, rates.shape[0])
+    out = savgol_filter(rates, window, polyorder, deriv=1, delta=flight.dt, axis=0,
+                        mode="interp")
+    if roll_window is not None:
+        _check_window(roll_window, roll_polyorder, rates.shape[0])
+        out[:, 0] = savgol_filter(rates[:, 0], roll_window, roll_polyorder, deriv=1,
+                                  delta=flight.dt, mode="interp")
+    return out
+
+
+
+
+def estimate_noise_law(x: np.ndarray, *, use: np.ndarray | None = None,
+                       floor_fraction: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
+    """Estimate a signal-dependent noise law ``var = a + b s^2`` per channel from the data.
+
+    The squared 7-point Savitzky-Golay residual (divided by ``1 - h0``, as in
+    :func:`estimate_noise_sd`) is regressed on ``[1, s^2]``, ``s`` the smoothed signal, by
+    non-negative least squares weighted by the inverse squared variance (two reweighting
+    passes; the variance of a squared Gaussian residual is ``2 var^2``). Multiplicative
+    noise (the paper's eq. 43) gives ``a ~ 0``; additive noise ``b ~ 0``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, m)
+    use : ndarray of bool, shape (n,), optional
+        Samples that enter (e.g. :func:`switch_free_samples`).
+    floor_fraction : float
+        ``a`` is at least this fraction of the channel's mean squared residual.
+
+    Returns
+    -------
+    a, b : ndarray, shape (m,)
+        [unit^2] and [dimensionless].
+    """
+    from scipy.optimize import nnls
+
+    x = np.asarray(x, dtype=float).reshape(len(x), -1)
+    s = smooth(x, SMOOTHING_WINDOW, SMOOTHING_POLYORDER, axis=0)
+    h0 = savgol_coeffs(SMOOTHING_WINDOW, SMOOTHING_POLYORDER)[SMOOTHING_WINDOW // 2]
+    e2 = (x - s) ** 2 / (1.0 - h0)
+    if use is not None:
+        e2, s = e2[np.asarray(use, dtype=bool)], s[np.asarray(use, dtype=bool)]
+    a = np.empty(x.shape[1])
+    b = np.empty(x.shape[1])
+    for c in range(x.shape[1]):
+        ms = max(float(np.mean(e2[:, c])), np.finfo(float).tiny)
+        var = np.full(e2.shape[0], ms)
+        s2 = s[:, c] ** 2
+        for _ in range(2):
+            w = 1.0 / var
+            (a[c], b[c]), _ = nnls(np.column_stack([w, w * s2]), w * e2[:, c])
+            a[c] = max(a[c], floor_fraction * ms)
+            var = a[c] + b[c] * s2
+    return a, b

@@ -1,0 +1,142 @@
+"""The JSON sidecar of a flight file: the airframe and metadata beside the data.
+
+``<name>.json`` holds ``{"format": "aeroid-flight/1", "airframe": {...}, "metadata":
+{...}}``: the airframe in the airframe file's form (:meth:`Airframe.to_dict`) and the
+flight's metadata. A same-stem JSON file without the ``aeroid-flight/`` format tag is
+another tool's: it is not read (its name is given when an airframe is missing). A tagged
+sidecar is checked strictly: unknown keys, another format version, and metadata that
+aeroid writes with the wrong type are one-line errors naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aeroid.errors import AirframeError, FlightError
+from aeroid.flights._noise import noise_from_dict
+from aeroid.model._airframe import Airframe
+from aeroid.model._coefficients import NAMES
+from aeroid.model._fileform import check_keys, check_table, is_number, numbers, regular_file_size
+
+#: The sidecar's format tag; a same-stem JSON file without it is not a sidecar.
+if TYPE_CHECKING:  # annotations only (Flight.write reaches this module)
+    from aeroid.flights._flight import Flight
+
+FORMAT = "aeroid-flight/1"
+#: The keys of a sidecar.
+SIDECAR_KEYS = ("format", "airframe", "metadata")
+#: Largest sidecar read [bytes]: aeroid's are about 1.3 kB; a bigger same-stem JSON file
+#: is another tool's and is not opened.
+MAX_SIDECAR_BYTES = 1 << 20
+
+
+def sidecar_path(path: str | Path) -> Path:
+    """Return the JSON sidecar path of a flight file (``f.csv`` -> ``f.json``)."""
+    return Path(path).with_suffix(".json")
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def sidecar_payload(flight: Flight) -> dict[str, Any]:
+    """Return the sidecar of ``flight`` as a JSON-ready dict (``source`` left out)."""
+    meta = {k: v for k, v in flight.metadata.items() if k != "source"}
+    return {"format": FORMAT, "airframe": flight.airframe.to_dict(), "metadata": _jsonable(meta)}
+
+
+def read_sidecar(path: Path, *, need_airframe: bool
+                 ) -> tuple[dict[str, Any], Airframe | None, str]:
+    """Return ``(metadata, airframe or None, note)`` from the sidecar of ``path``.
+
+    ``note`` says why there is no airframe when there is none. The airframe is read
+    only when ``need_airframe``.
+    """
+    sidecar = sidecar_path(path)
+    if sidecar == path or not sidecar.exists():
+        return {}, None, f"no sidecar {sidecar.name}"
+    try:
+        size = regular_file_size(sidecar, FlightError)
+    except FlightError as exc:
+        return {}, None, f"{sidecar.name} is not an aeroid sidecar: {exc}"
+    if size > MAX_SIDECAR_BYTES:
+        return {}, None, f"{sidecar.name} is not an aeroid sidecar: {size} bytes"
+    try:
+        payload = json.loads(sidecar.read_bytes())
+    except (ValueError, OSError):
+        return {}, None, f"{sidecar.name} is not an aeroid sidecar: not JSON"
+    tag = payload.get("format") if isinstance(payload, dict) else None
+    if not (isinstance(tag, str) and tag.startswith("aeroid-flight/")):
+        return {}, None, (f"{sidecar.name} is not an aeroid sidecar: no \"format\": "
+                          f"\"{FORMAT}\"")
+    if tag != FORMAT:
+        raise FlightError(f"{sidecar}: sidecar format {tag!r} is not supported "
+                          f"(this aeroid reads {FORMAT})")
+    try:
+        check_keys(payload, SIDECAR_KEYS, f"{sidecar}", required=SIDECAR_KEYS)
+        metadata = sidecar_metadata(payload["metadata"], str(sidecar))
+        airframe = (Airframe.from_dict(payload["airframe"], source=f"{sidecar} airframe")
+                    if need_airframe else None)
+    except AirframeError as exc:
+        raise FlightError(str(exc)) from None
+    return metadata, airframe, ""
+
+
+def sidecar_metadata(metadata: Any, source: str) -> dict[str, Any]:
+    """Check the types of the metadata keys aeroid writes and return a copy.
+
+    Raises
+    ------
+    AirframeError
+        One line naming ``source`` and the key of the wrong type.
+    """
+    where = f"{source}: metadata"
+    metadata = dict(check_table(metadata, where))
+    if "seed" in metadata and metadata["seed"] is not None and (
+            isinstance(metadata["seed"], bool) or not isinstance(metadata["seed"], int)):
+        raise AirframeError(f"{where} seed must be an integer or null, "
+                            f"got {metadata['seed']!r}")
+    if "noise" in metadata:
+        try:
+            noise_from_dict(dict(check_table(metadata["noise"], f"{where} noise")))
+        except AirframeError as exc:
+            message = str(exc)
+            raise AirframeError(message if message.startswith(where)
+                                else f"{where} noise: {message}") from None
+    if metadata.get("true_coefficients") is not None:
+        truth = check_table(metadata["true_coefficients"], f"{where} true_coefficients")
+        check_keys(truth, NAMES, f"{where} true_coefficients", required=NAMES)
+        numbers([truth[n] for n in NAMES], 9, f"{where} true_coefficients")
+    if metadata.get("true_accel_positions_m") is not None:
+        rows = metadata["true_accel_positions_m"]
+        if not isinstance(rows, list) or len(rows) != 2:
+            raise AirframeError(f"{where} true_accel_positions_m must be 2 x 3 numbers, "
+                                f"got {rows!r}")
+        for row in rows:
+            numbers(row, 3, f"{where} true_accel_positions_m")
+    if "manoeuvre" in metadata:
+        table = check_table(metadata["manoeuvre"], f"{where} manoeuvre")
+        for key, value in table.items():
+            ok = (is_number(value) and math.isfinite(value)) or (
+                isinstance(value, list) and all(is_number(x) for x in value))
+            if not ok:
+                raise AirframeError(f"{where} manoeuvre {key} must be a number, got {value!r}")
+    return metadata
+
+
+__all__ = ["FORMAT", "MAX_SIDECAR_BYTES", "read_sidecar", "sidecar_metadata", "sidecar_path",
+           "sidecar_payload"]

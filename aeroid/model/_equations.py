@@ -1,0 +1,221 @@
+"""The equations of the rolling airframe, written once (paper eqs. 2-16 and 28).
+
+Every function here is element-wise and indexes states, coefficients and constants by
+name, so the same definition is evaluated three ways:
+
+* by numpy on arrays (any broadcastable shapes; :mod:`aeroid.model._dynamics` stacks the
+  results into ``(..., 9)`` arrays);
+* by numba on scalars, inlined into the RK4 and cost kernels
+  (:mod:`aeroid.model._compiled` registers each function as a numba overload of itself);
+* by CasADi on symbols, to build exact derivatives (:mod:`aeroid.model._symbolic`; numpy's
+  element-wise functions dispatch to CasADi objects in CasADi's numpy mode).
+
+So the functions use only arithmetic and numpy's element-wise functions (no branches, no
+array indexing). Two hooks let the compiled kernels take faster paths without copying an
+equation: :func:`atan2` (numba evaluates ``atan(y/x)`` for ``x > 0``, the same value) and
+the attitude trigonometry, which the rigid-body functions take as arguments
+(:class:`Trig`) so a kernel can get it by the addition theorem instead of calling sin/cos.
+
+Model (notes, "Model"): body axes, flat non-rotating earth, no wind, cruciform airframe
+with no products of inertia, thrust on body +x through the c.g.; the lateral coefficients
+follow the symmetry ties of eq. 1 and the side force has no fin term (one fin pair acts in
+pitch only). Eq. 5 has no ``(Iy - Iz) q r`` term: the paper's model, exact for Iy = Iz.
+
+Adding a coefficient or an input is one change here (and its name in
+:mod:`aeroid.model._coefficients` or :class:`Constants`); README, "How to add a
+coefficient or an input".
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+
+Scalar = Any  # a float, an ndarray or a CasADi symbol: everything here is element-wise
+
+
+class State(NamedTuple):
+    """The nine states [m/s, rad/s, rad]; the order is :data:`STATE_NAMES`."""
+
+    u: Scalar
+    v: Scalar
+    w: Scalar
+    p: Scalar
+    q: Scalar
+    r: Scalar
+    phi: Scalar
+    theta: Scalar
+    psi: Scalar
+
+
+class Coefficients(NamedTuple):
+    """The nine aerodynamic coefficients (dimensionless); the order is ``NAMES``."""
+
+    Cx: Scalar
+    Cza: Scalar
+    Czd: Scalar
+    Czq: Scalar
+    Cl0: Scalar
+    Clp: Scalar
+    Cma: Scalar
+    Cmd: Scalar
+    Cmq: Scalar
+
+
+class Constants(NamedTuple):
+    """Physical constants of the model (a tuple of floats, so compiled kernels take it).
+
+    ``rho`` air density [kg/m^3], ``area`` reference area S [m^2], ``diameter`` reference
+    length D [m], ``mass`` [kg], principal inertias ``ix, iy, iz`` [kg m^2], ``thrust`` [N]
+    along body +x, ``gravity`` [m/s^2].
+    """
+
+    rho: Scalar
+    area: Scalar
+    diameter: Scalar
+    mass: Scalar
+    ix: Scalar
+    iy: Scalar
+    iz: Scalar
+    thrust: Scalar
+    gravity: Scalar
+
+
+class Loads(NamedTuple):
+    """Aerodynamic forces [N] and moments [N m] in body axes (eqs. 2-7)."""
+
+    fax: Scalar
+    fay: Scalar
+    faz: Scalar
+    mx: Scalar
+    my: Scalar
+    mz: Scalar
+
+
+class Trig(NamedTuple):
+    """Sines and cosines of the roll and pitch angles (the kernels' hook)."""
+
+    sphi: Scalar
+    cphi: Scalar
+    stheta: Scalar
+    ctheta: Scalar
+
+
+STATE_NAMES: tuple[str, ...] = State._fields
+LOAD_NAMES: tuple[str, ...] = ("FAX", "FAY", "FAZ", "MX", "MY", "MZ")
+
+
+def atan2(y: Scalar, x: Scalar) -> Scalar:
+    """Return the four-quadrant arctangent of ``y / x`` (a hook: see the module docstring)."""
+    return np.arctan2(y, x)
+
+
+def air_data(u: Scalar, v: Scalar, w: Scalar) -> tuple[Scalar, Scalar, Scalar]:
+    """Return total speed V_T [m/s], alpha [rad] and beta [rad] (eqs. 14-16).
+
+    ``alpha = arctan(w / u)`` is evaluated four-quadrant (equal for u > 0);
+    ``beta = arcsin(v / V_T)``.
+    """
+    speed = np.sqrt(u * u + v * v + w * w)
+    return speed, atan2(w, u), np.arcsin(v / speed)
+
+
+def trig(x: State) -> Trig:
+    """Return the attitude trigonometry of state ``x`` with sin and cos."""
+    return Trig(np.sin(x.phi), np.cos(x.phi), np.sin(x.theta), np.cos(x.theta))
+
+
+def aerodynamic_loads(x: State, c: Coefficients, delta: Scalar, const: Constants) -> Loads:
+    """Return the aerodynamic forces and moments (eqs. 2-7).
+
+    ``F_AX = Q S Cx``; ``F_AY = Q S (Cza beta - Czq D/(2V) r)``;
+    ``F_AZ = Q S (Cza alpha + Czd delta + Czq D/(2V) q)``;
+    ``M_X = Q S D (Cl0 + Clp D/(2V) p)``;
+    ``M_Y = Q S D (Cma alpha + Cmd delta + Cmq D/(2V) q)``;
+    ``M_Z = Q S D (-Cma beta + Cmq D/(2V) r)``, with ``Q = rho V^2 / 2`` and ``delta`` the
+    fin deflection [rad]. Every load is linear in the coefficients.
+    """
+    speed, alpha, beta = air_data(x.u, x.v, x.w)
+    # Q S, with V^2 from the components (not the rounded square root)
+    qs = 0.5 * const.rho * const.area * (x.u * x.u + x.v * x.v + x.w * x.w)
+    qsd = qs * const.diameter
+    rate_scale = 0.5 * const.diameter / speed  # D / (2 V)
+    return Loads(
+        qs * c.Cx,
+        qs * (c.Cza * beta - c.Czq * rate_scale * x.r),
+        qs * (c.Cza * alpha + c.Czd * delta + c.Czq * rate_scale * x.q),
+        qsd * (c.Cl0 + c.Clp * rate_scale * x.p),
+        qsd * (c.Cma * alpha + c.Cmd * delta + c.Cmq * rate_scale * x.q),
+        qsd * (-c.Cma * beta + c.Cmq * rate_scale * x.r),
+    )
+
+
+def angular_acceleration(p: Scalar, q: Scalar, r: Scalar, f: Loads, const: Constants
+                         ) -> tuple[Scalar, Scalar, Scalar]:
+    """Return ``pdot, qdot, rdot`` [rad/s^2] (eqs. 5-7)."""
+    return (f.mx / const.ix,
+            (const.iz - const.ix) / const.iy * p * r + f.my / const.iy,
+            (const.ix - const.iy) / const.iz * p * q + f.mz / const.iz)
+
+
+def specific_force(f: Loads, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
+    """Return the specific force ``(F_A + F_T) / m`` [m/s^2] (no gravity: accelerometers see it)."""
+    return (f.fax + const.thrust) / const.mass, f.fay / const.mass, f.faz / const.mass
+
+
+def derivative(x: State, f: Loads, const: Constants, t: Trig) -> State:
+    """Return d(state)/dt from the loads (eqs. 2-10).
+
+    Eqs. 2-4 (translation, gravity along the earth z axis), 5-7 (rotation) and 8-10 (Euler
+    angle kinematics).
+    """
+    fx, fy, fz = specific_force(f, const)
+    pdot, qdot, rdot = angular_acceleration(x.p, x.q, x.r, f, const)
+    g = const.gravity
+    qr = x.q * t.sphi + x.r * t.cphi
+    return State(
+        x.r * x.v - x.q * x.w - g * t.stheta + fx,
+        -x.r * x.u + x.p * x.w + g * t.ctheta * t.sphi + fy,
+        x.q * x.u - x.p * x.v + g * t.ctheta * t.cphi + fz,
+        pdot,
+        qdot,
+        rdot,
+        x.p + qr * t.stheta / t.ctheta,
+        x.q * t.cphi - x.r * t.sphi,
+        qr / t.ctheta,
+    )
+
+
+def state_derivative(x: State, c: Coefficients, delta: Scalar, const: Constants, t: Trig
+                     ) -> State:
+    """Return d(state)/dt for coefficients ``c`` and fin deflection ``delta`` [rad]."""
+    return derivative(x, aerodynamic_loads(x, c, delta, const), const, t)
+
+
+def accelerometer(x: State, f: Loads, const: Constants, rx: Scalar, ry: Scalar, rz: Scalar
+                  ) -> tuple[Scalar, Scalar, Scalar]:
+    """Return the reading of an accelerometer triad at ``(rx, ry, rz)`` [m] from the c.g. (eq. 28).
+
+    ``a_R = (F_A + F_T) / m + wdot x R + w x (w x R)`` [m/s^2], with ``wdot`` from
+    eqs. 5-7; accelerometers measure specific force (no gravity).
+    """
+    fx, fy, fz = specific_force(f, const)
+    pdot, qdot, rdot = angular_acceleration(x.p, x.q, x.r, f, const)
+    cx = x.q * rz - x.r * ry  # w x R
+    cy = x.r * rx - x.p * rz
+    cz = x.p * ry - x.q * rx
+    return (fx + (qdot * rz - rdot * ry) + (x.q * cz - x.r * cy),
+            fy + (rdot * rx - pdot * rz) + (x.r * cx - x.p * cz),
+            fz + (pdot * ry - qdot * rx) + (x.p * cy - x.q * cx))
+
+
+def rate_gyros(x: State) -> tuple[Scalar, Scalar, Scalar]:
+    """Return the rate-gyro readings ``p, q, r`` [rad/s] (body rates, measured directly)."""
+    return x.p, x.q, x.r
+
+
+#: The element-wise functions above, in dependency order (the compiled layer registers
+#: each as a numba overload of itself; :func:`atan2` gets its fast implementation there).
+ELEMENT_WISE = (atan2, air_data, trig, aerodynamic_loads, angular_acceleration,
+                specific_force, derivative, state_derivative, accelerometer, rate_gyros)

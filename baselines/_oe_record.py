@@ -1,0 +1,129 @@
+"""The output-error model of a flight for the Gauss-Newton solver (private).
+
+Outputs and exact sensitivities come from aeroid's CasADi record
+(:func:`aeroid.model.symbolic_record`); the flight's deflection between samples is the
+schedule of the estimator's ``input`` option (:func:`aeroid.flights.schedule`), with its
+per-sample channels. An estimated actuator delay ``tau`` moves every knot of the schedule;
+its sensitivity is a central difference of the record with the deflection at the sample
+instants held at its value for the current ``tau`` (a knot crossing a sample would
+otherwise make the accelerometers' deflection jump inside the difference).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aeroid.flights import Flight, exogenous, model_constants, schedule
+from aeroid.model import Buffered, Record, symbolic_record
+
+#: Central-difference step of the delay sensitivity [s]: 1 us, 5e-4 of a 2 ms sample; the
+#: outputs are smooth in the delay while no knot crosses a sample within +-1 us.
+DELAY_STEP_S = 1e-6
+
+
+class RecordModel:
+    """``y(p)`` and ``dy/dp`` of a flight's record in scaled parameters.
+
+    Parameters ``p``: the graph's parameters (coefficients, free initial-state and
+    position components; :func:`aeroid.model.symbolic_record`), then, with
+    ``estimate_delay``, ``tau / delay_scale``.
+    """
+
+    def __init__(self, flight: Flight, *, input: str, substeps: int,  # noqa: A002
+                 x0_free: tuple[int, ...], position_free: tuple[int, ...], compiled: bool,
+                 x0: np.ndarray, scale: np.ndarray, delay_s: float,
+                 estimate_delay: bool) -> None:
+        self.const = model_constants(flight)
+        self.schedule = schedule(flight, input)
+        self.t = flight.t
+        self.exogenous = exogenous(flight)
+        self.substeps = substeps
+        self.x0_free, self.position_free = tuple(x0_free), tuple(position_free)
+        self.compiled_requested = compiled
+        self.x0 = x0
+        self.pos = flight.airframe.accel_positions.ravel()
+        self.estimate_delay = estimate_delay
+        self.delay_s = float(delay_s)
+        self.delay_scale = flight.dt
+        self.n_graph = 9 + len(x0_free) + len(position_free)
+        self.scale = np.asarray(scale, dtype=float)
+        self._graphs: dict[int, tuple[Buffered, Buffered]] = {}
+        self.compiled = False
+        self._buffers(self.record(self.delay_s))  # build (and compile) the graph now
+
+    # the record for a delay ----------------------------------------------------------
+    def record(self, tau: float) -> Record:
+        """The flight's record with every knot delayed by ``tau`` [s]."""
+        sched = self.schedule.shifted(tau) if tau else self.schedule
+        return Record.scheduled(sched, self.t, self.exogenous)
+
+    def tau(self, p: np.ndarray) -> float:
+        """The delay [s] at parameters ``p`` (the fixed ``delay_s`` when not estimated)."""
+        return float(p[-1] * self.delay_scale) if self.estimate_delay else self.delay_s
+
+    def _buffers(self, record: Record, delta: np.ndarray | None = None
+                 ) -> tuple[Buffered, Buffered]:
+        """The graph for at least ``record.n_pieces`` pieces, its inputs set to the record."""
+        fitting = [s for s in self._graphs if s >= record.n_pieces]
+        if fitting:
+            n_pieces = min(fitting)
+        else:
+            n_pieces = record.n_pieces
+            simulate, jacobian, self.compiled = symbolic_record(
+                self.const, record.dt, self.substeps, record.n_samples, self.x0_free,
+                self.position_free, self.compiled_requested, n_pieces,
+                record.exogenous is not None)
+            d, pieces, exo = record.symbolic_inputs()
+            inputs = [np.zeros(self.n_graph), self.scale[:self.n_graph], self.x0, d, pieces,
+                      exo, self.pos]
+            self._graphs[n_pieces] = (Buffered(simulate, inputs), Buffered(jacobian, inputs))
+        sim, jac = self._graphs[n_pieces]
+        d, pieces, _ = _padded(record, n_pieces).symbolic_inputs()
+        if delta is not None:
+            d = np.asarray(delta, dtype=float)[None, :]
+        for buffered in (sim, jac):
+            buffered.set(3, d)
+            buffered.set(4, pieces)
+        return sim, jac
+
+    # OutputModel -------------------------------------------------------------------
+    def outputs(self, p: np.ndarray) -> np.ndarray:
+        """Return ``y(p)``, shape (n, 9)."""
+        sim, _ = self._buffers(self.record(self.tau(p)))
+        (y,) = sim(p[:self.n_graph])
+        return y.reshape(9, -1).T.copy()
+
+    def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``y(p)`` (n, 9) and ``dy/dp`` (9, n, n_p)."""
+        tau = self.tau(p)
+        record = self.record(tau)
+        _, jac = self._buffers(record)
+        y, dy = jac(p[:self.n_graph])
+        n = self.t.size
+        y = y.reshape(9, n).T.copy()
+        # dY (9, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) 9 + j
+        J = dy.reshape(n, -1, 9).transpose(2, 0, 1).copy()
+        if not self.estimate_delay:
+            return y, J
+        columns = []
+        for sign in (1.0, -1.0):
+            sim, _ = self._buffers(self.record(tau + sign * DELAY_STEP_S), record.delta)
+            (ys,) = sim(p[:self.n_graph])
+            columns.append(ys.reshape(9, n).T.copy())  # the buffer is reused
+        self._buffers(record)  # restore the inputs of the current delay
+        d_tau = (columns[0] - columns[1]) / (2.0 * DELAY_STEP_S) * self.delay_scale
+        return y, np.concatenate([J, d_tau.T[:, :, None]], axis=2)
+
+
+def _padded(record: Record, n_pieces: int) -> Record:
+    """The record with zero-length pieces appended up to ``n_pieces`` per interval."""
+    extra = n_pieces - record.n_pieces
+    if extra <= 0:
+        return record
+    end, start, stop = record.pieces
+    pad = np.repeat(stop[:, -1:], extra, axis=1)
+    return Record(record.dt, record.delta,
+                  type(record.pieces)(np.concatenate([end, np.ones_like(pad)], axis=1),
+                                      np.concatenate([start, pad], axis=1),
+                                      np.concatenate([stop, pad], axis=1)),
+                  record.exogenous)
