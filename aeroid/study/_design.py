@@ -9,6 +9,8 @@ A study file is TOML with three parts::
     seed = 20240611             # required, >= 0: the root of every random draw
     scenario = "reference"      # optional: "reference" (embedded) or a scenario file,
                                 # relative to the study file
+    prior_offset = [0.10, 0.25] # optional: each run's estimators start from a prior
+                                # truth x (1 +- U(lo, hi)); default: the airframe's prior
 
     [[noise]]                   # optional, repeatable; default: one "paper" condition
     label = "paper xi=0.05"     # unique
@@ -56,12 +58,12 @@ from aeroid.flights import (
     scenario_from_dict,
 )
 from aeroid.model import read_toml, reference_scenario_data
-from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study
+from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study, check_prior_offset
 
 #: Largest study or scenario file read [bytes] (the shipped ones are a few kB).
 MAX_FILE_BYTES = 1_000_000
 
-STUDY_KEYS = ("name", "description", "runs", "seed", "scenario")
+STUDY_KEYS = ("name", "description", "runs", "seed", "scenario", "prior_offset")
 NOISE_KEYS = ("label", "model")
 ESTIMATOR_KEYS = ("label", "method", "options")
 TOP_LEVEL = ("study", "noise", "estimators")
@@ -230,6 +232,8 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
     head = data["study"]
     _check_keys(head, STUDY_KEYS, "[study]", source, required=("runs", "seed"))
     name = _check_name(head.get("name", Path(source).stem), source)
+    prior_offset = (None if "prior_offset" not in head
+                    else check_prior_offset(head["prior_offset"], source))
     scenario, scenario_data, scenario_ref = _load_scenario(
         head.get("scenario", "reference"), base_dir, source)
 
@@ -290,7 +294,7 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
     return Study(name=name.strip(), runs=head["runs"], seed=head["seed"], scenario=scenario,
                  noise=tuple(noise), estimators=tuple(estimators),
                  description=str(head.get("description", "")), scenario_ref=scenario_ref,
-                 source=source, skipped=tuple(skipped))
+                 source=source, skipped=tuple(skipped), prior_offset=prior_offset)
 
 
 __all__ = ["EstimatorSpec", "NoiseCondition", "Study", "load_study", "loads_study",

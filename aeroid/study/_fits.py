@@ -1,12 +1,18 @@
 """One fit of a study: its seeds, its flight and its JSON record (runs in any worker).
 
 Seeding: run ``i`` owns the stream ``SeedSequence(seed, spawn_key=(i,))``. Its flights
-draw from the child ``spawn_key=(i, 0)`` and its estimators from ``spawn_key=(i, 1)``,
-so a fit depends only on (seed, run index, noise condition, estimator), never on the
-number or kind of workers. Decisions:
+draw from the child ``spawn_key=(i, 0)``, its estimators from ``spawn_key=(i, 1)`` and,
+with ``prior_offset``, its prior from ``spawn_key=(i, 2)``, so a fit depends only on
+(seed, run index, noise condition, estimator), never on the number or kind of workers.
+Decisions:
 
 - Every estimator of a run gets a fresh generator from the same seed, so all of them
   draw the same starting guess (and the same first random numbers).
+- With ``prior_offset = [lo, hi]`` every estimator of a run (under every noise
+  condition) starts from the same prior, ``truth (1 + s U(lo, hi))`` per coefficient
+  with a random sign ``s`` (:func:`run_prior`), given to it as the flight's
+  ``airframe.prior``: estimators start from the prior or centre their search box on it.
+  Its own seed child leaves the flights and the estimators' draws as they were.
 - All noise conditions of a run use the same flight seed (common random numbers): in
   a sweep of the paper's xi the same uniform draws are scaled, so the conditions
   differ by the noise level only, not by luck.
@@ -19,6 +25,7 @@ are kept for run :data:`HISTORY_RUN` only.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import math
@@ -49,6 +56,27 @@ def flight_seed(seed: int, run: int) -> np.random.SeedSequence:
 def estimator_seed(seed: int, run: int) -> np.random.SeedSequence:
     """Return the seed every estimator of run ``run`` starts from."""
     return np.random.SeedSequence(seed, spawn_key=(run, 1))
+
+
+def prior_seed(seed: int, run: int) -> np.random.SeedSequence:
+    """Return the seed of run ``run``'s prior (studies with ``prior_offset``)."""
+    return np.random.SeedSequence(seed, spawn_key=(run, 2))
+
+
+def run_prior(study: Study, run: int) -> np.ndarray | None:
+    """Return the prior every estimator of run ``run`` starts from, shape (9,), or None.
+
+    ``truth_j (1 + s_j u_j)`` with ``u_j ~ U(lo, hi)`` and signs ``s_j = +-1`` with equal
+    probability, drawn (first the nine ``u``, then the nine signs) from
+    :func:`prior_seed`; None without ``study.prior_offset`` (the airframe's prior).
+    """
+    if study.prior_offset is None:
+        return None
+    lo, hi = study.prior_offset
+    rng = np.random.default_rng(prior_seed(study.seed, run))
+    u = rng.uniform(lo, hi, len(study.scenario.coefficients))
+    sign = np.where(rng.random(u.size) < 0.5, -1.0, 1.0)
+    return np.asarray(study.scenario.coefficient_vector, dtype=float) * (1.0 + sign * u)
 
 
 _TRUTH_CACHE: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -111,11 +139,13 @@ def base_record(study: Study, task: Task, truth: Any = None) -> dict[str, Any]:
     run, k_noise, k_est = task
     spec = study.estimators[k_est]
     n = len(study.scenario.coefficients)
+    prior = run_prior(study, run)
     return {
         "run": run, "noise": study.noise[k_noise].label, "estimator": spec.label,
         "method": spec.method,
         "truth": _vector(study.scenario.coefficient_vector if truth is None else truth),
-        "theta": [None] * n, "stderr": None, "success": False, "message": "", "cost": None,
+        "prior": _vector(prior), "theta": [None] * n, "stderr": None, "success": False,
+        "message": "", "cost": None,
         "n_evaluations": 0, "n_iterations": 0, "wall_time_s": None,
         "worker": f"{socket.gethostname()}:{os.getpid()}", "code": study_code_id(study),
     }
@@ -133,6 +163,8 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
 
     An estimator that raises (anything but ``KeyboardInterrupt``/``SystemExit``) or
     returns ``success=False`` gives a record with ``success: false`` and the message.
+    With ``study.prior_offset`` the estimator sees the flight with the run's prior
+    (:func:`run_prior`) as its airframe's ``prior``; the record keeps it (``prior``).
     """
     run, k_noise, k_est = task
     spec = study.estimators[k_est]
@@ -143,6 +175,10 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
         raise StudyError(f"run {run}, noise {study.noise[k_noise].label!r}: the flight "
                          f"simulation failed: {type(exc).__name__}: {text}") from None
     record = base_record(study, task, flight.true_coefficients)
+    prior = run_prior(study, run)
+    if prior is not None:
+        flight = dataclasses.replace(flight, airframe=dataclasses.replace(
+            flight.airframe, prior=tuple(float(v) for v in prior)))
     try:
         result = spec.estimator.fit(flight, rng=np.random.default_rng(
             estimator_seed(study.seed, run)))
@@ -167,4 +203,5 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
 
 
 __all__ = ["HISTORY_RUN", "Task", "base_record", "estimator_seed", "failed_record",
-           "fit_task", "flight_seed", "scenario_truth", "simulate_run", "study_code_id"]
+           "fit_task", "flight_seed", "prior_seed", "run_prior", "scenario_truth", "simulate_run",
+           "study_code_id"]

@@ -128,6 +128,17 @@ def _code_line(out_dir: Path) -> str:
             f"Python {code.get('python')}; {packages}")
 
 
+def _prior_line(study: Study) -> str:
+    """Where the estimators start: the run's offset prior or the airframe's prior."""
+    if study.prior_offset is None:
+        return ("- prior: the scenario airframe's (its [prior] table, else the nominal "
+                "coefficients: for the reference scenario the truth), the same in every run")
+    lo, hi = study.prior_offset
+    return (f"- prior: per run, each coefficient truth x (1 + s U({lo:g}, {hi:g})) with a "
+            "random sign s (every estimator of a run starts from, or centres its search "
+            "box on, the same prior; each record keeps it)")
+
+
 def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
              figures: Sequence[Path], out_dir: Path, command: str = "") -> str:
     """Return ``report.md``: design, overall table, per-noise Table-5-style tables."""
@@ -139,7 +150,7 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
               f"- scenario: {d['scenario']}; seed {study.seed}; {study.runs} runs; "
               f"{len(study.noise)} noise condition(s) x {len(study.estimators)} estimator(s)",
               f"- study file: {study.source}; fingerprint {d['fingerprint']}",
-              _code_line(out_dir)]
+              _prior_line(study), _code_line(out_dir)]
     if command:
         lines.append(f"- command: `{command}`")
     for n in d["noise"]:

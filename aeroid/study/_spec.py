@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -97,6 +98,11 @@ class Study:
         The study file (or ``"<memory>"``).
     skipped : tuple of str
         Estimators of the file left out because they are not installed (quick study only).
+    prior_offset : tuple of 2 float, optional
+        ``(lo, hi)`` with ``0 <= lo <= hi < 1``: every run starts its estimators from a
+        prior off the truth, each coefficient ``truth (1 + s U(lo, hi))`` with a random
+        sign ``s`` (:func:`aeroid.study.run_prior`). None (default): the prior is the
+        scenario airframe's (the nominal set, i.e. the truth, for the reference).
     """
 
     name: str
@@ -109,8 +115,12 @@ class Study:
     scenario_ref: str = "reference"
     source: str = "<memory>"
     skipped: tuple[str, ...] = field(default=())
+    prior_offset: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.prior_offset is not None:
+            object.__setattr__(self, "prior_offset",
+                               check_prior_offset(self.prior_offset, self.source))
         if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
             raise StudyError(f"{self.source}: [study] runs must be an integer >= 1, "
                              f"got {self.runs!r}")
@@ -152,7 +162,9 @@ class Study:
             "true_coefficients": list(self.scenario.coefficients),
             "noise": [n.describe() for n in self.noise],
             "estimators": [e.describe() for e in self.estimators],
-            "skipped": list(self.skipped), "fingerprint": self.fingerprint(),
+            "skipped": list(self.skipped),
+            "prior_offset": None if self.prior_offset is None else list(self.prior_offset),
+            "fingerprint": self.fingerprint(),
         }
 
     def fingerprint(self) -> str:
@@ -165,8 +177,29 @@ class Study:
             "noise": [n.describe() for n in self.noise],
             "estimators": [e.describe() for e in self.estimators],
         }
+        if self.prior_offset is not None:  # absent: the fingerprint of earlier studies
+            key["prior_offset"] = list(self.prior_offset)
         text = json.dumps(key, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def check_prior_offset(value: Any, source: str = "<memory>") -> tuple[float, float]:
+    """Return ``[lo, hi]`` as a tuple after checking ``0 <= lo <= hi < 1``.
+
+    Raises
+    ------
+    StudyError
+        One line naming the file and the key.
+    """
+    where = f"{source}: [study] prior_offset"
+    if (not isinstance(value, list | tuple) or len(value) != 2
+            or any(isinstance(v, bool) or not isinstance(v, int | float) for v in value)):
+        raise StudyError(f"{where} must be two numbers [lo, hi], got {value!r}")
+    lo, hi = (float(v) for v in value)
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 <= lo <= hi < 1.0):
+        raise StudyError(f"{where} = [{lo:g}, {hi:g}]: need 0 <= lo <= hi < 1 (fractions "
+                         "of each true coefficient)")
+    return lo, hi
 
 
 def _jsonable(value: Any) -> Any:
@@ -182,4 +215,5 @@ def _jsonable(value: Any) -> Any:
 
 
 
-__all__ = ["MAX_FITS", "MAX_RUNS", "EstimatorSpec", "NoiseCondition", "Study"]
+__all__ = ["MAX_FITS", "MAX_RUNS", "EstimatorSpec", "NoiseCondition", "Study",
+           "check_prior_offset"]

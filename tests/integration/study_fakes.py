@@ -98,7 +98,19 @@ class Killer(Jitter):
         return super().run(flight, rng)
 
 
-REGISTRY = {"jitter": Jitter, "killer": Killer}
+@dataclass(frozen=True, kw_only=True)
+class Echo(Estimator):
+    """Returns the prior it was given (``flight.airframe.prior_vector()``) and a draw."""
+
+    name: ClassVar[str] = "echo"
+
+    def run(self, flight, rng):
+        prior = flight.airframe.prior_vector()
+        return EstimationResult(estimator=self.name, theta=prior, stderr=np.abs(prior) * 0.1,
+                                cost=float(rng.random()), n_evaluations=1, n_iterations=1)
+
+
+REGISTRY = {"jitter": Jitter, "killer": Killer, "echo": Echo}
 
 
 def _install(point: str) -> None:
