@@ -1,9 +1,9 @@
 """Monte Carlo studies: design files, a seeded resumable parallel runner, metrics, reports.
 
 ``load_study(path)`` validates a study file, ``run_study`` runs it into a study folder
-(the store: ``study.json``, ``results.jsonl``, ``histories/``), ``read_results`` and
-``load_history`` read that folder back, and ``write_report`` writes tables, figures
-and ``report.md``.
+(the store: ``study.json``, ``floors.json`` (the Cramér-Rao floors), ``results.jsonl``,
+``histories/``), ``read_results`` and ``load_history`` read that folder back, and
+``write_report`` writes tables, figures and ``report.md``.
 """
 
 from aeroid.study._design import load_study, loads_study

@@ -82,6 +82,12 @@ def run_prior(study: Study, run: int) -> np.ndarray | None:
 _TRUTH_CACHE: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
+def scenario_key(scenario: Any) -> str:
+    """Return a hash of what decides a scenario's truth (airframe, coefficients, manoeuvre)."""
+    return hashlib.sha256(pickle.dumps((scenario.airframe, scenario.coefficients,
+                                        scenario.manoeuvre))).hexdigest()
+
+
 def scenario_truth(scenario: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Return (t, states, delta) of the scenario's noise-free truth, cached per process.
 
@@ -90,8 +96,7 @@ def scenario_truth(scenario: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     from aeroid.flights import simulate_truth
 
-    key = hashlib.sha256(pickle.dumps((scenario.airframe, scenario.coefficients,
-                                       scenario.manoeuvre))).hexdigest()
+    key = scenario_key(scenario)
     if key not in _TRUTH_CACHE:
         _TRUTH_CACHE.clear()
         _TRUTH_CACHE[key] = simulate_truth(scenario.airframe, scenario.coefficient_vector,
@@ -203,5 +208,5 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
 
 
 __all__ = ["HISTORY_RUN", "Task", "base_record", "estimator_seed", "failed_record",
-           "fit_task", "flight_seed", "prior_seed", "run_prior", "scenario_truth", "simulate_run",
-           "study_code_id"]
+           "fit_task", "flight_seed", "prior_seed", "run_prior", "scenario_key",
+           "scenario_truth", "simulate_run", "study_code_id"]

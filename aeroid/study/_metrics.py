@@ -132,9 +132,10 @@ def summarize(frame: pd.DataFrame,
     ----------
     frame : pandas.DataFrame
         Output of :func:`tidy`.
-    cramer_rao : mapping of str to array_like (9,) or None, optional
-        Noise label -> Cramér-Rao standard deviation of each coefficient (same units as
-        the coefficient); missing or None gives NaN floor columns.
+    cramer_rao : mapping of str or (str, str) to array_like (9,) or None, optional
+        Noise label, or (noise label, estimator label), -> Cramér-Rao standard deviation
+        of each coefficient (same units as the coefficient); an estimator's own entry
+        wins over its noise condition's; missing or None gives NaN floor columns.
     names : sequence of str
         Coefficient order of ``cramer_rao`` vectors.
 
@@ -155,8 +156,10 @@ def summarize(frame: pd.DataFrame,
     out = order.merge(out, on=GROUP, how="left")
     index = {n: j for j, n in enumerate(names)}
     cr = []
-    for noise, coef in zip(out["noise"], out["coefficient"], strict=True):
-        floor = (cramer_rao or {}).get(noise)
+    floors = cramer_rao or {}
+    for noise, est, coef in zip(out["noise"], out["estimator"], out["coefficient"],
+                                strict=True):
+        floor = floors.get((noise, est), floors.get(noise))
         cr.append(np.nan if floor is None else float(floor[index[coef]]))
     out["cr_sd"] = np.array(cr, dtype=float)
     out["cr_sd_pct"] = out["cr_sd"] / out["truth"].abs() * 100.0

@@ -231,7 +231,8 @@ def _error_axis(ax: Any, lo: float, hi: float) -> None:
 
 def plot_errors(tidy: pd.DataFrame, path: str | Path,
                 cr_pct: Mapping[str, float] | None = None, title: str = "",
-                names: Sequence[str] = NAMES) -> Path:
+                names: Sequence[str] = NAMES,
+                cr_sample_pct: Mapping[str, float] | None = None) -> Path:
     """Box-and-strip plot of the signed relative error [%] per coefficient and estimator.
 
     Parameters
@@ -241,6 +242,8 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
         fits are plotted; the x labels count the failed ones left out).
     cr_pct : mapping of str to float, optional
         Coefficient -> Cramér-Rao sd in % of |truth|; drawn as the band +-1.96 of it.
+    cr_sample_pct : mapping of str to float, optional
+        Coefficient -> the per-sample Cramér-Rao sd in % of |truth|; a darker band.
 
     Notes
     -----
@@ -273,7 +276,12 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
         if cr_pct is not None and np.isfinite(cr_pct.get(name, np.nan)):
             band = 1.96 * cr_pct[name]
             ax.axhspan(-band, band, color="C2", alpha=0.25, lw=0,
-                       label="±1.96 Cramér-Rao sd")
+                       label="±1.96 Cramér-Rao sd" + (" (per-channel)" if cr_sample_pct
+                                                       else ""))
+        if cr_sample_pct is not None and np.isfinite(cr_sample_pct.get(name, np.nan)):
+            inner = 1.96 * cr_sample_pct[name]
+            ax.axhspan(-inner, inner, color="C2", alpha=0.45, lw=0,
+                       label="±1.96 Cramér-Rao sd (per-sample)")
         positions = np.arange(1, len(labels) + 1)
         nonempty = [k for k, d in enumerate(data) if len(d)]
         if nonempty:

@@ -7,9 +7,12 @@ mean |error| % per coefficient beside the paper's published figures
 spread, Cramér-Rao ratio and coverage. Every header names its unit; counts are
 integers. Studies of fewer than :data:`COMPACT_RUNS` runs get a compact report: the
 spread and coverage of a handful of fits say little, so that table is left out (it is
-in ``summary.csv``) and the report says so. The Cramér-Rao floor comes from
-``aeroid.estimation.cramer_rao_sd`` with :data:`FLOOR_OPTIONS` and shows "n/a" where it
-cannot be computed.
+in ``summary.csv``) and the report says so. Per noise condition it shows both
+Cramér-Rao floors the runner stored in ``floors.json`` (:mod:`aeroid.study._floors`:
+per channel and per sample, with the sensor-position uncertainty when the noise model
+has one) and which one each estimator can reach; an estimator's "CR sd" and "sd/CR"
+are against the floor it can reach. A folder without a valid ``floors.json`` (written
+by an older aeroid) gets them computed for the report, which says so.
 """
 
 from __future__ import annotations
@@ -26,6 +29,13 @@ import pandas as pd
 from aeroid.model import NAMES
 from aeroid.study import _metrics as metrics
 from aeroid.study._fits import HISTORY_RUN
+from aeroid.study._floors import (
+    FLOOR_NUISANCE_STATES,
+    floor_paragraph,
+    floor_pct,
+    reachable_floors,
+    report_floors,
+)
 from aeroid.study._histories import read_history
 from aeroid.study._paper import PAPER_METHODS, paper_condition, paper_errors, paper_results
 from aeroid.study._spec import Study
@@ -35,43 +45,15 @@ from aeroid.study._store import DESIGN_FILE, RESULTS_FILE, read_design, read_res
 COMPACT_RUNS = 10
 
 # --------------------------------------------------------------------------------------
-# Cramér-Rao floor
+# Cramér-Rao floors
 # --------------------------------------------------------------------------------------
-#: How the study's floor is computed (:func:`aeroid.estimation.cramer_rao_sd` options).
-#: Decision: the floor is the output-error information matrix as the output-error
-#: maximum-likelihood method itself uses it: one noise level per channel (the
-#: channel's noise RMS: what an estimator that learns a constant diagonal noise
-#: covariance from residuals can exploit), both triads and p, q, r, the initial rates
-#: estimated as nuisance parameters, true sensor positions. Under eq. 43 the
-#: per-sample (heteroscedastic) form is 10-20x lower on Czq, Cl0, Clp, because
-#: samples near a zero crossing of a multiplicative-noise channel are almost exact;
-#: no estimator here models that, so that floor would compare methods with an
-#: unreachable bound. This form reproduces reference/README.md's prototype floor to
-#: within its rounding on all but Cx (which used triad 1 only).
+#: The per-channel floor with known positions is ``aeroid.estimation.cramer_rao_sd``
+#: with these options (the output-error information matrix as that method uses it: one
+#: noise level per channel, both triads and p, q, r, initial rates estimated); it
+#: reproduces reference/README.md's prototype floor to within its rounding on all but
+#: Cx (which used triad 1 only).
 FLOOR_OPTIONS: dict[str, Any] = {"noise_form": "homoscedastic",
-                                 "estimate_initial": ("p", "q", "r")}
-FLOOR_DESCRIPTION = ("aeroid.estimation.cramer_rao_sd, output-error information matrix: one noise "
-                     "level per channel (its RMS), both triads and p, q, r, initial rates "
-                     "estimated, true sensor positions")
-
-
-def cramer_rao_floor(study: Study, noise_index: int) -> tuple[np.ndarray | None, str]:
-    """Return the Cramér-Rao sd (9,) of the study's scenario under one noise condition.
-
-    Calls ``aeroid.estimation.cramer_rao_sd`` with :data:`FLOOR_OPTIONS`; returns
-    ``(None, reason)`` when a floor for this noise model is not available.
-    """
-    from aeroid.estimation import _floor as fisher
-
-    scenario, noise = study.scenario, study.noise[noise_index].model
-    try:
-        sd = fisher.cramer_rao_sd(scenario, noise, **FLOOR_OPTIONS)
-    except Exception as exc:  # a floor is an extra: never let it break the report
-        return None, f"cramer_rao_sd failed: {type(exc).__name__}: {exc}"
-    sd = np.asarray(sd, dtype=float).reshape(-1)
-    if sd.shape != (len(NAMES),):
-        return None, f"cramer_rao_sd returned shape {sd.shape}"
-    return sd, FLOOR_DESCRIPTION
+                                 "estimate_initial": FLOOR_NUISANCE_STATES}
 
 
 # --------------------------------------------------------------------------------------
@@ -139,9 +121,14 @@ def _prior_line(study: Study) -> str:
             "box on, the same prior; each record keeps it)")
 
 
-def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
-             figures: Sequence[Path], out_dir: Path, command: str = "") -> str:
-    """Return ``report.md``: design, overall table, per-noise Table-5-style tables."""
+def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, Mapping[str, Any]],
+             figures: Sequence[Path], out_dir: Path, command: str = "",
+             floors_from: str = "floors.json") -> str:
+    """Return ``report.md``: design, overall table, per-noise Table-5-style tables.
+
+    ``floors`` maps a noise label to its entry of :func:`aeroid.study._floors.study_floors`;
+    ``floors_from`` says where they come from.
+    """
     d = study.describe()
     lines = [f"# Study: {study.name}", ""]
     if study.description:
@@ -166,8 +153,8 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
               "are in % of |truth|; coverage = share of fits whose estimate +- "
               f"{metrics.COVERAGE_Z} x its standard error holds the truth (nominal 0.95); "
               "CR sd = Cramér-Rao standard deviation in % of |truth| (the floor on the "
-              "spread of any unbiased estimator); sd/CR = spread over floor (1 = "
-              "efficient).", ""]
+              "spread of any unbiased estimator; beside each estimator, the floor it can "
+              "reach); sd/CR = spread over floor (1 = efficient).", ""]
 
     over = metrics.overall(summary)
     lines += ["## Overall (mean over the nine coefficients)", ""]
@@ -180,14 +167,20 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
     lines.append("")
 
     est_opts = {e["label"]: e["options"] for e in d["estimators"]}
+    reach = reachable_floors(study)
+    truth = np.asarray(study.scenario.coefficient_vector, dtype=float)
     for cond in study.noise:
         part = summary[summary["noise"] == cond.label]
         if part.empty:
             continue
-        lines += [f"## Noise: {cond.label}", "",
-                  f"Cramér-Rao floor: {floors.get(cond.label, 'n/a')}.", ""]
+        entry = floors.get(cond.label)
+        lines += [f"## Noise: {cond.label}", ""]
+        lines += floor_paragraph(entry, floors_from, reach)
+        channel_pct = floor_pct(entry, "per_channel", truth)
+        sample_pct = floor_pct(entry, "per_sample", truth)
         labels = list(dict.fromkeys(part["estimator"]))
-        header = ["coef", "truth [-]", "CR sd [% of truth]"]
+        header = ["coef", "truth [-]", "CR sd per-channel [% of truth]",
+                  "CR sd per-sample [% of truth]"]
         paper_cols: list[tuple[str, dict[str, float], str]] = []
         for lab in labels:
             header.append(f"{lab} error [%]")
@@ -205,8 +198,9 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, str],
             sel = part[part["coefficient"] == name]
             if sel.empty:
                 continue
-            row: list[Any] = [name, float(sel["truth"].iloc[0]),
-                              float(sel["cr_sd_pct"].iloc[0])]
+            j = list(NAMES).index(name)
+            row: list[Any] = [name, float(sel["truth"].iloc[0]), float(channel_pct[j]),
+                              float(sample_pct[j])]
             for lab in labels:
                 row.append(float(sel.loc[sel["estimator"] == lab,
                                          "mean_abs_error_pct"].iloc[0]))
@@ -264,7 +258,8 @@ def slug(text: str) -> str:
 
 
 def make_figures(study: Study, tidy: pd.DataFrame, summary: pd.DataFrame, out_dir: Path,
-                 records: Sequence[Mapping[str, Any]] = ()) -> list[Path]:
+                 records: Sequence[Mapping[str, Any]] = (),
+                 floors: Mapping[str, Mapping[str, Any]] | None = None) -> list[Path]:
     """Write every figure of the study into ``out_dir/figures``; return their paths.
 
     File names carry the design's indices (``n<k>`` noise, ``e<j>`` estimator) and, for
@@ -320,10 +315,12 @@ def make_figures(study: Study, tidy: pd.DataFrame, summary: pd.DataFrame, out_di
                 title=f"Convergence of the cost (run 0, noise {cond.label})"))
         part = tidy[tidy["noise"] == cond.label]
         if not part.empty:
-            s = summary[(summary["noise"] == cond.label)]
-            cr = dict(zip(s["coefficient"], s["cr_sd_pct"], strict=True))
+            entry = (floors or {}).get(cond.label)
+            truth_v = np.asarray(study.scenario.coefficient_vector, dtype=float)
+            cr = dict(zip(NAMES, floor_pct(entry, "per_channel", truth_v), strict=True))
+            cr_sample = dict(zip(NAMES, floor_pct(entry, "per_sample", truth_v), strict=True))
             written.append(plots.plot_errors(
-                part, fig_dir / f"errors_{tag}.png", cr_pct=cr,
+                part, fig_dir / f"errors_{tag}.png", cr_pct=cr, cr_sample_pct=cr_sample,
                 title=f"Relative error per coefficient — noise {cond.label} "
                       f"({study.runs} runs)"))
     if not tidy.empty:
@@ -337,8 +334,7 @@ def make_figures(study: Study, tidy: pd.DataFrame, summary: pd.DataFrame, out_di
 # --------------------------------------------------------------------------------------
 def write_report(study: Study, out_dir: str | Path,
                  records: Sequence[Mapping[str, Any]] | None = None, *,
-                 figures: bool = True, command: str = "",
-                 cramer_rao: Mapping[str, np.ndarray | None] | None = None) -> Path:
+                 figures: bool = True, command: str = "") -> Path:
     """Write ``results.csv``, ``summary.csv``, figures and ``report.md``; return the latter.
 
     Parameters
@@ -353,8 +349,10 @@ def write_report(study: Study, out_dir: str | Path,
         Draw the PNG figures (``out_dir/figures``).
     command : str
         The command line to quote in the report.
-    cramer_rao : mapping of str to ndarray (9,) or None, optional
-        Noise label -> Cramér-Rao sd; default: :func:`cramer_rao_floor` per condition.
+
+    The Cramér-Rao floors are the runner's (``floors.json``, :func:`report_floors`);
+    each estimator's "CR sd" is the floor it can reach
+    (:func:`aeroid.study._floors.reachable_floor`).
     """
     out_dir = Path(out_dir)
     if records is None:
@@ -364,23 +362,17 @@ def write_report(study: Study, out_dir: str | Path,
     records = sorted(records, key=lambda r: (int(r["run"]), noise_order.get(r["noise"], -1),
                                              est_order.get(r["estimator"], -1)))
     tidy = metrics.tidy(records)
-    floors: dict[str, str] = {}
-    if cramer_rao is None:
-        cramer_rao = {}
-        for k, cond in enumerate(study.noise):
-            sd, why = cramer_rao_floor(study, k)
-            cramer_rao[cond.label] = sd
-            floors[cond.label] = why if sd is not None else f"n/a ({why})"
-    else:
-        floors = {k: ("given" if v is not None else "n/a") for k, v in cramer_rao.items()}
+    floors, floors_from = report_floors(study, out_dir)
+    cramer_rao = {(noise, label): entry.get(key) for noise, entry in floors.items()
+                  for label, key in reachable_floors(study).items()}
     summary = metrics.summarize(tidy, cramer_rao)
     tidy.to_csv(out_dir / "results.csv", index=False)
     summary.to_csv(out_dir / "summary.csv", index=False)
-    paths = make_figures(study, tidy, summary, out_dir, records) if figures else []
+    paths = make_figures(study, tidy, summary, out_dir, records, floors) if figures else []
     report = out_dir / "report.md"
-    report.write_text(markdown(study, summary, floors, paths, out_dir, command))
+    report.write_text(markdown(study, summary, floors, paths, out_dir, command, floors_from))
     return report
 
 
-__all__ = ["cramer_rao_floor", "make_figures", "markdown", "paper_condition", "paper_errors",
+__all__ = ["FLOOR_OPTIONS", "make_figures", "markdown", "paper_condition", "paper_errors",
            "paper_results", "write_report"]

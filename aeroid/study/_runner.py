@@ -3,10 +3,11 @@
 The unit of work is one fit ``(run, noise, estimator)`` (:mod:`aeroid.study._fits`:
 seeds, flights, records). :func:`run_study` opens the study's folder
 (:mod:`aeroid.study._store`: refuses to write over another study, checks design and
-code on ``resume``), runs the missing fits on an executor
-(:mod:`aeroid.study._executors`) and stores each finished fit at once: first its run-0
-history file, then its record, so a killed study loses nothing finished and
-``resume=True`` runs only what is missing.
+code on ``resume``), stores the Cramér-Rao floors of every noise condition
+(``floors.json``, :mod:`aeroid.study._floors`; kept on resume), runs the missing fits
+on an executor (:mod:`aeroid.study._executors`) and stores each finished fit at once:
+first its run-0 history file, then its record, so a killed study loses nothing
+finished and ``resume=True`` runs only what is missing.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from aeroid.study._fits import (
     flight_seed,
     simulate_run,
 )
+from aeroid.study._floors import read_floors, study_floors, write_floors
 from aeroid.study._histories import history_name, load_history, save_history
 from aeroid.study._progress import Progress
 from aeroid.study._provenance import code_identity
@@ -143,6 +145,8 @@ def run_study(study: Study, out_dir: str | Path, *, jobs: int = 1,
     found, notes = open_store(out_dir, design, resume=resume, overwrite=overwrite)
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
+    if read_floors(out_dir, design["fingerprint"]) is None:
+        write_floors(out_dir, study_floors(study))
     wanted = {(i, study.noise[k].label, study.estimators[j].label)
               for i, k, j in all_tasks(study)}
     unique: dict[tuple[int, str, str], dict[str, Any]] = {}

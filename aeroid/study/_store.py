@@ -3,6 +3,8 @@
 Layout of an output folder::
 
     study.json        the design (Study.describe()) and the code that ran it
+    floors.json       the Cramér-Rao floors of every noise condition (computed once, before
+                      the first fit; aeroid.study._floors)
     results.jsonl     one JSON record per finished fit, appended as each finishes
     histories/        run-0 convergence histories, one file per (noise, estimator)
                       index pair: n<k>-e<j>.npz (indices of the design, never labels)
@@ -43,10 +45,11 @@ from aeroid.study._provenance import code_differences
 
 RESULTS_FILE = "results.jsonl"
 DESIGN_FILE = "study.json"
+FLOORS_FILE = "floors.json"
 HISTORY_DIR = "histories"
 REPORT_FILES = ("report.md", "results.csv", "summary.csv", "figures")
 #: Everything a study writes into its folder (moved aside together by ``overwrite``).
-STUDY_FILES = (DESIGN_FILE, RESULTS_FILE, HISTORY_DIR, *REPORT_FILES)
+STUDY_FILES = (DESIGN_FILE, FLOORS_FILE, RESULTS_FILE, HISTORY_DIR, *REPORT_FILES)
 PREVIOUS_PREFIX = "previous-"
 TMP_SUFFIX = ".tmp"
 #: Required keys of a record and their JSON types (checked when results are read back).
@@ -399,7 +402,7 @@ def open_store(out_dir: str | Path, design: Mapping[str, Any], *, resume: bool =
     return records, notes
 
 
-__all__ = ["DESIGN_FILE", "HISTORY_DIR", "RESULTS_FILE", "STUDY_FILES", "RecordWriter",
-           "check_out_dir", "check_record", "move_aside", "open_store", "os_error",
-           "read_design", "read_results", "remove_temporary", "rewrite_results",
+__all__ = ["DESIGN_FILE", "FLOORS_FILE", "HISTORY_DIR", "RESULTS_FILE", "STUDY_FILES",
+           "RecordWriter", "check_out_dir", "check_record", "move_aside", "open_store",
+           "os_error", "read_design", "read_results", "remove_temporary", "rewrite_results",
            "study_files", "write_atomic", "write_design"]
