@@ -143,8 +143,8 @@ class OutputErrorEstimator(Estimator):
     ``cost`` is the negative log-likelihood without constants,
     ``n/2 sum_j log R_jj + 1/2 sum_k e_k^T R^-1 e_k``. ``info`` holds ``R`` (9,),
     ``fisher`` (n_p, n_p), ``parameter_names``, ``parameters`` and ``parameter_stderr``
-    (initial-state offsets and rx1 included), ``iterations``. Per-sample mass and
-    thrust channels are not used: the airframe's constants are.
+    (initial-state offsets and rx1 included), ``iterations``. Per-sample channels
+    (mass, thrust, inertias, atmosphere) are interpolated in time inside the model.
     """
 
     name: ClassVar[str] = "output-error"
