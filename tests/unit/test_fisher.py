@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation._floor import (
     PROTOTYPE_FLOOR,
     OutputErrorInputs,
@@ -18,7 +19,7 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.flights._noise import GaussianNoise, NoNoise, PaperNoise
-from aeroid.model._coefficients import nominal
+from aeroid.model._coefficients import NAMES, nominal
 from aeroid.model._dynamics import accelerometers, constants, regressors
 from aeroid.model._integrate import propagate
 
@@ -196,6 +197,24 @@ def test_bad_input_raises_one_line(reference_scenario, clean_flight, call, messa
     with pytest.raises(ValueError, match=message) as info:
         call(reference_scenario, clean_flight)
     assert "\n" not in str(info.value)
+
+
+def test_floor_is_named_and_equals_the_inverse_information(reference_scenario, clean_flight):
+    """The public floor carries the coefficient names; its values are sqrt(diag(F^-1)) of
+    the information matrix computed here from its parts; bad options are EstimatorError."""
+    sd = cramer_rao_sd(reference_scenario, GaussianNoise())
+    assert list(sd.index) == list(NAMES)
+    inputs = inputs_from_flight(clean_flight)
+    truth = clean_flight.true_coefficients
+    positions = np.asarray(clean_flight.metadata["true_accel_positions_m"])
+    noise = model_noise_sd(GaussianNoise(), model_outputs(clean_flight.airframe, truth, inputs,
+                                                          positions=positions))
+    info = output_error_information(clean_flight.airframe, truth, inputs, noise,
+                                    positions=positions)
+    np.testing.assert_allclose(sd.to_numpy(), np.sqrt(np.diag(np.linalg.inv(info))),
+                               rtol=1e-9)
+    with pytest.raises(EstimatorError, match="cramer_rao_sd"):
+        cramer_rao_sd(reference_scenario, GaussianNoise(), channels="x")
 
 
 def _gauss_newton(airframe, inputs, measured, sd, theta0, iterations=4):
