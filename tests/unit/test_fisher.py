@@ -171,10 +171,22 @@ def test_default_floor_is_below_the_homoscedastic_one(reference_scenario, clean_
 
 
 def test_estimator_positions_option(paper_flight, reference_scenario):
+    """positions='estimator' is the floor of the model with the flight's (wrong) copy of
+    the positions: the information built here from those positions, not the true ones."""
     true = cramer_rao_sd(paper_flight, GaussianNoise())
     seen = cramer_rao_sd(paper_flight, GaussianNoise(), positions="estimator")
-    assert not np.array_equal(true, seen)
-    np.testing.assert_allclose(seen, true, rtol=0.2)  # positions differ by <= 10 %
+    inputs = inputs_from_flight(paper_flight)
+    theta = paper_flight.true_coefficients
+    for positions, floor in ((paper_flight.airframe.accel_positions, seen),
+                             (np.asarray(paper_flight.metadata["true_accel_positions_m"]),
+                              true)):
+        noise = model_noise_sd(GaussianNoise(), model_outputs(paper_flight.airframe, theta,
+                                                              inputs, positions=positions))
+        info = output_error_information(paper_flight.airframe, theta, inputs, noise,
+                                        positions=positions)
+        np.testing.assert_allclose(floor.to_numpy(), np.sqrt(np.diag(np.linalg.inv(info))),
+                                   rtol=1e-9)
+    assert not np.allclose(true, seen, rtol=1e-6)  # the two position sets are different
 
 
 @pytest.mark.parametrize(
