@@ -8,7 +8,8 @@ Modules, one job each (imports point down the list, never up): ``_result`` (the 
 type), ``_options`` (option values from text, option descriptions), ``_progress``
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
-``_reconstruct``, ``_objectives``, ``_floor``, ``_polish`` (a swarm's best point to the
+``_reconstruct``, ``_objectives``, ``_floor``, ``_gyro_floor`` (what the p gyro alone
+tells of Cl0, Clp), ``_polish`` (a swarm's best point to the
 optimum of its objective), ``_pso_methods`` (what the paper's methods
 share), and the methods ``_eam``, ``_ebm``, ``_sebm``, which import none of one another.
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
@@ -16,6 +17,7 @@ share), and the methods ``_eam``, ``_ebm``, ``_sebm``, which import none of one 
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._floor import cramer_rao_sd
+from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -68,6 +70,7 @@ __all__ = [
     "EBM_ROWS",
     "EDGE_FRACTION",
     "ENTRY_POINT_GROUP",
+    "GYRO_FLOOR_NAMES",
     "EstimationResult",
     "Estimator",
     "MAX_ITERATIONS",
@@ -91,6 +94,7 @@ __all__ = [
     "estimate_noise_sd",
     "failed_result",
     "get_estimator",
+    "gyro_only_floor",
     "load_errors",
     "make_estimator",
     "minimize",
