@@ -9,9 +9,9 @@ type), ``_options`` (option values from text, option descriptions), ``_progress`
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
 ``_reconstruct``, ``_objectives``, ``_floor``, ``_gyro_floor`` (what the p gyro alone
-tells of Cl0, Clp), ``_polish`` (a swarm's best point to the
-optimum of its objective), ``_pso_methods`` (what the paper's methods
-share), and the methods ``_eam``, ``_ebm``, ``_sebm``, which import none of one another.
+tells of Cl0, Clp), ``_polish`` (from a swarm's best point to the optimum of its
+objective), ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``,
+``_ebm``, ``_sebm``, which import none of one another.
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
