@@ -1,8 +1,21 @@
 """aeroid: aerodynamic coefficient estimation for rolling airframes.
 
-The data flow, one module per arrow: :class:`Airframe` + coefficients +
+The data flow, one layer per folder: :class:`Airframe` + coefficients +
 :class:`Manoeuvre` -> :func:`simulate` -> :class:`Flight` -> ``Estimator.fit`` ->
 :class:`EstimationResult` -> study -> report.
+
+This package holds the user-level names. The tiers below it:
+
+* :mod:`aeroid.model` (kernel level): the equations written once, the batched RK4, the
+  forward model, the model's inputs in time, CasADi evaluation;
+* :mod:`aeroid.flights`: flights, their files and checks, noise models, scenarios, the
+  simulator;
+* :mod:`aeroid.estimation` (plug-in level): the Estimator interface and registry,
+  objectives, reconstruction, the PSO, the fit check, the Cramér-Rao floor;
+* :mod:`aeroid.study`: study files, the runner and its store, reports;
+* :mod:`aeroid.errors`: the error types.
+
+Modules with a leading underscore are implementation; their names may change.
 """
 
 __version__ = "0.1.0"
@@ -40,25 +53,18 @@ from aeroid.model import (
     NAMES,
     NOMINAL,
     Airframe,
-    Constants,
-    accelerometers,
-    aero_forces_moments,
-    air_data,
-    constants,
+    FinLaw,
     load_airframe,
     nominal,
-    propagate,
     reference_airframe,
-    regressors,
-    rk4,
     save_airframe,
-    state_derivative,
 )
+from aeroid.study import load_study, run_study
 
 __all__ = [
     "Airframe",
+    "FinLaw",
     "AirframeError",
-    "Constants",
     "EstimationResult",
     "Estimator",
     "EstimatorError",
@@ -73,31 +79,25 @@ __all__ = [
     "PaperNoise",
     "Scenario",
     "StudyError",
-    "accelerometers",
-    "aero_forces_moments",
-    "air_data",
     "available",
-    "constants",
     "cramer_rao_sd",
     "failed_result",
     "get_estimator",
     "load_airframe",
     "load_scenario",
+    "load_study",
     "make_estimator",
     "make_flight",
     "make_noise",
     "minimize",
     "nominal",
     "prior_bounds",
-    "propagate",
     "read_flight",
     "reference_airframe",
     "reference_scenario",
     "register",
-    "regressors",
-    "rk4",
+    "run_study",
     "save_airframe",
     "simulate",
     "simulate_scenario",
-    "state_derivative",
 ]

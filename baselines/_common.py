@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -17,6 +18,10 @@ from aeroid.model import Pieces, Record, symbolic
 from baselines import _kalman
 
 SG_WINDOW = 7
+#: Floors of the initial state sd taken from the data (a logged value's resolution: a
+#: float32 log keeps 7 significant digits) [relative to the channel's RMS; and m/s or rad].
+INITIAL_SD_FLOOR_REL = 1e-6
+INITIAL_SD_FLOOR = 1e-6
 #: Default uniform noise amplitude of eq. 43 (the paper's xi on accelerations and rates).
 PAPER_XI = 0.05
 
@@ -51,24 +56,27 @@ def measurement_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float)
     raise ValueError(f"measurement_noise must be 'data' or 'paper', got {method!r}")
 
 
-def augmented_model(flight: Flight, substeps: int, record: Record | None = None
-                    ) -> _kalman.DiscreteModel:
-    """Return the 18-state augmented model ``[x, theta]`` of ``flight`` for the filters.
+def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
+                    position_free: tuple[int, ...] = ()) -> _kalman.DiscreteModel:
+    """Return the augmented model ``[x, theta, d]`` of ``flight`` for the filters.
 
     The transition from sample k to k+1 is one interval of the model's record
     (``record``, default the logged deflection held; ``substeps`` RK4 steps per piece);
-    coefficients are constant. Jacobians come from CasADi AD
-    (:func:`aeroid.model.symbolic.augmented_functions`); the batched versions (UKF) use
-    :func:`aeroid.model.propagate` and :func:`aeroid.model.accelerometers`.
+    the coefficients and the offsets ``d`` of the position components ``position_free``
+    (indices into ``[x1, y1, z1, x2, y2, z2]``) are constant. Jacobians come from CasADi
+    AD (:func:`aeroid.model.symbolic.augmented_functions`); the batched versions (UKF)
+    evaluate the same equations with numpy.
     """
     const = model_constants(flight)
     record = record or flight_record(flight)
     delta, pieces_table, exo_table = record.symbolic_inputs()
     delta = delta[0]
-    positions = flight.airframe.accel_positions
-    pos_flat = positions.ravel()
+    pos_flat = flight.airframe.accel_positions.ravel()
     varying = record.exogenous is not None
-    f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying)
+    free = tuple(position_free)
+    n_aug = 18 + len(free)
+    f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying,
+                                        free)
 
     def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         z_next, F = f(z, pieces_table[:, k], exo_table[:, k], exo_table[:, k + 1])
@@ -83,7 +91,7 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None
         # launch, which cost ~5 ms per call on a busy 2-core machine (measured)
         interval = Pieces(*(a[k:k + 1] for a in record.pieces))
         exo = None if not varying else record.exogenous[k:k + 2]
-        x_next = aeroid.model.propagate(Z[:, :9], Z[:, 9:], interval, record.dt, const,
+        x_next = aeroid.model.propagate(Z[:, :9], Z[:, 9:18], interval, record.dt, const,
                                         substeps=substeps, backend="numpy",
                                         exogenous=exo)[:, 1]
         return np.concatenate([x_next, Z[:, 9:]], axis=1)
@@ -91,10 +99,31 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None
     def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
         const_k = const if not varying else aeroid.model.with_exogenous(
             const, record.exogenous[k])
-        acc = aeroid.model.accelerometers(Z[:, :9], delta[k], Z[:, 9:], const_k, positions)
-        return np.concatenate([acc.reshape(len(Z), 6), Z[:, 3:6]], axis=1)
+        pos = np.tile(pos_flat, (len(Z), 1))  # per sigma point
+        for j, c in enumerate(free):
+            pos[:, c] += Z[:, 18 + j]
+        eq = aeroid.model.equations
+        x = aeroid.model.as_state(Z[:, :9])
+        loads = eq.aerodynamic_loads(x, aeroid.model.as_coefficients(Z[:, 9:18]), delta[k],
+                                     const_k)
+        acc = [eq.accelerometer(x, loads, const_k, *pos[:, 3 * t:3 * t + 3].T) for t in (0, 1)]
+        return np.column_stack([*acc[0], *acc[1], Z[:, 3:6]])
 
-    return _kalman.DiscreteModel(18, 9, transition, observe, transition_batch, observe_batch)
+    return _kalman.DiscreteModel(n_aug, 9, transition, observe, transition_batch,
+                                 observe_batch)
+
+
+class FilterSetup(NamedTuple):
+    """A filter's start: state and covariance, noise covariances, measurements."""
+
+    x0: np.ndarray
+    P0: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    zs: np.ndarray
+    meas_sd: np.ndarray
+    R_of: Callable[[np.ndarray], np.ndarray] | None
+    position_free: tuple[int, ...]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -119,16 +148,30 @@ class AugmentedFilterOptions(Estimator):
         R positive definite on noise-free data).
     initial_coefficient_sd_rel : float
         Initial sd of each coefficient as a fraction of ``|prior|`` (default 0.3).
-    initial_velocity_sd_mps, initial_angle_sd_rad : float
-        Initial sd of u, v, w [m/s] (default 0.05: the flight's velocity channels are
-        measured, clean in the paper's noise model; every force scales with V^2, so a
-        loose initial speed trades against all coefficients: 0.5 m/s made the Cx sd
-        ~10x too large on Gaussian-noise flights, measured) and of phi, theta, psi [rad]
-        (default 0.01); the initial rates get their measurement sd. The initial state is
-        the first measured sample.
+    initial_velocity_sd_mps, initial_angle_sd_rad : float or None
+        Initial sd of u, v, w [m/s] and of phi, theta, psi [rad]; default (None): each
+        channel's noise level estimated from the data
+        (:func:`aeroid.estimation.estimate_noise_sd`): the state starts at the first
+        measured sample, as uncertain as that measurement. Clean channels (the velocities
+        and angles of the paper's and the Gaussian noise models) then start nearly exact;
+        the former fixed 0.05 m/s and 0.01 rad gave the filter freedom that the data do
+        not allow, and every force scales with V^2. The initial rates get their
+        measurement sd.
     process_velocity_sd_mps, process_rate_sd_radps, process_angle_sd_rad : float
-        Process-noise sd per sample interval on u, v, w (default 1e-3 m/s), p, q, r
-        (default 1e-3 rad/s) and the angles (default 1e-5 rad).
+        Process-noise sd per sample interval on u, v, w [m/s], p, q, r [rad/s] and the
+        angles [rad] (default 0: the model is deterministic). Measured (tactical Gaussian
+        IMU, exact positions): process noise of 1e-3 rad/s per step on the rates put the
+        EKF at 1.19 % mean error against output-error's 0.72 %, with intervals 10x too
+        wide on Cl0/Clp; without it, at output-error.
+    noise_model : {"channel", "signal"}
+        Measurement noise: one sd per channel (``measurement_noise``), or per sample
+        ``R_kc = a_c + b_c yhat_kc^2`` with ``a, b`` estimated from the data
+        (:func:`aeroid.estimation.estimate_noise_law`) and ``yhat`` the predicted
+        measurement (the paper's eq. 43 noise is proportional to the signal).
+    positions : {"estimate", "known"}
+        Accelerometer-position components the airframe calls uncertain (sd > 0) are
+        carried in the state with that initial sd (default ``estimate``), or taken as
+        known.
     coefficient_random_walk_rel : float
         Random-walk sd of the coefficients per sample interval as a fraction of
         ``|prior|`` (default 0: constant coefficients).
@@ -140,12 +183,14 @@ class AugmentedFilterOptions(Estimator):
     measurement_noise: Literal["data", "paper"] = "data"
     measurement_sd_floor_rel: float = 1e-4
     initial_coefficient_sd_rel: float = 0.3
-    initial_velocity_sd_mps: float = 0.05
-    initial_angle_sd_rad: float = 0.01
-    process_velocity_sd_mps: float = 1e-3
-    process_rate_sd_radps: float = 1e-3
-    process_angle_sd_rad: float = 1e-5
+    initial_velocity_sd_mps: float | None = None
+    initial_angle_sd_rad: float | None = None
+    process_velocity_sd_mps: float = 0.0
+    process_rate_sd_radps: float = 0.0
+    process_angle_sd_rad: float = 0.0
     coefficient_random_walk_rel: float = 0.0
+    noise_model: Literal["channel", "signal"] = "signal"
+    positions: Literal["estimate", "known"] = "estimate"
 
     def __post_init__(self) -> None:
         if self.input not in INPUTS:
@@ -156,50 +201,86 @@ class AugmentedFilterOptions(Estimator):
             raise ValueError(f"substeps must be >= 1, got {self.substeps}")
         for name in ("measurement_sd_floor_rel", "initial_coefficient_sd_rel",
                      "initial_velocity_sd_mps", "initial_angle_sd_rad"):
-            if not getattr(self, name) > 0:
+            if getattr(self, name) is not None and not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         for name in ("process_velocity_sd_mps", "process_rate_sd_radps",
                      "process_angle_sd_rad", "coefficient_random_walk_rel"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
-    def setup(self, flight: Flight) -> tuple[np.ndarray, ...]:
-        """Return ``x0 (18,), P0, Q (18, 18), R (9, 9), zs (n, 9), meas_sd (9,)``."""
+    def position_free(self, flight: Flight) -> tuple[int, ...]:
+        """Position components carried in the state (indices into the six)."""
+        if self.positions != "estimate":
+            return ()
+        return tuple(int(c) for c in np.flatnonzero(flight.airframe.accel_position_sd.ravel()))
+
+    def setup(self, flight: Flight) -> FilterSetup:
+        """Return the filter's start, noise covariances and measurements."""
         zs = measurements(flight)
         meas_sd = measurement_sd(flight, zs, self.measurement_noise,
                                  self.measurement_sd_floor_rel)
         prior = flight.airframe.prior_vector()
-        x0 = np.concatenate([flight.states()[0], prior])
-        sd0 = np.concatenate([
-            np.full(3, self.initial_velocity_sd_mps), meas_sd[6:9],
-            np.full(3, self.initial_angle_sd_rad),
-            self.initial_coefficient_sd_rel * np.abs(prior),
-        ])
+        free = self.position_free(flight)
+        states = flight.states()
+        # the data's noise, but never below a logger's resolution (noise-free flights, a
+        # channel that stays at zero): INITIAL_SD_FLOOR_REL of the channel's RMS, and
+        # INITIAL_SD_FLOOR in its unit
+        rms = np.sqrt(np.mean(states * states, axis=0))
+        data_sd = np.maximum(estimation.estimate_noise_sd(states),
+                             np.maximum(INITIAL_SD_FLOOR_REL * rms, INITIAL_SD_FLOOR))
+        velocity_sd = (data_sd[0:3] if self.initial_velocity_sd_mps is None
+                       else np.full(3, self.initial_velocity_sd_mps))
+        angle_sd = (data_sd[6:9] if self.initial_angle_sd_rad is None
+                    else np.full(3, self.initial_angle_sd_rad))
+        position_sd = flight.airframe.accel_position_sd.ravel()[list(free)]
+        x0 = np.concatenate([states[0], prior, np.zeros(len(free))])
+        sd0 = np.concatenate([velocity_sd, meas_sd[6:9], angle_sd,
+                              self.initial_coefficient_sd_rel * np.abs(prior), position_sd])
         sdq = np.concatenate([
             np.full(3, self.process_velocity_sd_mps), np.full(3, self.process_rate_sd_radps),
             np.full(3, self.process_angle_sd_rad),
-            self.coefficient_random_walk_rel * np.abs(prior),
+            self.coefficient_random_walk_rel * np.abs(prior), np.zeros(len(free)),
         ])
-        return x0, np.diag(sd0**2), np.diag(sdq**2), np.diag(meas_sd**2), zs, meas_sd
+        R_of = None
+        if self.noise_model == "signal":
+            a, b = estimation.estimate_noise_law(
+                zs, use=estimation.switch_free_samples(flight["delta"]))
+            floor = (self.measurement_sd_floor_rel * np.sqrt(np.mean(zs * zs, axis=0))) ** 2
+            a = np.maximum(a, floor)
 
-    def result(self, flight: Flight, out: _kalman.FilterOutput, meas_sd: np.ndarray,
+            def R_of(y_pred: np.ndarray) -> np.ndarray:  # noqa: N802 - the filter's R
+                return np.diag(a + b * y_pred * y_pred)
+
+        return FilterSetup(x0, np.diag(sd0**2), np.diag(sdq**2), np.diag(meas_sd**2), zs,
+                           meas_sd, R_of, free)
+
+    def result(self, flight: Flight, out: _kalman.FilterOutput, setup: FilterSetup,
                n_evaluations: int) -> EstimationResult:
         """Turn a filter pass into an :class:`EstimationResult` (history axis 'time')."""
         t = flight.t
-        history = {"axis": "time", "step": t, "theta": out.x[:, 9:], "theta_sd": out.sd[:, 9:]}
-        info = {"measurement_sd": meas_sd, "state": out.x[:, :9], "state_sd": out.sd[:, :9]}
+        history = {"axis": "time", "step": t, "theta": out.x[:, 9:18],
+                   "theta_sd": out.sd[:, 9:18]}
+        info = {"measurement_sd": setup.meas_sd, "state": out.x[:, :9],
+                "state_sd": out.sd[:, :9]}
         if out.failed_at is not None:
             message = f"filter diverged at t = {t[out.failed_at]:.4f} s: {out.reason}"
             return aeroid.failed_result(self.name, message, history=history, info=info,
                                         n_iterations=int(out.failed_at))
-        cov = out.P[9:, 9:].copy()
+        cov = out.P[9:18, 9:18].copy()
         # the fit check reads the innovations of the second half (after the coefficients'
         # initial uncertainty has been worked off)
         half = len(t) // 2
         info["fit_residuals"] = {name: out.innovation[half:, j]
                                  for j, name in enumerate(aeroid.model.OUTPUT_CHANNELS)}
+        positions = flight.airframe.accel_positions.ravel().copy()
+        position_sd = np.zeros(6)
+        for j, c in enumerate(setup.position_free):
+            positions[c] += out.x[-1, 18 + j]
+            position_sd[c] = out.sd[-1, 18 + j]
+        info["accel_positions_m"] = positions.reshape(2, 3)
+        info["accel_position_stderr_m"] = position_sd.reshape(2, 3)
         return EstimationResult(
-            estimator=self.name, theta=out.x[-1, 9:], stderr=np.sqrt(np.diag(cov)),
+            estimator=self.name, theta=out.x[-1, 9:18], stderr=np.sqrt(np.diag(cov)),
             covariance=cov, cost=math.nan, success=True, message="",
             n_evaluations=n_evaluations, n_iterations=len(t), history=history, info=info,
         )

@@ -154,6 +154,18 @@ def posterior_information(prob: Problem, J: np.ndarray, e: np.ndarray, var: np.n
     return M + M_prior, g + g_prior
 
 
+def sandwich(cov: np.ndarray, J: np.ndarray, e: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """Return the sandwich (robust) covariance ``M^-1 B M^-1`` in scaled parameters.
+
+    ``B = sum_k g_k g_k^T`` with ``g_k = J_k^T R_k^-1 e_k`` the score of sample ``k``: right
+    when the modelled variances are wrong, at the price of a noisier estimate of the
+    covariance. ``cov`` is ``M^-1``.
+    """
+    w = 1.0 / np.broadcast_to(var, e.shape)  # (n, m)
+    g = np.einsum("cki,kc->ki", J, w * e)  # (n, n_p)
+    return cov @ (g.T @ g) @ cov
+
+
 @dataclass(frozen=True)
 class Fit:
     """One Gauss-Newton run: final parameters, residuals, Jacobian, R and its history."""

@@ -161,7 +161,8 @@ def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
 
 
 def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
-            R: np.ndarray, zs: np.ndarray) -> FilterOutput:
+            R: np.ndarray, zs: np.ndarray,
+            R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's EKF with the model's nonlinear prediction over measurements ``zs``.
 
     Sample 0 is an update of the prior ``(x0, P0)`` with ``zs[0]``; each later sample
@@ -175,6 +176,9 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         Initial and per-step process-noise covariance.
     R : ndarray, shape (dim_z, dim_z)
     zs : ndarray, shape (n, dim_z)
+    R_of : callable, optional
+        ``R_of(z_pred) -> (dim_z, dim_z)``: a measurement-noise covariance that depends
+        on the predicted measurement (a per-sample noise model); replaces ``R``.
 
     Returns
     -------
@@ -200,7 +204,8 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         z_hat = np.asarray(z_hat, dtype=float).reshape(-1, 1)
         innov[k] = zs[k] - z_hat.ravel()
         ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
-                   Hx=lambda _x, z_hat=z_hat: z_hat)
+                   Hx=lambda _x, z_hat=z_hat: z_hat,
+                   R=None if R_of is None else R_of(z_hat.ravel()))
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
         reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
@@ -212,10 +217,12 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
 
 def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
-            kappa: float = 0.0) -> FilterOutput:
+            kappa: float = 0.0,
+            R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's UKF (Merwe scaled sigma points) with batched sigma-point propagation.
 
-    Same sequence and arguments as :func:`run_ekf`, plus the sigma-point parameters
+    Same sequence and arguments as :func:`run_ekf` (``R_of`` gets the sigma points'
+    weighted mean measurement), plus the sigma-point parameters
     ``alpha``, ``beta``, ``kappa`` of :class:`filterpy.kalman.MerweScaledSigmaPoints`.
     Needs ``model.transition_batch`` and ``model.observe_batch``.
     """
@@ -249,7 +256,8 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             except np.linalg.LinAlgError:
                 return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed", innov)
         rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
-        ukf.update(zs[k], hx=_RowFeed(rows))
+        R_k = None if R_of is None else R_of(points.Wm @ rows)
+        ukf.update(zs[k], R=R_k, hx=_RowFeed(rows))
         innov[k] = ukf.y
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
         reason, ukf.P = _check(ukf.P, ukf.x)

@@ -38,7 +38,7 @@ class RecordModel:
         self.t = flight.t
         self.exogenous = exogenous(flight)
         self.substeps = substeps
-        self.x0_free, self.position_free = x0_free, position_free
+        self.x0_free, self.position_free = tuple(x0_free), tuple(position_free)
         self.compiled_requested = compiled
         self.x0 = x0
         self.pos = flight.airframe.accel_positions.ravel()

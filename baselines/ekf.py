@@ -43,8 +43,10 @@ class ExtendedKalmanEstimator(_common.AugmentedFilterOptions):
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
-        x0, P0, Q, R, zs, meas_sd = self.setup(flight)
+        setup = self.setup(flight)
         model = _common.augmented_model(
-            flight, self.substeps, flight_record(flight, self.input, self.delay_s))
-        out = _kalman.run_ekf(model, x0, P0, Q, R, zs)
-        return self.result(flight, out, meas_sd, n_evaluations=len(zs))
+            flight, self.substeps, flight_record(flight, self.input, self.delay_s),
+            setup.position_free)
+        out = _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                              R_of=setup.R_of)
+        return self.result(flight, out, setup, n_evaluations=len(setup.zs))

@@ -11,7 +11,7 @@ sd of their channel).
 One-step (``one_step=True``): the six accelerations of eq. 28 and the SG derivatives of
 the measured p, q, r are each affine in the coefficients once the measured states are
 given (``a = c(x) + A(x) theta``; ``A`` and ``c`` are read off
-:func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` at the unit vectors),
+:func:`aeroid.model.accelerometers` and :func:`aeroid.model.state_derivative` at the unit vectors),
 so one weighted least-squares problem over all nine coefficients avoids inverting step
 1. Channel weights are the inverse residual sds of a first unweighted-by-channel pass
 (two passes); standard errors from the weighted normal matrix.
@@ -171,7 +171,7 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:
     """Return ``c (n, 9)`` and ``A (n, 9, 9)`` with ``[a1, a2, pdot, qdot, rdot] = c + A theta``.
 
-    From :func:`aeroid.accelerometers` and :func:`aeroid.state_derivative` evaluated at
+    From :func:`aeroid.model.accelerometers` and :func:`aeroid.model.state_derivative` evaluated at
     ``theta = 0`` and at the nine unit vectors (both are affine in the coefficients).
     """
     const = aeroid.model.Constants(*(np.asarray(v, dtype=float)[:, None] if np.ndim(v) else v

@@ -4,8 +4,8 @@ Runs on :class:`filterpy.kalman.UnscentedKalmanFilter` with
 :class:`filterpy.kalman.MerweScaledSigmaPoints`. filterpy propagates sigma points one by
 one (``compute_process_sigmas`` loops over them with ``fx``); here that method is
 overridden so all 37 sigma points go through ONE batched call of
-:func:`aeroid.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
-all sigma points are computed in one call of :func:`aeroid.accelerometers` and handed to
+:func:`aeroid.model.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
+all sigma points are computed in one call of :func:`aeroid.model.accelerometers` and handed to
 filterpy's ``update`` in its iteration order (see :mod:`baselines._kalman`).
 """
 
@@ -54,10 +54,12 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
-        x0, P0, Q, R, zs, meas_sd = self.setup(flight)
+        setup = self.setup(flight)
         model = _common.augmented_model(
-            flight, self.substeps, flight_record(flight, self.input, self.delay_s))
-        out = _kalman.run_ukf(model, x0, P0, Q, R, zs, alpha=self.alpha, beta=self.beta,
-                              kappa=self.kappa)
+            flight, self.substeps, flight_record(flight, self.input, self.delay_s),
+            setup.position_free)
+        out = _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                              alpha=self.alpha, beta=self.beta, kappa=self.kappa,
+                              R_of=setup.R_of)
         n_sigma = 2 * model.dim_x + 1
-        return self.result(flight, out, meas_sd, n_evaluations=n_sigma * len(zs))
+        return self.result(flight, out, setup, n_evaluations=n_sigma * len(setup.zs))

@@ -12,8 +12,8 @@ functions), the relative error of each coefficient and the estimator's standard 
 
 Output error is also compared with ``scipy.optimize.least_squares`` (MINPACK LM) on the
 same model and parameters (nine coefficients scaled by the prior + the initial p, q, r
-offsets, same RK4 substeps, same start): the residuals come from :func:`aeroid.propagate`
-(numba) and :func:`aeroid.accelerometers`, the Jacobian by forward differences with all
+offsets, same RK4 substeps, same start): the residuals come from :func:`aeroid.model.propagate`
+(numba) and :func:`aeroid.model.accelerometers`, the Jacobian by forward differences with all
 13 parameter sets integrated in ONE batched ``propagate`` call; the noise weights either
 follow the same relaxation as output-error or are held at output-error's final estimate
 (a head start: the answer's noise level given in advance).
@@ -83,7 +83,7 @@ def least_squares_fit(flight, r_diag=None):
     output-error estimator: R from the residuals at the start, solve, re-estimate R from
     the new residuals, repeat until no R_jj changes by more than 1e-3 (at most 20 solves).
     """
-    const = aeroid.constants(flight.airframe)
+    const = aeroid.model.constants(flight.airframe)
     delta = flight["delta"]
     positions = flight.airframe.accel_positions
     prior = flight.airframe.prior_vector()
@@ -97,9 +97,9 @@ def least_squares_fit(flight, r_diag=None):
         theta = P[:, :9] * prior
         x0 = np.repeat(prob.model.x0[None], len(P), axis=0)
         x0[:, free] += P[:, 9:]
-        states = aeroid.propagate(x0, theta, delta[:-1], flight.dt, const,
+        states = aeroid.model.propagate(x0, theta, delta[:-1], flight.dt, const,
                                   substeps=est.substeps)
-        acc = aeroid.accelerometers(states, delta[None, :], theta[:, None, :], const,
+        acc = aeroid.model.accelerometers(states, delta[None, :], theta[:, None, :], const,
                                     positions).reshape(len(P), -1, 6)
         return np.concatenate([acc, states[:, :, 3:6]], axis=2)
 

@@ -10,6 +10,7 @@ but suspect (:class:`aeroid.errors.AeroidWarning`) are one line each on stderr,
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import textwrap
 import warnings
@@ -220,7 +221,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     parser = build_parser()
     args = parser.parse_args(argv)
+    quiet = bool(getattr(args, "quiet", False))
+    notices = _notices(quiet)
     try:
+        if args.command in ("estimate", "simulate", "study") and not quiet:
+            from aeroid.model import kernels_cached
+
+            if not kernels_cached():
+                print("aeroid: compiling the numerical kernels once (about 20-60 s; "
+                      "cached for later runs)", file=sys.stderr)
         with warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
             warnings.showwarning = _show_warning(warnings.showwarning)
@@ -236,6 +245,25 @@ def main(argv: Sequence[str] | None = None) -> int:
                 if args.command == "study" else "")
         print(f"aeroid: interrupted{hint}", file=sys.stderr)
         return 130
+    finally:
+        logging.getLogger("aeroid").removeHandler(notices)
+
+
+class _NoticeHandler(logging.Handler):
+    """Prints aeroid's notices (logger ``aeroid``, level INFO) as ``aeroid: message``."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        """Write one line on stderr."""
+        print(f"aeroid: {record.getMessage()}", file=sys.stderr)
+
+
+def _notices(quiet: bool) -> logging.Handler:
+    """Attach the notice handler for one command (silent with ``--quiet``)."""
+    handler = _NoticeHandler(level=logging.WARNING if quiet else logging.INFO)
+    logger = logging.getLogger("aeroid")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    return handler
 
 
 if __name__ == "__main__":  # pragma: no cover

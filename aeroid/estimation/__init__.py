@@ -56,6 +56,7 @@ from aeroid.estimation._result import (
     failed_result,
 )
 from aeroid.estimation._signals import (
+    estimate_noise_law,
     estimate_noise_sd,
     rate_derivatives,
     smooth,
@@ -66,6 +67,7 @@ from aeroid.estimation._signals import (
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
 
 __all__ = [
+    "estimate_noise_law",
     "EAM_OUTPUTS",
     "EBM_ROWS",
     "EDGE_FRACTION",

@@ -150,3 +150,48 @@ def rate_derivatives(flight: Flight, window: int = DERIVATIVE_WINDOW,
     return out
 
 
+
+
+def estimate_noise_law(x: np.ndarray, *, use: np.ndarray | None = None,
+                       floor_fraction: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
+    """Estimate a signal-dependent noise law ``var = a + b s^2`` per channel from the data.
+
+    The squared 7-point Savitzky-Golay residual (divided by ``1 - h0``, as in
+    :func:`estimate_noise_sd`) is regressed on ``[1, s^2]``, ``s`` the smoothed signal, by
+    non-negative least squares weighted by the inverse squared variance (two reweighting
+    passes; the variance of a squared Gaussian residual is ``2 var^2``). Multiplicative
+    noise (the paper's eq. 43) gives ``a ~ 0``; additive noise ``b ~ 0``.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, m)
+    use : ndarray of bool, shape (n,), optional
+        Samples that enter (e.g. :func:`switch_free_samples`).
+    floor_fraction : float
+        ``a`` is at least this fraction of the channel's mean squared residual.
+
+    Returns
+    -------
+    a, b : ndarray, shape (m,)
+        [unit^2] and [dimensionless].
+    """
+    from scipy.optimize import nnls
+
+    x = np.asarray(x, dtype=float).reshape(len(x), -1)
+    s = smooth(x, SMOOTHING_WINDOW, SMOOTHING_POLYORDER, axis=0)
+    h0 = savgol_coeffs(SMOOTHING_WINDOW, SMOOTHING_POLYORDER)[SMOOTHING_WINDOW // 2]
+    e2 = (x - s) ** 2 / (1.0 - h0)
+    if use is not None:
+        e2, s = e2[np.asarray(use, dtype=bool)], s[np.asarray(use, dtype=bool)]
+    a = np.empty(x.shape[1])
+    b = np.empty(x.shape[1])
+    for c in range(x.shape[1]):
+        ms = max(float(np.mean(e2[:, c])), np.finfo(float).tiny)
+        var = np.full(e2.shape[0], ms)
+        s2 = s[:, c] ** 2
+        for _ in range(2):
+            w = 1.0 / var
+            (a[c], b[c]), _ = nnls(np.column_stack([w, w * s2]), w * e2[:, c])
+            a[c] = max(a[c], floor_fraction * ms)
+            var = a[c] + b[c] * s2
+    return a, b

@@ -29,6 +29,7 @@ from aeroid.flights._record import (
     schedule,
 )
 from aeroid.flights._scenario import (
+    EVALUATIONS,
     Manoeuvre,
     Scenario,
     load_scenario,
@@ -37,7 +38,13 @@ from aeroid.flights._scenario import (
     scenario_from_dict,
 )
 from aeroid.flights._sidecar import FORMAT, sidecar_path
-from aeroid.flights._simulate import record_flight, simulate, simulate_scenario, simulate_truth
+from aeroid.flights._simulate import (
+    Truth,
+    record_flight,
+    simulate,
+    simulate_scenario,
+    simulate_truth,
+)
 
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
@@ -47,4 +54,5 @@ __all__ = [
     "make_flight", "make_noise", "noise_for", "noise_from_dict", "read_column_map",
     "read_flight", "record_flight", "reference_scenario", "scenario_from_dict", "sidecar_path",
     "simulate", "simulate_scenario", "simulate_truth", "write_flight",
+    "EVALUATIONS", "Truth",
 ]

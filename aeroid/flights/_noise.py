@@ -58,6 +58,10 @@ class NoiseModel(Protocol):
         """Return the estimator's copy of the triad positions, shape (2, 3)."""
         ...
 
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """Return the sd of the position error of each component given ``positions`` (2, 3)."""
+        ...
+
     def to_dict(self) -> dict[str, Any]:
         """Return the model's settings (for flight metadata and reports)."""
         ...
@@ -96,6 +100,10 @@ class PaperNoise:
         positions = np.asarray(positions, dtype=float)
         u = rng.random(positions.shape)
         return positions * (1.0 + self.accel_position_xi * (2.0 * u - 1.0))
+
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """``xi |R| / sqrt(3)``: the sd of the uniform +-xi relative error, per component."""
+        return self.accel_position_xi * np.abs(np.asarray(positions, dtype=float)) / math.sqrt(3)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
@@ -146,6 +154,10 @@ class GaussianNoise:
         positions = np.asarray(positions, dtype=float)
         return positions + self.position_sd_m * rng.standard_normal(positions.shape)
 
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """``position_sd_m`` for every component."""
+        return np.full(np.shape(positions), float(self.position_sd_m))
+
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
         return {"model": self.name, "accel_sd_mps2": self.accel_sd_mps2,
@@ -166,6 +178,10 @@ class NoNoise:
     def perturb_positions(self, positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Return the positions unchanged."""
         return np.asarray(positions, dtype=float).copy()
+
+    def position_sd(self, positions: np.ndarray) -> np.ndarray:
+        """Zero: the positions are known."""
+        return np.zeros(np.shape(positions))
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""

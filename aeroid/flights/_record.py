@@ -126,7 +126,7 @@ def schedule(flight: Flight, input: str = "hold") -> Schedule:  # noqa: A002 - t
         law = getattr(flight.airframe, "fin_law", None)
         if law is None:
             raise FlightError(f"{where}: input 'law' needs the airframe's [fin_law]")
-        return law.schedule(t, flight["phi"], logged=delta)
+        return law.schedule(t, flight["phi"], initial=float(delta[0]))
     raise FlightError(f"unknown input {input!r} (expected one of {', '.join(INPUTS)})")
 
 

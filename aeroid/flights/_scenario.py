@@ -7,10 +7,29 @@ default, copied from the project's reference): the airframe file's tables
 (keys left out take the paper's values, :class:`Manoeuvre`) and ``[noise.paper]``,
 ``[noise.gaussian]``, ``[noise.none]`` (options of each noise model; optional). Unknown
 tables and keys and values of the wrong type are one-line errors naming the file.
+
+``[actuator]`` is the TRUE fin law the simulator flies: the keys of the airframe file's
+``[fin_law]`` (:mod:`aeroid.model._actuator`; here all optional, the paper's ``A = 0.5``,
+``phi0 = 60 deg``, no delay, no rate limit by default) and how the law is evaluated::
+
+    [actuator]
+    command_amplitude = 0.5          # or [[t_s, A], ...]
+    command_phase_deg = 60.0         # or [[t_s, deg], ...]
+    delay_s = 0.0
+    rate_limit_dps = 8000.0          # left out: none
+    evaluation = "latched"           # "latched" (default: at each sample instant, held),
+                                     # "continuous" (switch instants located in the truth)
+    # control_rate_Hz = 2000.0       # a digital relay latched at its own clock instead
+
+A scenario may also carry the airframe file's ``[fin_law]``: what the simulated flights'
+airframe tells the estimators (their ``law`` input). It is independent of ``[actuator]``,
+so a study can give the estimators a law that differs from the truth (a wrong delay);
+left out, the flights' airframe has no fin law.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +39,7 @@ import numpy as np
 
 from aeroid.errors import AirframeError
 from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.model._actuator import FIN_LAW_KEYS, FinLaw, Profile, profile
 from aeroid.model._airframe import (
     SCENARIO_TABLES,
     Airframe,
@@ -28,7 +48,7 @@ from aeroid.model._airframe import (
 )
 from aeroid.model._coefficients import NAMES
 from aeroid.model._dynamics import STATE_NAMES
-from aeroid.model._fileform import check_keys, check_table, integer, number, numbers
+from aeroid.model._fileform import check_keys, check_table, integer, number, numbers, text
 
 #: Most RK4 steps one simulated truth may take (window end x rate x substeps): 1e8 steps
 #: are minutes of integration and, at 500 Hz and 8 substeps, 7 hours of flight whose
@@ -36,20 +56,29 @@ from aeroid.model._fileform import check_keys, check_table, integer, number, num
 #: anything is allocated.
 MAX_TRUTH_STEPS = 1e8
 
+#: How the simulator evaluates the fin law (:class:`Manoeuvre`).
+EVALUATIONS = ("latched", "continuous", "control_rate")
+#: Manoeuvre fields added for the fin law, with their defaults: left out of
+#: :meth:`Manoeuvre.describe` when at the default, so that a study's fingerprint of a
+#: manoeuvre without them stays what it was.
+FIN_LAW_DEFAULTS = {"delay_s": 0.0, "rate_limit_dps": None, "evaluation": "latched",
+                    "control_rate_hz": None}
+
 _STATE_KEYS = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps",
                "phi_deg", "theta_deg", "psi_deg")
 
 
 @dataclass(frozen=True, kw_only=True)
 class Manoeuvre:
-    """The flight to simulate: relay law, initial state and recording window.
+    """The flight to simulate: fin law and its evaluation, initial state, recording window.
 
     Attributes
     ----------
-    command_amplitude : float
-        ``A`` of the relay law (:mod:`aeroid.model`).
-    command_phase_deg : float
-        ``phi0`` [deg].
+    command_amplitude : float or tuple of (time_s, value) pairs
+        ``A`` of the relay law (:class:`aeroid.model.FinLaw`), constant or piecewise
+        linear in time.
+    command_phase_deg : float or tuple of (time_s, value) pairs
+        ``phi0`` [deg], the same.
     initial_state : tuple of 9 float
         State at t = 0 [m/s, rad/s, rad] in :data:`aeroid.model.STATE_NAMES` order.
     sample_rate_hz : float
@@ -58,16 +87,51 @@ class Manoeuvre:
         Recorded window [s], both ends included.
     truth_substeps : int
         RK4 steps per sample interval for the truth.
+    delay_s : float
+        Actuator time delay [s], >= 0.
+    rate_limit_dps : float or None
+        Actuator rate limit [deg/s]; None: none (a switch is a jump).
+    evaluation : {"latched", "continuous", "control_rate"}
+        ``latched``: the law evaluated at each sample instant and held to the next (the
+        paper's digital relay at the log clock); ``continuous``: switched where the
+        switching function of the true roll angle crosses zero; ``control_rate``: a
+        digital relay latched at its own clock, ``control_rate_hz``.
+    control_rate_hz : float or None
+        The relay's clock [Hz] (``control_rate`` only); its instants are ``m /
+        control_rate_hz`` from t = 0.
     """
 
-    command_amplitude: float = 0.5
-    command_phase_deg: float = 60.0
+    command_amplitude: Profile = 0.5
+    command_phase_deg: Profile = 60.0
     initial_state: tuple[float, ...] = (501.7, 0, 0, 0, 0, 0, 0, math.radians(5.0), 0)
     sample_rate_hz: float = 500.0
     window_s: tuple[float, float] = (5.0, 6.0)
     truth_substeps: int = 8
+    delay_s: float = 0.0
+    rate_limit_dps: float | None = None
+    evaluation: str = "latched"
+    control_rate_hz: float | None = None
 
     def __post_init__(self) -> None:
+        for name in ("command_amplitude", "command_phase_deg"):
+            object.__setattr__(self, name, profile(getattr(self, name), f"manoeuvre: {name}"))
+        try:
+            law = self.fin_law(1.0)  # checks the delay and the rate limit
+        except AirframeError as exc:
+            raise AirframeError(str(exc).replace("fin law:", "manoeuvre:")) from None
+        object.__setattr__(self, "delay_s", law.delay_s)
+        object.__setattr__(self, "rate_limit_dps", law.rate_limit_dps)
+        if self.evaluation not in EVALUATIONS:
+            raise AirframeError(f"manoeuvre: evaluation must be one of "
+                                f"{', '.join(map(repr, EVALUATIONS))}, got {self.evaluation!r}")
+        if (self.evaluation == "control_rate") != (self.control_rate_hz is not None):
+            raise AirframeError("manoeuvre: control_rate_Hz goes with evaluation = "
+                                "\"control_rate\" and nothing else")
+        if self.control_rate_hz is not None:
+            rate = number(self.control_rate_hz, "manoeuvre: control_rate_Hz")
+            if rate <= 0:
+                raise AirframeError(f"manoeuvre: control_rate_Hz must be positive, got {rate:g}")
+            object.__setattr__(self, "control_rate_hz", rate)
         state = numbers(self.initial_state, 9, "manoeuvre: initial_state")
         object.__setattr__(self, "initial_state", state)
         t0, t1 = numbers(self.window_s, 2, "manoeuvre: window_s")
@@ -93,6 +157,22 @@ class Manoeuvre:
         """Sample interval [s]."""
         return 1.0 / self.sample_rate_hz
 
+    def fin_law(self, delta_max_rad: float) -> FinLaw:
+        """Return the manoeuvre's fin law for a fin throw ``delta_max_rad`` [rad]."""
+        return FinLaw(delta_max_rad=delta_max_rad, command_amplitude=self.command_amplitude,
+                      command_phase_deg=self.command_phase_deg, delay_s=self.delay_s,
+                      rate_limit_dps=self.rate_limit_dps)
+
+    def describe(self) -> dict[str, Any]:
+        """Return the fields as a dict, leaving out the fin-law fields at their defaults.
+
+        A manoeuvre of the paper's latched relay describes as before the fin-law fields
+        existed (:data:`FIN_LAW_DEFAULTS`): study fingerprints made from it stay valid.
+        """
+        fields = dataclasses.asdict(self)
+        return {k: v for k, v in fields.items()
+                if k not in FIN_LAW_DEFAULTS or v != FIN_LAW_DEFAULTS[k]}
+
 
 @dataclass(frozen=True, kw_only=True)
 class Scenario:
@@ -111,7 +191,7 @@ class Scenario:
 
 
 #: Keys of the scenario tables (the airframe's own tables are checked by ``Airframe``).
-ACTUATOR_KEYS = ("command_amplitude", "command_phase_deg")
+ACTUATOR_KEYS = (*FIN_LAW_KEYS, "evaluation", "control_rate_Hz")
 RECORDING_KEYS = ("sample_rate_Hz", "window_s", "truth_rk4_substeps")
 
 
@@ -136,10 +216,7 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
     state[6:9] = [math.radians(x) for x in state[6:9]]
     rec = check_table(data.get("recording", {}), f"{source}: [recording]")
     check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
-    options: dict[str, Any] = {}
-    for key in ACTUATOR_KEYS:
-        if key in act:
-            options[key] = number(act[key], f"{source}: [actuator] {key}")
+    options = _actuator_options(act, f"{source}: [actuator]")
     if "sample_rate_Hz" in rec:
         options["sample_rate_hz"] = number(rec["sample_rate_Hz"],
                                            f"{source}: [recording] sample_rate_Hz")
@@ -167,6 +244,23 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
                     noise=noise, name=Path(source).stem)
 
 
+def _actuator_options(act: Any, where: str) -> dict[str, Any]:
+    """Return the :class:`Manoeuvre` options of an ``[actuator]`` table."""
+    options: dict[str, Any] = {}
+    for key in ("command_amplitude", "command_phase_deg"):
+        if key in act:
+            options[key] = profile(act[key], f"{where} {key}")
+    for key, field in (("delay_s", "delay_s"), ("rate_limit_dps", "rate_limit_dps"),
+                       ("control_rate_Hz", "control_rate_hz")):
+        if key in act:
+            options[field] = number(act[key], f"{where} {key}")
+    if "evaluation" in act:
+        options["evaluation"] = text(act["evaluation"], f"{where} evaluation")
+    elif "control_rate_Hz" in act:
+        options["evaluation"] = "control_rate"
+    return options
+
+
 def noise_for(scenario_data: dict[str, Any], name: str) -> NoiseModel:
     """Return the noise model ``name`` with the settings of the scenario's ``[noise.NAME]``."""
     return make_noise(name, **scenario_data.get("noise", {}).get(name, {}))
@@ -184,4 +278,5 @@ def reference_scenario() -> Scenario:
     return load_scenario(None)
 
 
-__all__ = ["Manoeuvre", "Scenario", "load_scenario", "reference_scenario", "STATE_NAMES"]
+__all__ = ["EVALUATIONS", "FIN_LAW_DEFAULTS", "Manoeuvre", "Scenario", "load_scenario",
+           "reference_scenario", "STATE_NAMES"]

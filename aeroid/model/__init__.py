@@ -7,7 +7,7 @@ defined once, by name; numpy, numba and CasADi evaluate the same definitions.
 
 from aeroid.model import _equations as equations
 from aeroid.model import _symbolic as symbolic
-from aeroid.model._actuator import RelayActuator
+from aeroid.model._actuator import FinLaw, RelayActuator
 from aeroid.model._airframe import (
     Airframe,
     dumps_toml,
@@ -28,6 +28,7 @@ from aeroid.model._coefficients import (
     lateral_from_pitch,
     nominal,
 )
+from aeroid.model._compiled import kernels_cached
 from aeroid.model._dynamics import (
     ACCEL_CHANNELS,
     FM_NAMES,
@@ -71,7 +72,7 @@ __all__ = [
     "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",
     "Trig", "as_coefficients", "as_state", "equations", "Buffered", "ForwardModel",
     "symbolic", "symbolic_record", "EXOGENOUS", "Pieces", "Record", "Schedule",
-    "exogenous_table", "with_exogenous",
+    "exogenous_table", "with_exogenous", "kernels_cached",
     "FM_NAMES", "G0", "HAVE_NUMBA", "LABELS", "NAMES", "NOMINAL", "N_COEFFICIENTS", "N_STATE",
     "PHI", "PSI", "STATE_NAMES", "THETA", "Airframe", "Constants", "P", "Q", "R",
     "RelayActuator", "U", "V", "W", "accelerometers", "aero_forces_moments", "air_data",
@@ -79,4 +80,5 @@ __all__ = [
     "lateral_from_pitch", "load_airframe", "nominal", "propagate",
     "read_toml", "reference_airframe", "reference_scenario_data", "regressors", "rk4",
     "rk4_step", "save_airframe", "state_derivative",
+    "FinLaw",
 ]

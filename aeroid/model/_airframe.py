@@ -23,6 +23,12 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     [prior]                                 # optional: the nine coefficients to start from
     Cx = -0.98                              # (all nine names; default: the nominal values)
 
+    [fin_law]                               # optional: the relay law (aeroid.model.FinLaw)
+    command_amplitude = 0.5                 # A, or [[t_s, A], ...] (piecewise linear)
+    command_phase_deg = 60.0                # phi0, or [[t_s, deg], ...]
+    delay_s = 0.0                           # optional actuator delay
+    rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
+
 There is no default atmosphere: leaving it out used to mean sea level, which made every
 coefficient of a flight at altitude 25-66 % low. ``per_sample`` is the planned format for
 a density that changes within the window; the model does not use it yet, so an
@@ -49,6 +55,7 @@ import numpy as np
 
 from aeroid.errors import AeroidWarning, AirframeError
 from aeroid.model import _atmosphere as atmosphere
+from aeroid.model._actuator import FinLaw
 from aeroid.model._coefficients import NAMES, nominal
 from aeroid.model._fileform import (
     check_keys,
@@ -73,16 +80,19 @@ AIRFRAME_KEYS = {
     "delta_max_deg": "delta_max_deg",
     "accel1_position_m": "accel1_position_m",
     "accel2_position_m": "accel2_position_m",
+    "accel1_position_sd_m": "accel1_position_sd_m",
+    "accel2_position_sd_m": "accel2_position_sd_m",
 }
-#: ``length_m`` appears in no equation, so it may be left out.
-OPTIONAL_AIRFRAME_KEYS = ("length_m",)
+#: ``length_m`` appears in no equation, so it may be left out; the positions' standard
+#: deviations default to 0 (known positions).
+OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
 #: File key -> attribute of ``[atmosphere]`` (exactly one is given).
 ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
                    "per_sample": "atmosphere_channel"}
 #: Flight channels a per-sample atmosphere may name (planned; not yet used by the model).
 ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
 #: The tables of an airframe file.
-AIRFRAME_TABLES = ("airframe", "atmosphere", "prior")
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
 SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
 
@@ -128,6 +138,11 @@ class Airframe:
         ON-OFF fin deflection [deg], > 0.
     accel1_position_m, accel2_position_m : tuple of 3 float
         Accelerometer triad positions from the c.g. in body axes [m]; distinct.
+    accel1_position_sd_m, accel2_position_sd_m : tuple of 3 float
+        Standard deviation of each position component [m] (default 0: known). A
+        component with a positive sd is uncertain: output-error estimates it under that
+        Gaussian prior, the EKF/UKF carry it in their state (option
+        ``positions``).
     altitude_m : float or None
         Flight altitude [m] for the ISA density (held constant: the model has no
         position equations).
@@ -138,6 +153,8 @@ class Airframe:
         ``per_sample``: ``"rho"``, ``"altitude"`` or ``"qbar"``); planned, not yet used.
     prior : tuple of 9 float or None
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
+    fin_law : FinLaw or None
+        The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -152,11 +169,14 @@ class Airframe:
     delta_max_deg: float
     accel1_position_m: tuple[float, float, float]
     accel2_position_m: tuple[float, float, float]
+    accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel2_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     length_m: float | None = None
     altitude_m: float | None = None
     given_density_kgm3: float | None = None
     atmosphere_channel: str | None = None
     prior: tuple[float, ...] | None = field(default=None)
+    fin_law: FinLaw | None = None
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -171,18 +191,25 @@ class Airframe:
             if not (is_number(value) and math.isfinite(value)):
                 raise AirframeError(f"airframe: {name} must be a finite number, got {value!r}")
             object.__setattr__(self, name, float(value))
-        for name in ("accel1_position_m", "accel2_position_m"):
+        for name in ("accel1_position_m", "accel2_position_m", "accel1_position_sd_m",
+                     "accel2_position_sd_m"):
             value = getattr(self, name)
             try:
                 vec = numbers(value, 3, f"airframe: {name}")
             except AirframeError:
                 raise AirframeError(
                     f"airframe: {name} must be 3 finite numbers, got {value!r}") from None
+            if name.endswith("_sd_m") and any(v < 0 for v in vec):
+                raise AirframeError(f"airframe: {name} must be >= 0 [m], got {list(vec)}")
             object.__setattr__(self, name, vec)
         self._check_atmosphere()
         self._check_ranges()
         if self.prior is not None:
             object.__setattr__(self, "prior", _prior_tuple(self.prior))
+        if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
+                self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
+            raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
+                                f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
 
     def _check_atmosphere(self) -> None:
         stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
@@ -279,6 +306,11 @@ class Airframe:
         """Both triad positions, shape (2, 3) [m]."""
         return np.array([self.accel1_position_m, self.accel2_position_m])
 
+    @property
+    def accel_position_sd(self) -> np.ndarray:
+        """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
+        return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
+
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), shape (9,)."""
         return nominal() if self.prior is None else np.array(self.prior)
@@ -293,6 +325,8 @@ class Airframe:
         table: dict[str, Any] = {}
         for key, attr in AIRFRAME_KEYS.items():
             value = getattr(self, attr)
+            if key.endswith("_sd_m") and not any(value):
+                continue  # known positions: the default, left out of the file
             if value is not None:
                 table[key] = list(value) if isinstance(value, tuple) else value
         atmos = {key: getattr(self, attr) for key, attr in ATMOSPHERE_KEYS.items()
@@ -300,6 +334,8 @@ class Airframe:
         out: dict[str, Any] = {"airframe": table, "atmosphere": atmos}
         if self.prior is not None:
             out["prior"] = dict(zip(NAMES, self.prior, strict=True))
+        if self.fin_law is not None:
+            out["fin_law"] = self.fin_law.to_table()
         return out
 
     @classmethod
@@ -326,8 +362,8 @@ class Airframe:
         known = (*AIRFRAME_TABLES, *other_tables)
         unknown = sorted(str(t) for t in data if t not in known)
         if unknown:
-            hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere] "
-                    "and [prior] (starting values go in [prior])"
+            hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
+                    "[prior] and [fin_law] (starting values go in [prior])"
                     if set(unknown) & set(SCENARIO_TABLES) else "")
             raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
                                 f"(allowed: {', '.join(known)}){hint}")
@@ -358,9 +394,14 @@ class Airframe:
             check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
             kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
         try:
-            return cls(**kwargs)
+            airframe = cls(**kwargs)
         except AirframeError as exc:
             raise AirframeError(f"{source}: {exc}") from None
+        if "fin_law" not in data:
+            return airframe
+        law = FinLaw.from_table(data["fin_law"], delta_max_rad=airframe.delta_max_rad,
+                                where=f"{source}: [fin_law]")
+        return airframe.replace(fin_law=law)
 
 
 def _prior_tuple(prior: Any) -> tuple[float, ...]:

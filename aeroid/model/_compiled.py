@@ -246,3 +246,22 @@ if HAVE_NUMBA:
                     total += w[s, 3 * n_triads + a] * e * e
             out[i] = total / n
         return out
+
+
+def kernels_cached() -> bool:
+    """Return whether the compiled kernels are in numba's on-disk cache (no compilation due).
+
+    Reads numba's cache index of each kernel (a private numba attribute: on any surprise
+    the answer is True, i.e. no notice). The first run after an install compiles them:
+    tens of seconds, announced by the command line.
+    """
+    if not HAVE_NUMBA:
+        return True
+    try:
+        import os
+
+        return all(os.path.exists(kernel._cache._cache_file._index_path)
+                   for kernel in (integrate_set, propagate_parallel, propagate_serial,
+                                  weighted_cost))
+    except AttributeError:  # pragma: no cover - a numba without this layout
+        return True

@@ -179,6 +179,12 @@ class Schedule:
         t = np.asarray(t, dtype=float).reshape(-1)
         n_int = t.size - 1
         dt = (t[-1] - t[0]) / n_int
+        # knots within KNOT_SNAP of a sample instant move onto it (so that the values at
+        # the sample instants see them too)
+        k_near = np.clip(np.rint((self.times - t[0]) / dt).astype(int), 0, t.size - 1)
+        near = np.abs(self.times - t[k_near]) < KNOT_SNAP * dt
+        if np.any(near & (self.times != t[k_near])):
+            return Schedule(np.where(near, t[k_near], self.times), self.values).segments(t)
         times, first = np.unique(self.times, return_index=True)
         last = np.searchsorted(self.times, times, side="right") - 1
         left, right = self.values[first], self.values[last]

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import logging
 import os
 import shutil
 import subprocess
@@ -181,35 +182,44 @@ def sample_constants(const: Constants, exo) -> Constants:
 
 
 def augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int = 1,
-                        varying: bool = False) -> tuple[ca.Function, ...]:
+                        varying: bool = False, position_free: tuple[int, ...] = ()
+                        ) -> tuple[ca.Function, ...]:
     """Return the augmented-state (18) model of the Kalman filters with exact Jacobians.
 
-    The augmented state is ``z = [x (9), theta (9)]`` with constant coefficients.
+    The augmented state is ``z = [x (9), theta (9), d (m)]`` with constant coefficients
+    and, for the ``m`` position components named in ``position_free`` (indices into
+    ``[x1, y1, z1, x2, y2, z2]``), constant offsets ``d`` from the given positions.
 
     Returns
     -------
-    f : Function ``(z (18), pieces (3 S), exo_a, exo_b) -> (z_next (18), F (18, 18))``
+    f : Function ``(z (18 + m), pieces (3 S), exo_a, exo_b) -> (z_next, F)``
         One sample interval (:func:`interval_step`) and its Jacobian ``d z_next / d z``.
-    h : Function ``(z (18), delta, exo, positions (6)) -> (y (9), H (9, 18))``
+    h : Function ``(z, delta, exo, positions (6)) -> (y (9), H (9, 18 + m))``
         Measurement and its Jacobian.
     """
     return _augmented_functions(inputs.normalised(const, varying), float(dt), int(substeps),
-                                int(n_pieces), bool(varying))
+                                int(n_pieces), bool(varying), tuple(position_free))
 
 
 @functools.lru_cache(maxsize=32)
 def _augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
-                         varying: bool) -> tuple[ca.Function, ...]:
-    z = ca.SX.sym("z", N_STATE + N_COEFFICIENTS)
+                         varying: bool, position_free: tuple[int, ...]
+                         ) -> tuple[ca.Function, ...]:
+    n_free = len(position_free)
+    z = ca.SX.sym("z", N_STATE + N_COEFFICIENTS + n_free)
     sym = interval_symbols(n_pieces, varying)
     delta = ca.SX.sym("delta")
     exo = ca.SX.sym("exo", sym.exo_a.shape[0])
-    pos = ca.SX.sym("pos", 6)
-    x, theta = z[:N_STATE], z[N_STATE:]
-    z_next = ca.vertcat(interval_step_symbolic(x, theta, sym, const, dt, substeps), theta)
+    pos_given = ca.SX.sym("pos", 6)
+    x, theta = z[:N_STATE], z[N_STATE:N_STATE + N_COEFFICIENTS]
+    offsets = z[N_STATE + N_COEFFICIENTS:]
+    z_next = ca.vertcat(interval_step_symbolic(x, theta, sym, const, dt, substeps),
+                        z[N_STATE:])
     f = ca.Function("f_aug", [z, *sym], [z_next, ca.jacobian(z_next, z)])
+    pos = ca.vertcat(*[pos_given[c] + offsets[position_free.index(c)]
+                       if c in position_free else pos_given[c] for c in range(6)])
     y = measurement(x, delta, theta, pos, sample_constants(const, exo))
-    h = ca.Function("h_aug", [z, delta, exo, pos], [y, ca.jacobian(y, z)])
+    h = ca.Function("h_aug", [z, delta, exo, pos_given], [y, ca.jacobian(y, z)])
     return f, h
 
 
@@ -250,6 +260,8 @@ def compile_functions(functions: Sequence[ca.Function], name: str
         cache = cache_dir()
         library = cache / f"{name}_{digest.hexdigest()[:20]}.so"
         if not library.exists():
+            logging.getLogger("aeroid").info(
+                "compiling the model to C once (a few seconds; cached in %s)", cache)
             cache.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=cache) as tmp:
                 src = Path(tmp, f"{name}.c")

@@ -184,7 +184,7 @@ class Study:
             "seed": self.seed,
             "scenario": {"coefficients": list(self.scenario.coefficients),
                          "airframe": _jsonable(self.scenario.airframe.to_dict()),
-                         "manoeuvre": _jsonable(dataclasses.asdict(self.scenario.manoeuvre))},
+                         "manoeuvre": _jsonable(self.scenario.manoeuvre.describe())},
             "noise": [n.describe() for n in self.noise],
             "estimators": [e.describe() for e in self.estimators],
         }

@@ -87,7 +87,7 @@ def issue10_flight(flight, truth, *, events: bool = False, delay: bool = False):
     * the per-sample density: a ``rho`` channel and ``[atmosphere] per_sample = "rho"``;
     * with ``events``: the switch instants as the deflection's knots,
       ``metadata["delta_knots"]`` (what the ``events`` input reads);
-    * the fin law in the airframe (``Airframe.fin_law``), when aeroid has it.
+    * the fin law in the airframe (``Airframe.fin_law``).
     """
     channels = {c: flight[c] for c in flight.channels}
     channels["rho"] = truth.data["rho"].to_numpy()
@@ -98,20 +98,16 @@ def issue10_flight(flight, truth, *, events: bool = False, delay: bool = False):
         knots = aeroid.model.Schedule.events(truth.initial_delta, truth.switch_times,
                                              truth.switch_values)
         metadata["delta_knots"] = {"t": knots.times.tolist(), "delta": knots.values.tolist()}
-    if hasattr(aeroid.model, "FinLaw"):
-        config = truth.config
-        law = aeroid.model.FinLaw(command_amplitude=config.command_amplitude,
-                                  command_phase_deg=config.command_phase_deg,
-                                  delay_s=config.fin_delay_s if delay else 0.0)
-        airframe = airframe.replace(fin_law=law)
+    config = truth.config  # the fin law of the airframe file
+    law = aeroid.model.FinLaw(delta_max_rad=airframe.delta_max_rad,
+                              command_amplitude=config.command_amplitude,
+                              command_phase_deg=config.command_phase_deg,
+                              delay_s=config.fin_delay_s if delay else 0.0)
+    airframe = airframe.replace(fin_law=law)
     return aeroid.make_flight(channels, airframe, metadata)
 
 
-needs_fin_law = pytest.mark.xfail(not hasattr(aeroid.model, "FinLaw"), strict=True,
-                                  reason="needs the fin law of the airframe file")
-
-
-@pytest.mark.parametrize("delta_input", [pytest.param("law", marks=needs_fin_law), "events"])
+@pytest.mark.parametrize("delta_input", ["law", "events"])
 def test_output_error_recovers_the_noise_free_flight(climb, delta_input):
     """Measured with the prototype: every coefficient within 0.0011 % (both inputs)."""
     flight, truth = climb
@@ -121,7 +117,6 @@ def test_output_error_recovers_the_noise_free_flight(climb, delta_input):
     assert np.max(_error_pct(result.theta, truth)) <= TARGET_NOISE_FREE_PCT
 
 
-@needs_fin_law
 def test_output_error_estimates_the_actuator_delay(climb_delayed):
     """Measured with the prototype: 1000.03 us +- 0.001 us, coefficients within 0.004 %."""
     flight, truth = climb_delayed

@@ -394,3 +394,22 @@ def test_failed_fit_is_printed_and_exits_1(flight_csv, capsys, monkeypatch) -> N
     out = json.loads(capsys.readouterr().out)
     assert out["success"] is False
     assert out["message"] == "singular system at t = 5.1 s"
+
+
+def test_first_compilations_are_announced(flight_csv, capsys, monkeypatch, tmp_path) -> None:
+    """A fresh install compiles numba kernels and the C model: each is said in one line."""
+    import aeroid.model
+    from aeroid.model import _forward
+
+    monkeypatch.setattr(aeroid.model, "kernels_cached", lambda: False)
+    monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "casadi"))
+    _forward._symbolic_record.cache_clear()  # built models are cached per process
+    assert main(["estimate", str(flight_csv), "--method", "output-error", "--json"]) in (0, 1)
+    err = capsys.readouterr().err
+    assert "aeroid: compiling the numerical kernels once" in err
+    assert f"aeroid: compiling the model to C once (a few seconds; cached in {tmp_path}" in err
+    # quiet: nothing
+    monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "again"))
+    _forward._symbolic_record.cache_clear()
+    main(["estimate", str(flight_csv), "--method", "output-error", "--json", "--quiet"])
+    assert "compiling" not in capsys.readouterr().err

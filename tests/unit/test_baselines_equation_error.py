@@ -54,14 +54,14 @@ def test_smoothing_forces_only_biases_fin_coefficients(prior_off_flight):
 
 
 def test_affine_form_reproduces_sensor_model(noisy_flight):
-    const = aeroid.constants(noisy_flight.airframe)
+    const = aeroid.model.constants(noisy_flight.airframe)
     theta = aeroid.nominal() * np.linspace(0.7, 1.3, 9)
     c, A = affine_accelerations(noisy_flight)
     states = noisy_flight.states()
     delta = noisy_flight["delta"]
-    acc = aeroid.accelerometers(states, delta, theta, const,
+    acc = aeroid.model.accelerometers(states, delta, theta, const,
                                 noisy_flight.airframe.accel_positions).reshape(-1, 6)
-    wdot = aeroid.state_derivative(states, delta, theta, const)[:, 3:6]
+    wdot = aeroid.model.state_derivative(states, delta, theta, const)[:, 3:6]
     model = c + np.einsum("noc,c->no", A, theta)
     np.testing.assert_allclose(model, np.concatenate([acc, wdot], axis=1), rtol=0,
                                atol=AFFINE_ATOL * np.abs(acc).max())

@@ -33,7 +33,7 @@ def flight(prior_off_flight):
 
 @pytest.fixture(scope="module")
 def const(flight):
-    return aeroid.constants(flight.airframe)
+    return aeroid.model.constants(flight.airframe)
 
 
 # --------------------------------------------------------------------------------------
@@ -48,7 +48,7 @@ def test_casadi_rhs_equals_state_derivative(flight, const):
     theta = aeroid.nominal() * 1.1
     for x, d in zip(states, deltas, strict=True):
         ours = np.array(_model.rhs(x, d, theta, const)[0]).ravel().astype(float)
-        ref = aeroid.state_derivative(x, d, theta, const)
+        ref = aeroid.model.state_derivative(x, d, theta, const)
         np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
 
 
@@ -59,7 +59,7 @@ def test_casadi_step_equals_propagate(flight, const):
         step = _model.step_function(const, flight.dt, substeps)
         for x, d in zip(states, deltas, strict=True):
             ours = np.asarray(step(x, theta, d)).ravel()
-            ref = aeroid.propagate(x, theta, np.array([d]), flight.dt, const,
+            ref = aeroid.model.propagate(x, theta, np.array([d]), flight.dt, const,
                                    substeps=substeps, backend="numpy")[0, 1]
             np.testing.assert_allclose(ours, ref, rtol=MODEL_RTOL, atol=1e-12)
 
@@ -71,7 +71,7 @@ def test_casadi_measurement_equals_accelerometers(flight, const):
     meas = _model.measurement_function(const)
     for x, d in zip(states, deltas, strict=True):
         ours = np.asarray(meas(x, theta, d, positions.ravel())).ravel()
-        ref = aeroid.accelerometers(x, d, theta, const, positions).ravel()
+        ref = aeroid.model.accelerometers(x, d, theta, const, positions).ravel()
         np.testing.assert_allclose(ours[:6], ref, rtol=MODEL_RTOL, atol=1e-10)
         np.testing.assert_array_equal(ours[6:], x[3:6])
 
@@ -186,7 +186,7 @@ def test_failure_becomes_result_with_time(flight):
     out = _kalman.FilterOutput(np.zeros((n, 18)), np.ones((n, 18)), np.eye(18), 7,
                                "covariance not positive definite (Cholesky failed)",
                                np.zeros((n, 9)))
-    res = est.result(flight, out, np.ones(9), n_evaluations=7)
+    res = est.result(flight, out, est.setup(flight), n_evaluations=7)
     assert not res.success
     assert f"t = {flight.t[7]:.4f} s" in res.message
     assert np.all(np.isnan(res.theta))

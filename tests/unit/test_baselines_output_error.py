@@ -42,7 +42,8 @@ def noisy_flight():
 
 @pytest.fixture(scope="module")
 def noisy_fit(noisy_flight):
-    return OutputErrorEstimator().fit(noisy_flight, rng=0)
+    # one noise level per channel: the Klein & Morelli form the numpy check below writes
+    return OutputErrorEstimator(noise_model="channel").fit(noisy_flight, rng=0)
 
 
 def test_recovers_noise_free_flight_from_wrong_prior(clean_flight):
@@ -95,12 +96,12 @@ def test_compiled_model_equals_casadi_virtual_machine(noisy_flight):
 
 
 def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit):
-    """(sum J^T R^-1 J)^-1 with J by finite differences of aeroid.propagate/accelerometers."""
+    """(sum J^T R^-1 J)^-1 with J by finite differences of aeroid.model.propagate/accelerometers."""
     res = noisy_fit
     assert res.success, res.message
     est = OutputErrorEstimator()
     prob = est.problem(noisy_flight)
-    const = aeroid.constants(noisy_flight.airframe)
+    const = aeroid.model.constants(noisy_flight.airframe)
     delta = noisy_flight["delta"]
     positions = noisy_flight.airframe.accel_positions
     phys = res.info["parameters"]  # 9 coefficients, then the p0, q0, r0 offsets
@@ -109,9 +110,9 @@ def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit
     def outputs(params):
         x0 = prob.model.x0.copy()
         x0[3:6] += params[9:12]
-        states = aeroid.propagate(x0, params[:9], delta[:-1], noisy_flight.dt, const,
+        states = aeroid.model.propagate(x0, params[:9], delta[:-1], noisy_flight.dt, const,
                                   substeps=est.substeps)[0]
-        acc = aeroid.accelerometers(states, delta, params[:9], const, positions)
+        acc = aeroid.model.accelerometers(states, delta, params[:9], const, positions)
         return np.concatenate([acc.reshape(-1, 6), states[:, 3:6]], axis=1)  # (n, 9)
 
     J = np.empty((noisy_flight.n_samples, 9, phys.size))
@@ -192,3 +193,21 @@ def test_options_are_checked():
         OutputErrorEstimator.from_options({"n_starts": "0"})
     est = OutputErrorEstimator.from_options({"estimate_rx1": "true", "max_iterations": "5"})
     assert est.estimate_rx1 and est.max_iterations == 5
+
+
+def test_signal_noise_model_recovers_its_variance_law():
+    # e ~ N(0, a + b y^2): the weighted NNLS of e^2 on [1, y^2] finds a and b
+    from baselines._gauss_newton import Problem
+
+    rng = np.random.default_rng(8)
+    n = 20000
+    y = 10.0 * np.sin(np.linspace(0.0, 60.0, n))
+    a, b = 0.04, 0.0009  # sd 0.2 at zero, 0.36 at the peaks
+    e = np.sqrt(a + b * y**2) * rng.standard_normal(n)
+    prob = Problem(z=(y + e)[:, None], model=None, r_floor=np.array([1e-12]),
+                   noise_model="signal")
+    var = prob.noise(e[:, None])[:, 0]
+    np.testing.assert_allclose(var, a + b * y**2, rtol=0.08)  # sd of e^2 fits ~1/sqrt(n)
+    # channel model: the mean
+    prob_c = Problem(z=(y + e)[:, None], model=None, r_floor=np.array([1e-12]))
+    np.testing.assert_allclose(prob_c.noise(e[:, None]), [np.mean(e * e)])

@@ -192,3 +192,12 @@ def test_exogenous_constants_are_element_wise_for_casadi(setup) -> None:
     values = np.arange(1.0, 1.0 + len(EXOGENOUS))
     expected = with_exogenous(const, values)
     np.testing.assert_array_equal(np.asarray(fun(values)).ravel(), np.array(expected))
+
+
+def test_a_jump_a_rounding_error_after_a_sample_is_at_the_sample() -> None:
+    # the knot snaps onto the sample: a jump there, not a ramp over the next interval
+    t = np.arange(5) * 0.1
+    pieces = Schedule(np.array([0, 0.2 + 1e-15, 0.2 + 1e-15]),
+                      np.array([1, 1, -1.0])).segments(t)
+    np.testing.assert_array_equal(pieces.start[:, 0], [1, 1, -1, -1])
+    np.testing.assert_array_equal(pieces.stop[:, 0], [1, 1, -1, -1])

@@ -25,6 +25,9 @@ from aeroid.model import (
 #: Noise-free recovery of the coefficients, output-error with the right inputs (2 RK4
 #: substeps against the 8 of the flight: the discretisation error, measured <= 3e-5).
 RECOVERY_RTOL = 1e-4
+#: The same for the EKF: its one 2 ms RK4 step per sample against the flight's 0.25 ms,
+#: with no process noise to absorb the difference (measured 1.2e-4).
+FILTER_RECOVERY_RTOL = 1e-3
 #: The delay [s] from a noise-free flight (the discretisation error again, measured 4e-9).
 DELAY_ATOL_S = 1e-7
 #: With the wrong inputs some coefficient is off by more than this (measured: Czq 5-60 %).
@@ -93,19 +96,18 @@ def test_switches_between_samples_need_the_events_input(reference_scenario, comm
     times = t[change] - rng.uniform(0.05, 0.95, change.size) * (t[1] - t[0])
     schedule = Schedule.events(delta[0], times, delta[change])
     flight = _flight(reference_scenario, schedule)
-    # measured: output-error events 6e-6, held Czq 80 %; EKF events 6e-6, held 0.2 % (its
-    # process noise on the rates absorbs part of the model error)
-    for name in ("output-error", "ekf"):
+    # measured: output-error events 6e-6, held Czq 80 %; EKF events 1.2e-4, held Clp 600 %
+    # (no process noise: nothing absorbs the wrong input, and the fit check flags it)
+    for name, tol in (("output-error", RECOVERY_RTOL), ("ekf", FILTER_RECOVERY_RTOL)):
         events = aeroid.make_estimator(name, {"input": "events"}).fit(flight, rng=1)
         held = aeroid.make_estimator(name, {"input": "hold"}).fit(flight, rng=1)
-        assert _worst(events, reference_scenario) < RECOVERY_RTOL, name
+        assert _worst(events, reference_scenario) < tol, name
         assert _worst(held, reference_scenario) > 100 * _worst(events, reference_scenario)
-    assert _worst(held, reference_scenario) > 1e-3
+        assert events.success and not held.success, name
     oe_held = aeroid.make_estimator("output-error").fit(flight, rng=1)
     assert _worst(oe_held, reference_scenario) > BIAS_FLOOR
     # ... and the held fit does not pass for a good one: the fit check flags it
     assert not oe_held.success and "does not fit the data" in oe_held.message
-    assert events.success
     # midpoint sits in between: its switch error is uniform within half an interval
     mid = aeroid.make_estimator("output-error", {"input": "midpoint"}).fit(flight, rng=1)
     assert _worst(mid, reference_scenario) < _worst(oe_held, reference_scenario)

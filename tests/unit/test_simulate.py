@@ -12,9 +12,10 @@ from aeroid.flights._flight import REQUIRED_CHANNELS
 from aeroid.flights._noise import NoNoise
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate
-from aeroid.model._actuator import RelayActuator
+from aeroid.model._actuator import FinLaw
 from aeroid.model._coefficients import NAMES, as_dict
 from aeroid.model._dynamics import air_data
+from aeroid.model._inputs import Schedule
 from aeroid.model._integrate import HAVE_NUMBA
 
 #: Noise-free flight versus tests/data/reference-flight-clean.csv (an independent
@@ -58,9 +59,9 @@ def test_window_and_sampling(clean_flight, reference_scenario):
 
 def test_recorded_delta_is_the_relay_at_each_sample(clean_flight, reference_scenario):
     airframe, manoeuvre = reference_scenario.airframe, reference_scenario.manoeuvre
-    relay = RelayActuator(delta_max_rad=airframe.delta_max_rad,
-                          command_amplitude=manoeuvre.command_amplitude,
-                          command_phase_rad=math.radians(manoeuvre.command_phase_deg))
+    relay = FinLaw(delta_max_rad=airframe.delta_max_rad,
+                   command_amplitude=manoeuvre.command_amplitude,
+                   command_phase_deg=manoeuvre.command_phase_deg)
     phi = clean_flight["phi"]
     np.testing.assert_array_equal(clean_flight["delta"], relay(phi))
     # the closed form of the relay law, sign(0) = +1
@@ -118,3 +119,18 @@ def test_bad_coefficients_raise_one_line(reference_scenario):
         simulate(reference_scenario.airframe, {"Cx": -1.0}, reference_scenario.manoeuvre)
     with pytest.raises(ValueError, match="last axis of length 9"):
         simulate(reference_scenario.airframe, np.zeros(8), reference_scenario.manoeuvre)
+
+
+def test_latched_flight_records_its_knots_and_switches(clean_flight):
+    meta = clean_flight.metadata
+    t, delta = clean_flight.t, clean_flight["delta"]
+    knots = Schedule(np.array(meta["delta_knots"]["t"]), np.array(meta["delta_knots"]["delta"]))
+    hold = Schedule.hold(t, delta)
+    fine = np.linspace(t[0], t[-1], 100_001)
+    np.testing.assert_array_equal(knots.at(fine), hold.at(fine))
+    # the relay switched at every change of the logged delta, and (from the sample before
+    # the window) at the window's first sample
+    change = np.concatenate([[0], np.flatnonzero(np.diff(delta)) + 1])
+    assert meta["command_switches"] == {"t": t[change].tolist(), "delta": delta[change].tolist()}
+    assert meta["actuator"] == {"command_amplitude": 0.5, "command_phase_deg": 60.0,
+                                "delay_s": 0.0, "evaluation": "latched"}
