@@ -16,6 +16,35 @@ so one weighted least-squares problem over all nine coefficients avoids invertin
 1. Channel weights are the inverse residual sds of a first unweighted-by-channel pass
 (two passes); standard errors from the weighted normal matrix.
 
+Roll coefficients, an information limit: both triads lie on the body x axis, so the
+accelerometers cannot see the roll acceleration (eq. 29 has rank 5) and the roll moment,
+with it Cl0 and Clp, comes from the differentiated p gyro alone (in both forms). No
+method that takes the roll moment from the p gyro beats the gyro-only Cramér-Rao floor
+(:func:`aeroid.estimation.gyro_only_floor`): on the reference flight 131 / 162 % of
+Cl0 / Clp under the paper's noise (sd; 104 / 129 % as a mean |error|) and 0.44 / 0.55 %
+with the Gaussian tactical IMU. Over 40 seeded flights the two-step method's mean
+|error| is 96 / 117 % (paper noise: at the floor) and 0.92 / 1.14 % (Gaussian: 2.6x the
+floor, the price of the 101-point derivative of p). ``info["gyro_only_floor"]`` holds
+each fit's floor, linearised at its own estimates with the p noise from the data.
+
+Smoothing default, by measurement (benchmarks/bench_equation_error.py, 40 seeded flights
+of the reference scenario per noise model; mean |error| over the nine coefficients and
+the coverage of the 95 % intervals)::
+
+    noise                     form       both          forces        none
+    paper (eq. 43, +-10 %)    two-step   61.9 %  0.76  49.0 %  0.72  46.7 %  0.75
+    Gaussian tactical IMU     two-step   1.22 %  0.91  3.43 %  0.73  1.22 %  0.92
+    none                      two-step   6e-4 %  1.00  2.30 %  0.78  6e-4 %  1.00
+    Gaussian tactical IMU     one-step   2.00 %  0.95  4.10 %  0.73  1.81 %  0.96
+    paper (eq. 43, +-10 %)    one-step   625 %   0.49  582 %   0.51  1060 %  0.48
+
+``"none"`` (the default) equals ``"both"`` on a Gaussian IMU and on noise-free data and
+is the best under the paper's noise, where smoothing raises the Cl0 / Clp error from
+96 / 117 % to 156 / 192 %. ``"forces"`` (the paper's way) biases the fin coefficients
+Czd, Cmd by ~7 % (targets smoothed, regressors not: the relay's steps are blurred in one
+and sharp in the other). Only the one-step form under the paper's noise does better
+smoothed, where every choice is thousands of percent off on Cl0 and Clp.
+
 Standard errors: SG smoothing (option ``smoothing``), the SG rate derivatives and the
 step-1 reconstruction colour the residuals, so ``sigma^2 (X^T X)^-1`` (option
 ``covariance="ols"``) gives intervals that are too narrow: over 50 Gaussian-noise
@@ -208,6 +237,19 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
     return theta, cov, corr, sigma2, cost
 
 
+def roll_floor(flight: Flight, theta: np.ndarray) -> dict[str, float]:
+    """Return the gyro-only floor of Cl0, Clp at ``theta`` with the data's p noise.
+
+    ``{"Cl0": sd, "Clp": sd, "p_noise_sd": sd of p [rad/s]}``
+    (:func:`aeroid.estimation.gyro_only_floor`).
+    """
+    p_sd = float(rc.estimate_noise_sd(flight["p"], use=rc.switch_free_samples(flight["delta"])))
+    floor = rc.gyro_only_floor(flight, theta, noise_sd=p_sd)
+    out = {name: float(v) for name, v in zip(rc.GYRO_FLOOR_NAMES, floor, strict=True)}
+    out["p_noise_sd"] = p_sd
+    return out
+
+
 @dataclass(frozen=True, kw_only=True)
 class EquationErrorEstimator(Estimator):
     """Closed-form equation-error least squares (EBM step 2 or one step on the sensors).
@@ -218,8 +260,9 @@ class EquationErrorEstimator(Estimator):
         Regress the accelerations and rate derivatives directly (default False: the
         two-step EBM regression).
     smoothing : {"both", "forces", "none"}
-        As in EBM (:func:`aeroid.estimation.ebm_regression`; default "both"). In the
-        one-step form "forces" smooths the targets only and "both" also the regressors.
+        As in EBM (:func:`aeroid.estimation.ebm_regression`; default "none", chosen by
+        measurement: module docstring). In the one-step form "forces" smooths the
+        targets only and "both" also the regressors.
     lateral_rows : bool
         Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's
         four sub-problems).
@@ -234,9 +277,11 @@ class EquationErrorEstimator(Estimator):
     -----
     ``info`` holds ``correlation`` (9, 9): the regressor correlation within each
     sub-problem (NaN across sub-problems; the full matrix in the one-step form),
-    ``collinear`` (pairs of names with ``|r| > 0.99``), ``sigma2`` per sub-problem
-    and ``subproblems``. ``cost`` is the total weighted residual sum of squares.
-    Nothing is random: ``rng`` is unused.
+    ``collinear`` (pairs of names with ``|r| > 0.99``), ``sigma2`` per sub-problem,
+    ``subproblems`` and ``gyro_only_floor``: the Cramér-Rao floor of Cl0 and Clp from
+    the p gyro alone (module docstring), name -> sd in coefficient units, and
+    ``p_noise_sd`` [rad/s], linearised at the estimates. ``cost`` is the total weighted
+    residual sum of squares. Nothing is random: ``rng`` is unused.
     """
 
     name: ClassVar[str] = "equation-error"
@@ -244,7 +289,7 @@ class EquationErrorEstimator(Estimator):
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 
     one_step: bool = False
-    smoothing: Literal["both", "forces", "none"] = "both"
+    smoothing: Literal["both", "forces", "none"] = "none"
     lateral_rows: bool = False
     covariance: Literal["hac", "ols"] = "hac"
 
@@ -268,7 +313,7 @@ class EquationErrorEstimator(Estimator):
         if self.lateral_rows:
             rows = tuple(sorted(rows + tuple(LATERAL.values())))
         info.update(rc.regression_fit(rec, X, y, theta, rows))
-        return self._result(theta, cov, corr, cost, info)
+        return self._result(flight, theta, cov, corr, cost, info)
 
     def _one_step(self, flight: Flight) -> EstimationResult:
         c, A = affine_accelerations(flight)
@@ -293,15 +338,17 @@ class EquationErrorEstimator(Estimator):
         info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"]}
         names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels
         info["fit_residuals"] = {name: resid[:, j] for j, name in enumerate(names)}
-        return self._result(theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
+        return self._result(flight, theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
 
-    def _result(self, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray, cost: float,
-                info: dict) -> EstimationResult:
+    def _result(self, flight: Flight, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray,
+                cost: float, info: dict) -> EstimationResult:
         names = aeroid.NAMES
         collinear = [(names[i], names[j], float(corr[i, j])) for i in range(9)
                      for j in range(i + 1, 9)
                      if np.isfinite(corr[i, j]) and abs(corr[i, j]) > COLLINEAR_R]
         info.update(correlation=corr, collinear=collinear)
+        if np.all(np.isfinite(theta)):
+            info["gyro_only_floor"] = roll_floor(flight, theta)
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=float(cost), success=True, message="", n_evaluations=1,
