@@ -14,7 +14,7 @@ import aeroid
 from aeroid import estimation
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import INPUTS, Flight, flight_record, model_constants
-from aeroid.model import Pieces, Record, symbolic
+from aeroid.model import Buffered, Pieces, Record, symbolic
 from baselines import _kalman
 
 SG_WINDOW = 7
@@ -78,13 +78,23 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
     f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying,
                                         free)
 
+    # numpy buffers shared with CasADi: no DM conversion per step (half the call's cost)
+    f_buf = Buffered(f, [np.zeros(n_aug), pieces_table[:, 0], exo_table[:, 0],
+                         exo_table[:, 1]])
+    h_buf = Buffered(h, [np.zeros(n_aug), delta[:1], exo_table[:, 0], pos_flat])
+
     def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        z_next, F = f(z, pieces_table[:, k], exo_table[:, k], exo_table[:, k + 1])
-        return np.asarray(z_next).ravel(), np.asarray(F)
+        f_buf.set(1, pieces_table[:, k])
+        f_buf.set(2, exo_table[:, k])
+        f_buf.set(3, exo_table[:, k + 1])
+        z_next, F = f_buf(z)
+        return z_next.copy(), F.reshape(n_aug, n_aug).T.copy()  # column-major buffer
 
     def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        y, H = h(z, delta[k], exo_table[:, k], pos_flat)
-        return np.asarray(y).ravel(), np.asarray(H)
+        h_buf.set(1, delta[k:k + 1])
+        h_buf.set(2, exo_table[:, k])
+        y, H = h_buf(z)
+        return y.copy(), H.reshape(n_aug, -1).T.copy()
 
     def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
         # numpy backend: one RK4 step of 37 sets is too little work for numba's parallel

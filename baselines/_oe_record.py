@@ -48,14 +48,19 @@ class RecordModel:
         self.n_graph = 9 + len(x0_free) + len(position_free)
         self.scale = np.asarray(scale, dtype=float)
         self._graphs: dict[int, tuple[Buffered, Buffered]] = {}
+        self._last: tuple[float, Record] | None = None
         self.compiled = False
         self._buffers(self.record(self.delay_s))  # build (and compile) the graph now
 
     # the record for a delay ----------------------------------------------------------
     def record(self, tau: float) -> Record:
-        """The flight's record with every knot delayed by ``tau`` [s]."""
+        """The flight's record with every knot delayed by ``tau`` [s] (the last one kept)."""
+        if self._last is not None and self._last[0] == tau:
+            return self._last[1]
         sched = self.schedule.shifted(tau) if tau else self.schedule
-        return Record.scheduled(sched, self.t, self.exogenous)
+        record = Record.scheduled(sched, self.t, self.exogenous)
+        self._last = (tau, record)
+        return record
 
     def tau(self, p: np.ndarray) -> float:
         """The delay [s] at parameters ``p`` (the fixed ``delay_s`` when not estimated)."""

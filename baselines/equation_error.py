@@ -16,13 +16,45 @@ so one weighted least-squares problem over all nine coefficients avoids invertin
 1. Channel weights are the inverse residual sds of a first unweighted-by-channel pass
 (two passes); standard errors from the weighted normal matrix.
 
+Roll coefficients, an information limit: both triads lie on the body x axis, so the
+accelerometers cannot see the roll acceleration (eq. 29 has rank 5) and the roll moment,
+with it Cl0 and Clp, comes from the differentiated p gyro alone (in both forms). No
+method that takes the roll moment from the p gyro beats the gyro-only Cramér-Rao floor
+(:func:`aeroid.estimation.gyro_only_floor`): on the reference flight 131 / 162 % of
+Cl0 / Clp under the paper's noise (sd; 104 / 129 % as a mean |error|) and 0.44 / 0.55 %
+with the Gaussian tactical IMU. Over 40 seeded flights the two-step method's mean
+|error| is 96 / 117 % (paper noise: at the floor) and 0.92 / 1.14 % (Gaussian: 2.6x the
+floor, the price of the 101-point derivative of p). ``info["gyro_only_floor"]`` holds
+each fit's floor, linearised at its own estimates with the p noise from the data.
+
+Smoothing default, by measurement (benchmarks/bench_equation_error.py, 40 seeded flights
+of the reference scenario per noise model; mean |error| over the nine coefficients and
+the coverage of the 95 % intervals)::
+
+    noise                     form       both          forces        none
+    paper (eq. 43, +-10 %)    two-step   61.9 %  0.76  49.0 %  0.72  46.7 %  0.75
+    Gaussian tactical IMU     two-step   1.22 %  0.91  3.43 %  0.73  1.22 %  0.92
+    none                      two-step   6e-4 %  1.00  2.30 %  0.78  6e-4 %  1.00
+    Gaussian tactical IMU     one-step   2.00 %  0.95  4.10 %  0.73  1.81 %  0.96
+    paper (eq. 43, +-10 %)    one-step   625 %   0.49  582 %   0.51  1060 %  0.48
+
+``"none"`` (the default) equals ``"both"`` on a Gaussian IMU and on noise-free data and
+is the best under the paper's noise, where smoothing raises the Cl0 / Clp error from
+96 / 117 % to 156 / 192 %. ``"forces"`` (the paper's way) biases the fin coefficients
+Czd, Cmd by ~7 % (targets smoothed, regressors not: the relay's steps are blurred in one
+and sharp in the other). Only the one-step form under the paper's noise does better
+smoothed, where every choice is thousands of percent off on Cl0 and Clp.
+
 Standard errors: SG smoothing (option ``smoothing``), the SG rate derivatives and the
 step-1 reconstruction colour the residuals, so ``sigma^2 (X^T X)^-1`` (option
 ``covariance="ols"``) gives intervals that are too narrow: over 50 Gaussian-noise
 flights its nominal 95 % intervals covered the truth in 59 % of coefficient-runs
 (two-step; 22 % for Cl0 and Clp) and 80 % (one-step). The default is therefore the
 Newey-West (HAC) covariance with a Bartlett window of twice the residuals' measured
-correlation length (tests/statistical/test_coverage.py gives the coverage).
+correlation length (tests/statistical/test_coverage.py gives the coverage), capped at
+:data:`baselines.newey_west.MAX_CORRELATION_LENGTH` samples; it costs O(n L) in the
+number of samples n and the bandwidth L (:mod:`baselines.newey_west`;
+benchmarks/bench_newey_west.py).
 """
 
 from __future__ import annotations
@@ -37,6 +69,11 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
+from baselines.newey_west import (
+    MAX_CORRELATION_LENGTH,
+    hac_covariance,
+    residual_correlation_length,
+)
 
 #: Regressor pairs with |correlation| above this are reported as collinear (Cl0/Clp on
 #: the reference flight: 0.9998).
@@ -61,62 +98,21 @@ def _correlation(A: np.ndarray) -> np.ndarray:
     return An.T @ An
 
 
-def residual_correlation_length(e: np.ndarray, cap: int) -> int:
-    """Return the first lag at which the residuals' autocorrelation is insignificant.
-
-    ``e`` has shape (n,) or (n, k) (k channels); the lag is the largest over the
-    channels of the first ``l`` with ``|acf(l)| < 2 / sqrt(n)`` (the white-noise 95 %
-    band), capped at ``cap``.
-    """
-    e = np.asarray(e, dtype=float).reshape(len(e), -1)
-    n = e.shape[0]
-    length = 1
-    for j in range(e.shape[1]):
-        x = e[:, j] - e[:, j].mean()
-        var = float(x @ x)
-        lag = cap
-        for lag_j in range(1, cap):
-            if var == 0.0 or abs(float(x[lag_j:] @ x[:-lag_j])) / var < 2.0 / np.sqrt(n):
-                lag = lag_j
-                break
-        length = max(length, lag)
-    return length
-
-
-def hac_covariance(A: np.ndarray, e: np.ndarray, n_time: int, lags: int) -> np.ndarray:
-    """Newey-West (Bartlett-kernel) covariance of least-squares estimates.
-
-    ``cov = (A^T A)^-1 S (A^T A)^-1`` with ``S = G_0 + sum_l w_l (G_l + G_l^T)``,
-    ``G_l = sum_t g_t g_{t-l}^T``, ``g_t`` the score of time sample ``t`` (its rows of
-    ``A`` times their residuals) and ``w_l = 1 - l / (lags + 1)``.
-
-    Parameters
-    ----------
-    A : ndarray, shape (n_time * k, p)
-        Regressors, time-major: the k rows of each time sample are consecutive.
-    e : ndarray, shape (n_time * k,)
-        Residuals.
-    n_time : int
-    lags : int
-    """
-    g = (A * e[:, None]).reshape(n_time, -1, A.shape[1]).sum(axis=1)
-    S = g.T @ g
-    for lag in range(1, min(lags, n_time - 1) + 1):
-        G = g[lag:].T @ g[:-lag]
-        S += (1.0 - lag / (lags + 1.0)) * (G + G.T)
-    bread = np.linalg.pinv(A.T @ A)
-    return bread @ S @ bread
-
-
 def _lstsq(A: np.ndarray, b: np.ndarray, *, n_time: int | None = None,
-           covariance: str = "hac") -> tuple[np.ndarray, np.ndarray, float]:
-    """Least squares with column scaling; returns (theta, covariance, residual variance).
+           covariance: str = "hac") -> tuple[np.ndarray, np.ndarray, float, dict]:
+    """Least squares with column scaling.
 
     ``covariance="ols"`` gives ``sigma^2 (A^T A)^-1`` (white residuals);
     ``"hac"`` the Newey-West covariance over ``n_time`` time samples (rows time-major)
     with the lag window set to twice the residuals' correlation length: Bartlett
     weights halve the autocovariance at ``lags / 2``, so a window of the correlation
-    length itself would count only about half of it.
+    length itself would count only about half of it. The correlation length is capped
+    at ``min(n_time // 4, MAX_CORRELATION_LENGTH)``.
+
+    Returns
+    -------
+    theta, covariance, residual variance, and ``{"lags": bandwidth, "capped": bool}``
+    (``lags`` 0 with ``"ols"``; ``capped``: the correlation length reached its cap).
     """
     scale = np.sqrt(np.sum(A * A, axis=0))
     scale[scale == 0] = 1.0
@@ -128,14 +124,18 @@ def _lstsq(A: np.ndarray, b: np.ndarray, *, n_time: int | None = None,
     As = A / scale
     if covariance == "hac":
         n_time = A.shape[0] if n_time is None else n_time
-        lags = 2 * residual_correlation_length(resid.reshape(n_time, -1), cap=n_time // 4)
+        cap = min(n_time // 4, MAX_CORRELATION_LENGTH)
+        length = residual_correlation_length(resid.reshape(n_time, -1), cap=cap)
+        lags = 2 * length
+        bandwidth = {"lags": lags, "capped": length >= cap}
         cov = hac_covariance(As, resid, n_time, lags) * (A.shape[0] / dof)
         cov = cov / np.outer(scale, scale)
     else:
         cov = sigma2 * np.linalg.pinv(As.T @ As) / np.outer(scale, scale)
+        bandwidth = {"lags": 0, "capped": False}
     if rank < A.shape[1]:
         cov[:] = np.nan
-    return theta, cov, sigma2
+    return theta, cov, sigma2, bandwidth
 
 
 def affine_accelerations(flight: Flight, states: np.ndarray | None = None
@@ -188,24 +188,40 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
         Residual variance (weighted units) per sub-problem.
     cost : float
         Total weighted residual sum of squares.
+    bandwidth : dict
+        Per sub-problem, the Newey-West bandwidth ``{"lags": int, "capped": bool}``
+        (:func:`_lstsq`).
     """
     theta = np.full(9, np.nan)
     cov = np.zeros((9, 9))
     corr = np.full((9, 9), np.nan)
-    sigma2, cost = {}, 0.0
+    sigma2, bandwidth, cost = {}, {}, 0.0
     for label, row, cols in SUBPROBLEMS:
         cols = list(cols)
         rows = [row] + ([LATERAL[label]] if lateral_rows and label in LATERAL else [])
         # time-major rows (the k rows of one sample consecutive), for the HAC covariance
         A = np.stack([X[:, r, cols] / sd[r] for r in rows], axis=1).reshape(-1, len(cols))
         b = np.stack([y[:, r] / sd[r] for r in rows], axis=1).reshape(-1)
-        th, cv, s2 = _lstsq(A, b, n_time=X.shape[0], covariance=covariance)
+        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=X.shape[0], covariance=covariance)
         theta[cols] = th
         cov[np.ix_(cols, cols)] = cv
         corr[np.ix_(cols, cols)] = _correlation(A)
         sigma2[label] = s2
         cost += s2 * max(A.shape[0] - len(cols), 1)
-    return theta, cov, corr, sigma2, cost
+    return theta, cov, corr, sigma2, cost, bandwidth
+
+
+def roll_floor(flight: Flight, theta: np.ndarray) -> dict[str, float]:
+    """Return the gyro-only floor of Cl0, Clp at ``theta`` with the data's p noise.
+
+    ``{"Cl0": sd, "Clp": sd, "p_noise_sd": sd of p [rad/s]}``
+    (:func:`aeroid.estimation.gyro_only_floor`).
+    """
+    p_sd = float(rc.estimate_noise_sd(flight["p"], use=rc.switch_free_samples(flight["delta"])))
+    floor = rc.gyro_only_floor(flight, theta, noise_sd=p_sd)
+    out = {name: float(v) for name, v in zip(rc.GYRO_FLOOR_NAMES, floor, strict=True)}
+    out["p_noise_sd"] = p_sd
+    return out
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -218,8 +234,9 @@ class EquationErrorEstimator(Estimator):
         Regress the accelerations and rate derivatives directly (default False: the
         two-step EBM regression).
     smoothing : {"both", "forces", "none"}
-        As in EBM (:func:`aeroid.estimation.ebm_regression`; default "both"). In the
-        one-step form "forces" smooths the targets only and "both" also the regressors.
+        As in EBM (:func:`aeroid.estimation.ebm_regression`; default "none", chosen by
+        measurement: module docstring). In the one-step form "forces" smooths the
+        targets only and "both" also the regressors.
     lateral_rows : bool
         Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's
         four sub-problems).
@@ -234,9 +251,13 @@ class EquationErrorEstimator(Estimator):
     -----
     ``info`` holds ``correlation`` (9, 9): the regressor correlation within each
     sub-problem (NaN across sub-problems; the full matrix in the one-step form),
-    ``collinear`` (pairs of names with ``|r| > 0.99``), ``sigma2`` per sub-problem
-    and ``subproblems``. ``cost`` is the total weighted residual sum of squares.
-    Nothing is random: ``rng`` is unused.
+    ``collinear`` (pairs of names with ``|r| > 0.99``), ``sigma2`` per sub-problem,
+    ``subproblems`` and ``gyro_only_floor``: the Cramér-Rao floor of Cl0 and Clp from
+    the p gyro alone (module docstring), name -> sd in coefficient units, and
+    ``p_noise_sd`` [rad/s], linearised at the estimates; ``hac_bandwidth`` per
+    sub-problem, the Newey-West bandwidth ``{"lags", "capped"}`` (a capped one is also a
+    warning). ``cost`` is the total weighted residual sum of squares. Nothing is random:
+    ``rng`` is unused.
     """
 
     name: ClassVar[str] = "equation-error"
@@ -244,7 +265,7 @@ class EquationErrorEstimator(Estimator):
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 
     one_step: bool = False
-    smoothing: Literal["both", "forces", "none"] = "both"
+    smoothing: Literal["both", "forces", "none"] = "none"
     lateral_rows: bool = False
     covariance: Literal["hac", "ols"] = "hac"
 
@@ -259,16 +280,16 @@ class EquationErrorEstimator(Estimator):
             return self._one_step(flight)
         rec = rc.reconstruct(flight)
         X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
-        theta, cov, corr, sigma2, cost = solve_subproblems(X, y, rc.estimate_noise_sd(rec.fm),
-                                                           lateral_rows=self.lateral_rows,
-                                                           covariance=self.covariance)
+        theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
+            X, y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
+            covariance=self.covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
-                "reconstruction_rank": rec.rank}
+                "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
         rows = tuple(row for _, row, _ in SUBPROBLEMS)
         if self.lateral_rows:
             rows = tuple(sorted(rows + tuple(LATERAL.values())))
         info.update(rc.regression_fit(rec, X, y, theta, rows))
-        return self._result(theta, cov, corr, cost, info)
+        return self._result(flight, theta, cov, corr, cost, info)
 
     def _one_step(self, flight: Flight) -> EstimationResult:
         c, A = affine_accelerations(flight)
@@ -285,24 +306,32 @@ class EquationErrorEstimator(Estimator):
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
             Aw = (A / sd[None, :, None]).reshape(-1, 9)
             bw = (target / sd[None, :]).reshape(-1)
-            theta, cov, s2 = _lstsq(Aw, bw, n_time=n, covariance=self.covariance)
+            theta, cov, s2, bandwidth = _lstsq(Aw, bw, n_time=n, covariance=self.covariance)
             resid = target - np.einsum("noc,c->no", A, theta)
             sd = np.sqrt(np.mean(resid * resid, axis=0))
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
         corr = _correlation(Aw)
-        info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"]}
+        info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"],
+                "hac_bandwidth": {"one_step": bandwidth}}
         names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels
         info["fit_residuals"] = {name: resid[:, j] for j, name in enumerate(names)}
-        return self._result(theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
+        return self._result(flight, theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
 
-    def _result(self, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray, cost: float,
-                info: dict) -> EstimationResult:
+    def _result(self, flight: Flight, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray,
+                cost: float, info: dict) -> EstimationResult:
         names = aeroid.NAMES
         collinear = [(names[i], names[j], float(corr[i, j])) for i in range(9)
                      for j in range(i + 1, 9)
                      if np.isfinite(corr[i, j]) and abs(corr[i, j]) > COLLINEAR_R]
         info.update(correlation=corr, collinear=collinear)
+        if np.all(np.isfinite(theta)):
+            info["gyro_only_floor"] = roll_floor(flight, theta)
+        capped = [label for label, bw in info["hac_bandwidth"].items() if bw["capped"]]
+        warnings = tuple(
+            f"residuals of {label} stay correlated beyond the Newey-West cap "
+            f"({info['hac_bandwidth'][label]['lags'] // 2} samples; model misfit?): its "
+            "standard errors are not reliable" for label in capped)
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=float(cost), success=True, message="", n_evaluations=1,
-            n_iterations=1, info=info)
+            n_iterations=1, info=info, warnings=warnings)

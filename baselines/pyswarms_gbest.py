@@ -94,12 +94,21 @@ class PyswarmsEstimator(Estimator):
     input : {"hold", "midpoint", "events", "law"}
         EAM objective only: how the deflection between samples is modelled (default
         ``hold``; :data:`aeroid.flights.INPUTS`).
+    polish : bool
+        Finish with a least-squares solve of the same objective from the swarm's best
+        point, within the box (default False; :func:`aeroid.estimation.polish`): exact
+        bounded least squares for EBM, trust-region least squares for EAM.
+    polish_initial_rates : bool
+        EAM objective with ``polish`` only: also fit the initial body rates p, q, r
+        (default True, as EAM-PSO).
 
     Notes
     -----
     ``history`` (axis "iteration") holds pyswarms' best cost per iteration and the best
     position after the run only at the last step (pyswarms keeps no position history
-    of the global best; ``theta`` rows before the last repeat the final best).
+    of the global best; ``theta`` rows before the last repeat the final best). With
+    ``polish`` the history stays the swarm's and ``info["polish"]`` holds the swarm's and
+    the polished cost.
     """
 
     name: ClassVar[str] = "pyswarms"
@@ -115,6 +124,8 @@ class PyswarmsEstimator(Estimator):
     smoothing: Literal["both", "forces", "none"] = "both"
     v_max: float = 0.2
     input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    polish: bool = False
+    polish_initial_rates: bool = True
 
     def __post_init__(self) -> None:
         if self.objective not in ("ebm", "eam"):
@@ -134,10 +145,12 @@ class PyswarmsEstimator(Estimator):
                                        smoothing=self.smoothing)
         return estimation.OutputErrorCost(flight, weighting=self.weighting, input=self.input)
 
-    def fit_entries(self, flight: Flight, cost, theta: np.ndarray) -> dict:
-        """Residuals of the objective's model at ``theta`` for the fit check."""
+    def fit_entries(self, flight: Flight, cost, theta: np.ndarray,
+                    state0: np.ndarray | None = None) -> dict:
+        """Residuals of the objective's model at ``theta`` for the fit check (EAM: simulated
+        from ``state0``, default the cost's)."""
         if self.objective == "eam":
-            predicted = cost.predict(theta)[0]
+            predicted = cost.predict(theta, state0)[0]
             return {"fit_residuals": {name: cost.measured[:, j] - predicted[:, j]
                                       for j, name in enumerate(estimation.EAM_OUTPUTS)}}
         rec = estimation.reconstruct(flight)
@@ -173,11 +186,22 @@ class PyswarmsEstimator(Estimator):
         history = {"axis": "iteration", "step": np.arange(1, len(hist_cost) + 1),
                    "theta": np.tile(theta, (len(hist_cost), 1)), "cost": hist_cost}
         info = {"objective": self.objective, "bounds": bounds}
-        info.update(self.fit_entries(flight, cost, theta))
+        message, warnings, state0 = f"{self.n_iterations} iterations", (), None
+        if self.polish and np.isfinite(best_cost):
+            polished = estimation.polish(cost, bounds, theta,
+                                         initial_rates=self.polish_initial_rates)
+            theta, best_cost, state0 = polished.theta, polished.cost, polished.state0
+            count["n"] += polished.n_evaluations
+            message += f"; polished: {polished.message}"
+            info["polish"] = estimation.polish_info(polished)
+            if not polished.converged:
+                warnings = (f"polish did not converge ({polished.message}): the answer may "
+                            "not be the optimum of the objective",)
+        info.update(self.fit_entries(flight, cost, theta, state0))
         return EstimationResult(
             estimator=self.name, theta=theta, cost=float(best_cost),
             success=bool(np.isfinite(best_cost)),
-            warnings=estimation.box_edge_warnings(theta, bounds),
-            message=f"{self.n_iterations} iterations", n_evaluations=count["n"],
+            warnings=estimation.box_edge_warnings(theta, bounds) + warnings,
+            message=message, n_evaluations=count["n"],
             n_iterations=self.n_iterations, history=history,
             info=info)

@@ -50,7 +50,7 @@ from scipy.optimize import least_squares  # noqa: E402
 import aeroid  # noqa: E402
 from aeroid.estimation import _reconstruct as rc  # noqa: E402
 from aeroid.flights._noise import PaperNoise  # noqa: E402
-from aeroid.flights._scenario import reference_scenario  # noqa: E402
+from aeroid.flights._scenario import load_scenario, reference_scenario  # noqa: E402
 from aeroid.flights._simulate import simulate_scenario  # noqa: E402
 from baselines.ekf import ExtendedKalmanEstimator  # noqa: E402
 from baselines.equation_error import EquationErrorEstimator, solve_subproblems  # noqa: E402
@@ -59,6 +59,8 @@ from baselines.pyswarms_gbest import PyswarmsEstimator  # noqa: E402
 from baselines.ukf import UnscentedKalmanEstimator  # noqa: E402
 
 SEED = 2026
+ROOT = Path(__file__).resolve().parents[1]
+CONTINUOUS = ROOT / "studies" / "scenarios" / "continuous_relay.toml"
 #: least_squares method: MINPACK's Levenberg-Marquardt; "trf" spent most of its time in a
 #: dense SVD of the 4509 x 15 Jacobian per iteration and was ~2x slower here (measured).
 LS_METHOD = "lm"
@@ -153,10 +155,15 @@ def main(argv=None):
     repeats = 2 if args.quick else args.repeats
 
     flight = simulate_scenario(reference_scenario(), PaperNoise(), rng=SEED)
+    relay = simulate_scenario(load_scenario(CONTINUOUS), PaperNoise(), rng=SEED)
     truth = flight.true_coefficients
+    known = {"noise_model": "channel", "positions": "known"}
     cases = [
-        ("output-error", OutputErrorEstimator(), repeats, "<= 0.2 s"),
-        ("output-error estimate_rx1", OutputErrorEstimator(estimate_rx1=True), repeats, ""),
+        ("output-error", OutputErrorEstimator(**known), repeats, "<= 0.2 s"),
+        ("output-error defaults (positions estimate, signal noise)", OutputErrorEstimator(),
+         repeats, "<= 0.1 s"),
+        ("output-error estimate_rx1", OutputErrorEstimator(estimate_rx1=True, **known),
+         repeats, ""),
         ("ekf", ExtendedKalmanEstimator(), repeats, "<= 1 s"),
         ("ukf", UnscentedKalmanEstimator(), max(repeats // 2, 2), "<= 2 s"),
         ("equation-error", EquationErrorEstimator(), repeats * 3, "<= 5 ms"),
@@ -166,10 +173,18 @@ def main(argv=None):
     if not args.quick:
         cases.append(("pyswarms eam (450 x 200)", PyswarmsEstimator(objective="eam"), 1,
                       "paper budget"))
+    # the continuous relay (switches between log samples): each input option's cost
+    cases += [(f"continuous relay: output-error input={inp}", OutputErrorEstimator(input=inp),
+               repeats, "<= 0.1 s") for inp in ("hold", "midpoint", "events", "law")]
+    cases += [("continuous relay: output-error input=midpoint estimate_delay",
+               OutputErrorEstimator(input="midpoint", estimate_delay=True), repeats, ""),
+              ("continuous relay: ekf input=law", ExtendedKalmanEstimator(input="law"),
+               repeats, "<= 1 s")]
     rows, details = [], []
     results = {}
     for label, est, n, target in cases:
-        res, times = timed(lambda est=est: est.fit(flight, rng=0), n)
+        data = relay if label.startswith("continuous relay") else flight
+        res, times = timed(lambda est=est, data=data: est.fit(data, rng=0), n)
         results[label] = res
         err, se = describe(res, truth)
         rows.append((label, statistics.median(times), min(times), n, target, res))
@@ -222,7 +237,12 @@ def main(argv=None):
         "",
         f"Flight: reference scenario, paper noise (eq. 43, incl. the 10 % sensor-position "
         f"error), seed {SEED}; prior = nominal coefficients (the reference airframe has no "
-        "[prior] table), which are also the truth.",
+        "[prior] table), which are also the truth. Rows 'continuous relay': the same with "
+        f"the relay switched continuously ({CONTINUOUS.relative_to(ROOT)}), the deflection "
+        "logged at the samples (input options of the estimators: hold, midpoint, events = "
+        "the simulator's switch instants, law = the airframe's fin law). The row "
+        "'output-error' is run with one noise level per channel and known positions (the "
+        "least_squares comparison's model); its defaults have a row of their own.",
         "",
         "## Wall time per fit",
         "",

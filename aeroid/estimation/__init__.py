@@ -1,20 +1,23 @@
 """Estimation: the Estimator interface and registry, objectives, reconstruction, PSO, floor.
 
 This is the plug-in tier: a third-party estimator subclasses :class:`Estimator` and may
-use the objectives, the EBM reconstruction, the PSO, :func:`report_progress` and
-:func:`box_edge_warnings` defined here.
+use the objectives, the EBM reconstruction, the PSO and its :func:`polish`,
+:func:`report_progress` and :func:`box_edge_warnings` defined here.
 
 Modules, one job each (imports point down the list, never up): ``_result`` (the result
 type), ``_options`` (option values from text, option descriptions), ``_progress``
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
-``_reconstruct``, ``_objectives``, ``_floor``, ``_pso_methods`` (what the paper's methods
-share), and the methods ``_eam``, ``_ebm``, ``_sebm``, which import none of one another.
+``_reconstruct``, ``_objectives``, ``_floor``, ``_gyro_floor`` (what the p gyro alone
+tells of Cl0, Clp), ``_polish`` (from a swarm's best point to the optimum of its
+objective), ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``,
+``_ebm``, ``_sebm``, which import none of one another.
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._floor import cramer_rao_sd
+from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -26,6 +29,7 @@ from aeroid.estimation._objectives import (
     sebm_costs,
 )
 from aeroid.estimation._options import OptionInfo
+from aeroid.estimation._polish import Polished, polish, polish_info
 from aeroid.estimation._progress import ProgressEvent, report_progress
 from aeroid.estimation._pso import PSOResult, minimize
 from aeroid.estimation._pso_methods import MAX_ITERATIONS, MAX_PARTICLES
@@ -68,6 +72,7 @@ __all__ = [
     "EBM_ROWS",
     "EDGE_FRACTION",
     "ENTRY_POINT_GROUP",
+    "GYRO_FLOOR_NAMES",
     "EstimationResult",
     "Estimator",
     "MAX_ITERATIONS",
@@ -75,6 +80,7 @@ __all__ = [
     "OptionInfo",
     "OutputErrorCost",
     "PSOResult",
+    "Polished",
     "ProgressEvent",
     "QuadraticCost",
     "Reconstruction",
@@ -90,9 +96,12 @@ __all__ = [
     "estimate_noise_sd",
     "failed_result",
     "get_estimator",
+    "gyro_only_floor",
     "load_errors",
     "make_estimator",
     "minimize",
+    "polish",
+    "polish_info",
     "prior_bounds",
     "rate_derivatives",
     "reconstruct",

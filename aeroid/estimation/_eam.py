@@ -19,6 +19,7 @@ from aeroid.estimation._objectives import (
     GUARD_FRACTION,
     OutputErrorCost,
 )
+from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
     MAX_SUBSTEPS,
     check_common_options,
@@ -78,6 +79,25 @@ class EAMPSO(Estimator):
         latched relay; :data:`aeroid.flights.INPUTS`).
     delay_s : float
         A known actuator delay [s] applied to that deflection (default 0).
+    polish : bool
+        Finish with a least-squares solve of the same output error from the swarm's best
+        point, within the box (default False, the paper's method; see Notes).
+    polish_initial_rates : bool
+        With ``polish``: also fit the initial body rates p, q, r (default True; see Notes).
+
+    Notes
+    -----
+    ``polish`` (:mod:`aeroid.estimation._polish`): trust-region reflective least squares
+    (:func:`scipy.optimize.least_squares`) of the weighted output errors, the Jacobian
+    by central differences of the batched model. ``info["polish"]`` holds the swarm's
+    and the polished cost. The initial rates are the smoothed measured ones
+    (``initial_state``); held there, the objective's optimum itself is off on a
+    noise-free flight (Cl0, Clp 0.43 / 0.51 %, Cmq 0.20 %, measured from a 2.7e-3 rad/s
+    error of the smoothed p0), so by default the polish fits them too, as nuisance
+    parameters: noise-free within 0.015 % on every coefficient; on 8 seeded flights,
+    mean |error| from 2.7 % to 1.1 % (Gaussian IMU) and 14.8 % to 4.7 % (paper noise).
+    ``info["state0"]`` is then the fitted initial state and ``cost`` the output error
+    from it. benchmarks/results/polish.md has the measurements.
     """
 
     name: ClassVar[str] = "eam-pso"
@@ -98,6 +118,8 @@ class EAMPSO(Estimator):
     roll_window: int = EAM_ROLL_WINDOW
     input: Literal["hold", "midpoint", "events", "law"] = "hold"
     delay_s: float = 0.0
+    polish: bool = False
+    polish_initial_rates: bool = True
 
     def __post_init__(self) -> None:
         check_common_options(self)
@@ -132,14 +154,17 @@ class EAMPSO(Estimator):
                                initial_state=self.initial_state, roll_window=self.roll_window,
                                input=self.input, delay_s=self.delay_s)
         x0 = flight.airframe.prior_vector()[None, :] if self.warm_start else None
-        res, warnings = run_pso(self, cost, bounds, rng, n_particles=self.n_particles, x0=x0,
-                                stall_iterations=self.stall_iterations)
+        res, warnings, polished = run_pso(self, cost, bounds, rng, n_particles=self.n_particles,
+                                          x0=x0, stall_iterations=self.stall_iterations)
+        state0 = cost.state0 if polished is None or polished.state0 is None else polished.state0
         info: dict[str, Any] = {
             "weighting": self.weighting, "n_particles": self.n_particles,
             "bounds": bounds, "t": flight.t, "outputs": ("ax1", "ay1", "az1", "p", "q", "r"),
-            "measured": cost.measured, "predicted": cost.predict(res.x)[0],
-            "state0": cost.state0, "initial_state": self.initial_state,
+            "measured": cost.measured, "predicted": cost.predict(res.x, state0)[0],
+            "state0": state0, "initial_state": self.initial_state,
         }
+        if polished is not None:
+            info["polish"] = polish_info(polished)
         info["fit_residuals"] = {name: info["measured"][:, j] - info["predicted"][:, j]
                                  for j, name in enumerate(info["outputs"])}
         return EstimationResult(

@@ -17,6 +17,7 @@ import numpy as np
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._objectives import EBM_ROWS, GUARD_FRACTION, ebm_cost
+from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
     check_common_options,
     check_step_one_options,
@@ -76,6 +77,10 @@ class EBMPSO(Estimator):
         Step 1: Savitzky-Golay window of the pitch and yaw rate derivatives [samples].
     roll_derivative_window : int
         Step 1: Savitzky-Golay window of the roll rate derivative [samples].
+    polish : bool
+        Finish with the exact minimum of the same cost over the box (default False, the
+        paper's method): bounded least squares on the quadratic form
+        (:mod:`aeroid.estimation._polish`); ``info["polish"]`` holds both costs.
     """
 
     name: ClassVar[str] = "ebm-pso"
@@ -95,6 +100,7 @@ class EBMPSO(Estimator):
     smoothing_window: int = SMOOTHING_WINDOW
     derivative_window: int = DERIVATIVE_WINDOW
     roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
+    polish: bool = False
 
     def __post_init__(self) -> None:
         check_common_options(self)
@@ -108,11 +114,13 @@ class EBMPSO(Estimator):
         cost = ebm_cost(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
                         rows=rows, guard_fraction=self.guard_fraction)
         bounds = prior_bounds(flight.airframe, self.box)
-        res, warnings = run_pso(self, cost, bounds, rng, n_particles=self.n_particles)
+        res, warnings, polished = run_pso(self, cost, bounds, rng, n_particles=self.n_particles)
         info = reconstruction_info(rec)
         info.update({"weighting": self.weighting, "smoothing": self.smoothing,
                      "rows": rows, "n_particles": self.n_particles, "bounds": bounds,
                      "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min})
+        if polished is not None:
+            info["polish"] = polish_info(polished)
         X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
         info.update(regression_fit(rec, X, y, res.x, tuple(rows)))
         return EstimationResult(

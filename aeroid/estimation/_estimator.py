@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
-from aeroid.estimation._fitcheck import apply_fit_check, floor_warnings
+from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
@@ -98,11 +98,12 @@ class Estimator(abc.ABC):
         if result.success and not np.all(np.isfinite(result.theta)):
             result = dataclasses.replace(result, success=False,
                                          message=result.message or "non-finite estimate")
-        result = apply_fit_check(result, flight)
+        levels = data_noise_levels(flight) if result.success else None  # one smoother pass
+        result = apply_fit_check(result, flight, levels)
         info = dict(result.info)
         info.setdefault("options", self.options())
         result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
-        extra = floor_warnings(result, flight)
+        extra = floor_warnings(result, flight, levels)
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
         return result

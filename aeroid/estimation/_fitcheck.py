@@ -33,6 +33,7 @@ import numpy as np
 from aeroid.estimation._result import EstimationResult
 from aeroid.estimation._signals import estimate_noise_sd, switch_free_samples
 from aeroid.flights import Flight
+from aeroid.model import OUTPUT_CHANNELS
 
 #: A residual RMS above this many times the data's noise level fails the fit. Measured on
 #: fits whose model is right (reference flight, Gaussian noise): 0.9-1.2 for output-error,
@@ -45,17 +46,39 @@ RATIO_LIMIT = 3.0
 RESOLUTION = 1e-3
 
 
-def data_noise_sd(flight: Flight, signal: np.ndarray) -> float:
+def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
     """A channel's noise level from the data alone: the RMS of its 7-point smoother
-    residual away from relay switches (the accelerations jump there)."""
-    use = switch_free_samples(flight["delta"]) if signal.size == flight.n_samples else None
-    return float(estimate_noise_sd(signal, statistic="rms", use=use))
+    residual away from relay switches (the accelerations jump there).
+
+    ``signal`` of shape (n,) gives a float; (n, m) (m channels at once, one smoother
+    pass) an array of shape (m,).
+    """
+    signal = np.asarray(signal, dtype=float)
+    use = switch_free_samples(flight["delta"]) if signal.shape[0] == flight.n_samples \
+        else None
+    sd = estimate_noise_sd(signal, statistic="rms", use=use)
+    return float(sd) if signal.ndim == 1 else sd
+
+
+def data_noise_levels(flight: Flight, names: tuple[str, ...] = OUTPUT_CHANNELS,
+                      ) -> dict[str, float]:
+    """Return :func:`data_noise_sd` of every channel of ``names`` present (one pass)."""
+    present = tuple(name for name in names if name in flight.channels)
+    if not present:
+        return {}
+    sd = data_noise_sd(flight, flight._columns(present))
+    return dict(zip(present, (float(v) for v in sd), strict=True))
 
 
 def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
               signals: Mapping[str, np.ndarray] | None = None,
-              noise_sd: Mapping[str, float] | None = None) -> dict[str, Any]:
+              noise_sd: Mapping[str, float] | None = None,
+              levels: Mapping[str, float] | None = None) -> dict[str, Any]:
     """Return the fit check of residuals against the data's noise levels.
+
+    ``noise_sd`` are the method's own levels for its channels; ``levels`` the data's
+    levels of flight channels already computed (:func:`data_noise_levels`); any other
+    channel's level is computed here.
 
     Returns
     -------
@@ -65,12 +88,18 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
     """
     signals = dict(signals or {})
     given = dict(noise_sd or {})
+    known = dict(levels or {})
     rms, sd, ratio = {}, {}, {}
     for name, res in residuals.items():
         res = np.asarray(res, dtype=float)
         signal = np.asarray(signals[name] if name in signals else flight[name], dtype=float)
         level = float(np.sqrt(np.mean(signal * signal)))
-        estimate = given[name] if name in given else data_noise_sd(flight, signal)
+        if name in given:
+            estimate = given[name]
+        elif name in known and name not in signals:
+            estimate = known[name]
+        else:
+            estimate = data_noise_sd(flight, signal)
         noise = max(estimate, RESOLUTION * level, np.finfo(float).tiny)
         rms[name] = float(np.sqrt(np.mean(res * res)))
         sd[name] = noise
@@ -80,13 +109,17 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
             "limit": RATIO_LIMIT}
 
 
-def apply_fit_check(result: EstimationResult, flight: Flight) -> EstimationResult:
-    """Return ``result`` with ``info["fit_check"]``, failed when the model does not fit."""
+def apply_fit_check(result: EstimationResult, flight: Flight,
+                    levels: Mapping[str, float] | None = None) -> EstimationResult:
+    """Return ``result`` with ``info["fit_check"]``, failed when the model does not fit.
+
+    ``levels``: the data's noise levels already computed (:func:`data_noise_levels`).
+    """
     residuals = result.info.get("fit_residuals")
     if not residuals:
         return result
     check = fit_check(flight, residuals, result.info.get("fit_signals"),
-                      result.info.get("fit_noise_sd"))
+                      result.info.get("fit_noise_sd"), levels)
     info = {k: v for k, v in result.info.items()
             if k not in ("fit_residuals", "fit_signals", "fit_noise_sd")}
     info["fit_check"] = check
@@ -108,14 +141,15 @@ FLOOR_FRACTION = 0.5
 
 
 def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: A002
-               ) -> np.ndarray | None:
+               levels: Mapping[str, float] | None = None) -> np.ndarray | None:
     """Return the Cramér-Rao floor of the nine coefficients at ``theta`` from the data.
 
     The output-error information of the flight's record (both triads and the rates,
     initial rates estimated as nuisance) with each channel's noise level estimated from
     the data (:func:`aeroid.estimation.estimate_noise_sd`); None when the data are
     noise-free (every channel at the :data:`RESOLUTION` floor: no floor to compare with)
-    or the model diverges.
+    or the model diverges. ``levels``: the data's noise levels already computed
+    (:func:`data_noise_levels`).
     """
     from aeroid.estimation._floor import coefficient_information, information_from_sensitivities
     from aeroid.estimation._signals import smooth
@@ -127,10 +161,13 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
                          substeps=2)
     sd = np.empty(len(model.output_names))
     noisy = False
+    known = dict(levels or {})
+    missing = tuple(name for name in model.output_names if name not in known)
+    known.update(data_noise_levels(flight, missing) if missing else {})
     for j, name in enumerate(model.output_names):
         signal = flight[name]
         level = RESOLUTION * float(np.sqrt(np.mean(signal * signal)))
-        estimate = data_noise_sd(flight, signal)
+        estimate = known[name]
         noisy |= estimate > level
         sd[j] = max(estimate, 1e-3 * level)  # a clean channel is worth much, not infinitely
     if not noisy:
@@ -151,12 +188,13 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
         return None
 
 
-def floor_warnings(result: EstimationResult, flight: Flight) -> tuple[str, ...]:
+def floor_warnings(result: EstimationResult, flight: Flight,
+                   levels: Mapping[str, float] | None = None) -> tuple[str, ...]:
     """Warnings for standard errors below :data:`FLOOR_FRACTION` of :func:`data_floor`."""
     if result.stderr is None or not result.success:
         return ()
     options = result.info.get("options", {})
-    floor = data_floor(flight, result.theta, options.get("input", "hold"))
+    floor = data_floor(flight, result.theta, options.get("input", "hold"), levels)
     if floor is None:
         return ()
     low = [f"{name} ({se:.3g} < {f:.3g})"

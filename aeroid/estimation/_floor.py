@@ -76,14 +76,16 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+import pandas as pd
 
+from aeroid.errors import AeroidError, EstimatorError
 from aeroid.flights._flight import Flight
 from aeroid.flights._noise import GaussianNoise, NoiseModel, NoNoise, PaperNoise
 from aeroid.flights._record import flight_record
 from aeroid.flights._scenario import Scenario
 from aeroid.flights._simulate import simulate
 from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import N_COEFFICIENTS, as_vector
+from aeroid.model._coefficients import N_COEFFICIENTS, NAMES, as_vector
 from aeroid.model._dynamics import OUTPUT_CHANNELS, constants
 from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
 from aeroid.model._inputs import Record
@@ -394,10 +396,32 @@ def cramer_rao_sd(
 
     Returns
     -------
-    ndarray, shape (9,)
-        ``sqrt(diag(F^-1))`` in :data:`aeroid.model.NAMES` order (same units as the
-        coefficients). Divide by ``|theta|`` for a relative floor.
+    pandas.Series, 9 values
+        ``sqrt(diag(F^-1))`` indexed by the coefficient names (same units as the
+        coefficients; ``.to_numpy()`` gives them in :data:`aeroid.model.NAMES` order).
+        Divide by ``|theta|`` for a relative floor.
+
+    Raises
+    ------
+    EstimatorError
+        One line for a bad option or a flight without its truth.
     """
+    try:
+        sd = _cramer_rao_sd(scenario_or_flight, noise_model, positions, noise_form, channels,
+                            estimate_initial, input)
+    except AeroidError:
+        raise
+    except (TypeError, ValueError, np.linalg.LinAlgError) as exc:
+        text = " ".join(str(exc).split())
+        raise EstimatorError(text if text.startswith("cramer_rao_sd") else
+                             f"cramer_rao_sd: {text}") from None
+    return pd.Series(sd, index=list(NAMES), name="cramer_rao_sd")
+
+
+def _cramer_rao_sd(scenario_or_flight: Scenario | Flight, noise_model: NoiseModel,
+                   positions: str, noise_form: str, channels: str,
+                   estimate_initial: tuple[str, ...], input: str,  # noqa: A002
+                   ) -> np.ndarray:
     if isinstance(scenario_or_flight, Scenario):
         flight = simulate(scenario_or_flight.airframe, scenario_or_flight.coefficient_vector,
                           scenario_or_flight.manoeuvre, NoNoise(), rng=0)
@@ -426,3 +450,4 @@ def cramer_rao_sd(
                                     channels=channels, estimate_initial=estimate_initial)
     cov = np.linalg.inv(info)
     return np.sqrt(np.diag(cov))
+

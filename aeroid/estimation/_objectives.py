@@ -40,7 +40,7 @@ from aeroid.estimation._signals import estimate_noise_sd, smooth
 from aeroid.flights._flight import Flight
 from aeroid.flights._record import flight_record, model_constants
 from aeroid.model._dynamics import PHI, THETA, P, Q, R
-from aeroid.model._forward import ForwardModel
+from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
 
 __all__ = [
     "EAM_OUTPUTS",
@@ -336,12 +336,42 @@ class OutputErrorCost:
         """Return the predicted states, shape (P, n, 9)."""
         return self.model.states(self.state0, theta)
 
-    def predict(self, theta: np.ndarray) -> np.ndarray:
-        """Return predicted outputs ``ax1, ay1, az1, p, q, r``, shape (P, n, 6)."""
-        return self.model.outputs(self.state0, theta)
+    def predict(self, theta: np.ndarray, state0: np.ndarray | None = None) -> np.ndarray:
+        """Return predicted outputs ``ax1, ay1, az1, p, q, r``, shape (P, n, 6).
+
+        ``state0`` (9,) replaces :attr:`state0` (e.g. initial rates fitted by the polish).
+        """
+        return self.model.outputs(self.state0 if state0 is None else state0, theta)
 
     def __call__(self, theta: np.ndarray) -> np.ndarray | float:
         """Return J for ``theta`` (P, 9) -> (P,) or (9,) -> float; non-finite -> +inf."""
         t = np.asarray(theta, dtype=float)
         cost = self.model.cost(self.state0, np.atleast_2d(t), self.measured, self.weights)
         return float(cost[0]) if t.ndim == 1 else cost
+
+    def residuals(self, theta: np.ndarray, state0: np.ndarray | None = None) -> np.ndarray:
+        """Return the weighted output errors ``r`` with ``J = sum r^2``, shape (6 n,).
+
+        ``r_kc = sqrt(w_kc / n) (z_kc - zhat_kc)`` for one coefficient set ``theta`` (9,),
+        sample-major (the six outputs of a sample are consecutive), simulated from
+        ``state0`` (default :attr:`state0`). NaN where the simulation diverged.
+        """
+        pred = self.predict(np.asarray(theta, dtype=float).reshape(1, -1), state0)[0]
+        return (np.sqrt(self.weights / self.model.n_samples) * (self.measured - pred)).ravel()
+
+    def jacobian(self, theta: np.ndarray, state0: np.ndarray | None = None, *,
+                 free_states: Sequence[str] = (), rel_step: float = DEFAULT_REL_STEP
+                 ) -> np.ndarray:
+        """Return ``d r / d (theta, x0)`` of :meth:`residuals`, shape (6 n, 9 + f).
+
+        Columns: the nine coefficients, then the initial-state components named in
+        ``free_states`` (e.g. ``("p", "q", "r")``). Central differences of the forward
+        model with the relative step ``rel_step``
+        (:meth:`aeroid.model.ForwardModel.sensitivities`): all perturbed sets are
+        simulated in one batched call (18 for the coefficients alone).
+        """
+        sens = self.model.sensitivities(self.state0 if state0 is None else state0,
+                                        np.asarray(theta, dtype=float),
+                                        free_states=free_states, rel_step=rel_step)
+        scale = np.sqrt(self.weights / self.model.n_samples)[:, :, None]
+        return (-scale * sens).reshape(-1, sens.shape[-1])

@@ -1,5 +1,8 @@
 """What the paper's three PSO methods share: option checks, limits, step 1, the PSO run.
 
+The PSO run ends, with the option ``polish``, in a local least-squares solve of the same
+objective from the swarm's best point (:mod:`aeroid.estimation._polish`).
+
 EAM-PSO, EBM-PSO and SEBM-PSO (:mod:`aeroid.estimation._eam`, ``_ebm``, ``_sebm``) each
 use these helpers and none of the others: the methods do not import one another.
 
@@ -10,6 +13,7 @@ machine out of memory; each bound below says why it is where it is.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
@@ -17,6 +21,7 @@ import numpy as np
 
 from aeroid.estimation import _pso as pso
 from aeroid.estimation._objectives import WEIGHTINGS
+from aeroid.estimation._polish import Polished, polish
 from aeroid.estimation._progress import pso_callback
 from aeroid.estimation._reconstruct import DERIVATIVE_POLYORDER, Reconstruction, reconstruct
 from aeroid.estimation._result import box_edge_warnings
@@ -25,8 +30,8 @@ from aeroid.model._coefficients import NAMES
 
 __all__ = [
     "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "check_common_options",
-    "check_step_one_options", "check_swarm_size", "pso_history", "reconstruction_info",
-    "run_pso", "step_one",
+    "check_step_one_options", "check_swarm_size", "polish_result", "pso_history",
+    "reconstruction_info", "run_pso", "step_one",
 ]
 
 #: Largest swarm. EAM-PSO simulates the whole swarm at once and holds its states,
@@ -111,15 +116,17 @@ def pso_history(res: pso.PSOResult) -> dict[str, Any]:
 
 def run_pso(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *,
             n_particles: int, names: Sequence[str] = NAMES, stage: str = "PSO",
-            **kwargs: Any) -> tuple[pso.PSOResult, tuple[str, ...]]:
-    """Run the modified PSO with the estimator's options; report progress; check the edges.
+            **kwargs: Any) -> tuple[pso.PSOResult, tuple[str, ...], Polished | None]:
+    """Run the modified PSO with the estimator's options, polish, check the edges.
 
     Parameters
     ----------
     est : estimator
-        Provides ``n_iterations``, ``topology`` and ``interpolation``.
+        Provides ``n_iterations``, ``topology``, ``interpolation`` and ``polish`` (and,
+        for output error, ``polish_initial_rates``).
     cost : callable
-        ``cost(theta (P, d)) -> (P,)``.
+        ``cost(theta (P, d)) -> (P,)``; a :class:`aeroid.estimation.QuadraticCost` or
+        :class:`aeroid.estimation.OutputErrorCost` when ``est.polish``.
     bounds : ndarray, shape (d, 2)
     rng : numpy.random.Generator
     n_particles : int
@@ -133,12 +140,40 @@ def run_pso(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *
     Returns
     -------
     PSOResult
+        The swarm's result; with ``polish``, ``x``, ``cost``, ``n_evaluations`` and
+        ``message`` are the polished ones (the history stays the swarm's).
     tuple of str
         The run's warnings: :func:`aeroid.estimation.box_edge_warnings` of its answer
-        (none when the run failed: its message says why).
+        and a polish that did not converge (none when the run failed: its message says
+        why).
+    Polished or None
+        The polish (:func:`polish_result`), None without ``polish`` or when the swarm
+        found no finite cost.
     """
     res = pso.minimize(cost, bounds, n_particles=n_particles, n_iterations=est.n_iterations,
                        rng=rng, topology=est.topology, interpolation=est.interpolation,
                        callback=pso_callback(est.n_iterations, stage), **kwargs)
+    polished = None
+    if getattr(est, "polish", False) and res.success:
+        res, polished = polish_result(res, cost, bounds,
+                                      initial_rates=getattr(est, "polish_initial_rates", False))
     warnings = box_edge_warnings(res.x, bounds, names) if res.success else ()
-    return res, warnings
+    if polished is not None and not polished.converged:
+        warnings += (f"polish did not converge ({polished.message}): the answer may not "
+                     "be the optimum of the objective",)
+    return res, warnings, polished
+
+
+def polish_result(res: pso.PSOResult, cost: Any, bounds: np.ndarray, *,
+                  initial_rates: bool = False) -> tuple[pso.PSOResult, Polished]:
+    """Polish a swarm's answer (:func:`aeroid.estimation._polish.polish`).
+
+    Returns the result with the polished ``x`` and ``cost``, the polish's evaluations
+    added and its outcome appended to the message, and the :class:`Polished` record.
+    """
+    polished = polish(cost, bounds, res.x, initial_rates=initial_rates)
+    res = dataclasses.replace(
+        res, x=polished.theta, cost=polished.cost,
+        n_evaluations=res.n_evaluations + polished.n_evaluations,
+        message=f"{res.message}; polished: {polished.message}")
+    return res, polished

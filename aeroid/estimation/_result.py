@@ -111,7 +111,8 @@ class EstimationResult:
         """Return a table for people: estimate, standard error and, given truth, error %.
 
         The head says ``ok`` or ``FAILED`` with the message, then one ``warning:`` line per
-        warning, then the counts (and the cost, for methods that have one).
+        warning, then the counts (and the cost, for methods that have one), then the fit
+        check's worst channel where the method reports residuals.
         """
         status = "ok" if self.success else "FAILED"
         lines = [f"{self.estimator}: {status}" + (f" ({self.message})" if self.message else "")]
@@ -122,6 +123,12 @@ class EstimationResult:
             counts = f"cost {self.cost:.6g}, " + counts
         compiled = self._compiled_text()
         lines.append(counts + (f", {compiled}" if compiled else ""))
+        check = self.info.get("fit_check") if isinstance(self.info, dict) else None
+        if check:
+            worst = check["worst"]
+            lines.append(f"fit check: residual RMS / data noise {check['ratio'][worst]:.3g} "
+                         f"at worst ({worst}; limit {check['limit']:g}, about 1 when the "
+                         "model fits)")
         head = f"{'coef':>5} {'estimate':>14} {'std err':>12}"
         if truth is not None:
             head += f" {'truth':>12} {'error %':>9}"

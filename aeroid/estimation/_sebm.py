@@ -14,6 +14,7 @@ import numpy as np
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
+from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
     check_common_options,
     check_step_one_options,
@@ -73,12 +74,19 @@ class SEBMPSO(Estimator):
         Step 1: Savitzky-Golay window of the pitch and yaw rate derivatives [samples].
     roll_derivative_window : int
         Step 1: Savitzky-Golay window of the roll rate derivative [samples].
+    polish : bool
+        Finish each problem with the exact minimum of its cost over its box (default
+        False, the paper's method): bounded least squares on the quadratic form
+        (:mod:`aeroid.estimation._polish`).
 
     Notes
     -----
     ``history`` combines the four runs: at iteration i, ``theta`` holds each problem's
     best coefficients and ``cost`` the sum of the four best costs (a problem that stopped
     earlier keeps its last value). ``info["subproblems"]`` has each run's own history.
+    With ``polish``, ``info["subproblems"][label]["polish"]`` records each problem's
+    swarm and polished cost, ``info["polish"]`` their sums, and ``cost`` is the sum of
+    the polished costs (the history stays the swarms').
     """
 
     name: ClassVar[str] = "sebm-pso"
@@ -97,6 +105,7 @@ class SEBMPSO(Estimator):
     smoothing_window: int = SMOOTHING_WINDOW
     derivative_window: int = DERIVATIVE_WINDOW
     roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
+    polish: bool = False
 
     def __post_init__(self) -> None:
         check_common_options(self)
@@ -119,9 +128,10 @@ class SEBMPSO(Estimator):
                               guard_fraction=self.guard_fraction)
         for k, ((label, cols, cost), n_particles) in enumerate(
                 zip(problems, self.n_particles, strict=True)):
-            res, found = run_pso(self, cost, bounds[list(cols)], rng, n_particles=n_particles,
-                                 names=[NAMES[c] for c in cols],
-                                 stage=f"{label} {k + 1}/{len(self.n_particles)}")
+            res, found, polished = run_pso(self, cost, bounds[list(cols)], rng,
+                                           n_particles=n_particles,
+                                           names=[NAMES[c] for c in cols],
+                                           stage=f"{label} {k + 1}/{len(self.n_particles)}")
             warnings += [f"{label}: {w}" for w in found]
             theta[list(cols)] = res.x
             closed[list(cols)] = cost.theta_opt
@@ -132,6 +142,8 @@ class SEBMPSO(Estimator):
                 "history_cost": res.history_cost, "history_theta": res.history_x,
                 "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min,
             }
+            if polished is not None:
+                subproblems[label]["polish"] = polish_info(polished)
         n_steps = max(res.history_cost.size for _, res in runs)
         hist_theta = np.empty((n_steps, len(NAMES)))
         hist_cost = np.zeros(n_steps)
@@ -149,8 +161,14 @@ class SEBMPSO(Estimator):
         info.update(regression_fit(rec, X, y, theta, tuple(row for _, row, _, _ in SEBM_PROBLEMS)))
         success = all(res.success for _, res in runs)
         messages = sorted({res.message for _, res in runs})
+        total = float(hist_cost[-1])
+        polishes = [s["polish"] for s in subproblems.values() if "polish" in s]
+        if polishes and len(polishes) == len(runs):
+            total = float(sum(res.cost for _, res in runs))
+            info["polish"] = {key: float(sum(p[key] for p in polishes))
+                              for key in ("swarm_cost", "polished_cost", "reference_cost")}
         return EstimationResult(
-            estimator=self.name, theta=theta, cost=float(hist_cost[-1]), success=success,
+            estimator=self.name, theta=theta, cost=total, success=success,
             message="; ".join(messages), warnings=tuple(warnings),
             n_evaluations=sum(r.n_evaluations for _, r in runs),
             n_iterations=max(r.n_iterations for _, r in runs),

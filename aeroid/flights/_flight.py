@@ -1,9 +1,11 @@
 """Flight data: a time series of named channels, its airframe and metadata.
 
 Channels (SI, radians; :mod:`aeroid.flights._channels`): ``t, ax1, ay1, az1, ax2, ay2,
-az2, p, q, r, delta, u, v, w, alpha, beta, phi, theta, psi``; the per-sample ``mass``,
-``thrust``, ``rho``, ``altitude`` and ``qbar`` of the planned format are refused by
-:meth:`Flight.validate` until the model uses them.
+az2, p, q, r, delta, u, v, w, alpha, beta, phi, theta, psi``, and the optional per-sample
+inputs ``mass``, ``thrust``, ``ix``, ``iy``, ``iz`` and one atmosphere channel (``rho``,
+``altitude`` or ``qbar``, named by the airframe's ``[atmosphere] per_sample``), which
+every estimator uses (:func:`aeroid.flights.exogenous`); a channel the model does not
+use is refused by :meth:`Flight.validate`, never ignored.
 
 The airframe a flight carries is the *estimator's* view of it: its accelerometer
 positions are the ones the estimator is given (with the paper's position error when
@@ -118,7 +120,7 @@ class Flight:
 
         Problems make the flight unusable (missing or non-numeric channel, bad time
         base, too few samples, values outside physical ranges, units that contradict
-        the kinematics, spikes, inputs the model does not use yet); warnings are
+        the kinematics, spikes, inputs the model does not use); warnings are
         data a person might mean but should look at. The thresholds and their
         reasons are the constants of :mod:`aeroid.flights._checks`.
         """

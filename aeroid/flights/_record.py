@@ -17,8 +17,14 @@ Inputs between samples (the options of the estimators that integrate the model):
     Each logged deflection holds until the next sample: right for a digital relay latched
     at the log clock (the paper's reference scenario).
 ``midpoint``
-    A change seen between two samples happened halfway between them (unbiased when the
-    true instant is uniform in the interval).
+    A change seen between two samples happened halfway between them. The switch instants
+    are then unbiased when the true instant is uniform in the interval, but each is still
+    off by up to half a sample, and a model that integrates the states accumulates those
+    errors: on the continuous-relay flight (noise-free, 32 switches, timing error sd
+    0.5 ms) output-error's Cmq is 41 % off with ``midpoint`` and 34 % with ``hold``;
+    ``events`` and ``law`` are exact. The fit check fails both (residuals 77x and 113x
+    the resolution); under the paper's noise ``midpoint`` can pass it. Use ``events`` or
+    ``law`` when the relay is not latched at the log clock.
 ``events``
     The switch instants are known: ``flight.metadata["delta_knots"]`` (``{"t": [...],
     "delta": [...]}``, the knots of the deflection as a piecewise-linear function of time,

@@ -30,13 +30,14 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
 
 There is no default atmosphere: leaving it out used to mean sea level, which made every
-coefficient of a flight at altitude 25-66 % low. ``per_sample`` is the planned format for
-a density that changes within the window; the model does not use it yet, so an
-estimator given such an airframe stops with one line (``Airframe.density_kgm3`` and
-``Flight.validate`` say so). Unknown tables and keys, booleans or text where numbers
-belong and values outside physical ranges (:data:`LIMITS`) are one-line errors naming the
-file and the key. Files written by :func:`save_airframe` and by ``Flight.write`` (the
-JSON sidecar holds the same tables) read back equal.
+coefficient of a flight at altitude 25-66 % low. ``per_sample`` names the flight channel
+of a density that changes within the window (a climb): every estimator and the
+simulator's record interpolate it in time inside the integration
+(:func:`aeroid.flights.exogenous`); ``Airframe.density_kgm3`` has no single value then.
+Unknown tables and keys, booleans or text where numbers belong and values outside
+physical ranges (:data:`LIMITS`) are one-line errors naming the file and the key. Files
+written by :func:`save_airframe` and by ``Flight.write`` (the JSON sidecar holds the
+same tables) read back equal.
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_s
 #: File key -> attribute of ``[atmosphere]`` (exactly one is given).
 ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
                    "per_sample": "atmosphere_channel"}
-#: Flight channels a per-sample atmosphere may name (planned; not yet used by the model).
+#: Flight channels a per-sample atmosphere may name (:func:`aeroid.flights.exogenous`).
 ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
 #: The tables of an airframe file.
 AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
@@ -150,7 +151,8 @@ class Airframe:
         Air density [kg/m^3] stated directly (file key ``density_kgm3``).
     atmosphere_channel : str or None
         Name of the flight channel carrying the atmosphere per sample (file key
-        ``per_sample``: ``"rho"``, ``"altitude"`` or ``"qbar"``); planned, not yet used.
+        ``per_sample``: ``"rho"``, ``"altitude"`` (ISA density) or ``"qbar"`` (density
+        from the dynamic pressure and the measured speed).
     prior : tuple of 9 float or None
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
     fin_law : FinLaw or None

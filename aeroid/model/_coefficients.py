@@ -11,9 +11,11 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-#: Coefficient names, in the order of every coefficient vector in aeroid.
-NAMES: tuple[str, ...] = ("Cx", "Cza", "Czd", "Czq", "Cl0", "Clp", "Cma", "Cmd", "Cmq")
-CX, CZA, CZD, CZQ, CL0, CLP, CMA, CMD, CMQ = range(9)
+from aeroid.model._equations import Coefficients
+
+#: Coefficient names, in the order of every coefficient vector in aeroid: the fields of
+#: the equations' :class:`~aeroid.model._equations.Coefficients` (defined there, once).
+NAMES: tuple[str, ...] = tuple(Coefficients._fields)
 N_COEFFICIENTS = len(NAMES)
 
 #: Nominal values of the paper (section 4) and of the reference scenario.
@@ -91,10 +93,10 @@ def lateral_from_pitch(vector: np.ndarray) -> dict[str, np.ndarray]:
     """
     c = as_vector(vector)
     return {
-        "Cyb": c[..., CZA],
-        "Cyr": -c[..., CZQ],
-        "Cydr": c[..., CZD],
-        "Cnb": -c[..., CMA],
-        "Cnr": c[..., CMQ],
-        "Cndr": -c[..., CMD],
+        "Cyb": c[..., NAMES.index("Cza")],
+        "Cyr": -c[..., NAMES.index("Czq")],
+        "Cydr": c[..., NAMES.index("Czd")],
+        "Cnb": -c[..., NAMES.index("Cma")],
+        "Cnr": c[..., NAMES.index("Cmq")],
+        "Cndr": -c[..., NAMES.index("Cmd")],
     }

@@ -64,25 +64,30 @@ def _generated(name: str, body: str, namespace: dict[str, Any]) -> Callable[...,
 
 
 def _state_helpers() -> tuple[Callable[..., Any], ...]:
-    """Return ``from_array(a)``, ``axpy(x, h, d)`` and ``rk4_combine(x, h6, a, b, e, f)``.
+    """Return ``from_array(a)``, ``coefficients_from_array(a)``, ``axpy(x, h, d)`` and
+    ``rk4_combine(x, h6, a, b, e, f)``.
 
-    Written from :data:`aeroid.model._equations.STATE_NAMES`, so a new state needs no
-    change here.
+    Written from the field names of :class:`~aeroid.model._equations.State` and
+    :class:`~aeroid.model._equations.Coefficients`, so a new state or coefficient needs
+    no change here.
     """
     names = eq.STATE_NAMES
-    ns: dict[str, Any] = {"State": eq.State}
+    ns: dict[str, Any] = {"State": eq.State, "Coefficients": eq.Coefficients}
     from_array = _generated("from_array", "def from_array(a):\n    return State("
                             + ", ".join(f"a[{i}]" for i in range(len(names))) + ")\n", ns)
+    coefficients = _generated(
+        "coefficients_from_array", "def coefficients_from_array(a):\n    return Coefficients("
+        + ", ".join(f"a[{i}]" for i in range(len(eq.Coefficients._fields))) + ")\n", ns)
     axpy = _generated("axpy", "def axpy(x, h, d):\n    return State("
                       + ", ".join(f"x.{n} + h * d.{n}" for n in names) + ")\n", ns)
     combine = _generated(
         "rk4_combine", "def rk4_combine(x, h6, a, b, e, f):\n    return State("
         + ", ".join(f"x.{n} + h6 * (a.{n} + 2.0 * b.{n} + 2.0 * e.{n} + f.{n})"
                     for n in names) + ")\n", ns)
-    return from_array, axpy, combine
+    return from_array, coefficients, axpy, combine
 
 
-from_array, axpy, rk4_combine = _state_helpers()
+from_array, coefficients_from_array, axpy, rk4_combine = _state_helpers()
 
 
 def _register(fn: Callable[..., Any], impl: Callable[..., Any]) -> None:
@@ -96,7 +101,8 @@ def _register(fn: Callable[..., Any], impl: Callable[..., Any]) -> None:
 if HAVE_NUMBA:
     for _fn in eq.ELEMENT_WISE:
         _register(_fn, _fast_atan2 if _fn is eq.atan2 else _fn)
-    for _fn in (from_array, axpy, rk4_combine, inputs.with_exogenous, inputs.lerp):
+    for _fn in (from_array, coefficients_from_array, axpy, rk4_combine, inputs.with_exogenous,
+                inputs.lerp):
         _register(_fn, _fn)
 
     jit_inline = numba.njit(inline="always", fastmath=FASTMATH_FLAGS)
@@ -156,10 +162,29 @@ if HAVE_NUMBA:
         exogenous table ``exo`` (n, 7) is interpolated linearly within the interval,
         otherwise the constants ``base`` hold.
         """
-        c = eq.Coefficients(c0[0], c0[1], c0[2], c0[3], c0[4], c0[5], c0[6], c0[7], c0[8])
+        c = coefficients_from_array(c0)
         x = from_array(x0)
         for j in range(x0.shape[0]):
             out[0, j] = x0[j]
+        if end.shape[1] == 1 and end[-1, 0] == 1.0 and not varying:  # one piece per interval:
+            # the hot path (same arithmetic as below, without the piece bookkeeping)
+            h = dt / substeps
+            for s in range(end.shape[0]):
+                d = start[s, 0]
+                if stop[s, 0] == d:
+                    for _ in range(substeps):
+                        x = rk4_substep(x, c, d, d, d, base, base, base, h)
+                    for j in range(len(x)):
+                        out[s + 1, j] = x[j]
+                    continue
+                d_span = stop[s, 0] - d
+                for sub in range(substeps):
+                    u0, u1, u2 = sub / substeps, (sub + 0.5) / substeps, (sub + 1.0) / substeps
+                    x = rk4_substep(x, c, d + d_span * u0, d + d_span * u1, d + d_span * u2,
+                                    base, base, base, h)
+                for j in range(len(x)):
+                    out[s + 1, j] = x[j]
+            return
         k_a = base
         k_b = base
         for s in range(end.shape[0]):
@@ -225,8 +250,7 @@ if HAVE_NUMBA:
         n_triads = positions.shape[0]
         out = np.empty(n_sets)
         for i in numba.prange(n_sets):
-            t = theta[i]
-            c = eq.Coefficients(t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8])
+            c = coefficients_from_array(theta[i])
             total = 0.0
             const = base
             for s in range(n):

@@ -215,11 +215,12 @@ def _augmented_functions(const: Constants, dt: float, substeps: int, n_pieces: i
     offsets = z[N_STATE + N_COEFFICIENTS:]
     z_next = ca.vertcat(interval_step_symbolic(x, theta, sym, const, dt, substeps),
                         z[N_STATE:])
-    f = ca.Function("f_aug", [z, *sym], [z_next, ca.jacobian(z_next, z)])
+    # dense outputs: the filters read them through numpy buffers (Buffered)
+    f = ca.Function("f_aug", [z, *sym], [z_next, ca.densify(ca.jacobian(z_next, z))])
     pos = ca.vertcat(*[pos_given[c] + offsets[position_free.index(c)]
                        if c in position_free else pos_given[c] for c in range(6)])
     y = measurement(x, delta, theta, pos, sample_constants(const, exo))
-    h = ca.Function("h_aug", [z, delta, exo, pos_given], [y, ca.jacobian(y, z)])
+    h = ca.Function("h_aug", [z, delta, exo, pos_given], [y, ca.densify(ca.jacobian(y, z))])
     return f, h
 
 

@@ -67,11 +67,12 @@ def test_affine_form_reproduces_sensor_model(noisy_flight):
                                atol=AFFINE_ATOL * np.abs(acc).max())
 
 
-def test_two_step_equals_independent_least_squares(noisy_flight):
+@pytest.mark.parametrize("smoothing", ["none", "both"])
+def test_two_step_equals_independent_least_squares(noisy_flight, smoothing):
     """theta and sigma^2 (X^T X)^-1 per sub-problem, recomputed with numpy.linalg."""
-    res = EquationErrorEstimator(covariance="ols").fit(noisy_flight, rng=0)
+    res = EquationErrorEstimator(covariance="ols", smoothing=smoothing).fit(noisy_flight, rng=0)
     rec = rc.reconstruct(noisy_flight)
-    X, y = rc.ebm_regression(noisy_flight, rec, smoothing="both")
+    X, y = rc.ebm_regression(noisy_flight, rec, smoothing=smoothing)
     for label, row, cols in SUBPROBLEMS:
         cols = list(cols)
         A, b = X[:, row, cols], y[:, row]
@@ -84,14 +85,15 @@ def test_two_step_equals_independent_least_squares(noisy_flight):
     np.testing.assert_allclose(res.stderr, np.sqrt(np.diag(res.covariance)))
 
 
-def test_hac_covariance_equals_the_direct_newey_west_sum(noisy_flight):
+@pytest.mark.parametrize("smoothing", ["none", "both"])
+def test_hac_covariance_equals_the_direct_newey_west_sum(noisy_flight, smoothing):
     """Default covariance: (A^T A)^-1 G^T W G (A^T A)^-1 with the Bartlett matrix
     W_ts = max(0, 1 - |t - s| / (L + 1)) written out in full (O(n^2), independent of the
     estimator's lag loop), L = twice the first lag of insignificant autocorrelation
     (found here with numpy.correlate), scaled by n / (n - k)."""
-    res = EquationErrorEstimator().fit(noisy_flight, rng=0)
+    res = EquationErrorEstimator(smoothing=smoothing).fit(noisy_flight, rng=0)
     rec = rc.reconstruct(noisy_flight)
-    X, y = rc.ebm_regression(noisy_flight, rec, smoothing="both")
+    X, y = rc.ebm_regression(noisy_flight, rec, smoothing=smoothing)
     n = X.shape[0]
     lag_index = np.abs(np.arange(n)[:, None] - np.arange(n)[None, :])
     for label, row, cols in SUBPROBLEMS:

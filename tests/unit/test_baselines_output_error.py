@@ -186,6 +186,18 @@ def test_diverging_start_is_a_failed_result(noisy_flight):
     assert res.message
 
 
+def test_a_record_longer_than_the_limit_is_refused_in_one_line(noisy_flight, monkeypatch):
+    """Above MAX_SAMPLES the fit stops before building the model (memory grows with n)."""
+    from baselines import output_error
+
+    monkeypatch.setattr(output_error, "MAX_SAMPLES", noisy_flight.n_samples - 1)
+    with pytest.raises(aeroid.EstimatorError, match="fit windows") as info:
+        OutputErrorEstimator().fit(noisy_flight, rng=0)
+    assert "\n" not in str(info.value)
+    monkeypatch.setattr(output_error, "MAX_SAMPLES", noisy_flight.n_samples)
+    assert OutputErrorEstimator(max_iterations=1).fit(noisy_flight, rng=0).theta.shape == (9,)
+
+
 def test_options_are_checked():
     with pytest.raises(aeroid.EstimatorError, match="tol"):
         OutputErrorEstimator.from_options({"tol": "0"})

@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import scipy.optimize
 
 import aeroid
 from aeroid.estimation import _objectives as objectives
@@ -65,6 +66,40 @@ def test_ebm_objective_is_aeroids_and_bounded_by_closed_form(flight):
     assert res.history["axis"] == "iteration"
     assert np.all(np.diff(res.history["cost"]) <= 0)  # global best never worsens
     assert res.n_evaluations == 30 * 30
+
+
+#: Polished vs the BVLS optimum (test_polish.py: measured <= 2e-9 of the box's width).
+POLISH_THETA_TOL = 1e-8
+
+
+def test_polish_on_the_ebm_objective_reaches_its_bounded_optimum(flight):
+    """From a cheap swarm: the bounded least-squares optimum of aeroid's EBM cost
+    (scipy BVLS on the cost's X, y, weights), which the swarm alone misses."""
+    cost = objectives.ebm_cost(flight, rc.reconstruct(flight))
+    bounds = aeroid.prior_bounds(flight.airframe)
+    sw = np.sqrt(cost.weights.reshape(-1) / cost.n_samples)
+    scale = np.abs(bounds).max(axis=1)
+    best = scipy.optimize.lsq_linear(
+        cost.X.reshape(-1, 9) * sw[:, None] * scale, cost.y.reshape(-1) * sw,
+        bounds=(bounds[:, 0] / scale, bounds[:, 1] / scale), method="bvls", tol=1e-14).x * scale
+    width = bounds[:, 1] - bounds[:, 0]
+    plain = PyswarmsEstimator(**CHEAP).fit(flight, rng=0)
+    res = PyswarmsEstimator(polish=True, **CHEAP).fit(flight, rng=0)
+    assert np.max(np.abs(plain.theta - best) / width) > 1e-2
+    assert np.all(np.abs(res.theta - best) <= POLISH_THETA_TOL * width)
+    np.testing.assert_allclose(res.cost, cost.direct(best), rtol=1e-9)
+    assert res.info["polish"]["swarm_cost"] == plain.cost > res.cost
+    assert "polished" in res.message
+
+
+def test_polish_on_the_eam_objective_fits_the_initial_rates(flight):
+    res = PyswarmsEstimator(objective="eam", polish=True, **CHEAP).fit(flight, rng=0)
+    eam = objectives.OutputErrorCost(flight)
+    state0 = res.info["polish"]["state0"]
+    r = eam.residuals(res.theta, state0)
+    np.testing.assert_allclose(res.cost, r @ r, rtol=1e-12)
+    assert res.cost < res.info["polish"]["swarm_cost"]
+    assert res.success, res.message
 
 
 def test_eam_objective_runs(flight):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation._floor import (
     PROTOTYPE_FLOOR,
     OutputErrorInputs,
@@ -18,7 +19,7 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.flights._noise import GaussianNoise, NoNoise, PaperNoise
-from aeroid.model._coefficients import nominal
+from aeroid.model._coefficients import NAMES, nominal
 from aeroid.model._dynamics import accelerometers, constants, regressors
 from aeroid.model._integrate import propagate
 
@@ -170,10 +171,22 @@ def test_default_floor_is_below_the_homoscedastic_one(reference_scenario, clean_
 
 
 def test_estimator_positions_option(paper_flight, reference_scenario):
+    """positions='estimator' is the floor of the model with the flight's (wrong) copy of
+    the positions: the information built here from those positions, not the true ones."""
     true = cramer_rao_sd(paper_flight, GaussianNoise())
     seen = cramer_rao_sd(paper_flight, GaussianNoise(), positions="estimator")
-    assert not np.array_equal(true, seen)
-    np.testing.assert_allclose(seen, true, rtol=0.2)  # positions differ by <= 10 %
+    inputs = inputs_from_flight(paper_flight)
+    theta = paper_flight.true_coefficients
+    for positions, floor in ((paper_flight.airframe.accel_positions, seen),
+                             (np.asarray(paper_flight.metadata["true_accel_positions_m"]),
+                              true)):
+        noise = model_noise_sd(GaussianNoise(), model_outputs(paper_flight.airframe, theta,
+                                                              inputs, positions=positions))
+        info = output_error_information(paper_flight.airframe, theta, inputs, noise,
+                                        positions=positions)
+        np.testing.assert_allclose(floor.to_numpy(), np.sqrt(np.diag(np.linalg.inv(info))),
+                                   rtol=1e-9)
+    assert not np.allclose(true, seen, rtol=1e-6)  # the two position sets are different
 
 
 @pytest.mark.parametrize(
@@ -196,6 +209,24 @@ def test_bad_input_raises_one_line(reference_scenario, clean_flight, call, messa
     with pytest.raises(ValueError, match=message) as info:
         call(reference_scenario, clean_flight)
     assert "\n" not in str(info.value)
+
+
+def test_floor_is_named_and_equals_the_inverse_information(reference_scenario, clean_flight):
+    """The public floor carries the coefficient names; its values are sqrt(diag(F^-1)) of
+    the information matrix computed here from its parts; bad options are EstimatorError."""
+    sd = cramer_rao_sd(reference_scenario, GaussianNoise())
+    assert list(sd.index) == list(NAMES)
+    inputs = inputs_from_flight(clean_flight)
+    truth = clean_flight.true_coefficients
+    positions = np.asarray(clean_flight.metadata["true_accel_positions_m"])
+    noise = model_noise_sd(GaussianNoise(), model_outputs(clean_flight.airframe, truth, inputs,
+                                                          positions=positions))
+    info = output_error_information(clean_flight.airframe, truth, inputs, noise,
+                                    positions=positions)
+    np.testing.assert_allclose(sd.to_numpy(), np.sqrt(np.diag(np.linalg.inv(info))),
+                               rtol=1e-9)
+    with pytest.raises(EstimatorError, match="cramer_rao_sd"):
+        cramer_rao_sd(reference_scenario, GaussianNoise(), channels="x")
 
 
 def _gauss_newton(airframe, inputs, measured, sd, theta0, iterations=4):
