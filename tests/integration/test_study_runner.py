@@ -11,33 +11,15 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
+from study_fakes import Jitter  # the shared stand-in estimator (also the store's tests)
 
-from aeroid import EstimationResult, Estimator, failed_result, simulate
+from aeroid import Estimator, failed_result, simulate
 from aeroid.errors import StudyError
 from aeroid.study import _runner as study_runner
 from aeroid.study import loads_study, read_results, run_study
 
 # Records compared between executors/resumes: everything but timing and worker id.
 VOLATILE = ("wall_time_s", "worker")
-
-
-@dataclass(frozen=True, kw_only=True)
-class Jitter(Estimator):
-    """Prior x (1 + scale N(0, 1)) plus a term from the flight's data."""
-
-    name: ClassVar[str] = "jitter"
-    scale: float = 0.01
-
-    def run(self, flight, rng):
-        prior = flight.airframe.prior_vector()
-        data = 1e-3 * np.mean(flight["ax1"]) + 1e-4 * np.mean(flight["p"])
-        theta = prior * (1.0 + self.scale * rng.standard_normal(9)) + data
-        steps = np.arange(4)
-        return EstimationResult(
-            estimator=self.name, theta=theta, stderr=np.abs(prior) * self.scale,
-            cost=float(data**2), n_evaluations=7, n_iterations=4,
-            history={"axis": "iteration", "step": steps,
-                     "theta": theta + 0.1 * (3 - steps)[:, None], "cost": 1.0 / (1.0 + steps)})
 
 
 @dataclass(frozen=True, kw_only=True)
