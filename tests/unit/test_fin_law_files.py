@@ -204,8 +204,7 @@ def _stripped(path: Path, tmp_path: Path) -> Path:
     return out
 
 
-@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml",
-                                  "continuous_relay_today.toml"])
+@pytest.mark.parametrize("name", ["continuous_relay.toml", "delayed_relay.toml"])
 def test_relay_studies_load_but_for_the_planned_options(name, tmp_path):
     study = load_study(_stripped(STUDIES / name, tmp_path))
     assert study.scenario.manoeuvre.evaluation == "continuous"
