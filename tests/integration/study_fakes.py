@@ -49,6 +49,16 @@ options = { scale = 0.02 }
 """
 
 
+#: Record fields that differ between equal runs (timing, worker id).
+VOLATILE = ("wall_time_s", "worker")
+
+
+def stable(records):
+    """Records without :data:`VOLATILE` fields, in (run, noise, estimator) order."""
+    return sorted(({k: v for k, v in r.items() if k not in VOLATILE} for r in records),
+                  key=lambda r: (r["run"], r["noise"], r["estimator"]))
+
+
 def _die() -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 

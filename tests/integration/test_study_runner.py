@@ -11,15 +11,12 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
-from study_fakes import Jitter  # the shared stand-in estimator (also the store's tests)
+from study_fakes import Jitter, stable  # shared with the store's tests
 
 from aeroid import Estimator, failed_result, simulate
 from aeroid.errors import StudyError
 from aeroid.study import _runner as study_runner
 from aeroid.study import loads_study, read_results, run_study
-
-# Records compared between executors/resumes: everything but timing and worker id.
-VOLATILE = ("wall_time_s", "worker")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -81,10 +78,6 @@ options = { scale = 0.02 }
 """
 
 
-def _stable(records):
-    return sorted(({k: v for k, v in r.items() if k not in VOLATILE} for r in records),
-                  key=lambda r: (r["run"], r["noise"], r["estimator"]))
-
 
 @pytest.fixture(scope="module")
 def study():
@@ -99,7 +92,7 @@ def serial(study, tmp_path_factory):
 def test_serial_run_writes_every_fit(study, serial):
     assert serial.n_new == study.n_fits == 12 and serial.n_failed == 0
     on_disk = read_results(serial.results_path)
-    assert _stable(on_disk) == _stable(serial.records)
+    assert stable(on_disk) == stable(serial.records)
     keys = {(r["run"], r["noise"], r["estimator"]) for r in on_disk}
     assert len(keys) == 12
     truth = np.array(on_disk[0]["truth"])
@@ -121,8 +114,8 @@ def test_flight_equals_aeroid_simulate_with_the_run_seed(study):
 def test_runs_depend_on_seed_and_index_only(study, serial, tmp_path):
     """Run i is the same in a 2-run study; estimators of a run share their rng stream."""
     two = run_study(study.with_runs(2), tmp_path, progress=False)
-    first = [r for r in _stable(serial.records) if r["run"] < 2]
-    assert _stable(two.records) == first
+    first = [r for r in stable(serial.records) if r["run"] < 2]
+    assert stable(two.records) == first
     by = {(r["run"], r["noise"], r["estimator"]): np.array(r["theta"]) for r in serial.records}
     prior = study.scenario.airframe.prior_vector()
     for run in range(3):
@@ -140,7 +133,7 @@ def test_runs_depend_on_seed_and_index_only(study, serial, tmp_path):
 
 def test_two_processes_give_identical_results(study, serial, tmp_path):
     parallel = run_study(study, tmp_path, jobs=2, progress=False)
-    assert _stable(parallel.records) == _stable(serial.records)
+    assert stable(parallel.records) == stable(serial.records)
     workers = {r["worker"] for r in parallel.records}
     assert len(workers) >= 1 and all(":" in w for w in workers)
 
@@ -148,7 +141,7 @@ def test_two_processes_give_identical_results(study, serial, tmp_path):
 def test_local_dask_cluster_gives_identical_results(study, serial, tmp_path):
     pytest.importorskip("dask.distributed")
     dask = run_study(study, tmp_path, dask_local=2, progress=False)
-    assert _stable(dask.records) == _stable(serial.records)
+    assert stable(dask.records) == stable(serial.records)
 
 
 def test_history_kept_for_run_0_only(study, serial):
@@ -209,10 +202,10 @@ def test_interrupted_study_resumes_to_exactly_the_uninterrupted_rows(tmp_path):
     assert resumed.n_new == study.n_fits - len(partial)
     on_disk = read_results(tmp_path / "cut" / "results.jsonl")
     assert len(on_disk) == study.n_fits  # no duplicates, nothing lost
-    assert _stable(on_disk) == _stable(reference.records)
+    assert stable(on_disk) == stable(reference.records)
     # resuming a complete study runs nothing
     again = run_study(study, tmp_path / "cut", resume=True, progress=False)
-    assert again.n_new == 0 and _stable(again.records) == _stable(reference.records)
+    assert again.n_new == 0 and stable(again.records) == stable(reference.records)
 
 
 def test_resume_refuses_results_of_another_design(study, tmp_path):

@@ -17,24 +17,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from study_fakes import REGISTRY, STUDY
+from study_fakes import REGISTRY, STUDY, stable
 
 from aeroid.errors import StudyError
 from aeroid.study import _histories, _store, load_history, loads_study, read_results, run_study
 from aeroid.study._executors import WORKER_DIED
 from aeroid.study._fits import estimator_seed
 
-VOLATILE = ("wall_time_s", "worker")
 HERE = Path(__file__).parent
 #: Seconds a subprocess study may take (start-up with numba's cache is a few seconds).
 SUBPROCESS_TIMEOUT_S = 120
 #: Seconds a worker may outlive its killed study (it checks its parent every second).
 ORPHAN_TIMEOUT_S = 10
 
-
-def _stable(records):
-    return sorted(({k: v for k, v in r.items() if k not in VOLATILE} for r in records),
-                  key=lambda r: (r["run"], r["noise"], r["estimator"]))
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +74,7 @@ def test_sigkill_at_each_point_then_resume_gives_the_uninterrupted_rows(
     resumed = run_study(study, out, resume=True, progress=False)
     assert resumed.n_new == study.n_fits - len(partial)
     on_disk = read_results(out / "results.jsonl")
-    assert _stable(on_disk) == _stable(reference.records)
+    assert stable(on_disk) == stable(reference.records)
     assert _leftovers(out) == []
     for noise in ("paper", "gauss"):
         for label in ("J1", "J2"):
@@ -112,7 +107,7 @@ def test_sigkill_from_outside_during_a_parallel_study_then_resume(study, referen
     resumed = run_study(study.with_runs(runs), out, resume=True, progress=False)
     assert resumed.n_new == runs * 4 - len(partial)
     uninterrupted = run_study(study.with_runs(runs), tmp_path / "ref", progress=False)
-    assert _stable(read_results(results)) == _stable(uninterrupted.records)
+    assert stable(read_results(results)) == stable(uninterrupted.records)
 
 
 def _children(pid: int) -> list[int]:
@@ -173,7 +168,7 @@ def test_full_disk_on_a_record_is_one_line_and_the_folder_stays_resumable(
     assert _leftovers(tmp_path) == []
     monkeypatch.setattr(_store, "_write_all", original)
     run_study(study, tmp_path, resume=True, progress=False)
-    assert _stable(read_results(tmp_path / "results.jsonl")) == _stable(reference.records)
+    assert stable(read_results(tmp_path / "results.jsonl")) == stable(reference.records)
 
 
 def test_full_disk_on_a_history_leaves_no_temporary_file(study, tmp_path, monkeypatch):
@@ -210,7 +205,7 @@ def test_a_worker_killed_once_is_retried_and_the_study_goes_on(tmp_path):
     assert marker.exists()  # one worker did die
     assert out.n_failed == 0 and len(out.records) == study.n_fits
     serial = run_study(study, tmp_path / "ser", progress=False)  # the marker exists: no kill
-    assert _stable(out.records) == _stable(serial.records)
+    assert stable(out.records) == stable(serial.records)
 
 
 def test_a_fit_that_kills_its_worker_twice_is_recorded_as_failed(tmp_path):
@@ -224,8 +219,8 @@ def test_a_fit_that_kills_its_worker_twice_is_recorded_as_failed(tmp_path):
     assert all(r["message"] == WORKER_DIED for r in out.records if not r["success"])
     alive = loads_study(_with_killer("victim_below = 0.0"), registry=REGISTRY)
     serial = run_study(alive, tmp_path / "ser", progress=False)
-    good = [r for r in _stable(out.records) if r["success"]]
-    assert good == [r for r in _stable(serial.records)
+    good = [r for r in stable(out.records) if r["success"]]
+    assert good == [r for r in stable(serial.records)
                     if (r["run"], r["estimator"]) != (victim, "K")]
 
 
@@ -297,7 +292,7 @@ def test_a_record_whose_history_is_missing_is_refitted(study, reference, tmp_pat
     (tmp_path / "histories" / "n1-e1.npz").unlink()
     again = run_study(study, tmp_path, resume=True, progress=False)
     assert again.n_new == 1
-    assert _stable(read_results(tmp_path / "results.jsonl")) == _stable(reference.records)
+    assert stable(read_results(tmp_path / "results.jsonl")) == stable(reference.records)
     assert (tmp_path / "histories" / "n1-e1.npz").exists()
 
 
