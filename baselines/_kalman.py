@@ -73,6 +73,11 @@ class FilterOutput:
     reason : str
     innovation : ndarray, shape (n, dim_z)
         Measurement minus its prediction before each update (rows after a failure NaN).
+    innovation_var, noise_var : ndarray, shape (n, dim_z), optional
+        Diagonals of the innovation covariance ``S_k = H P_k^- H^T + R_k`` and of the
+        measurement-noise covariance ``R_k`` used in each update: ``E[innovation^2] =
+        innovation_var`` when the filter's model and noise are right, and
+        ``innovation_var - noise_var`` is the part due to the state's uncertainty.
     """
 
     x: np.ndarray
@@ -81,6 +86,8 @@ class FilterOutput:
     failed_at: int | None
     reason: str
     innovation: np.ndarray
+    innovation_var: np.ndarray | None = None
+    noise_var: np.ndarray | None = None
 
 
 class _NonlinearEKF(ExtendedKalmanFilter):
@@ -152,12 +159,12 @@ def _check(P: np.ndarray, x: np.ndarray) -> tuple[str, np.ndarray]:
 
 
 def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
-            reason: str, innovation: np.ndarray) -> FilterOutput:
+            reason: str, innovation: np.ndarray, s_var: np.ndarray,
+            r_var: np.ndarray) -> FilterOutput:
     if k is not None:
-        xs[k:] = np.nan
-        sds[k:] = np.nan
-        innovation[k:] = np.nan
-    return FilterOutput(xs, sds, P, k, reason, innovation)
+        for a in (xs, sds, innovation, s_var, r_var):
+            a[k:] = np.nan
+    return FilterOutput(xs, sds, P, k, reason, innovation, s_var, r_var)
 
 
 def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
@@ -193,6 +200,8 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     xs = np.empty((n, model.dim_x))
     sds = np.empty((n, model.dim_x))
     innov = np.empty((n, model.dim_z))
+    s_var = np.empty((n, model.dim_z))
+    r_var = np.empty((n, model.dim_z))
     for k in range(n):
         if k > 0:
             x_next, F = model.transition(ekf.x.ravel(), k - 1)
@@ -203,16 +212,18 @@ def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
         H = np.asarray(H, dtype=float)
         z_hat = np.asarray(z_hat, dtype=float).reshape(-1, 1)
         innov[k] = zs[k] - z_hat.ravel()
+        R_k = ekf.R if R_of is None else R_of(z_hat.ravel())
         ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
-                   Hx=lambda _x, z_hat=z_hat: z_hat,
-                   R=None if R_of is None else R_of(z_hat.ravel()))
+                   Hx=lambda _x, z_hat=z_hat: z_hat, R=R_k)
+        s_var[k] = np.diag(ekf.S)
+        r_var[k] = np.diag(R_k)
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
         reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
-            return _finish(xs, sds, ekf.P, k, reason, innov)
+            return _finish(xs, sds, ekf.P, k, reason, innov, s_var, r_var)
         xs[k] = ekf.x.ravel()
         sds[k] = np.sqrt(np.diag(ekf.P))
-    return _finish(xs, sds, ekf.P, None, "", innov)
+    return _finish(xs, sds, ekf.P, None, "", innov, s_var, r_var)
 
 
 def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
@@ -248,21 +259,26 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     xs = np.empty((n, model.dim_x))
     sds = np.empty((n, model.dim_x))
     innov = np.empty((n, model.dim_z))
+    s_var = np.empty((n, model.dim_z))
+    r_var = np.empty((n, model.dim_z))
     for k in range(n):
         if k > 0:
             step["k"] = k - 1
             try:
                 ukf.predict()
             except np.linalg.LinAlgError:
-                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed", innov)
+                return _finish(xs, sds, ukf.P, k, "sigma points: Cholesky of P failed", innov,
+                               s_var, r_var)
         rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
-        R_k = None if R_of is None else R_of(points.Wm @ rows)
+        R_k = ukf.R if R_of is None else R_of(points.Wm @ rows)
         ukf.update(zs[k], R=R_k, hx=_RowFeed(rows))
         innov[k] = ukf.y
+        s_var[k] = np.diag(ukf.S)
+        r_var[k] = np.diag(R_k)
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
         reason, ukf.P = _check(ukf.P, ukf.x)
         if reason:
-            return _finish(xs, sds, ukf.P, k, reason, innov)
+            return _finish(xs, sds, ukf.P, k, reason, innov, s_var, r_var)
         xs[k] = ukf.x
         sds[k] = np.sqrt(np.diag(ukf.P))
-    return _finish(xs, sds, ukf.P, None, "", innov)
+    return _finish(xs, sds, ukf.P, None, "", innov, s_var, r_var)

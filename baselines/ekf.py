@@ -20,7 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation import EstimationResult
-from aeroid.flights import Flight, flight_record
+from aeroid.flights import Flight
 from baselines import _common, _kalman
 
 
@@ -42,11 +42,12 @@ class ExtendedKalmanEstimator(_common.AugmentedFilterOptions):
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
-        """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
-        setup = self.setup(flight)
-        model = _common.augmented_model(
-            flight, self.substeps, flight_record(flight, self.input, self.delay_s),
-            setup.position_free)
-        out = _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                              R_of=setup.R_of)
-        return self.result(flight, out, setup, n_evaluations=len(setup.zs))
+        """Filter the flight forward in ``max_passes`` passes at most (no random draws:
+        ``rng`` is unused)."""
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                   R_of=setup.R_of)
+
+        return self.run_passes(flight, one_pass, lambda _model: flight.n_samples)

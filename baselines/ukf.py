@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation import EstimationResult
-from aeroid.flights import Flight, flight_record
+from aeroid.flights import Flight
 from baselines import _common, _kalman
 
 
@@ -53,13 +53,14 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
-        """Filter the flight once, forward in time (no random draws: ``rng`` is unused)."""
-        setup = self.setup(flight)
-        model = _common.augmented_model(
-            flight, self.substeps, flight_record(flight, self.input, self.delay_s),
-            setup.position_free)
-        out = _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                              alpha=self.alpha, beta=self.beta, kappa=self.kappa,
-                              R_of=setup.R_of)
-        n_sigma = 2 * model.dim_x + 1
-        return self.result(flight, out, setup, n_evaluations=n_sigma * len(setup.zs))
+        """Filter the flight forward in ``max_passes`` passes at most (no random draws:
+        ``rng`` is unused)."""
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                   alpha=self.alpha, beta=self.beta, kappa=self.kappa,
+                                   R_of=setup.R_of)
+
+        return self.run_passes(
+            flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)

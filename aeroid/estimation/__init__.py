@@ -58,6 +58,7 @@ from aeroid.estimation._result import (
 from aeroid.estimation._signals import (
     estimate_noise_law,
     estimate_noise_sd,
+    fit_noise_law,
     rate_derivatives,
     smooth,
     switch_free_samples,
@@ -68,6 +69,7 @@ from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort
 
 __all__ = [
     "estimate_noise_law",
+    "fit_noise_law",
     "EAM_OUTPUTS",
     "EBM_ROWS",
     "EDGE_FRACTION",

@@ -152,15 +152,65 @@ def rate_derivatives(flight: Flight, window: int = DERIVATIVE_WINDOW,
 
 
 
+def fit_noise_law(e2: np.ndarray, s2: np.ndarray, *, known: np.ndarray | None = None,
+                  floor: np.ndarray | float = 0.0, passes: int = 2
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Fit the noise law ``var = a + b s^2`` per channel to squared residuals.
+
+    The one regression behind every ``signal`` noise model: ``e2 - known`` on
+    ``[1, s2]`` by non-negative least squares weighted by the inverse squared modelled
+    variance ``1 / (a + b s2 + known)^2`` (the variance of a squared Gaussian residual is
+    ``2 var^2``), reweighted ``passes`` times from one variance per channel.
+
+    Parameters
+    ----------
+    e2 : ndarray, shape (n, m)
+        Squared residuals (smoother residuals, output-error residuals, filter innovations).
+    s2 : ndarray, shape (n, m)
+        The squared signal each residual belongs to (smoothed measurement, model output,
+        predicted measurement).
+    known : ndarray, shape (n, m), optional
+        A known part of each residual's variance that is not noise (a filter's
+        ``H P H^T``); default none.
+    floor : float or ndarray, shape (m,)
+        Lower bound of ``a`` per channel.
+    passes : int
+        Reweighting passes (default 2).
+
+    Returns
+    -------
+    a, b : ndarray, shape (m,)
+    """
+    from scipy.optimize import nnls
+
+    e2 = np.asarray(e2, dtype=float).reshape(len(e2), -1)
+    s2 = np.asarray(s2, dtype=float).reshape(e2.shape)
+    known = np.zeros_like(e2) if known is None else np.asarray(known, float).reshape(e2.shape)
+    floor = np.broadcast_to(np.asarray(floor, dtype=float), e2.shape[1:])
+    a = np.empty(e2.shape[1])
+    b = np.empty(e2.shape[1])
+    for c in range(e2.shape[1]):
+        var = np.full(e2.shape[0], max(float(np.mean(e2[:, c])), np.finfo(float).tiny))
+        for _ in range(passes):
+            w = 1.0 / var
+            (a[c], b[c]), _ = nnls(np.column_stack([w, w * s2[:, c]]),
+                                   w * (e2[:, c] - known[:, c]))
+            a[c] = max(a[c], floor[c])
+            var = a[c] + b[c] * s2[:, c] + known[:, c]
+    return a, b
+
+
 def estimate_noise_law(x: np.ndarray, *, use: np.ndarray | None = None,
                        floor_fraction: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
     """Estimate a signal-dependent noise law ``var = a + b s^2`` per channel from the data.
 
     The squared 7-point Savitzky-Golay residual (divided by ``1 - h0``, as in
     :func:`estimate_noise_sd`) is regressed on ``[1, s^2]``, ``s`` the smoothed signal, by
-    non-negative least squares weighted by the inverse squared variance (two reweighting
-    passes; the variance of a squared Gaussian residual is ``2 var^2``). Multiplicative
-    noise (the paper's eq. 43) gives ``a ~ 0``; additive noise ``b ~ 0``.
+    :func:`fit_noise_law`. Multiplicative noise (the paper's eq. 43) gives ``a ~ 0``;
+    additive noise ``b ~ 0``. The smoother residual also holds whatever of the signal a
+    7-point quadratic does not follow (the accelerometers' roll-frequency content, a
+    relay switch): a first guess, which the model-based estimators refine from their
+    own residuals.
 
     Parameters
     ----------
@@ -175,23 +225,11 @@ def estimate_noise_law(x: np.ndarray, *, use: np.ndarray | None = None,
     a, b : ndarray, shape (m,)
         [unit^2] and [dimensionless].
     """
-    from scipy.optimize import nnls
-
     x = np.asarray(x, dtype=float).reshape(len(x), -1)
     s = smooth(x, SMOOTHING_WINDOW, SMOOTHING_POLYORDER, axis=0)
     h0 = savgol_coeffs(SMOOTHING_WINDOW, SMOOTHING_POLYORDER)[SMOOTHING_WINDOW // 2]
     e2 = (x - s) ** 2 / (1.0 - h0)
     if use is not None:
         e2, s = e2[np.asarray(use, dtype=bool)], s[np.asarray(use, dtype=bool)]
-    a = np.empty(x.shape[1])
-    b = np.empty(x.shape[1])
-    for c in range(x.shape[1]):
-        ms = max(float(np.mean(e2[:, c])), np.finfo(float).tiny)
-        var = np.full(e2.shape[0], ms)
-        s2 = s[:, c] ** 2
-        for _ in range(2):
-            w = 1.0 / var
-            (a[c], b[c]), _ = nnls(np.column_stack([w, w * s2]), w * e2[:, c])
-            a[c] = max(a[c], floor_fraction * ms)
-            var = a[c] + b[c] * s2
-    return a, b
+    ms = np.maximum(np.mean(e2, axis=0), np.finfo(float).tiny)
+    return fit_noise_law(e2, s * s, floor=floor_fraction * ms)

@@ -59,3 +59,34 @@ def test_noise_free_channel_gets_the_floor_not_zero() -> None:
 def test_unknown_statistic_is_one_line() -> None:
     with pytest.raises(ValueError, match="statistic must be"):
         estimate_noise_sd(np.zeros(20), statistic="std")
+
+
+def test_noise_law_with_a_known_part_recovers_the_noise() -> None:
+    """e ~ N(0, a + b s^2 + known): the known part (a filter's H P H^T) is not noise."""
+    from aeroid.estimation import fit_noise_law
+
+    rng = np.random.default_rng(5)
+    n = 40000
+    s = 10.0 * np.sin(np.linspace(0.0, 80.0, n))
+    known = 0.5 * np.exp(-np.arange(n) / 2000.0)  # large early, as a filter's start
+    a, b = 0.04, 0.0009
+    e = np.sqrt(a + b * s**2 + known) * rng.standard_normal(n)
+    a_hat, b_hat = fit_noise_law((e * e)[:, None], (s * s)[:, None], known=known[:, None])
+    # the sd of a weighted regression of 40 000 squared Gaussians: ~2-3 % here
+    np.testing.assert_allclose([a_hat[0], b_hat[0]], [a, b], rtol=0.1)
+    # ignoring the known part puts it into the noise
+    a_naive, _ = fit_noise_law((e * e)[:, None], (s * s)[:, None])
+    assert a_naive[0] > 1.5 * a
+
+
+def test_noise_law_floor_and_constant_law() -> None:
+    from aeroid.estimation import fit_noise_law
+
+    rng = np.random.default_rng(6)
+    e = 0.3 * rng.standard_normal((50000, 2))
+    s2 = np.zeros_like(e)  # regressed on [1] only: a is the mean square
+    a, b = fit_noise_law(e * e, s2)
+    np.testing.assert_allclose(a, np.mean(e * e, axis=0), rtol=1e-12)
+    np.testing.assert_array_equal(b, 0.0)
+    a, _ = fit_noise_law(1e-30 * e * e, s2, floor=[1e-6, 2e-6])
+    np.testing.assert_array_equal(a, [1e-6, 2e-6])
