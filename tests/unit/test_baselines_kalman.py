@@ -274,6 +274,24 @@ def test_covariance_check_repairs_rounding_only():
             assert "not positive definite" in reason
 
 
+def test_covariance_check_judges_a_negative_diagonal_by_the_same_rounding_test():
+    # what the UKF left on a noise-free relay flight: a variance of -2e-10 beside a
+    # largest eigenvalue of 6.7e5 (3e-16 relative) is rounding; -1e-3 there is not
+    rng = np.random.default_rng(4)
+    vec = np.linalg.qr(rng.standard_normal((3, 3)))[0]
+    for dip, repaired in ((2e-10, True), (1e-3, False)):
+        P = np.zeros((4, 4))  # a state the data pinned exactly, its variance below 0
+        P[:3, :3] = (vec * np.array([6.7e5, 1.0, 1e-3])) @ vec.T
+        P[3, 3] = -dip
+        reason, fixed = _kalman._check(P, np.zeros(4))
+        if repaired:
+            assert reason == ""
+            np.linalg.cholesky(fixed)
+            assert np.all(np.diag(fixed) > 0)
+        else:
+            assert "not positive definite" in reason
+
+
 # --------------------------------------------------------------------------------------
 # Passes: the noise law from the innovations, and the passes' fixed point
 # --------------------------------------------------------------------------------------
