@@ -55,10 +55,20 @@ correlation length (tests/statistical/test_coverage.py gives the coverage), capp
 :data:`baselines.newey_west.MAX_CORRELATION_LENGTH` samples; it costs O(n L) in the
 number of samples n and the bandwidth L (:mod:`baselines.newey_west`;
 benchmarks/bench_newey_west.py).
+
+Uncertain sensor positions (the airframe's ``accel1/2_position_sd_m``): the regression
+takes the given positions as exact, and a position error is one draw per flight that no
+residual-based covariance can see. By default (``positions="consider"``) the covariance
+adds it: ``G diag(sd^2) G^T``, ``G`` the central difference of the estimate over +-1 sd
+of each uncertain component (two more solves per component). Measured under the paper's
+noise with its 10 % position error (``python benchmarks/bench_equation_error.py``, two-step
+form, smoothing "none"): coverage of the 95 % intervals 0.75 taken as known (Cx 0.26,
+Czd 0.48, Cmd 0.56), see benchmarks/results/equation_error.md for the considered ones.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
@@ -246,6 +256,11 @@ class EquationErrorEstimator(Estimator):
         samples; "ols" ``sigma^2 (X^T X)^-1``, which assumes white residuals and gave
         95 % intervals that held the truth in only 59 % of coefficient-runs (two-step)
         and 80 % (one-step) with Gaussian noise (tests/statistical/test_coverage.py).
+    positions : {"consider", "known"}
+        Accelerometer-position components the airframe calls uncertain (sd > 0): their
+        effect on the estimate is added to the covariance (default ``consider``; module
+        docstring; ``info["position_sensitivity"]`` holds ``G``), or they are taken as
+        known. The estimate is the same either way.
 
     Notes
     -----
@@ -268,30 +283,61 @@ class EquationErrorEstimator(Estimator):
     smoothing: Literal["both", "forces", "none"] = "none"
     lateral_rows: bool = False
     covariance: Literal["hac", "ols"] = "hac"
+    positions: Literal["consider", "known"] = "consider"
 
     def __post_init__(self) -> None:
         if self.smoothing not in rc.SMOOTHING_CHOICES:
             raise ValueError(f"smoothing must be one of {', '.join(rc.SMOOTHING_CHOICES)}, "
                              f"got {self.smoothing!r}")
+        if self.positions not in ("consider", "known"):
+            raise ValueError(f"positions must be 'consider' or 'known', got {self.positions!r}")
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Solve the least-squares problems (deterministic)."""
+        result = self._solve(flight)
+        sd = flight.airframe.accel_position_sd.ravel()
+        free = np.flatnonzero(sd)
+        if self.positions == "known" or free.size == 0 or not result.success:
+            return result
+        G = np.empty((9, free.size))
+        given = flight.airframe.accel_positions.ravel()
+        for j, c in enumerate(free):
+            ends = []
+            for sign in (1.0, -1.0):
+                pos = given.copy()
+                pos[c] += sign * sd[c]
+                moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
+                                                accel2_position_m=tuple(pos[3:]))
+                ends.append(self._solve(dataclasses.replace(flight, airframe=moved),
+                                        theta_only=True).theta)
+            G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
+        cov = result.covariance + (G * sd[free] ** 2) @ G.T
+        info = {**result.info, "position_sensitivity": G,
+                "position_components": [int(c) for c in free]}
+        return dataclasses.replace(result, covariance=cov,
+                                   stderr=np.sqrt(np.abs(np.diag(cov))), info=info)
+
+    def _solve(self, flight: Flight, *, theta_only: bool = False) -> EstimationResult:
+        """One solve at the airframe's positions (``theta_only``: the estimate alone, its
+        covariance plain least squares and no gyro-only floor, for the sensitivities)."""
+        covariance = "ols" if theta_only else self.covariance
         if self.one_step:
-            return self._one_step(flight)
+            return self._one_step(flight, covariance, theta_only)
         rec = rc.reconstruct(flight)
         X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             X, y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
-            covariance=self.covariance)
+            covariance=covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
         rows = tuple(row for _, row, _ in SUBPROBLEMS)
         if self.lateral_rows:
             rows = tuple(sorted(rows + tuple(LATERAL.values())))
-        info.update(rc.regression_fit(rec, X, y, theta, rows))
-        return self._result(flight, theta, cov, corr, cost, info)
+        if not theta_only:
+            info.update(rc.regression_fit(rec, X, y, theta, rows))
+        return self._result(flight, theta, cov, corr, cost, info, floor=not theta_only)
 
-    def _one_step(self, flight: Flight) -> EstimationResult:
+    def _one_step(self, flight: Flight, covariance: str, theta_only: bool) -> EstimationResult:
         c, A = affine_accelerations(flight)
         n = flight.n_samples
         meas = np.concatenate([flight.accelerations().reshape(n, 6),
@@ -306,7 +352,7 @@ class EquationErrorEstimator(Estimator):
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
             Aw = (A / sd[None, :, None]).reshape(-1, 9)
             bw = (target / sd[None, :]).reshape(-1)
-            theta, cov, s2, bandwidth = _lstsq(Aw, bw, n_time=n, covariance=self.covariance)
+            theta, cov, s2, bandwidth = _lstsq(Aw, bw, n_time=n, covariance=covariance)
             resid = target - np.einsum("noc,c->no", A, theta)
             sd = np.sqrt(np.mean(resid * resid, axis=0))
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
@@ -315,16 +361,17 @@ class EquationErrorEstimator(Estimator):
                 "hac_bandwidth": {"one_step": bandwidth}}
         names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels
         info["fit_residuals"] = {name: resid[:, j] for j, name in enumerate(names)}
-        return self._result(flight, theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info)
+        return self._result(flight, theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info,
+                            floor=not theta_only)
 
     def _result(self, flight: Flight, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray,
-                cost: float, info: dict) -> EstimationResult:
+                cost: float, info: dict, *, floor: bool = True) -> EstimationResult:
         names = aeroid.NAMES
         collinear = [(names[i], names[j], float(corr[i, j])) for i in range(9)
                      for j in range(i + 1, 9)
                      if np.isfinite(corr[i, j]) and abs(corr[i, j]) > COLLINEAR_R]
         info.update(correlation=corr, collinear=collinear)
-        if np.all(np.isfinite(theta)):
+        if floor and np.all(np.isfinite(theta)):
             info["gyro_only_floor"] = roll_floor(flight, theta)
         capped = [label for label, bw in info["hac_bandwidth"].items() if bw["capped"]]
         warnings = tuple(

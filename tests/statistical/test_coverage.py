@@ -7,7 +7,8 @@ fit per estimator and flight; a coefficient-run is covered when
 coefficient-runs (correlated within a run) the accepted band is 88-99 %. And 30 flights
 with the paper's noise and 10 % sensor-position error, every estimator started from a
 prior 10-25 % off the truth: output-error and the EKF/UKF against issue 11's accuracy
-targets and the same band.
+targets and the same band; equation-error (its intervals considering the position
+error) against the band.
 """
 
 from __future__ import annotations
@@ -92,8 +93,9 @@ def test_white_residual_intervals_are_too_narrow(coverage):
 # The paper's noise with its 10 % sensor-position error, from a prior off the truth
 # --------------------------------------------------------------------------------------
 N_PAPER_FLIGHTS = 30
-#: Issue 11's targets for this condition: mean |error| over the nine coefficients.
-PAPER_TARGET_PCT = {"output-error": 0.5, "ekf": 1.0, "ukf": 1.0}
+#: Issue 11's targets for this condition: mean |error| over the nine coefficients (None:
+#: no accuracy target; equation-error sits at its gyro-only floor on Cl0/Clp, ~44 %).
+PAPER_TARGET_PCT = {"output-error": 0.5, "ekf": 1.0, "ukf": 1.0, "equation-error": None}
 
 
 @pytest.fixture(scope="module")
@@ -129,5 +131,6 @@ def paper_condition():
 def test_paper_noise_accuracy_and_coverage(paper_condition, name):
     rec = paper_condition[name]
     assert rec["failed"] == 0
-    assert np.mean(rec["err"]) <= PAPER_TARGET_PCT[name]
+    if PAPER_TARGET_PCT[name] is not None:
+        assert np.mean(rec["err"]) <= PAPER_TARGET_PCT[name]
     assert COVERAGE_BAND[0] <= np.mean(rec["covered"]) <= COVERAGE_BAND[1]

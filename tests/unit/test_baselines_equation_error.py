@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -135,3 +137,49 @@ def test_noisy_two_step_lies_within_reported_bounds(noisy_flight):
 def test_bad_smoothing_is_rejected():
     with pytest.raises(aeroid.EstimatorError, match="smoothing"):
         EquationErrorEstimator.from_options({"smoothing": "magic"})
+
+
+# --------------------------------------------------------------------------------------
+# Uncertain sensor positions: the consider covariance
+# --------------------------------------------------------------------------------------
+def test_consider_adds_the_position_effect_and_keeps_the_estimate(paper_flight):
+    """Paper noise: the airframe gives 4 uncertain position components. The estimate is
+    that of known positions; the covariance grows by G diag(sd^2) G^T, with G the
+    estimate's own central difference (checked here against a 10x smaller step: the
+    regression is smooth in the positions)."""
+    known = EquationErrorEstimator(positions="known").fit(paper_flight, rng=0)
+    cons = EquationErrorEstimator().fit(paper_flight, rng=0)
+    assert known.success and cons.success
+    np.testing.assert_array_equal(cons.theta, known.theta)
+    G = cons.info["position_sensitivity"]
+    free = cons.info["position_components"]
+    sd = paper_flight.airframe.accel_position_sd.ravel()[free]
+    assert len(free) == 4 and G.shape == (9, 4)
+    np.testing.assert_allclose(cons.covariance - known.covariance, (G * sd**2) @ G.T,
+                               rtol=1e-12, atol=0)
+    # G by a step of sd / 10, independently of the estimator's loop
+    given = paper_flight.airframe.accel_positions.ravel()
+    for j, c in enumerate(free):
+        ends = []
+        for sign in (1.0, -1.0):
+            pos = given.copy()
+            pos[c] += sign * sd[j] / 10
+            moved = paper_flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
+                                                  accel2_position_m=tuple(pos[3:]))
+            flight = dataclasses.replace(paper_flight, airframe=moved)
+            ends.append(EquationErrorEstimator(positions="known").fit(flight, rng=0).theta)
+        small = (ends[0] - ends[1]) / (2 * sd[j] / 10)
+        np.testing.assert_allclose(G[:, j], small, rtol=0.05, atol=1e-6 * np.abs(G).max())
+    # what the position error does: Cx, Czd, Cmd's intervals widen several-fold
+    ratio = cons.stderr / known.stderr
+    assert np.all(ratio >= 1.0)
+    assert np.all(ratio[[aeroid.NAMES.index(n) for n in ("Cx", "Czd", "Cmd")]] > 1.5), ratio
+
+
+def test_exact_positions_leave_nothing_to_consider(noisy_flight):
+    cons = EquationErrorEstimator().fit(noisy_flight, rng=0)
+    known = EquationErrorEstimator(positions="known").fit(noisy_flight, rng=0)
+    np.testing.assert_array_equal(cons.covariance, known.covariance)
+    assert "position_sensitivity" not in cons.info
+    with pytest.raises(ValueError, match="positions"):
+        EquationErrorEstimator(positions="estimate")
