@@ -60,10 +60,13 @@ Uncertain sensor positions (the airframe's ``accel1/2_position_sd_m``): the regr
 takes the given positions as exact, and a position error is one draw per flight that no
 residual-based covariance can see. By default (``positions="consider"``) the covariance
 adds it: ``G diag(sd^2) G^T``, ``G`` the central difference of the estimate over +-1 sd
-of each uncertain component (two more solves per component). Measured under the paper's
-noise with its 10 % position error (``python benchmarks/bench_equation_error.py``, two-step
-form, smoothing "none"): coverage of the 95 % intervals 0.75 taken as known (Cx 0.26,
-Czd 0.48, Cmd 0.56), see benchmarks/results/equation_error.md for the considered ones.
+of each uncertain component (two more solves per component, without their covariance).
+Measured under the paper's noise with its 10 % position error, two-step form: coverage
+of the 95 % intervals 0.74 with the positions taken as known (Cx 0.05, Czd 0.55, Cmd
+0.35; 20 flights), 0.944 considered (30 flights, prior off the truth:
+``python -m pytest -m slow -s tests/statistical/test_coverage.py -k paper``). The
+one-step form under that noise: 0.59 -> 0.78 (6 flights; its Cl0, Clp, Cmd are
+thousands of % off there, see above).
 """
 
 from __future__ import annotations
