@@ -118,8 +118,11 @@ def _keep_in_view(ax: Any, step: np.ndarray, values: np.ndarray, truth: float) -
     ax.set_ylim(lo, hi)
     above, below = ok & (values > hi), ok & (values < lo)
     if above.any() or below.any():
-        ax.plot(step[above], np.full(above.sum(), hi), "^", color="C3", ms=5, clip_on=False)
-        ax.plot(step[below], np.full(below.sum(), lo), "v", color="C3", ms=5, clip_on=False)
+        for mask, edge, marker in ((above, hi, "^"), (below, lo, "v")):
+            if mask.any():  # an empty unclipped line broke the constrained layout
+                (line,) = ax.plot(step[mask], np.full(mask.sum(), edge), marker, color="C3",
+                                  ms=5, clip_on=False)
+                line.set_in_layout(False)  # drawn on the frame: no room to reserve
         return True
     return False
 

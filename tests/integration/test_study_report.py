@@ -335,3 +335,28 @@ def test_labels_that_slug_alike_get_their_own_figures(tmp_path):
     assert "M/1 — estimates" not in report  # titles are in the PNGs; the links differ:
     assert "figures/coefficients_n0-e0_M_1.png" in report
     assert "figures/coefficients_n0-e1_M_1.png" in report
+
+
+def test_coefficient_history_with_points_beyond_one_edge_keeps_its_layout(tmp_path):
+    """An early path far below the truth on some panels (output-error's first steps) used
+    to give an empty unclipped marker line on the other edge, which collapsed the
+    constrained layout (matplotlib: "axes sizes collapsed to zero", the middle column
+    drawn zero wide)."""
+    import warnings
+
+    import matplotlib.image
+
+    from aeroid import nominal
+    from aeroid.study import _plots
+
+    truth = np.array(nominal())
+    step = np.arange(9.0)
+    theta = np.tile(truth, (9, 1))
+    theta[:4, 8] = truth[8] * 3.0  # far beyond one edge only (Cmq), then converged
+    theta[:3, 3] = truth[3] * 4.0  # and Czq
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        path = _plots.plot_coefficient_history({"axis": "iteration", "step": step,
+                                                "theta": theta}, truth,
+                                               tmp_path / "history.png")
+    assert matplotlib.image.imread(path).shape[1] > 1000
