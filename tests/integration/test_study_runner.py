@@ -144,6 +144,22 @@ def test_local_dask_cluster_gives_identical_results(study, serial, tmp_path):
     assert stable(dask.records) == stable(serial.records)
 
 
+def test_local_dask_cluster_starts_when_port_8787_is_taken(study, serial, tmp_path):
+    """Dask's default HTTP port held by someone else (a second study, a dashboard): the
+    local cluster used to fail to start ("Port 8787 is already in use")."""
+    import socket
+
+    pytest.importorskip("dask.distributed")
+    with socket.socket() as held:
+        try:
+            held.bind(("0.0.0.0", 8787))
+        except OSError:
+            pytest.skip("port 8787 is in use here already")
+        held.listen()
+        dask = run_study(study, tmp_path, dask_local=2, progress=False)
+    assert stable(dask.records) == stable(serial.records)
+
+
 def test_history_kept_for_run_0_only(study, serial):
     for noise in ("paper", "gauss"):
         for label in ("J1", "J2"):
