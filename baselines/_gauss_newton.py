@@ -49,9 +49,9 @@ NOISE_MODELS: tuple[str, ...] = ("channel", "signal")
 #: times the channel's typical weight. The floor is a numerical guard, not a belief about
 #: the noise, and the Fisher covariance takes the floored variance as the true one: at
 #: 1e-4 (the former value) output-error's intervals were 1.1-1.4x its actual spread under
-#: the paper's noise (coverage 0.99) and its error 0.42 %; at 1e-6 coverage 0.96 and
-#: 0.36 %, at 1e-8 the same (30 flights, prior off the truth; data with additive noise
-#: have a_c well above either floor).
+#: the paper's noise, coverage 0.989 and 0.489 % mean error; at 1e-6 coverage 0.964 and
+#: 0.468 % (``aeroid study studies/paper_table5_prior.toml``, 50 runs, at commits
+#: b008e8f and 9d489cc; data with additive noise have a_c well above either floor).
 A_FLOOR_REL = 1e-6
 
 

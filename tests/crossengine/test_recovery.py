@@ -156,3 +156,24 @@ def test_fit_check_fails_todays_held_input_fit(climb_noisy):
     ratio = result.info["fit_check"]["ratio"]
     assert max(ratio.values()) > 3.0
     assert math.isfinite(max(ratio.values()))
+
+
+
+@pytest.mark.parametrize("name", [
+    "ukf",
+    pytest.param("ekf", marks=pytest.mark.xfail(strict=True, reason=(
+        "open (issue 11's closing note): the EKF's passes with the events input land "
+        "6.6 sd off on Cza and 6.1 on Cma (one pass: 1.8 at worst; the UKF's passes: 1.7; "
+        "output-error: 1.9) - the same EKF-with-events loss as on the delayed relay"))),
+])
+def test_filter_passes_on_the_jsbsim_flight_are_within_their_intervals(climb_noisy, name):
+    """The EKF/UKF passes (issue 11) on a flight our simulator did not make: the JSBSim
+    climb with Gaussian noise, events input, per-sample density (as output-error above)."""
+    flight, truth = climb_noisy
+    flight = issue10_flight(flight, truth, events=True)
+    result = aeroid.make_estimator(name, {"input": "events"}).fit(flight, rng=1)
+    assert result.success, result.message
+    assert result.info["passes"] > 1
+    z = np.abs(result.theta - truth.coefficients) / result.stderr
+    assert np.all(z <= TARGET_CRAMER_RAO_SD), z
+    assert np.mean(_error_pct(result.theta, truth)) <= TARGET_NOISY_MEAN_PCT
