@@ -116,6 +116,37 @@ def test_batched_augmented_model_equals_casadi(flight):
                                    atol=1e-10)
 
 
+def test_buffered_inputs_do_not_alias_the_arrays_given():
+    """``Buffered.set`` writes into its input buffers: they must be copies. A contiguous
+    slice given at construction (``delta[:1]``) used to be the buffer itself, so setting
+    the deflection of sample k overwrote sample 0's in the caller's array."""
+    import casadi as ca
+
+    x, d = ca.SX.sym("x"), ca.SX.sym("d")
+    buffered = aeroid.model.Buffered(ca.Function("f", [x, d], [x * d]),
+                                     [np.zeros(1), (delta := np.array([1.0, 2.0, 3.0]))[:1]])
+    buffered.set(1, delta[2:3])
+    assert buffered(np.array([2.0]))[0][0] == 6.0
+    np.testing.assert_array_equal(delta, [1.0, 2.0, 3.0])
+
+
+def test_augmented_model_at_a_sample_does_not_depend_on_what_was_evaluated_before(flight):
+    """The filters' model at sample 0 is the same after evaluating it at a sample with
+    another deflection (the EKF's second pass used to see the last sample's deflection at
+    sample 0: 6.6 sd off on the JSBSim climb, 1.06 % on the delayed relay)."""
+    model = _common.augmented_model(flight, 1)
+    k = int(np.flatnonzero(flight["delta"] != flight["delta"][0])[0])
+    z = np.concatenate([flight.states()[0], aeroid.nominal()])
+    before = [np.copy(a) for a in (*model.observe(z, 0), *model.transition(z, 0))]
+    model.observe(z, k)
+    model.transition(z, k)
+    after = [*model.observe(z, 0), *model.transition(z, 0)]
+    for a, b in zip(before, after, strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_allclose(model.observe_batch(z[None], 0)[0], before[0],
+                               rtol=MODEL_RTOL, atol=1e-10)
+
+
 # --------------------------------------------------------------------------------------
 # The filterpy loops equal a hand-written linear Kalman filter
 # --------------------------------------------------------------------------------------
@@ -370,11 +401,17 @@ def test_max_passes_is_checked():
         ExtendedKalmanEstimator(max_passes=0)
 
 
-def test_a_pass_that_fits_worse_is_rejected():
-    """Noise-free delayed relay (servo delay and rate limit, the events input): the
-    first pass is within 0.01 %; a second pass, its coefficients nearly fixed, cannot
-    absorb the model's discretisation error and drifted to 13 % before this rule. It is
-    now rejected (its innovations far above the first pass's) and the result says so."""
+#: Noise-free delayed relay, events input: the passes' largest relative error (measured
+#: 1.0e-4, the model's discretisation of the servo ramps; one pass 2.0e-5). With the
+#: deflection at sample 0 overwritten (the Buffered aliasing) the second pass drifted to
+#: 13 %; 5x the measured keeps the test far below that.
+PASSES_NOISE_FREE_RTOL = 5e-4
+
+
+def test_passes_stay_at_the_truth_on_a_noise_free_delayed_relay():
+    """Noise-free delayed relay (servo delay and rate limit, the events input): every pass
+    starts from the flight's own inputs, so the later passes, their coefficients nearly
+    fixed, stay where the first one landed."""
     from pathlib import Path
 
     scenario = aeroid.load_scenario(
@@ -385,6 +422,6 @@ def test_a_pass_that_fits_worse_is_rejected():
         prior=tuple(truth * PRIOR_FACTOR_PAPER)))
     res = ExtendedKalmanEstimator(input="events").fit(flight, rng=0)
     assert res.success, res.message
-    assert res.info["passes"] == 2 and res.info["pass_changes"] == []
-    assert any("fitted worse" in w and "the result is pass 1's" in w for w in res.warnings)
-    np.testing.assert_allclose(res.theta, truth, rtol=1e-4)
+    assert res.info["passes"] >= 2 and res.info["pass_changes"][-1] <= _common.PASS_TOL
+    assert not res.warnings
+    np.testing.assert_allclose(res.theta, truth, rtol=PASSES_NOISE_FREE_RTOL)
