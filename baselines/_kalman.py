@@ -13,7 +13,9 @@ How filterpy 2.0 is adapted (its source was read):
   evaluated at the posterior before calling ``predict``; ``update`` (Joseph form) is
   filterpy's, given ``Hx``/``HJacobian`` callables evaluated once per step.
 * ``UnscentedKalmanFilter.compute_process_sigmas`` calls ``fx`` once per sigma point.
-  :class:`_BatchedUKF` overrides it to propagate all sigma points in one batched call;
+  :class:`_BatchedUKF` overrides it to propagate all sigma points in one batched call,
+  and ``cross_variance`` (a loop of outer products) by one matrix product, and
+  :class:`_MerwePoints` sets the sigma points without filterpy's loop over the rows;
   for the measurement, ``update`` also loops over sigma points with ``hx``: the loop
   evaluates the batched measurement once and hands filterpy a callable that returns the
   precomputed rows in filterpy's iteration order (:class:`_RowFeed`). Mean, covariance,
@@ -111,6 +113,25 @@ class _BatchedUKF(UnscentedKalmanFilter):
         """Propagate every sigma point with one call of ``self.batch_fx``."""
         sigmas = self.points_fn.sigma_points(self.x, self.P)
         self.sigmas_f = np.asarray(self.batch_fx(sigmas), dtype=float)
+
+    def cross_variance(self, x: np.ndarray, z: np.ndarray, sigmas_f: np.ndarray,
+                       sigmas_h: np.ndarray) -> np.ndarray:
+        """filterpy's state-measurement cross-covariance as one product (its loop of
+        outer products over the sigma points, with the plain differences as residuals)."""
+        return (self.Wc[:, None] * (sigmas_f - x)).T @ (sigmas_h - z)
+
+
+class _MerwePoints(MerweScaledSigmaPoints):
+    """filterpy's scaled sigma points with the rows set in two array operations."""
+
+    def sigma_points(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """``[x, x + U_k, x - U_k]``, ``U`` filterpy's square root of ``(lambda + n) P``
+        (its loop over the rows, the plain difference as ``subtract``)."""
+        n = self.n
+        x = np.asarray(x, dtype=float).reshape(n)
+        lambda_ = self.alpha**2 * (n + self.kappa) - n
+        U = self.sqrt((lambda_ + n) * np.atleast_2d(P))
+        return np.concatenate([x[None, :], x + U, x - U])
 
 
 class _RowFeed:
@@ -241,7 +262,7 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
     if model.transition_batch is None or model.observe_batch is None:
         raise ValueError("run_ukf: the model needs transition_batch and observe_batch")
     n = zs.shape[0]
-    points = MerweScaledSigmaPoints(model.dim_x, alpha=alpha, beta=beta, kappa=kappa)
+    points = _MerwePoints(model.dim_x, alpha=alpha, beta=beta, kappa=kappa)
     step = {"k": 0}
 
     def batch_fx(sigmas: np.ndarray) -> np.ndarray:

@@ -108,7 +108,8 @@ def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, pieces: Piece
 
 def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | Pieces,
               dt: float, const: Constants, *, substeps: int = 1, backend: str = "auto",
-              exogenous: np.ndarray | None = None) -> np.ndarray:
+              exogenous: np.ndarray | None = None, parallel: bool | None = None
+              ) -> np.ndarray:
     """Integrate the airframe model for many coefficient sets with RK4.
 
     Parameters
@@ -132,6 +133,11 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
         Air density, mass, thrust, inertias and gravity at every sample
         (:data:`aeroid.model.EXOGENOUS` columns, :func:`aeroid.model.exogenous_table`),
         interpolated linearly in time within each interval; default the constants.
+    parallel : bool or None
+        numba backend: the threaded kernel (True) or the serial one (False); default
+        (None) threaded from :data:`aeroid.model._compiled.PARALLEL_MIN_SETS` sets on.
+        Short calls repeated many times (one interval of a UKF's sigma points) are
+        faster serial: starting the thread pool costs more than the work.
 
     Returns
     -------
@@ -183,8 +189,9 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
     if backend == "numba":
         if not HAVE_NUMBA:
             raise ValueError("propagate: backend 'numba' requested but numba is not installed")
-        kernel = (_compiled.propagate_parallel if n_sets >= PARALLEL_MIN_SETS
-                  else _compiled.propagate_serial)
+        if parallel is None:
+            parallel = n_sets >= PARALLEL_MIN_SETS
+        kernel = _compiled.propagate_parallel if parallel else _compiled.propagate_serial
         varying = exogenous is not None
         table = exogenous if varying else np.zeros((1, len(inputs.EXOGENOUS)))
         with np.errstate(all="ignore"):

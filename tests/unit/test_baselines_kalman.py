@@ -116,6 +116,31 @@ def test_batched_augmented_model_equals_casadi(flight):
                                    atol=1e-10)
 
 
+def test_ukf_cross_variance_equals_filterpys_loop():
+    """The one-product cross-covariance of ``_BatchedUKF`` against filterpy's own loop."""
+    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+
+    rng = np.random.default_rng(5)
+    points = MerweScaledSigmaPoints(4, alpha=0.5, beta=2.0, kappa=0.0)
+    ukf = _kalman._BatchedUKF(4, 3, 1.0, hx=None, fx=lambda x, dt: x, points=points)
+    sigmas_f, sigmas_h = rng.standard_normal((9, 4)), rng.standard_normal((9, 3))
+    x, z = rng.standard_normal(4), rng.standard_normal(3)
+    expected = UnscentedKalmanFilter.cross_variance(ukf, x, z, sigmas_f, sigmas_h)
+    np.testing.assert_allclose(ukf.cross_variance(x, z, sigmas_f, sigmas_h), expected,
+                               rtol=1e-13, atol=1e-15)
+
+
+def test_sigma_points_equal_filterpys():
+    from filterpy.kalman import MerweScaledSigmaPoints
+
+    rng = np.random.default_rng(6)
+    A = rng.standard_normal((5, 5))
+    x, P = rng.standard_normal(5), A @ A.T + 0.1 * np.eye(5)
+    ours = _kalman._MerwePoints(5, alpha=0.5, beta=2.0, kappa=0.0).sigma_points(x, P)
+    theirs = MerweScaledSigmaPoints(5, alpha=0.5, beta=2.0, kappa=0.0).sigma_points(x, P)
+    np.testing.assert_array_equal(ours, theirs)
+
+
 def test_buffered_inputs_do_not_alias_the_arrays_given():
     """``Buffered.set`` writes into its input buffers: they must be copies. A contiguous
     slice given at construction (``delta[:1]``) used to be the buffer itself, so setting

@@ -130,6 +130,11 @@ def test_numba_and_numpy_backends_agree(clean_flight, reference_scenario):
     # the serial kernel (few sets) gives the parallel kernel's numbers
     few = propagate(args[0], coefficients[:3], *args[2:], backend="numba")
     assert _scaled_error(few, fast[:3]) < BACKEND_RTOL
+    # and asked for by name for many sets (the UKF's sigma points), and the reverse
+    serial = propagate(*args, backend="numba", parallel=False)
+    assert _scaled_error(serial, fast) < BACKEND_RTOL
+    threaded = propagate(args[0], coefficients[:3], *args[2:], backend="numba", parallel=True)
+    assert _scaled_error(threaded, few) < BACKEND_RTOL
 
 
 @needs_numba
