@@ -20,6 +20,7 @@ import contextlib
 import logging
 import os
 import re
+import sys
 import threading
 import time
 from collections import deque
@@ -59,7 +60,16 @@ def init_worker(parent: int | None = None) -> None:
     thread ends the worker within :data:`PARENT_POLL_S` of the death of ``parent`` (the
     study process's id, passed by it: a worker orphaned before this runs exits too).
     """
-    os.environ.update(WORKER_ENV)
+    env = dict(WORKER_ENV)
+    if "numba" in sys.modules and os.environ.get("NUMBA_NUM_THREADS") != env[
+            "NUMBA_NUM_THREADS"]:
+        # numba read NUMBA_NUM_THREADS when it was imported (a spawned process imports
+        # the parent's main module first); changed now, numba's next compilation raises
+        # "Cannot set NUMBA_NUM_THREADS to a different value once the threads have been
+        # launched": every fit that compiled a kernel in a worker failed so (a study
+        # without numba's cache, --jobs 2). set_num_threads below limits the threads.
+        del env["NUMBA_NUM_THREADS"]
+    os.environ.update(env)
     with contextlib.suppress(Exception):  # numba missing or threads fixed already
         import numba
 
@@ -94,9 +104,16 @@ def _pool(workers: int) -> Any:
     from concurrent.futures import ProcessPoolExecutor
 
     context = multiprocessing.get_context("spawn")
-    with environment(WORKER_ENV):  # spawned children inherit it before importing numba
-        return ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                                   initializer=init_worker, initargs=(os.getpid(),))
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=init_worker, initargs=(os.getpid(),))
+
+
+def submit(pool: Any, fn: Any, *args: Any) -> Any:
+    """``pool.submit(fn, *args)`` with :data:`WORKER_ENV` set while it runs: the pool
+    starts its worker processes inside ``submit`` (not when it is made), and a spawned
+    process reads the variables as it starts, before it imports numpy and numba."""
+    with environment(WORKER_ENV):
+        return pool.submit(fn, *args)
 
 
 def _drive(study: Study, pool: Any, queue: deque[Task], in_flight: int,
@@ -114,7 +131,7 @@ def _drive(study: Study, pool: Any, queue: deque[Task], in_flight: int,
         while queue and len(running) < in_flight:
             task = queue.popleft()
             try:
-                running[pool.submit(fit_task, study, task)] = task
+                running[submit(pool, fit_task, study, task)] = task
             except BrokenProcessPool:
                 queue.appendleft(task)
                 suspects.extend(running.values())

@@ -46,6 +46,35 @@ def test_local_dask_cluster_shuts_down_without_log_lines(tmp_path):
     assert done.stderr.strip() == ""
 
 
+SPAWNED_WORKER = """
+import numba  # as the aeroid command: a spawned worker imports this before its initializer
+from worker_probe import compile_in_worker
+from aeroid.study._executors import _pool, submit
+
+if __name__ == "__main__":
+    pool = _pool(1)
+    print(*submit(pool, compile_in_worker).result(), sep="|")
+    pool.shutdown()
+"""
+
+
+def test_a_spawned_worker_compiles_with_one_numba_thread(tmp_path):
+    """A study's worker process compiles numba code (a study without numba's cache):
+    it used to fail every such fit with "Cannot set NUMBA_NUM_THREADS to a different
+    value once the threads have been launched" (the pool started its processes after
+    the variables were restored, and the worker set them after numba had read them)."""
+    pytest.importorskip("numba")
+    script = tmp_path / "spawn_worker.py"
+    script.write_text(SPAWNED_WORKER)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(HERE), os.environ.get("PYTHONPATH", "")])}
+    env.pop("NUMBA_NUM_THREADS", None)
+    done = subprocess.run([sys.executable, str(script)], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().split("|") == ["1", "1", "compiled"]
+
+
 @pytest.mark.parametrize("address", ["localhost:8786", "http://x:1", "tcp://x", "tcp://:1",
                                      "tcp://x:1/path", "", "tcp://a b:1"])
 def test_bad_scheduler_address_is_one_line_before_anything_runs(tmp_path, address):
