@@ -4,6 +4,8 @@ Run by hand from the repository root::
 
     python benchmarks/bench_filter_passes.py            # writes benchmarks/results/filter_passes.md
     python benchmarks/bench_filter_passes.py --quick    # 4 flights, prints only
+    python benchmarks/bench_filter_passes.py --old ../old-checkout   # time, old vs new
+
 
 On seeded flights of the reference scenario (flight seed 0..N-1), each with the prior
 truth x (1 + s U(0.10, 0.25)), s a random sign per coefficient (issue 11's study set-up),
@@ -14,6 +16,13 @@ coefficients and the flights, the coverage of the 95 % intervals (share of
 coefficient-flights with ``|theta - truth| <= 1.96 stderr``), median wall time per fit
 (indicative: the machine is shared), mean number of passes, and fits that warned or
 failed.
+
+``--old PATH`` times the EKF and UKF defaults instead, this tree against the checkout at
+PATH, side by side: each round starts one fresh process per tree in alternating order
+(so both see the same machine load); each process fits ``--flights`` paper-noise flights
+(the flights above) after one warm-up fit and reports the CPU time of each fit
+(``time.process_time``). Written to ``results/filter_speed.md``: the median per
+estimator and tree over all rounds, and the median of the per-round ratio new / old.
 """
 
 from __future__ import annotations
@@ -26,7 +35,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import datetime as dt  # noqa: E402
+import json  # noqa: E402
 import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -45,6 +57,24 @@ ESTIMATORS = {
 }
 NOISES = {"paper (xi 0.05, 10 % positions)": "paper", "Gaussian IMU": "gaussian"}
 OUT = Path(__file__).parent / "results" / "filter_passes.md"
+SPEED_OUT = Path(__file__).parent / "results" / "filter_speed.md"
+#: One timing process: aeroid from the tree on PYTHONPATH, the flights from this file.
+TIMING_CHILD = """
+import json, sys, time
+import aeroid
+from bench_filter_passes import flight_with_prior
+flights = [flight_with_prior("paper", seed) for seed in range(int(sys.argv[1]))]
+out = {}
+for name in ("ekf", "ukf"):
+    estimator = aeroid.make_estimator(name)
+    estimator.fit(flights[0], rng=0)  # compile and warm up
+    out[name] = []
+    for flight in flights:
+        start = time.process_time()
+        estimator.fit(flight, rng=0)
+        out[name].append(time.process_time() - start)
+print(json.dumps({"aeroid": aeroid.__file__, **out}))
+"""
 
 
 def flight_with_prior(noise: str, seed: int) -> aeroid.Flight:
@@ -96,11 +126,74 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def time_trees(old: Path, n_flights: int, rounds: int) -> dict:
+    """CPU time per fit of the EKF/UKF defaults in this tree and in ``old``, alternating."""
+    here = Path(__file__).resolve().parent
+    trees = {"new": here.parent, "old": old.resolve()}
+    times: dict = {tree: {"ekf": [], "ukf": []} for tree in trees}
+    ratios: dict = {"ekf": [], "ukf": []}
+    for r in tqdm(range(rounds), desc="rounds"):
+        order = ["old", "new"] if r % 2 == 0 else ["new", "old"]
+        median = {}
+        for tree in order:
+            env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(trees[tree]), str(here)])}
+            # run in the tree: ``-c`` puts the working directory first on sys.path
+            done = subprocess.run([sys.executable, "-c", TIMING_CHILD, str(n_flights)],
+                                  env=env, cwd=trees[tree], capture_output=True, text=True,
+                                  check=True)
+            got = json.loads(done.stdout.strip().splitlines()[-1])
+            if not Path(got.pop("aeroid")).is_relative_to(trees[tree]):
+                raise SystemExit(f"the {tree} process did not import aeroid from {trees[tree]}")
+            median[tree] = {k: float(np.median(v)) for k, v in got.items()}
+            for k, v in got.items():
+                times[tree][k] += v
+        for k in ratios:
+            ratios[k].append(median["new"][k] / median["old"][k])
+    return {"times": times, "ratios": ratios}
+
+
+def speed_table(measured: dict) -> str:
+    lines = ["| estimator | old: median CPU time per fit [s] | new [s] | new / old "
+             "(median of rounds) |", "|---|---:|---:|---:|"]
+    for k in ("ekf", "ukf"):
+        lines.append(f"| {k.upper()} (defaults, passes) "
+                     f"| {np.median(measured['times']['old'][k]):.2f} "
+                     f"| {np.median(measured['times']['new'][k]):.2f} "
+                     f"| {np.median(measured['ratios'][k]):.2f} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--flights", type=int, default=20)
     parser.add_argument("--quick", action="store_true", help="4 flights, print only")
+    parser.add_argument("--old", type=Path, help="a checkout to time against (see above)")
+    parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
+    if args.old is not None:
+        n = 4 if args.quick else min(args.flights, 5)
+        measured = time_trees(args.old, n, args.rounds)
+        commits = {}
+        for tree in (Path(__file__).resolve().parents[1], args.old):
+            commits[tree] = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short",
+                                            "HEAD"], capture_output=True, text=True
+                                           ).stdout.strip() or "?"
+        text = speed_table(measured)
+        print(text)
+        if args.quick:
+            return
+        stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+        SPEED_OUT.write_text(
+            "# EKF/UKF time per fit, old against new code\n\n"
+            f"Measured {stamp} on {platform.machine()}, {os.cpu_count()} cores (shared), "
+            f"{args.rounds} rounds x {n} paper-noise flights per tree, with "
+            f"`python benchmarks/bench_filter_passes.py --old <checkout> --flights {n} "
+            f"--rounds {args.rounds}`; old = commit {commits[args.old]}, new = commit "
+            f"{commits[Path(__file__).resolve().parents[1]]}. CPU time of the fitting "
+            "process (one numba thread), so a loaded machine inflates both columns alike; "
+            "see the script's docstring.\n\n" + text + "\n")
+        print(f"written: {SPEED_OUT}")
+        return
     n = 4 if args.quick else args.flights
     start = time.perf_counter()
     text = table(measure(n))

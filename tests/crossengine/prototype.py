@@ -35,7 +35,7 @@ from typing import Literal
 import numpy as np
 
 from aeroid.flights import Flight
-from aeroid.model import RelayActuator, accelerometers, constants, regressors
+from aeroid.model import FinLaw, accelerometers, constants, regressors
 from baselines import _common
 
 from . import _kernel
@@ -61,7 +61,7 @@ class Inputs:
         at least those of the first ``delay_s`` of the window (law).
     initial_delta : float
         The deflection before the first switch [rad] (events; law with a delay).
-    relay : RelayActuator or None
+    relay : FinLaw or None
         Law: the fin law.
     delay_s : float
         Input delay [s]: added to every switch instant (events), or from a zero of the
@@ -79,7 +79,7 @@ class Inputs:
     switch_times: np.ndarray = field(default_factory=lambda: np.empty(0))
     switch_values: np.ndarray = field(default_factory=lambda: np.empty(0))
     initial_delta: float = 0.0
-    relay: RelayActuator | None = None
+    relay: FinLaw | None = None
     delay_s: float = 0.0
     rho: float | np.ndarray = 1.0
     gravity: float | np.ndarray = 9.80665
@@ -153,8 +153,8 @@ def simulate(flight: Flight, inputs: Inputs, theta: np.ndarray, x0: np.ndarray,
     ev_v = np.asarray(inputs.switch_values, dtype=float)[order]
     if inputs.delta_mode == "law":
         relay = inputs.relay
-        law = np.array([relay.command_amplitude, relay.command_phase_rad, relay.delta_max_rad,
-                        inputs.delay_s])
+        law = np.array([relay.command_amplitude, np.radians(relay.command_phase_deg),
+                        relay.delta_max_rad, inputs.delay_s])
         early = ev_t < t[0] + inputs.delay_s  # switches the delayed law cannot know
         mode, ev_t, ev_v = 1, ev_t[early], ev_v[early]
     else:
@@ -187,7 +187,7 @@ class FitResult:
     converged: bool
 
 
-def law_delay_guess(flight: Flight, relay: RelayActuator) -> float:
+def law_delay_guess(flight: Flight, relay: FinLaw) -> float:
     """Return a starting delay [s] for the law input: logged switches minus the law's.
 
     The law's zeros come from the measured roll angle (linear interpolation of the

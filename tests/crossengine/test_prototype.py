@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aeroid.model import RelayActuator, constants, state_derivative
+from aeroid.model import FinLaw, constants, state_derivative
 
 from . import _kernel
 from . import prototype as pt
@@ -54,9 +54,9 @@ def _inputs(flight, truth, delta_mode):
                       initial_delta=truth.initial_delta)
     else:
         fields.update(pt.logged_events(flight, "midpoint"), delta_mode="law",
-                      relay=RelayActuator(delta_max_rad=np.radians(config.delta_max_deg),
-                                          command_amplitude=config.command_amplitude,
-                                          command_phase_rad=np.radians(config.command_phase_deg)))
+                      relay=FinLaw(delta_max_rad=np.radians(config.delta_max_deg),
+                                   command_amplitude=config.command_amplitude,
+                                   command_phase_deg=config.command_phase_deg))
     return pt.Inputs(**fields)
 
 
