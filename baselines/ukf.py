@@ -3,10 +3,12 @@
 Runs on :class:`filterpy.kalman.UnscentedKalmanFilter` with
 :class:`filterpy.kalman.MerweScaledSigmaPoints`. filterpy propagates sigma points one by
 one (``compute_process_sigmas`` loops over them with ``fx``); here that method is
-overridden so all 37 sigma points go through ONE batched call of
-:func:`aeroid.model.propagate` (states (37, 9), coefficients (37, 9)), and the measurements of
-all sigma points are computed in one call of :func:`aeroid.model.accelerometers` and handed to
-filterpy's ``update`` in its iteration order (see :mod:`baselines._kalman`).
+overridden so all 37 sigma points (45 with four uncertain position components) go
+through ONE batched call of :func:`aeroid.model.propagate` (numba's serial kernel), and
+the measurements of all sigma points are computed in one call of
+:func:`aeroid.model.accelerometers` and handed to filterpy's ``update`` in its iteration
+order; the sigma points and the cross-covariance are array operations instead of
+filterpy's loops (see :mod:`baselines._kalman`).
 """
 
 from __future__ import annotations

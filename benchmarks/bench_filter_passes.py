@@ -190,7 +190,7 @@ def main() -> None:
             f"`python benchmarks/bench_filter_passes.py --old <checkout> --flights {n} "
             f"--rounds {args.rounds}`; old = commit {commits[args.old]}, new = commit "
             f"{commits[Path(__file__).resolve().parents[1]]}. CPU time of the fitting "
-            "process (one numba thread), so a loaded machine inflates both columns alike; "
+            "process (all its threads), so a loaded machine inflates both columns alike; "
             "see the script's docstring.\n\n" + text + "\n")
         print(f"written: {SPEED_OUT}")
         return
