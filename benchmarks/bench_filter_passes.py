@@ -163,6 +163,15 @@ def speed_table(measured: dict) -> str:
     return "\n".join(lines)
 
 
+def write(path: Path, title: str, how: str, text: str) -> None:
+    """Write a results file: title, when, where and how it was measured, the table."""
+    stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    path.write_text(f"# {title}\n\nMeasured {stamp} on {platform.machine()}, "
+                    f"{os.cpu_count()} cores (shared), {how}; see the script's docstring."
+                    f"\n\n{text}\n")
+    print(f"written: {path}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--flights", type=int, default=20)
@@ -182,17 +191,13 @@ def main() -> None:
         print(text)
         if args.quick:
             return
-        stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-        SPEED_OUT.write_text(
-            "# EKF/UKF time per fit, old against new code\n\n"
-            f"Measured {stamp} on {platform.machine()}, {os.cpu_count()} cores (shared), "
-            f"{args.rounds} rounds x {n} paper-noise flights per tree, with "
-            f"`python benchmarks/bench_filter_passes.py --old <checkout> --flights {n} "
-            f"--rounds {args.rounds}`; old = commit {commits[args.old]}, new = commit "
-            f"{commits[Path(__file__).resolve().parents[1]]}. CPU time of the fitting "
-            "process (all its threads), so a loaded machine inflates both columns alike; "
-            "see the script's docstring.\n\n" + text + "\n")
-        print(f"written: {SPEED_OUT}")
+        write(SPEED_OUT, "EKF/UKF time per fit, old against new code",
+              f"{args.rounds} rounds x {n} paper-noise flights per tree, with "
+              f"`python benchmarks/bench_filter_passes.py --old <checkout> --flights {n} "
+              f"--rounds {args.rounds}`; old = commit {commits[args.old]}, new = commit "
+              f"{commits[Path(__file__).resolve().parents[1]]}. CPU time of the fitting "
+              "process (all its threads), so a loaded machine inflates both columns alike",
+              text)
         return
     n = 4 if args.quick else args.flights
     start = time.perf_counter()
@@ -201,15 +206,10 @@ def main() -> None:
     print(text)
     if args.quick:
         return
-    stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    OUT.write_text(
-        "# EKF/UKF passes vs one pass vs output-error\n\n"
-        f"Measured {stamp} on {platform.machine()}, {os.cpu_count()} cores (shared), "
-        f"{n} flights per noise, {took:.0f} s, with "
-        f"`python benchmarks/bench_filter_passes.py --flights {n}`. "
-        "Prior 10-25 % off the truth per flight; see the script's docstring.\n\n"
-        + text + "\n")
-    print(f"written: {OUT}")
+    write(OUT, "EKF/UKF passes vs one pass vs output-error",
+          f"{n} flights per noise, {took:.0f} s, with "
+          f"`python benchmarks/bench_filter_passes.py --flights {n}`. Prior 10-25 % off "
+          "the truth per flight", text)
 
 
 if __name__ == "__main__":
