@@ -182,11 +182,9 @@ def main() -> None:
     if args.old is not None:
         n = 4 if args.quick else min(args.flights, 5)
         measured = time_trees(args.old, n, args.rounds)
-        commits = {}
-        for tree in (Path(__file__).resolve().parents[1], args.old):
-            commits[tree] = subprocess.run(["git", "-C", str(tree), "rev-parse", "--short",
-                                            "HEAD"], capture_output=True, text=True
-                                           ).stdout.strip() or "?"
+        old, new = (subprocess.run(["git", "-C", str(tree), "rev-parse", "--short", "HEAD"],
+                                   capture_output=True, text=True).stdout.strip() or "?"
+                    for tree in (args.old, Path(__file__).resolve().parents[1]))
         text = speed_table(measured)
         print(text)
         if args.quick:
@@ -194,8 +192,8 @@ def main() -> None:
         write(SPEED_OUT, "EKF/UKF time per fit, old against new code",
               f"{args.rounds} rounds x {n} paper-noise flights per tree, with "
               f"`python benchmarks/bench_filter_passes.py --old <checkout> --flights {n} "
-              f"--rounds {args.rounds}`; old = commit {commits[args.old]}, new = commit "
-              f"{commits[Path(__file__).resolve().parents[1]]}. CPU time of the fitting "
+              f"--rounds {args.rounds}`; old = commit {old}, new = commit {new}. CPU time "
+              "of the fitting "
               "process (all its threads), so a loaded machine inflates both columns alike",
               text)
         return

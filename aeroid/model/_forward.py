@@ -340,12 +340,11 @@ class Buffered:
 
     def __init__(self, fun: ca.Function, inputs: Sequence[np.ndarray]) -> None:
         self.fun = fun
-        # column-major nonzeros, always a copy: ``set`` writes into these buffers, and a
-        # buffer that aliased the caller's array (``ravel`` of a contiguous slice is a
-        # view) overwrote it - the filters' deflection at sample 0 became the last
-        # observed sample's after one pass
-        self.inputs = [np.array(np.asarray(a, dtype=float).T.ravel(), copy=True)
-                       for a in inputs]
+        # column-major nonzeros in a copy (``flatten`` always copies): ``set`` writes into
+        # these buffers, and one that aliased the caller's array (``ravel`` of a
+        # contiguous slice is a view) overwrote it - the filters' deflection at sample 0
+        # became the last observed sample's after one pass
+        self.inputs = [np.asarray(a, dtype=float).flatten(order="F") for a in inputs]
         self.outputs = [np.empty(fun.nnz_out(i)) for i in range(fun.n_out())]
         for i in range(fun.n_out()):
             if fun.nnz_out(i) != fun.numel_out(i):

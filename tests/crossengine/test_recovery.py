@@ -49,7 +49,6 @@ TARGET_NOISY_MEAN_PCT = 1.0
 ROLL = [aeroid.NAMES.index("Cl0"), aeroid.NAMES.index("Clp")]
 
 
-
 def _error_pct(theta, truth) -> np.ndarray:
     return np.abs(np.asarray(theta) / truth.coefficients - 1.0) * 100.0
 
@@ -156,7 +155,6 @@ def test_fit_check_fails_todays_held_input_fit(climb_noisy):
     ratio = result.info["fit_check"]["ratio"]
     assert max(ratio.values()) > 3.0
     assert math.isfinite(max(ratio.values()))
-
 
 
 @pytest.mark.parametrize("name", ["ekf", "ukf"])

@@ -78,7 +78,6 @@ options = { scale = 0.02 }
 """
 
 
-
 @pytest.fixture(scope="module")
 def study():
     return loads_study(STUDY, registry=REGISTRY)
