@@ -241,8 +241,9 @@ def check_input(flight: Flight, input: str, delay_s: float = 0.0, *,  # noqa: A0
         return InputChoice(input, mode, reason, None, ())
     agreement = input_agreement(flight, mode, delay_s)
     verdict = agreement.verdict
-    hint = ("check [fin_law] (command_amplitude, command_phase_deg, delay_s) and the sign of "
-            "delta" if mode == "law" else "check the knots' sign and times (delta_knots)")
+    hint = ("check [fin_law] (command_amplitude, command_phase_deg, delay_s, evaluation) and "
+            "the sign of delta" if mode == "law"
+            else "check the knots' sign and times (delta_knots)")
     if verdict == "contradicts":
         raise FlightError(
             f"{where}: {owner}: input '{mode}' contradicts the log: {agreement.figures()} "

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import math
 from pathlib import Path
 
 import numpy as np
@@ -261,3 +262,21 @@ def test_every_estimator_documents_the_same_input_option():
         assert option.type == "{auto, hold, midpoint, events, law}"
         assert "auto (default) is law when the flight's airframe has a [fin_law], else " \
                "hold" in option.description
+
+
+@pytest.mark.parametrize(("name", "options"), [
+    ("ukf", {"max_passes": 1}),
+    ("eam-pso", {"n_particles": 10, "n_iterations": 2}),
+    ("pyswarms", {"objective": "eam", "n_particles": 10, "n_iterations": 2}),
+])
+def test_every_integrating_estimator_takes_the_law_by_default(continuous, name, options):
+    result = aeroid.make_estimator(name, options).fit(continuous, rng=0)
+    assert (result.info["input"], result.info["options"]["input"]) == ("law", "auto")
+    assert result.info["input_agreement"]["verdict"] == "agrees"
+    # the law is what the method integrates: the same numbers as naming it, not as hold
+    named = aeroid.make_estimator(name, {**options, "input": "law"}).fit(continuous, rng=0)
+    np.testing.assert_array_equal(result.theta, named.theta)
+    assert result.cost == named.cost or math.isnan(result.cost)
+    held = aeroid.make_estimator(name, {**options, "input": "hold"}).fit(continuous, rng=0)
+    assert held.info["input"] == "hold"
+    assert not (np.array_equal(held.theta, result.theta) and held.cost == result.cost)
