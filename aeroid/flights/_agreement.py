@@ -124,8 +124,8 @@ class Agreement:
 
     def figures(self) -> str:
         """The figures in words, one line."""
-        what = "the [fin_law]" if self.input == "law" else "the switch knots"
-        text = (f"{what} agree(s) with the logged delta at {self.n_agree} of "
+        what = "the [fin_law] agrees" if self.input == "law" else "the switch knots agree"
+        text = (f"{what} with the logged delta at {self.n_agree} of "
                 f"{self.n_samples} samples ({100.0 * self.share:.1f} %)")
         if self.first_disagreement_s is not None:
             text += (f", first disagreement at t = {self.first_disagreement_s:.6g} s; "
@@ -133,7 +133,7 @@ class Agreement:
                      f"{self.n_switches} logged switches")
             if self.opposite_sign:
                 text += f", {self.opposite_sign} of them of the opposite sign"
-        return text.replace("agree(s)", "agrees" if self.input == "law" else "agree")
+        return text
 
     def as_dict(self) -> dict[str, Any]:
         """The figures as a JSON-ready dict (for a result's ``info``)."""
