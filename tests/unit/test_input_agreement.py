@@ -280,3 +280,16 @@ def test_every_integrating_estimator_takes_the_law_by_default(continuous, name, 
     held = aeroid.make_estimator(name, {**options, "input": "hold"}).fit(continuous, rng=0)
     assert held.info["input"] == "hold"
     assert not (np.array_equal(held.theta, result.theta) and held.cost == result.cost)
+
+
+def test_the_command_line_refuses_a_contradicting_law_in_one_line(continuous, tmp_path,
+                                                                   capsys):
+    from aeroid.cli import main
+
+    wrong = _with(continuous, law=continuous.airframe.fin_law.replace(command_phase_deg=150.0))
+    path = tmp_path / "wrong.csv"
+    wrong.write(path)
+    assert main(["estimate", str(path), "--method", "ekf", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith(f"aeroid: error: {path}: ekf: input 'law' contradicts the log")
