@@ -173,9 +173,10 @@ class AugmentedFilterOptions(Estimator):
 
     Attributes
     ----------
-    input : {"hold", "midpoint", "events", "law"}
-        How the fin deflection between samples is modelled (:data:`aeroid.flights.INPUTS`;
-        default ``hold``).
+    input : {"auto", "hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled: ``auto`` (default) is
+        ``law`` when the flight's airframe has a ``[fin_law]``, else ``hold``
+        (:data:`aeroid.flights.INPUTS`).
     delay_s : float
         A known actuator delay [s] applied to that deflection (default 0).
     substeps : int
@@ -238,7 +239,7 @@ class AugmentedFilterOptions(Estimator):
         ``max_passes = 1`` is the single pass.
     """
 
-    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     delay_s: float = 0.0
     substeps: int = 1
     measurement_noise: Literal["data", "paper"] = "data"

@@ -70,11 +70,14 @@ class OutputErrorEstimator(Estimator):
 
     Attributes
     ----------
-    input : {"hold", "midpoint", "events", "law"}
-        How the fin deflection between samples is modelled (:data:`aeroid.flights.INPUTS`):
-        held until the next sample (default: a relay latched at the log clock, the
-        paper's reference), switched halfway, at the flight's known switch instants, or by
-        the airframe's fin law on the measured roll angle. A relay that switches between
+    input : {"auto", "hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled: ``auto`` (default) is
+        ``law`` when the flight's airframe has a ``[fin_law]``, else ``hold``
+        (:data:`aeroid.flights.INPUTS`). By name: held until the next sample (a relay latched at
+        the log clock, the paper's reference), switched halfway, at the flight's known
+        switch instants, or by the airframe's fin law on the measured roll angle (checked
+        against the logged deflection first: :func:`aeroid.flights.check_input`; the
+        result's ``info['input']`` says which was used). A relay that switches between
         samples and is modelled as held biases Czq and Cmq by up to tens of percent
         (measured on JSBSim flights, tests/crossengine/results.md).
     estimate_delay : bool
@@ -156,7 +159,7 @@ class OutputErrorEstimator(Estimator):
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
-    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     estimate_delay: bool = False
     delay_s: float = 0.0
     noise_model: Literal["channel", "signal"] = "signal"

@@ -91,9 +91,10 @@ class PyswarmsEstimator(Estimator):
         EBM smoothing (default "both").
     v_max : float
         Velocity clamp as a fraction of each range (default 0.2, eq. 19).
-    input : {"hold", "midpoint", "events", "law"}
-        EAM objective only: how the deflection between samples is modelled (default
-        ``hold``; :data:`aeroid.flights.INPUTS`).
+    input : {"auto", "hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled (EAM objective only):
+        ``auto`` (default) is ``law`` when the flight's airframe has a ``[fin_law]``,
+        else ``hold`` (:data:`aeroid.flights.INPUTS`).
     polish : bool
         Finish with a least-squares solve of the same objective from the swarm's best
         point, within the box (default False; :func:`aeroid.estimation.polish`): exact
@@ -123,7 +124,7 @@ class PyswarmsEstimator(Estimator):
     weighting: Literal["noise", "relative"] = "noise"
     smoothing: Literal["both", "forces", "none"] = "both"
     v_max: float = 0.2
-    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     polish: bool = False
     polish_initial_rates: bool = True
 
@@ -136,6 +137,10 @@ class PyswarmsEstimator(Estimator):
                              f"n_iterations in 1..{estimation.MAX_ITERATIONS}")
         if not self.v_max > 0:
             raise ValueError(f"v_max must be > 0, got {self.v_max}")
+
+    def deflection_input(self) -> str | None:
+        """The ``input`` option with the EAM objective (the EBM one integrates nothing)."""
+        return self.input if self.objective == "eam" else None
 
     def cost_function(self, flight: Flight):
         """Return the objective ``theta (P, 9) -> (P,)``."""

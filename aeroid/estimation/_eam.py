@@ -74,9 +74,10 @@ class EAMPSO(Estimator):
         (:class:`aeroid.estimation.OutputErrorCost`).
     roll_window : int
         Savitzky-Golay window for the initial roll rate [samples] (default 501).
-    input : {"hold", "midpoint", "events", "law"}
-        How the fin deflection between samples is modelled (default ``hold``, the paper's
-        latched relay; :data:`aeroid.flights.INPUTS`).
+    input : {"auto", "hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled: ``auto`` (default) is
+        ``law`` when the flight's airframe has a ``[fin_law]``, else ``hold``
+        (:data:`aeroid.flights.INPUTS`).
     delay_s : float
         A known actuator delay [s] applied to that deflection (default 0).
     polish : bool
@@ -116,7 +117,7 @@ class EAMPSO(Estimator):
     stall_iterations: int | None = None
     initial_state: Literal["smoothed", "kinematic"] = "smoothed"
     roll_window: int = EAM_ROLL_WINDOW
-    input: Literal["hold", "midpoint", "events", "law"] = "hold"
+    input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     delay_s: float = 0.0
     polish: bool = False
     polish_initial_rates: bool = True

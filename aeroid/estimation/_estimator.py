@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import logging
 import time
 import typing
 from collections.abc import Mapping
@@ -25,6 +26,7 @@ from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floo
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
+from aeroid.flights import InputChoice, check_input
 from aeroid.flights._flight import Flight
 from aeroid.model._airframe import Airframe
 from aeroid.model._coefficients import NAMES
@@ -41,6 +43,14 @@ class Estimator(abc.ABC):
     ``--option key=value`` and study files) and document each in the class docstring's
     ``Options`` (or ``Attributes``) section (``aeroid methods --options NAME`` prints
     the first sentence of each entry), and implement :meth:`run`.
+
+    An option named ``input`` is the fin deflection between samples of a method that
+    integrates the model (:data:`aeroid.flights.INPUTS`, default ``auto``): :meth:`fit`
+    resolves it, checks the deflection of ``law`` and ``events`` against the logged one
+    (:func:`aeroid.flights.check_input`, with the option ``delay_s`` when there is one)
+    and records the input used in the result's ``info`` (``input``, ``input_reason``,
+    ``input_agreement``). A method whose ``input`` is not used in some configuration
+    overrides :meth:`deflection_input`.
     """
 
     name: ClassVar[str] = ""
@@ -80,6 +90,7 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         flight.validate()
+        choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)
         except (TypeError, ValueError) as exc:
@@ -102,11 +113,38 @@ class Estimator(abc.ABC):
         result = apply_fit_check(result, flight, levels)
         info = dict(result.info)
         info.setdefault("options", self.options())
+        if choice is not None:
+            info.update(choice.as_info())
         result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
-        extra = floor_warnings(result, flight, levels)
+        extra = (choice.warnings if choice is not None else ()) + floor_warnings(
+            result, flight, levels)
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
         return result
+
+    def deflection_input(self) -> str | None:
+        """Return the ``input`` option of a method that integrates the model, else None."""
+        return getattr(self, "input", None) if "input" in self.option_names() else None
+
+    def input_choice(self, flight: Flight) -> InputChoice | None:
+        """Resolve and check the deflection input on ``flight`` (class docstring).
+
+        ``auto`` taken as ``law`` is said in one line (logger ``aeroid``, level INFO).
+
+        Raises
+        ------
+        FlightError
+            When the deflection of ``law`` or ``events`` contradicts the logged one.
+        """
+        given = self.deflection_input()
+        if given is None:
+            return None
+        owner = self.name or type(self).__name__
+        choice = check_input(flight, given, float(getattr(self, "delay_s", 0.0) or 0.0),
+                             owner=owner)
+        if given == "auto" and choice.input == "law":
+            logging.getLogger("aeroid").info(choice.notice(owner))
+        return choice
 
     def options(self) -> dict[str, Any]:
         """Return the options as a dict (field name -> value)."""

@@ -73,12 +73,14 @@ measured values cannot exploit the exact zero crossings in the same way.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
-from aeroid.errors import AeroidError, EstimatorError
+from aeroid.errors import AeroidError, AeroidWarning, EstimatorError
+from aeroid.flights import check_input
 from aeroid.flights._flight import Flight
 from aeroid.flights._noise import GaussianNoise, NoiseModel, NoNoise, PaperNoise
 from aeroid.flights._record import flight_record
@@ -129,11 +131,12 @@ class OutputErrorInputs(NamedTuple):
     record: Record | None = None
 
 
-def inputs_from_flight(flight: Flight, input: str = "hold") -> OutputErrorInputs:  # noqa: A002
+def inputs_from_flight(flight: Flight, input: str = "auto") -> OutputErrorInputs:  # noqa: A002
     """Return the model inputs of ``flight``: its first state, the deflection and dt.
 
     ``input`` is how the deflection between samples is modelled
-    (:data:`aeroid.flights.INPUTS`); per-sample channels of the flight are used. For a
+    (:data:`aeroid.flights.INPUTS`; ``auto``: the fin law when the airframe has one, else
+    the held log, as the estimators); per-sample channels of the flight are used. For a
     noisy flight the first sample's measured p, q, r are used as they are; for the floor
     pass the noise-free flight (``cramer_rao_sd`` does).
     """
@@ -368,7 +371,7 @@ def cramer_rao_sd(
     noise_form: str = "heteroscedastic",
     channels: str = "both",
     estimate_initial: tuple[str, ...] = (),
-    input: str = "hold",  # noqa: A002 - the estimators' option name
+    input: str = "auto",  # noqa: A002 - the estimators' option name
 ) -> np.ndarray:
     """Return the Cramér-Rao standard deviations of the nine coefficients, shape (9,).
 
@@ -390,9 +393,13 @@ def cramer_rao_sd(
         Initial-state components estimated jointly as nuisance parameters (default
         none). ``**PROTOTYPE_FLOOR`` (homoscedastic, triad 1, initial p, q, r estimated)
         reproduces the reference README's figures.
-    input : {"hold", "midpoint", "events", "law"}
-        How the model's deflection between samples is taken
-        (:data:`aeroid.flights.INPUTS`); per-sample channels of the flight are used.
+    input : {"auto", "hold", "midpoint", "events", "law"}
+        How the model's deflection between samples is taken: ``auto`` (default) is
+        ``law`` when the flight's airframe has a ``[fin_law]``, else ``hold``
+        (:data:`aeroid.flights.INPUTS`); ``law`` and ``events`` are checked against the
+        logged deflection first (:func:`aeroid.flights.check_input`: an error when they
+        contradict it, an :class:`~aeroid.errors.AeroidWarning` when they agree in part).
+        Per-sample channels of the flight are used.
 
     Returns
     -------
@@ -443,7 +450,10 @@ def _cramer_rao_sd(scenario_or_flight: Scenario | Flight, noise_model: NoiseMode
     else:
         raise ValueError(
             f"cramer_rao_sd: positions must be 'true' or 'estimator', got {positions!r}")
-    inputs = inputs_from_flight(flight, input)
+    choice = check_input(flight, input, owner="cramer_rao_sd")
+    for doubt in choice.warnings:
+        warnings.warn(doubt, AeroidWarning, stacklevel=3)
+    inputs = inputs_from_flight(flight, choice.input)
     outputs = model_outputs(flight.airframe, theta, inputs, positions=pos)
     sd = model_noise_sd(noise_model, outputs, noise_form=noise_form)
     info = output_error_information(flight.airframe, theta, inputs, sd, positions=pos,

@@ -1,5 +1,15 @@
 """Flight data and simulation: the Flight type, its files, noise models, scenarios, simulate."""
 
+from aeroid.flights._agreement import (
+    AGREE_RTOL,
+    REFUSE_PER_SWITCH,
+    THROW_RTOL,
+    WARN_PER_SWITCH,
+    Agreement,
+    InputChoice,
+    check_input,
+    input_agreement,
+)
 from aeroid.flights._channels import (
     ANGLE_CHANNELS,
     CHANNELS,
@@ -25,6 +35,7 @@ from aeroid.flights._record import (
     exogenous,
     flight_record,
     model_constants,
+    resolve_input,
     sample_constants,
     schedule,
 )
@@ -48,6 +59,8 @@ from aeroid.flights._simulate import (
 
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
+    "resolve_input", "AGREE_RTOL", "REFUSE_PER_SWITCH", "THROW_RTOL", "WARN_PER_SWITCH",
+    "Agreement", "InputChoice", "check_input", "input_agreement",
     "ACCEL_CHANNELS", "ANGLE_CHANNELS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
     "RATE_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS", "UNITS", "Flight", "GaussianNoise",
     "Manoeuvre", "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario",

@@ -28,6 +28,8 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     command_phase_deg = 60.0                # phi0, or [[t_s, deg], ...]
     delay_s = 0.0                           # optional actuator delay
     rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
+    evaluation = "continuous"               # optional: or "latched" (at the log's samples),
+                                            # or control_rate_Hz = f (a clock of its own)
 
 There is no default atmosphere: leaving it out used to mean sea level, which made every
 coefficient of a flight at altitude 25-66 % low. ``per_sample`` names the flight channel

@@ -11,6 +11,12 @@ are narrower than :data:`SWITCH_TOL_S`. Two switches in one sample interval are 
 when they are more than ``dt / subdivisions`` apart; a pair closer than that (the
 switching function grazing zero) is missed as a pair.
 
+A relay that reads its law at a clock (``FinLaw.evaluation``: ``latched`` at the log's
+sample instants, ``control_rate`` at ``m / control_rate_hz``) switches at the first
+clock instant whose command differs from the one before (:func:`clocked_switches`): the
+command is read from the measured roll angle at the sample instants, from the
+interpolated one at the instants of a clock of its own.
+
 The located instants are as good as the interpolated roll angle. Measured against the
 simulator's true instants on the reference flight with a continuous relay (500 Hz, roll
 rate ~50 rad/s, 32 switches; ``tests/unit/test_fin_law.py``): the spline's are within
@@ -36,6 +42,9 @@ if TYPE_CHECKING:
 #: interpolated roll angle can tell (microseconds), far above float64's spacing at
 #: flight times of hours (1e-12 s at 1e3 s).
 SWITCH_TOL_S = 1e-11
+#: A clock instant within this fraction of a period of a sample time is at the sample
+#: time (``m / f`` rounded), as the simulator's relay loop takes it.
+CLOCK_SNAP = 1e-9
 #: A first deflection this close to a stop (relative to ``delta_max``) is at the stop;
 #: farther inside, the fin is moving (:func:`law_schedule`).
 STOP_RTOL = 1e-9
@@ -112,12 +121,82 @@ def locate_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
     return 0.5 * (lo + hi), values
 
 
+def clocked_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
+                     phi_rate: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Return the switches of a relay that reads its law at a clock, and the command at t[0].
+
+    The clock's instants from ``t[0] - law.delay_s`` on are read (the roll angle
+    extrapolated by the cubic before ``t[0]``), so that the switches commanded within the
+    delay before the record, which act inside it, are known too.
+
+    Parameters
+    ----------
+    law : FinLaw
+        With ``evaluation`` ``latched`` (the clock is the sample times ``t``, continued
+        back at the same interval) or ``control_rate`` (instants ``m /
+        law.control_rate_hz``).
+    t, phi, phi_rate
+        As :func:`locate_switches`.
+
+    Returns
+    -------
+    times : ndarray, shape (m,)
+        Clock instants in ``(t[0] - delay_s, t[-1]]`` at which the command changes [s]
+        (before the delay).
+    values : ndarray, shape (m,)
+        The command from each [rad].
+    command : float
+        The command acting on the fin at ``t[0]``: read at the last clock instant at or
+        before ``t[0] - delay_s``.
+    """
+    t, phi, phi_rate = _check(t, phi, phi_rate, 1)
+    phi = np.unwrap(phi)
+    curve = (CubicSpline(t, phi) if phi_rate is None
+             else CubicHermiteSpline(t, phi, phi_rate))
+    back = t[0] - law.delay_s
+    if law.evaluation == "latched":
+        period = (t[-1] - t[0]) / (t.size - 1)
+        before = np.arange(math.ceil(law.delay_s / period - CLOCK_SNAP), 0, -1)
+        instants = np.concatenate([t[0] - period * before, t])
+        angle = np.concatenate([curve(instants[:before.size]), phi])
+    elif law.evaluation == "control_rate":
+        rate = float(law.control_rate_hz)  # type: ignore[arg-type]
+        period = 1.0 / rate
+        first = math.floor(back * rate + CLOCK_SNAP)
+        instants = np.arange(first, math.floor(t[-1] * rate + CLOCK_SNAP) + 1) / rate
+        angle = curve(instants)
+    else:
+        raise ValueError(f"fin law schedule: a {law.evaluation!r} law has no clock")
+    command = np.asarray(law.command(angle, instants), dtype=float)
+    acting = int(np.searchsorted(instants, back + CLOCK_SNAP * period, side="right")) - 1
+    change = np.flatnonzero(command[1:] != command[:-1]) + 1
+    change = change[change > acting]
+    return instants[change], command[change], float(command[max(acting, 0)])
+
+
+def law_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
+                 phi_rate: np.ndarray | None = None, subdivisions: int = 8
+                 ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Return the commanded switches and the command acting on the fin at ``t[0]``.
+
+    :func:`locate_switches` for a continuous law (switches in ``(t[0], t[-1]]``, the
+    command at ``t[0]``), :func:`clocked_switches` for one read at a clock.
+    """
+    if law.evaluation != "continuous":
+        return clocked_switches(law, t, phi, phi_rate=phi_rate)
+    times, values = locate_switches(law, t, phi, phi_rate=phi_rate, subdivisions=subdivisions)
+    t0 = float(np.asarray(t, dtype=float).reshape(-1)[0])
+    phi0 = float(np.asarray(phi, dtype=float).reshape(-1)[0])
+    return times, values, float(law.command(phi0, t0))
+
+
 def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float | None = None,
                  phi_rate: np.ndarray | None = None, subdivisions: int = 8) -> Schedule:
     """Return the fin deflection the law gives on a measured roll angle (open loop).
 
-    The commanded switches are located by :func:`locate_switches`, delayed by
-    ``law.delay_s`` and rate limited (:meth:`FinLaw.actuate`).
+    The commanded switches are located by :func:`locate_switches` (a law read at a clock:
+    :func:`clocked_switches`), delayed by ``law.delay_s`` and rate limited
+    (:meth:`FinLaw.actuate`).
 
     Before the record: the switches commanded in the ``delay_s`` before ``t[0]`` act
     inside the record but cannot be located from it. The fin is at ``initial`` at
@@ -145,10 +224,9 @@ def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float 
     Schedule
         The deflection from ``t[0]`` on [rad].
     """
-    times, values = locate_switches(law, t, phi, phi_rate=phi_rate, subdivisions=subdivisions)
+    times, values, command = law_switches(law, t, phi, phi_rate=phi_rate,
+                                          subdivisions=subdivisions)
     t0 = float(np.asarray(t, dtype=float).reshape(-1)[0])
-    phi0 = float(np.asarray(phi, dtype=float).reshape(-1)[0])
-    command = float(law.command(phi0, t0))
     if initial is None:
         initial = command
     initial = float(initial)
@@ -162,4 +240,5 @@ def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float 
     return law.actuate(t0, initial, times, values)
 
 
-__all__ = ["STOP_RTOL", "SWITCH_TOL_S", "law_schedule", "locate_switches"]
+__all__ = ["CLOCK_SNAP", "STOP_RTOL", "SWITCH_TOL_S", "clocked_switches", "law_schedule",
+           "law_switches", "locate_switches"]
