@@ -34,6 +34,7 @@ from aeroid.estimation._options import OptionInfo
 from aeroid.estimation._polish import Polished, polish, polish_info
 from aeroid.estimation._predict import (
     coefficient_frame,
+    correlation,
     fitted_start,
     json_safe,
     json_safe_info,
@@ -102,6 +103,7 @@ __all__ = [
     "box_edge_warnings",
     "channel_weights",
     "coefficient_frame",
+    "correlation",
     "fitted_start",
     "json_safe",
     "json_safe_info",

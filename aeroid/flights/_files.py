@@ -140,7 +140,7 @@ def read_flight(
         The former name of ``degrees``.
 
     What reading did (units converted, a wrapped roll or yaw angle unwrapped, columns
-    dropped or not read, no prior in the airframe) is said in one line each on the
+    dropped or not read) is said in one line each on the
     ``aeroid`` logger and kept in the flight's :attr:`~Flight.notes` (a conversion as
     ``converted: column (unit -> aeroid unit), ...``).
 
@@ -201,9 +201,6 @@ def read_flight(
                 values[:, index[name]] = frame[name]
         notes += unwrapped
     notes += _column_notes(header, names)
-    if airframe.prior is None:
-        notes.append("the airframe has no [prior]: the reference missile's coefficients are "
-                     "the start of every method (and the centre of the PSO box)")
     metadata["source"] = str(path)
     for note in notes:
         _NOTICES.info(f"{path}: {note}")

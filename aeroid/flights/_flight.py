@@ -59,7 +59,7 @@ class Flight:
         window) and ``source`` (the file read); other keys are kept as they are.
     notes : tuple of str
         What reading the file did, one line each (units converted, an angle unwrapped,
-        columns dropped or not read, no prior): :func:`aeroid.flights.read_flight`. Not
+        columns dropped or not read): :func:`aeroid.flights.read_flight`. Not
         written with the flight.
     """
 

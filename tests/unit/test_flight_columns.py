@@ -163,14 +163,3 @@ def test_read_flight_takes_paths_and_degrees() -> None:
     pd.testing.assert_frame_equal(by_path.data, by_object.data)
     raw = pd.read_csv(log)
     np.testing.assert_allclose(by_path["p"], np.radians(raw["gyro_x_dps"]), rtol=UNIT_RTOL)
-
-
-def test_no_prior_is_said(tmp_path, clean_flight, caplog) -> None:
-    path, airframe = _log(tmp_path, clean_flight)
-    assert clean_flight.airframe.prior is None
-    with caplog.at_level(logging.INFO, logger="aeroid"):
-        read_flight(path, airframe=airframe)
-    assert any("no [prior]" in r.getMessage() for r in caplog.records)
-    with_prior = clean_flight.airframe.replace(prior=tuple(clean_flight.true_coefficients))
-    flight = read_flight(path, airframe=with_prior)
-    assert not any("prior" in n for n in flight.notes)
