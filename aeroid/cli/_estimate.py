@@ -195,10 +195,14 @@ def estimate(args: argparse.Namespace) -> int:
         shares = split_options(names, options)
         estimators = {n: make_estimator(n, shares[n]) for n in names}
     flight = _read(args)
+    report = getattr(args, "report", None)
+    if report is not None:  # before the fits: an unwritable folder is said at once
+        from aeroid.report import make_directory
+
+        make_directory(report)
     results = {name: _fit(est, flight, args, name) for name, est in estimators.items()}
     if flight.airframe.prior is None:
         logging.getLogger("aeroid").info(NO_PRIOR)
-    report = getattr(args, "report", None)
     json_output = bool(getattr(args, "json", False))
     if single:
         result = results[names[0]]

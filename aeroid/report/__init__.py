@@ -28,7 +28,12 @@ from aeroid.report._figures import (
     correlation_figure,
     deflection_figure,
 )
-from aeroid.report._files import write_bytes_atomic, write_figure_atomic, write_text_atomic
+from aeroid.report._files import (
+    make_directory,
+    write_bytes_atomic,
+    write_figure_atomic,
+    write_text_atomic,
+)
 from aeroid.report._fit import REPORT_NAME, report_figures, report_markdown, write_report
 
 __all__ = [
@@ -42,6 +47,7 @@ __all__ = [
     "comparison_text",
     "correlation_figure",
     "deflection_figure",
+    "make_directory",
     "options_note",
     "report_figures",
     "report_markdown",

@@ -507,3 +507,11 @@ def test_json_carries_info(flight_csv, capsys) -> None:
     info = json.loads(capsys.readouterr().out)["info"]
     assert {"fit_check", "passes", "noise_law", "accel_positions_m", "options",
             "omitted"} <= set(info)
+
+
+def test_unwritable_report_folder_exit_2(flight_csv, tmp_path, capsys) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", "equation-error",
+                                   "--report", str(blocker / "report")])
+    assert str(blocker / "report") in err and "cannot create the report folder" in err
