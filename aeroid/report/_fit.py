@@ -129,10 +129,27 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
     return lines
 
 
+def _per_channel(check: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
+    """The fit check's per-channel entries as columns: ``{channel: scalar}`` entries as
+    they are, ``{channel: {name: scalar}}`` entries one column per name (``key.name``)."""
+    columns: dict[str, Mapping[str, Any]] = {}
+    for key, value in check.items():
+        if not isinstance(value, Mapping) or not value:
+            continue
+        if all(not isinstance(x, Mapping) for x in value.values()):
+            columns[key] = value
+        elif all(isinstance(x, Mapping) for x in value.values()):
+            names: list[str] = []
+            for inner in value.values():
+                names += [n for n in inner if n not in names]
+            for name in names:
+                columns[f"{key}.{name}"] = {c: v.get(name, "") for c, v in value.items()}
+    return columns
+
+
 def _fit_check_lines(check: Mapping[str, Any]) -> list[str]:
-    """Every key of the fit check: per-channel dicts as columns, the rest as lines."""
-    per_channel = {k: v for k, v in check.items() if isinstance(v, Mapping)
-                   and all(not isinstance(x, Mapping) for x in v.values())}
+    """Every key of the fit check: per-channel entries as columns, the rest as lines."""
+    per_channel = _per_channel(check)
     channels: list[str] = []
     for values in per_channel.values():
         channels += [c for c in values if c not in channels]
@@ -142,8 +159,9 @@ def _fit_check_lines(check: Mapping[str, Any]) -> list[str]:
         rows = [[c, *(per_channel[k].get(c, "") for k in per_channel)] for c in channels]
         lines += _table(header, rows)
         lines.append("")
+    shown = {k.split(".")[0] for k in per_channel}
     for key, value in check.items():
-        if key not in per_channel:
+        if key not in shown:
             lines.append(f"- {key}: {_number(value)}")
     return lines
 

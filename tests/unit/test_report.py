@@ -51,7 +51,9 @@ def test_every_figure_names_its_channel_and_unit(oe_result, paper_flight) -> Non
 def test_report_files_exist_and_the_markdown_links_them(oe_result, paper_flight,
                                                         tmp_path) -> None:
     check = dict(oe_result.info["fit_check"])
-    check["whiteness"] = {name: 0.5 for name in OUTPUT_CHANNELS}  # a key added later
+    check["whiteness"] = {name: 0.5 for name in OUTPUT_CHANNELS}  # keys added later
+    check["portmanteau"] = {name: {"q": 1.5, "p_value": 0.2} for name in OUTPUT_CHANNELS}
+    check["white"] = True
     result = dataclasses.replace(oe_result, info={**oe_result.info, "fit_check": check},
                                  warnings=("a warning about | pipes",))
     path = write_report(result, paper_flight, tmp_path / "fit", notes=["reading: a note"])
@@ -70,7 +72,9 @@ def test_report_files_exist_and_the_markdown_links_them(oe_result, paper_flight,
     for name, value in zip(NAMES, result.theta, strict=True):
         assert f"| {name} | {value:.6g} |" in text
     # the fit check, every key (the new one too), and every warning and note
-    assert "| channel | residual_rms | noise_sd | ratio | whiteness |" in text
+    assert ("| channel | residual_rms | noise_sd | ratio | whiteness | portmanteau.q | "
+            "portmanteau.p_value |") in text
+    assert "| q | " in text and "| 0.5 | 1.5 | 0.2 |" in text and "- white: true" in text
     assert "- worst: " in text and "- limit: 3" in text
     assert "- warning: a warning about \\| pipes" in text and "- reading: a note" in text
 
