@@ -47,22 +47,22 @@ def channel_figure(name: str, unit: str, t: np.ndarray, measured: np.ndarray,
         The channel's noise level (the fit check's); the band is +- :data:`BAND_SD` of it.
     """
     fig = Figure(figsize=(8.0, 5.0))
-    fig.subplots_adjust(left=0.12, right=0.97, top=0.93, bottom=0.1, hspace=0.12)
+    fig.subplots_adjust(left=0.12, right=0.97, top=0.93, bottom=0.1, hspace=0.3)
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
     top.plot(t, measured, ".", ms=2.5, color="0.45", label="measured")
     top.plot(t, model, "-", lw=1.2, color="C0", label="model")
     top.set_ylabel(f"{name} [{unit}]")
-    top.set_title(f"{name} [{unit}]: measured and model")
-    top.legend(loc="upper right", fontsize="small")
+    top.set_title(f"{name} [{unit}]: measured (grey dots) and model (blue line)")
     residual = measured - model
-    bottom.plot(t, residual, "-", lw=0.8, color="C3", label="residual (measured - model)")
+    bottom.plot(t, residual, "-", lw=0.8, color="C3")
+    band = ""
     if noise_sd is not None and np.isfinite(noise_sd):
-        bottom.axhspan(-BAND_SD * noise_sd, BAND_SD * noise_sd, color="C2", alpha=0.2,
-                       label=f"+-{BAND_SD:g} noise sd ({noise_sd:.3g} {unit})")
+        bottom.axhspan(-BAND_SD * noise_sd, BAND_SD * noise_sd, color="C2", alpha=0.2)
+        band = f"; green: +-{BAND_SD:g} noise sd ({noise_sd:.3g} {unit})"
     bottom.axhline(0.0, color="0.3", lw=0.6)
+    bottom.set_title(f"residual (measured - model){band}", fontsize="medium")
     bottom.set_ylabel(f"{name} residual [{unit}]")
     bottom.set_xlabel("t [s]")
-    bottom.legend(loc="upper right", fontsize="small")
     return fig
 
 
@@ -113,15 +113,15 @@ def autocorrelation_figure(residuals: Mapping[str, np.ndarray], dt: float,
 def deflection_figure(t: np.ndarray, delta: np.ndarray, knot_t: np.ndarray,
                       knot_delta: np.ndarray, label: str) -> Figure:
     """The logged deflection (samples) and the model's (the knots of its schedule) [deg]."""
-    fig = Figure(figsize=(8.0, 3.2))
-    fig.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.15)
+    fig = Figure(figsize=(8.0, 3.6))
+    fig.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.27)
     ax = fig.subplots()
     ax.plot(t, np.degrees(delta), ".", ms=3, color="0.45", label="logged delta")
     ax.plot(knot_t, np.degrees(knot_delta), "-", lw=1.0, color="C1", label=label)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("delta [deg]")
     ax.set_title("delta [deg]: fin deflection logged and used by the model")
-    ax.legend(loc="upper right", fontsize="small")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize="small")
     return fig
 
 
