@@ -516,3 +516,13 @@ def test_unwritable_report_folder_exit_2(flight_csv, tmp_path, capsys) -> None:
     err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", "equation-error",
                                    "--report", str(blocker / "report")])
     assert str(blocker / "report") in err and "cannot create the report folder" in err
+
+
+def test_no_progress_hides_the_bar_on_a_terminal(flight_csv, capsys, monkeypatch) -> None:
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    monkeypatch.setattr(sys.stdout, "isatty", lambda: True)
+    args = ["estimate", str(flight_csv), "--method", "ebm-pso", "--option", "n_iterations=3"]
+    assert main(args) == 0
+    assert "ebm-pso PSO" in capsys.readouterr().err  # a terminal: the bar
+    assert main([*args, "--no-progress"]) == 0
+    assert "ebm-pso PSO" not in capsys.readouterr().err

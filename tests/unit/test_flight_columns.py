@@ -163,3 +163,13 @@ def test_read_flight_takes_paths_and_degrees() -> None:
     pd.testing.assert_frame_equal(by_path.data, by_object.data)
     raw = pd.read_csv(log)
     np.testing.assert_allclose(by_path["p"], np.radians(raw["gyro_x_dps"]), rtol=UNIT_RTOL)
+
+
+def test_a_column_map_given_as_a_dict_takes_units(tmp_path, clean_flight) -> None:
+    path, airframe = _log(tmp_path, clean_flight, q=np.degrees(clean_flight["q"]))
+    flight = read_flight(path, airframe=airframe,
+                         columns={"q": {"channel": "q", "unit": "deg/s"}, "psi": ""})
+    np.testing.assert_allclose(flight["q"], clean_flight["q"], rtol=UNIT_RTOL)
+    assert "psi" not in flight.channels
+    with pytest.raises(FlightError, match="unknown unit"):
+        read_flight(path, airframe=airframe, columns={"q": {"channel": "q", "unit": "x"}})
