@@ -158,7 +158,8 @@ def predict(result: EstimationResult, flight: Flight, *, substeps: int | None = 
     pandas.DataFrame
         Index ``t`` [s]; columns :data:`aeroid.model.OUTPUT_CHANNELS` (both triads'
         accelerations [m/s^2], then p, q, r [rad/s]); ``attrs``: ``input``, ``delay_s``,
-        ``substeps``, ``accel_positions_m``, ``initial_state``, ``initial_state_from``.
+        ``substeps``, ``accel_positions_m``, ``initial_state``, ``initial_state_from``,
+        ``estimator``.
         NaN where the simulation diverged (or every value, for NaN coefficients).
     """
     from aeroid.flights import flight_record, model_constants
