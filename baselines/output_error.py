@@ -374,6 +374,9 @@ class OutputErrorEstimator(Estimator):
             position_sd[c] = stderr_phys[first_pos + j]
         info["accel_positions_m"] = positions.reshape(2, 3)
         info["accel_position_stderr_m"] = position_sd.reshape(2, 3)
+        start = model.x0.copy()  # the fitted initial state (EstimationResult.predict)
+        start[list(self.x0_free())] += phys[9:first_pos]
+        info["initial_state"] = start
         for t in self.rx_free():
             info[f"rx{t + 1}_m"] = positions[3 * t]
         if self.estimate_delay:

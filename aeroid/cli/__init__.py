@@ -115,7 +115,9 @@ def _methods_epilog() -> str:
             "  aeroid estimate flight.csv --method eam-pso --seed 1 \\\n"
             "      --option n_particles=100 --option n_iterations=50\n"
             "  aeroid estimate log.csv --airframe airframe.toml --columns map.toml \\\n"
-            "      --degrees --method equation-error --json\n\n"
+            "      --degrees --method equation-error --json\n"
+            "  aeroid estimate flight.csv --method output-error --report fit-report\n"
+            "  aeroid estimate flight.csv --method all --option n_iterations=20\n\n"
             "methods ('aeroid methods --options NAME' lists a method's options):\n"
             + methods_table(indent="  ") + "\n\n"
             "Exit status: 0 done, 1 the method failed (its result is still printed), "
@@ -126,21 +128,33 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "estimate", help="estimate the nine coefficients from a flight",
         description=_para("Estimate the nine aerodynamic coefficients from one flight log by one "
-                    "method and print them with their standard errors (and, for a "
-                    "simulated flight, the error against its true coefficients). A log "
-                    "without aeroid's JSON sidecar needs --airframe."),
+                    "method (or several, side by side) and print them with their standard "
+                    "errors (and, for a simulated flight, the error against its true "
+                    "coefficients); --report writes a report with figures of the model "
+                    "against the data. A log without aeroid's JSON sidecar needs "
+                    "--airframe."),
         epilog_factory=_methods_epilog)
     p.add_argument("flight", type=Path, help="flight CSV (or .parquet)")
-    p.add_argument("--method", required=True, help="estimator name (see 'aeroid methods')")
+    p.add_argument("--method", required=True, metavar="NAME[,NAME...]|all",
+                   help="estimator name (see 'aeroid methods'), several joined by commas, "
+                        "or 'all': one side-by-side table")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
-                   help="estimator option (repeatable; see 'aeroid methods --options NAME')")
+                   help="estimator option (repeatable; see 'aeroid methods --options NAME'); "
+                        "with several methods, given to those that take it")
     p.add_argument("--seed", type=_int_in(0), default=None,
                    help="random seed of the estimator, an integer >= 0")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--report", type=Path, metavar="DIR",
+                   help="write DIR/report.md with PNG figures (several methods: one folder "
+                        "per method and DIR/comparison.md)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no notices")
     p.add_argument("--airframe", type=Path, help="airframe TOML (a log without sidecar)")
-    p.add_argument("--columns", type=Path, help="TOML column map {file name = channel}")
-    p.add_argument("--degrees", action="store_true", help="angles in deg, rates in deg/s")
+    p.add_argument("--columns", type=Path,
+                   help="TOML column map {file name = channel, \"\" to drop, or "
+                        "{channel = \"p\", unit = \"deg/s\"}}")
+    p.add_argument("--degrees", action="store_true",
+                   help="angles in deg, rates in deg/s (columns without a unit in the map)")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:

@@ -6,14 +6,15 @@ them as one line and exits with status 2.
 
 Progress: a fit of a method that reports progress (the paper's PSO methods, every
 iteration) shows a tqdm bar on stderr while it runs, and the bar is removed when the
-fit ends. It is shown only when stderr is a terminal, and never with ``--quiet`` or when
-``--json`` output goes to a pipe or file (:func:`progress_wanted`).
+fit ends. It is shown only when stderr is a terminal, and never with ``--quiet`` or
+``--no-progress`` or when ``--json`` output goes to a pipe or file (:func:`progress_wanted`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import math
 import sys
 import textwrap
@@ -25,8 +26,9 @@ from aeroid.estimation._registry import available, get_estimator, load_errors, m
 from aeroid.flights._files import read_column_map, read_flight
 from aeroid.model._airframe import load_airframe
 
-__all__ = ["ProgressBar", "estimate", "methods", "methods_table", "option_text",
-           "parse_options", "progress_wanted", "read_column_map"]
+__all__ = ["ProgressBar", "estimate", "method_names", "methods", "methods_table",
+           "option_text", "parse_options", "progress_wanted", "read_column_map",
+           "split_options"]
 
 #: Width of wrapped option descriptions in ``aeroid methods --options``.
 TEXT_WIDTH = 88
@@ -97,33 +99,150 @@ class ProgressBar:
         self._bar, self._key = None, None
 
 
-def estimate(args: argparse.Namespace) -> int:
-    """Run ``aeroid estimate``: read, fit (which validates), print a table or JSON.
+def method_names(spec: str) -> list[str]:
+    """Return the methods of ``--method``: one name, ``a,b,c``, or ``all`` (every installed).
 
-    Returns 0, or 1 when the method failed (``success=False``: the result, with its
-    message, is still printed), so scripts can tell.
+    Raises
+    ------
+    EstimatorError
+        For an empty or repeated name, or one that is not installed (one line listing the
+        available ones).
     """
-    options = parse_options(getattr(args, "option", None))
-    estimator = make_estimator(args.method, options)
+    if spec.strip() == "all":
+        return sorted(available(refresh=True))
+    names = [n.strip() for n in spec.split(",")]
+    if not all(names):
+        raise EstimatorError(f"--method {spec!r}: an empty method name (give NAME, A,B or all)")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise EstimatorError(f"--method {spec!r}: {', '.join(repeated)} given twice")
+    for name in names:
+        get_estimator(name)  # EstimatorError naming the available methods
+    return names
+
+
+def split_options(methods: list[str], options: dict[str, str]) -> dict[str, dict[str, str]]:
+    """Return each method's share of ``options`` (those it takes).
+
+    Raises
+    ------
+    EstimatorError
+        For an option no method of ``methods`` takes (one line naming the methods).
+    """
+    shares: dict[str, dict[str, str]] = {}
+    for name in methods:
+        allowed = get_estimator(name).option_names()
+        shares[name] = {k: v for k, v in options.items() if k in allowed}
+    unused = sorted(k for k in options if not any(k in share for share in shares.values()))
+    if unused:
+        raise EstimatorError(f"option(s) {', '.join(unused)} taken by none of "
+                             f"{', '.join(methods)} (see 'aeroid methods --options NAME')")
+    return shares
+
+
+def _read(args: argparse.Namespace) -> Any:
     airframe = load_airframe(args.airframe) if getattr(args, "airframe", None) else None
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
-    flight = read_flight(args.flight, airframe=airframe, columns=columns,
-                         angles_in_degrees=bool(getattr(args, "degrees", False)))
-    json_output = bool(getattr(args, "json", False))
+    return read_flight(args.flight, airframe=airframe, columns=columns,
+                       degrees=bool(getattr(args, "degrees", False)))
+
+
+def _fit(estimator: Any, flight: Any, args: argparse.Namespace, label: str) -> Any:
     bar = None
-    if progress_wanted(quiet=bool(getattr(args, "quiet", False)), json_output=json_output,
+    if progress_wanted(quiet=bool(getattr(args, "quiet", False)
+                                  or getattr(args, "no_progress", False)),
+                       json_output=bool(getattr(args, "json", False)),
                        stderr_tty=sys.stderr.isatty(), stdout_tty=sys.stdout.isatty()):
-        bar = ProgressBar(args.method)
+        bar = ProgressBar(label)
     try:
-        result = estimator.fit(flight, rng=getattr(args, "seed", None), progress=bar)
+        return estimator.fit(flight, rng=getattr(args, "seed", None), progress=bar)
     finally:
         if bar is not None:
             bar.close()
-    if json_output:
-        print(json.dumps(result.to_json_dict(), indent=2))
+
+
+#: Said after the fits when the airframe has no ``[prior]``.
+NO_PRIOR = ("the airframe has no [prior]: the reference missile's coefficients were the "
+            "start of every method (and the centre of the PSO box); give [prior] in the "
+            "airframe file")
+
+
+def _report_notes(flight: Any) -> list[str]:
+    """What reading the log did, the flight's validation warnings and a missing prior."""
+    notes = [f"reading: {n}" for n in flight.notes]
+    notes += [f"flight: {w}" for w in flight.check()[1]]
+    return notes + ([NO_PRIOR] if flight.airframe.prior is None else [])
+
+
+def estimate(args: argparse.Namespace) -> int:
+    """Run ``aeroid estimate``: read, fit (which validates), print a table or JSON.
+
+    With several methods (``--method a,b`` or ``all``), each is fitted in turn and one
+    side-by-side table is printed; each ``--option`` goes to the methods that take it.
+    With ``--report DIR``, ``DIR/report.md`` and its figures (one method) or one folder
+    per method and ``DIR/comparison.md`` (several).
+
+    Returns 0, or 1 when a method failed (``success=False``: the result, with its
+    message, is still printed), so scripts can tell.
+    """
+    options = parse_options(getattr(args, "option", None))
+    single = "," not in args.method and args.method.strip() != "all"
+    names = [args.method.strip()] if single else method_names(args.method)
+    if single:
+        estimators = {names[0]: make_estimator(names[0], options)}
+        shares = {names[0]: options}
     else:
-        print(result.summary(flight.true_coefficients))
-    return 0 if result.success else 1
+        shares = split_options(names, options)
+        estimators = {n: make_estimator(n, shares[n]) for n in names}
+    flight = _read(args)
+    report = getattr(args, "report", None)
+    if report is not None:  # before the fits: an unwritable folder is said at once
+        from aeroid.report import make_directory
+
+        make_directory(report)
+    results = {name: _fit(est, flight, args, name) for name, est in estimators.items()}
+    if flight.airframe.prior is None:
+        logging.getLogger("aeroid").info(NO_PRIOR)
+    json_output = bool(getattr(args, "json", False))
+    if single:
+        result = results[names[0]]
+        if report is not None:
+            from aeroid.report import write_report
+
+            path = write_report(result, flight, report, notes=_report_notes(flight))
+            print(f"aeroid: wrote {path}", file=sys.stderr)
+        if json_output:
+            print(json.dumps(result.to_json_dict(), indent=2, allow_nan=False))
+        else:
+            print(result.summary(flight.true_coefficients))
+        return 0 if result.success else 1
+    from aeroid.report import (
+        compare_results,
+        comparison_markdown,
+        comparison_text,
+        options_note,
+        result_notes,
+    )
+
+    notes = options_note(list(options), shares) + result_notes(results)
+    table = compare_results(results, shares, flight.true_coefficients)
+    if report is not None:
+        from aeroid.report import REPORT_NAME, write_report, write_text_atomic
+
+        links = {}
+        reading = _report_notes(flight)
+        for name, result in results.items():
+            write_report(result, flight, report / name, notes=reading)
+            links[name] = f"{name}/{REPORT_NAME}"
+        path = write_text_atomic(report / "comparison.md",
+                                 comparison_markdown(table, notes, links))
+        print(f"aeroid: wrote {path} and one report per method", file=sys.stderr)
+    if json_output:
+        print(json.dumps({"methods": [r.to_json_dict() for r in results.values()],
+                          "options_applied": shares}, indent=2, allow_nan=False))
+    else:
+        print(comparison_text(table, notes))
+    return 0 if all(r.success for r in results.values()) else 1
 
 
 def methods_table(indent: str = "") -> str:

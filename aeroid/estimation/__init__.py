@@ -5,7 +5,8 @@ use the objectives, the EBM reconstruction, the PSO and its :func:`polish`,
 :func:`report_progress` and :func:`box_edge_warnings` defined here.
 
 Modules, one job each (imports point down the list, never up): ``_result`` (the result
-type), ``_options`` (option values from text, option descriptions), ``_progress``
+type), ``_predict`` (what a result's model says of a flight, its table and JSON info),
+``_options`` (option values from text, option descriptions), ``_progress``
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
 ``_reconstruct``, ``_objectives``, ``_floor``, ``_gyro_floor`` (what the p gyro alone
@@ -16,6 +17,7 @@ objective), ``_pso_methods`` (what the paper's methods share), and the methods `
 """
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
+from aeroid.estimation._fitcheck import data_floor
 from aeroid.estimation._floor import cramer_rao_sd
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
 from aeroid.estimation._objectives import (
@@ -30,6 +32,14 @@ from aeroid.estimation._objectives import (
 )
 from aeroid.estimation._options import OptionInfo
 from aeroid.estimation._polish import Polished, polish, polish_info
+from aeroid.estimation._predict import (
+    coefficient_frame,
+    correlation,
+    fitted_start,
+    json_safe,
+    json_safe_info,
+    predict,
+)
 from aeroid.estimation._progress import ProgressEvent, report_progress
 from aeroid.estimation._pso import PSOResult, minimize
 from aeroid.estimation._pso_methods import MAX_ITERATIONS, MAX_PARTICLES
@@ -92,7 +102,14 @@ __all__ = [
     "available",
     "box_edge_warnings",
     "channel_weights",
+    "coefficient_frame",
+    "correlation",
+    "fitted_start",
+    "json_safe",
+    "json_safe_info",
+    "predict",
     "cramer_rao_sd",
+    "data_floor",
     "ebm_cost",
     "ebm_regression",
     "estimate_noise_sd",

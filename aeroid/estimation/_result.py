@@ -8,14 +8,20 @@ shared test for box-bounded methods (the paper's PSO methods and any plug-in wit
 
 from __future__ import annotations
 
+import html
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aeroid.model._coefficients import NAMES
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from aeroid.flights import Flight
 
 __all__ = ["EDGE_FRACTION", "EstimationResult", "box_edge_warnings", "failed_result"]
 
@@ -96,6 +102,51 @@ class EstimationResult:
         """Return estimates as name -> value."""
         return {n: float(v) for n, v in zip(self.names, self.theta, strict=True)}
 
+    def predict(self, flight: Flight, *, substeps: int | None = None,
+                initial_state: np.ndarray | None = None) -> pd.DataFrame:
+        """Return the model's outputs at the flight's samples, a DataFrame indexed by ``t``.
+
+        Both triads' accelerations and p, q, r simulated at :attr:`theta` with the fit's
+        input between samples, delay, sensor positions and initial state
+        (:func:`aeroid.estimation.predict`; what was used is in the frame's ``attrs``).
+        """
+        from aeroid.estimation._predict import predict
+
+        return predict(self, flight, substeps=substeps, initial_state=initial_state)
+
+    def to_frame(self, flight: Flight | None = None, *,
+                 floor: np.ndarray | None = None) -> pd.DataFrame:
+        """Return one row per coefficient: ``estimate``, ``stderr`` and, given the flight,
+        ``prior`` and (simulated flights) ``truth``, ``error_pct``; ``floor`` when given,
+        e.g. ``aeroid.estimation.data_floor(flight, result.theta)``, the Cramér-Rao floor
+        from the data (:func:`aeroid.estimation.coefficient_frame`)."""
+        from aeroid.estimation._predict import coefficient_frame
+
+        return coefficient_frame(self, flight, floor=floor)
+
+    def __repr__(self) -> str:
+        """Return one line: method, status, counts (not the arrays)."""
+        status = "ok" if self.success else f"FAILED: {self.message}"
+        extra = f", {len(self.warnings)} warning(s)" if self.warnings else ""
+        cost = f", cost={self.cost:.6g}" if math.isfinite(self.cost) else ""
+        return (f"<EstimationResult {self.estimator}: {status}; {len(self.names)} "
+                f"coefficients{cost}, {self.wall_time_s:.3g} s{extra}>")
+
+    def _repr_html_(self) -> str:
+        """Return the status and the coefficient table as HTML (notebooks)."""
+        status = "ok" if self.success else f"FAILED ({html.escape(self.message)})"
+        head = f"<p><b>{html.escape(self.estimator)}</b>: {status}"
+        if self.message and self.success:
+            head += f" ({html.escape(self.message)})"
+        head += f"; {self.wall_time_s:.3g} s</p>"
+        warned = "".join(f"<p>warning: {html.escape(w)}</p>" for w in self.warnings)
+        check = self.info.get("fit_check") if isinstance(self.info, dict) else None
+        if check:
+            worst = check["worst"]
+            warned += (f"<p>fit check: residual RMS / data noise {check['ratio'][worst]:.3g} "
+                       f"at worst ({html.escape(str(worst))}; limit {check['limit']:g})</p>")
+        return head + warned + self.to_frame().to_html(float_format="{:.6g}".format)
+
     def relative_error_pct(self, truth: np.ndarray) -> np.ndarray:
         """Return ``|theta - truth| / |truth| * 100`` per coefficient (the paper's figure)."""
         truth = np.asarray(truth, dtype=float)
@@ -123,6 +174,10 @@ class EstimationResult:
             counts = f"cost {self.cost:.6g}, " + counts
         compiled = self._compiled_text()
         lines.append(counts + (f", {compiled}" if compiled else ""))
+        passes = self.info.get("passes") if isinstance(self.info, dict) else None
+        if passes is not None:
+            lines.append(f"filter passes: {passes} (of at most "
+                         f"{self.info.get('options', {}).get('max_passes', '?')})")
         check = self.info.get("fit_check") if isinstance(self.info, dict) else None
         if check:
             worst = check["worst"]
@@ -163,7 +218,12 @@ class EstimationResult:
         return row
 
     def to_json_dict(self) -> dict[str, Any]:
-        """Return the CLI's JSON form (non-finite numbers become ``null``)."""
+        """Return the CLI's JSON form (non-finite numbers become ``null``).
+
+        ``info`` is :attr:`info` as JSON types (:func:`aeroid.estimation.json_safe_info`:
+        the fit check, delay, positions, filter passes, noise law, correlations; per-sample
+        series are left out and named in ``info["omitted"]``).
+        """
         def clean(x: float) -> float | None:
             return None if not math.isfinite(x) else float(x)
 
@@ -183,6 +243,9 @@ class EstimationResult:
         compiled = self.info.get("compiled") if isinstance(self.info, dict) else None
         if compiled is not None:
             out["compiled"] = bool(compiled)
+        from aeroid.estimation._predict import json_safe_info
+
+        out["info"] = json_safe_info(self)
         return out
 
 

@@ -3,7 +3,7 @@
 Data
     CSV (any file but ``.parquet``) or Parquet (``.parquet``; needs pyarrow, the
     ``parquet`` extra). One column per channel, a header row. Columns that are not
-    aeroid channels (after the column map) are not read.
+    aeroid channels (after the column map) are not read, and named in a notice.
 Sidecar
     ``<name>.json`` beside the data (:mod:`aeroid.flights._sidecar`), read only when it
     carries aeroid's format tag. An airframe given to :func:`read_flight` always wins
@@ -11,7 +11,9 @@ Sidecar
     seed, true coefficients and sensor positions) is kept, since it describes the data,
     not the airframe.
 Column map
-    ``{name in the file: channel}`` (:func:`read_column_map`), applied before reading.
+    ``{name in the file: channel}`` (:func:`read_column_map`), applied before reading;
+    ``""`` drops a column, ``{channel, unit}`` converts one (:mod:`aeroid.flights._columns`).
+    A wrapped roll or yaw angle is unwrapped where the rates resolve it.
 
 Reading is bounded: only a regular file is opened (a FIFO would block forever, a
 device never end); only the channel columns are parsed, in blocks of
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import csv
 import io
+import logging
 import os
 import warnings
 from collections.abc import Mapping
@@ -34,12 +37,22 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AirframeError, FlightError
-from aeroid.flights._channels import ANGLE_CHANNELS, CHANNELS
+from aeroid.flights._channels import ANGLE_CHANNELS, CHANNELS, UNITS
+from aeroid.flights._columns import (
+    UNIT_FACTORS,
+    ChannelMap,
+    channel_map,
+    check_targets,
+    unwrap_angles,
+)
 from aeroid.flights._flight import Flight, air_angles
 from aeroid.flights._sidecar import read_sidecar
 from aeroid.flights._write import write_flight
-from aeroid.model._airframe import Airframe
+from aeroid.model._airframe import Airframe, load_airframe
 from aeroid.model._fileform import read_toml, regular_file_size
+
+#: Logger of aeroid's one-line notices (the command line prints them on stderr).
+_NOTICES = logging.getLogger("aeroid")
 
 #: Rows parsed per block: the parser's own buffers stay near 20 MB for 20 channels.
 CSV_BLOCK_ROWS = 65_536
@@ -53,17 +66,18 @@ _SAMPLE_BYTES = 1 << 16
 
 
 # Column map -----------------------------------------------------------------------------
-def read_column_map(path: str | Path) -> dict[str, str]:
-    """Return ``{name in the file: aeroid channel}`` from a TOML file.
+def read_column_map(path: str | Path) -> ChannelMap:
+    """Return ``{name in the file: aeroid channel}`` from a TOML file, with units.
 
-    The mapping is the file's top-level ``name = "channel"`` pairs, or its
-    ``[columns]`` table (and then nothing else).
+    The mapping is the file's top-level pairs, or its ``[columns]`` table (and then
+    nothing else). A value is a channel name, ``""`` (drop the column), or
+    ``{channel = "p", unit = "deg/s"}`` (convert on reading; :mod:`aeroid.flights._columns`).
 
     Raises
     ------
     FlightError
         One line naming the file: a value that is not a channel name, an unknown
-        channel, or two columns sent to one channel.
+        channel or unit, a unit of the wrong kind, or two columns sent to one channel.
     """
     try:
         data: dict[str, Any] = read_toml(path)
@@ -76,39 +90,21 @@ def read_column_map(path: str | Path) -> dict[str, str]:
             raise FlightError(f"{path}: a column map with a [columns] table has nothing "
                               f"else; unknown key(s) {', '.join(others)}")
         table = data["columns"]
-    bad = sorted(k for k, v in table.items() if not isinstance(v, str))
-    if bad:
-        raise FlightError(f"{path}: column map values must be channel names (strings); "
-                          f"check {', '.join(map(repr, bad))}")
-    _check_map_targets(dict(table), str(path))
-    return dict(table)
-
-
-def _check_map_targets(columns: Mapping[str, str], where: str) -> None:
-    unknown = sorted(set(columns.values()) - set(CHANNELS))
-    if unknown:
-        raise FlightError(f"{where}: column map names unknown channel(s) {unknown} "
-                          f"(channels: {', '.join(CHANNELS)})")
-    seen: dict[str, str] = {}
-    for name, channel in columns.items():
-        if channel in seen:
-            raise FlightError(f"{where}: column map sends both {seen[channel]!r} and {name!r} "
-                              f"to channel {channel!r}")
-        seen[channel] = name
+    return channel_map(table, str(path))
 
 
 def _mapped_names(header: list[str], columns: Mapping[str, str] | None,
                   path: Path) -> list[str]:
-    """Return the channel name of each header column after the column map."""
+    """Return the channel name of each header column after the column map (``""``: dropped)."""
     if not columns:
         return list(header)
-    _check_map_targets(columns, str(path))
+    check_targets(columns, str(path))
     absent = sorted(set(columns) - set(header))
     if absent:
         raise FlightError(f"{path}: column map names column(s) not in the file: {absent}")
     renamed_away = {name for name, channel in columns.items() if name != channel}
     for name, channel in columns.items():
-        if channel != name and channel in header and channel not in renamed_away:
+        if channel and channel != name and channel in header and channel not in renamed_away:
             raise FlightError(f"{path}: column map sends {name!r} to {channel!r}, but the file "
                               f"already has a column {channel!r} (map or rename that one too)")
     return [columns.get(h, h) for h in header]
@@ -118,9 +114,10 @@ def _mapped_names(header: list[str], columns: Mapping[str, str] | None,
 def read_flight(
     path: str | Path,
     *,
-    airframe: Airframe | None = None,
-    columns: Mapping[str, str] | None = None,
-    angles_in_degrees: bool = False,
+    airframe: Airframe | str | Path | None = None,
+    columns: Mapping[str, Any] | str | Path | None = None,
+    degrees: bool = False,
+    angles_in_degrees: bool | None = None,
 ) -> Flight:
     """Read a flight file (CSV or Parquet) and its sidecar when it is aeroid's.
 
@@ -128,14 +125,24 @@ def read_flight(
     ----------
     path : path
         The data file: a regular file, CSV or (``.parquet``) Parquet.
-    airframe : Airframe, optional
-        Always wins over the sidecar's airframe (whose metadata is kept); required
-        when there is no aeroid sidecar.
-    columns : mapping, optional
-        ``{name in the file: aeroid channel name}`` for a user's own log.
-    angles_in_degrees : bool
-        The file's angles are in degrees and its rates in deg/s
-        (channels :data:`~aeroid.flights.ANGLE_CHANNELS`); they are converted to radians.
+    airframe : Airframe or path, optional
+        An airframe or its TOML file. Always wins over the sidecar's airframe (whose
+        metadata is kept); required when there is no aeroid sidecar.
+    columns : mapping or path, optional
+        The column map (:func:`read_column_map`) or its TOML file:
+        ``{name in the file: channel}``, ``""`` to drop a column, or
+        ``{"channel": ..., "unit": ...}`` to convert one.
+    degrees : bool
+        The file's angles are in degrees and its rates in deg/s (channels
+        :data:`~aeroid.flights.ANGLE_CHANNELS` without a unit in the column map); they
+        are converted to radians.
+    angles_in_degrees : bool, optional
+        The former name of ``degrees``.
+
+    What reading did (units converted, a wrapped roll or yaw angle unwrapped, columns
+    dropped or not read) is said in one line each on the
+    ``aeroid`` logger and kept in the flight's :attr:`~Flight.notes` (a conversion as
+    ``converted: column (unit -> aeroid unit), ...``).
 
     Raises
     ------
@@ -144,6 +151,14 @@ def read_flight(
         call :meth:`Flight.validate`.
     """
     path = Path(path)
+    degrees = bool(degrees or angles_in_degrees)
+    if isinstance(airframe, str | Path):
+        airframe = load_airframe(airframe)
+    if isinstance(columns, str | Path):
+        columns = read_column_map(columns)
+    elif columns is not None and not isinstance(columns, ChannelMap):
+        columns = channel_map(columns, f"{path}: column map")
+    units = dict(columns.units) if isinstance(columns, ChannelMap) else {}
     size = regular_file_size(path, FlightError)
     parquet = path.suffix == ".parquet"
     header = _parquet_header(path) if parquet else _csv_header(path)
@@ -170,17 +185,61 @@ def read_flight(
     else:
         _check_memory(path, size, len(channels))
         values = _read_csv(path, file_columns, positions, len(channels))
-    if angles_in_degrees:
-        for name in ANGLE_CHANNELS:
-            if name in read_channels:
-                np.radians(values[:, index[name]], out=values[:, index[name]])
+    notes = _convert_units(values, index, dict(zip(file_columns, read_channels, strict=True)),
+                           units, degrees)
     if derived:
         alpha, beta = air_angles(*(values[:, index[c]] for c in ("u", "v", "w")))
         for name, column in (("alpha", alpha), ("beta", beta)):
             if name in derived:
                 values[:, index[name]] = column
+    frame = {c: values[:, index[c]] for c in channels if c in ("t", "p", "q", "r", "phi",
+                                                                 "theta", "psi")}
+    if "t" in frame:
+        unwrapped = unwrap_angles(frame, frame["t"])
+        for name in ("phi", "psi"):
+            if name in frame:
+                values[:, index[name]] = frame[name]
+        notes += unwrapped
+    notes += _column_notes(header, names)
     metadata["source"] = str(path)
-    return Flight(pd.DataFrame(values, columns=channels, copy=False), airframe, metadata)
+    for note in notes:
+        _NOTICES.info(f"{path}: {note}")
+    return Flight(pd.DataFrame(values, columns=channels, copy=False), airframe, metadata,
+                  notes=tuple(notes))
+
+
+def _convert_units(values: np.ndarray, index: Mapping[str, int], read: Mapping[str, str],
+                   units: Mapping[str, str], degrees: bool) -> list[str]:
+    """Convert columns with a unit, then (``degrees``) the other angle channels, in place."""
+    done: dict[str, str] = {}
+    for column, channel in read.items():
+        unit = units.get(column)
+        if unit is not None:
+            factor = UNIT_FACTORS[unit][0]
+            if factor != 1.0:
+                values[:, index[channel]] *= factor
+            done[column] = f"{unit} -> {UNITS[channel]}"
+        elif degrees and channel in ANGLE_CHANNELS:
+            np.radians(values[:, index[channel]], out=values[:, index[channel]])
+            done[column] = f"{'deg/s' if UNITS[channel] == 'rad/s' else 'deg'} -> " \
+                           f"{UNITS[channel]}"
+    if not done:
+        return []
+    shown = ", ".join(f"{c} ({u})" for c, u in done.items())
+    return [f"converted: {shown}"]
+
+
+def _column_notes(header: list[str], names: list[str]) -> list[str]:
+    """One line naming the columns dropped by the map and those not read."""
+    dropped = [h for h, n in zip(header, names, strict=True) if n == ""]
+    unused = [h for h, n in zip(header, names, strict=True) if n and n not in CHANNELS]
+    notes = []
+    if dropped:
+        notes.append(f"dropped by the column map: {', '.join(dropped)}")
+    if unused:
+        notes.append(f"not read (not aeroid channels; map them with the column map, or drop "
+                     f"them with \"\"): {', '.join(unused)}")
+    return notes
 
 
 def _csv_header(path: Path) -> list[str]:

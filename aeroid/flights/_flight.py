@@ -57,11 +57,16 @@ class Flight:
         settings), ``seed`` (int or None), ``true_coefficients`` (name -> value),
         ``true_accel_positions_m`` (2 x 3), ``manoeuvre`` (the simulated law and
         window) and ``source`` (the file read); other keys are kept as they are.
+    notes : tuple of str
+        What reading the file did, one line each (units converted, an angle unwrapped,
+        columns dropped or not read): :func:`aeroid.flights.read_flight`. Not
+        written with the flight.
     """
 
     data: pd.DataFrame
     airframe: Airframe
     metadata: dict[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = field(default=(), kw_only=True)
 
     # Access ----------------------------------------------------------------------
     def __getitem__(self, name: str) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -32,8 +33,12 @@ DEGREES_RTOL = 1e-6
 
 @pytest.fixture(scope="module")
 def flight_csv(tmp_path_factory, paper_flight) -> Path:
+    """The paper flight with its airframe's prior given (the reference coefficients, the
+    start a missing [prior] means too): no notice about it on stderr."""
     path = tmp_path_factory.mktemp("cli") / "flight.csv"
-    paper_flight.write(path)
+    prior = tuple(paper_flight.airframe.prior_vector())
+    dataclasses.replace(paper_flight, airframe=paper_flight.airframe.replace(prior=prior)
+                        ).write(path)
     return path
 
 
@@ -413,3 +418,111 @@ def test_first_compilations_are_announced(flight_csv, capsys, monkeypatch, tmp_p
     _forward._symbolic_record.cache_clear()
     main(["estimate", str(flight_csv), "--method", "output-error", "--json", "--quiet"])
     assert "compiling" not in capsys.readouterr().err
+
+
+# --method all / a,b / --report -----------------------------------------------------------
+#: The cheapest settings of every registered method that still run it end to end: the
+#: PSO methods' iterations and the filters' passes (the other methods have no such knob).
+CHEAP = ["--option", "n_iterations=3", "--option", "max_passes=1"]
+
+
+def test_method_all_lists_every_registered_method(flight_csv, capsys) -> None:
+    assert main(["estimate", str(flight_csv), "--method", "all", *CHEAP, "--json"]) in (0, 1)
+    out = json.loads(capsys.readouterr().out)
+    registered = set(available(refresh=True))
+    assert {m["method"] for m in out["methods"]} == registered
+    for method in out["methods"]:
+        assert list(method["coefficients"]) == list(NAMES)
+    applied = out["options_applied"]
+    for name in registered:
+        takes = set(get_estimator(name).option_names())
+        assert set(applied[name]) == {"n_iterations", "max_passes"} & takes
+
+
+def test_method_list_prints_one_side_by_side_table(flight_csv, capsys) -> None:
+    code = main(["estimate", str(flight_csv), "--method", "equation-error,ekf,ebm-pso",
+                 *CHEAP, "--seed", "1"])
+    out = capsys.readouterr().out.splitlines()
+    assert code in (0, 1)  # 1 when a method failed (a 3-iteration swarm may miss the fit)
+    assert out[0].split() == ["truth", "equation-error", "ekf", "ebm-pso"]
+    rows = {line.split()[0]: line for line in out[1:]}
+    for name in NAMES:
+        assert "±" in rows[name]  # estimate +- standard error where a method has one
+    assert rows["success"].split()[:3] == ["success", "yes", "yes"]
+    assert rows["success"].split()[3] == ("yes" if code == 0 else "FAILED")
+    assert "option n_iterations: applied to ebm-pso; not an option of equation-error, ekf" \
+        in out
+    assert "option max_passes: applied to ekf; not an option of equation-error, ebm-pso" in out
+
+
+@pytest.mark.parametrize(("method", "extra", "fragment"), [
+    ("ekf,output-error", ["--option", "n_iterations=3"],
+     "option(s) n_iterations taken by none of ekf, output-error"),
+    ("ekf,ekf", [], "ekf given twice"),
+    ("ekf,", [], "an empty method name"),
+    ("ekf,nope", [], "nope"),
+])
+def test_bad_method_lists_exit_2(flight_csv, capsys, method, extra, fragment) -> None:
+    err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", method, *extra])
+    assert fragment in err
+
+
+def test_report_of_one_method(flight_csv, tmp_path, capsys) -> None:
+    out_dir = tmp_path / "fit"
+    code = main(["estimate", str(flight_csv), "--method", "output-error", "--report",
+                 str(out_dir), "--no-progress"])
+    assert code == 0
+    assert f"aeroid: wrote {out_dir / 'report.md'}" in capsys.readouterr().err
+    text = (out_dir / "report.md").read_text()
+    assert text.startswith(f"# output-error on {flight_csv}")
+    for name in ("ax1", "p", "autocorrelation", "deflection", "correlation"):
+        assert (out_dir / f"{name}.png").stat().st_size > 1000
+
+
+def test_report_of_several_methods(flight_csv, tmp_path, capsys) -> None:
+    code = main(["estimate", str(flight_csv), "--method", "equation-error,ebm-pso",
+                 "--option", "n_iterations=3", "--report", str(tmp_path)])
+    assert code == 0
+    text = (tmp_path / "comparison.md").read_text()
+    assert "|  | truth | equation-error | ebm-pso |" in text
+    for method in ("equation-error", "ebm-pso"):
+        assert f"[{method}: report]({method}/report.md)" in text
+        assert (tmp_path / method / "report.md").is_file()
+        assert (tmp_path / method / "q.png").is_file()
+
+
+def test_no_prior_is_said_after_the_fit(tmp_path, capsys, paper_flight) -> None:
+    path = _write(tmp_path, paper_flight)
+    assert paper_flight.airframe.prior is None
+    assert main(["estimate", str(path), "--method", "equation-error"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("the airframe has no [prior]: the reference missile's coefficients "
+                     "were the start") == 1
+    assert main(["estimate", str(path), "--method", "equation-error", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_json_carries_info(flight_csv, capsys) -> None:
+    assert main(["estimate", str(flight_csv), "--method", "ekf", "--option", "max_passes=2",
+                 "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)["info"]
+    assert {"fit_check", "passes", "noise_law", "accel_positions_m", "options",
+            "omitted"} <= set(info)
+
+
+def test_unwritable_report_folder_exit_2(flight_csv, tmp_path, capsys) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", "equation-error",
+                                   "--report", str(blocker / "report")])
+    assert str(blocker / "report") in err and "cannot create the report folder" in err
+
+
+def test_no_progress_hides_the_bar_on_a_terminal(flight_csv, capsys, monkeypatch) -> None:
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    monkeypatch.setattr(sys.stdout, "isatty", lambda: True)
+    args = ["estimate", str(flight_csv), "--method", "ebm-pso", "--option", "n_iterations=3"]
+    assert main(args) == 0
+    assert "ebm-pso PSO" in capsys.readouterr().err  # a terminal: the bar
+    assert main([*args, "--no-progress"]) == 0
+    assert "ebm-pso PSO" not in capsys.readouterr().err

@@ -1,0 +1,279 @@
+"""What a result's model says of a flight: :func:`predict`, :func:`coefficient_frame`,
+and the JSON form of ``info`` (:func:`json_safe_info`).
+
+The prediction is the output-error model of :mod:`aeroid.model` (RK4 over the record,
+eq. 28 for the accelerometers, the rate gyros) at the result's coefficients, with the fit's
+own view of the flight wherever the result records it:
+
+* the deflection between samples: the fit's ``input`` option (``hold`` when the method
+  has none) and actuator delay (the estimated ``info["delay_s"]``, else the ``delay_s``
+  option, else none);
+* the accelerometer positions: the estimated ``info["accel_positions_m"]``, else the
+  airframe's;
+* RK4 steps per sample: the fit's ``substeps`` option, else :data:`PREDICT_SUBSTEPS`;
+* the initial state: ``info["initial_state"]`` (the fitted start, shape (9,)), else EAM's
+  ``info["state0"]`` (the start its cost used); else (the filters, the equation-error
+  and EBM methods, which fit no start) the first measured sample with p, q, r fitted to
+  the data at the result's coefficients (:func:`fitted_start`: weighted least squares of
+  every output, each channel weighted by its noise level from the data, from a quadratic
+  Savitzky-Golay fit of the first :data:`START_WINDOW` samples). A start taken from the
+  smoothed sample alone leaves the short-period oscillation of its error in q and r:
+  10 times the residual of q and r on the paper-noise reference flight (measured, EKF).
+
+What was used is recorded in the frame's ``attrs``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
+from aeroid.model import STATE_NAMES
+
+if TYPE_CHECKING:
+    from aeroid.estimation._result import EstimationResult
+    from aeroid.flights import Flight
+    from aeroid.model import ForwardModel
+
+__all__ = ["JSON_ARRAY_LIMIT", "PREDICT_SUBSTEPS", "START_WINDOW", "coefficient_frame",
+           "correlation", "fitted_start", "json_safe", "json_safe_info", "predict", "start_state"]
+
+#: RK4 steps per sample interval for a method that has no ``substeps`` option (the
+#: equation-error and EBM methods): output-error's default; on the noise-free reference
+#: flight its outputs differ from the simulator's (8 steps) by at most 5.1e-6 of a
+#: channel's RMS (r; 8.2e-5 with 1 step), far below any sensor's noise.
+PREDICT_SUBSTEPS = 2
+#: Samples of the quadratic Savitzky-Golay fit that gives the initial rates (the 7-point
+#: smoother of eq. 32, as output-error and the Cramér-Rao floor take them).
+START_WINDOW = 7
+#: Largest array kept in the JSON form of ``info`` [elements]: per-sample series
+#: (states, measurements, forces) are left out and named in ``info["omitted"]``; the
+#: 16 x 16 information matrix of output-error with its positions is kept.
+JSON_ARRAY_LIMIT = 1024
+#: Model evaluations of the start's least squares at most: the outputs are nearly linear
+#: in the initial rates, and 3-6 evaluations converge on the reference flight (measured).
+START_EVALUATIONS = 50
+#: Floor of a channel's noise level in the start's weights, as a fraction of its RMS (the
+#: fit check's resolution): on noise-free data every channel counts alike.
+START_WEIGHT_FLOOR = 1e-3
+#: The initial-state components :func:`fitted_start` fits.
+RATE_NAMES = ("p", "q", "r")
+
+
+def start_state(flight: Flight) -> np.ndarray:
+    """The first measured state with p, q, r from a quadratic SG fit (shape (9,))."""
+    states = flight.states()
+    x0 = states[0].copy()
+    window = min(START_WINDOW, states.shape[0] - 1 + states.shape[0] % 2)
+    x0[3:6] = smooth(states[:, 3:6], window, min(2, window - 1))[0]
+    return x0
+
+
+def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel) -> np.ndarray:
+    """The first measured state with p, q, r fitted to every output at ``theta``.
+
+    Least squares (``scipy.optimize.least_squares``, Levenberg-Marquardt) of the outputs
+    of ``model`` weighted by each channel's noise level from the data (the fit check's:
+    the RMS of the 7-point smoother's residual away from relay switches, floored at
+    :data:`START_WEIGHT_FLOOR` of the channel's RMS), from :func:`start_state`; that
+    start when the fit does not lower the cost (a diverging trajectory).
+    """
+    from scipy.optimize import least_squares
+
+    x0 = start_state(flight)
+    measured = flight._columns(model.output_names)
+    rms = np.sqrt(np.mean(measured * measured, axis=0))
+    levels = estimate_noise_sd(measured, statistic="rms",
+                               use=switch_free_samples(flight["delta"]))
+    sd = np.maximum(np.maximum(levels, START_WEIGHT_FLOOR * rms), np.finfo(float).tiny)
+    theta = np.asarray(theta, dtype=float)
+    rates = list(RATE_NAMES)
+    index = [STATE_NAMES.index(name) for name in rates]
+
+    def state(x: np.ndarray) -> np.ndarray:
+        out = x0.copy()
+        out[index] = x
+        return out
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            y = model.outputs(state(x), theta)[0]
+        r = ((measured - y) / sd).ravel()
+        return np.where(np.isfinite(r), r, 1e150)
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            sens = model.sensitivities(state(x), theta, free_states=rates)[..., -len(rates):]
+        return np.nan_to_num(-(sens / sd[None, :, None]).reshape(-1, len(rates)))
+
+    try:
+        found = least_squares(residuals, x0[index], jac=jacobian, method="lm",
+                              x_scale="jac", max_nfev=START_EVALUATIONS)
+    except (ValueError, np.linalg.LinAlgError):
+        return x0
+    start = state(found.x)
+    return start if np.isfinite(found.cost) and found.cost <= 0.5 * np.sum(
+        residuals(x0[index]) ** 2) else x0
+
+
+def _options(result: EstimationResult) -> dict[str, Any]:
+    options = result.info.get("options")
+    return dict(options) if isinstance(options, dict) else {}
+
+
+def _initial_state(result: EstimationResult, flight: Flight,
+                   model: ForwardModel) -> tuple[np.ndarray, str]:
+    for key in ("initial_state", "state0"):
+        value = result.info.get(key)
+        if value is not None and not isinstance(value, str):
+            x0 = np.asarray(value, dtype=float).reshape(-1)
+            if x0.size == len(STATE_NAMES):
+                return x0, f"the fit's (info[{key!r}])"
+    if not np.all(np.isfinite(result.theta)):
+        return start_state(flight), f"first sample, rates from a {START_WINDOW}-point SG fit"
+    return (fitted_start(flight, result.theta, model),
+            "first sample, p q r fitted to the outputs at the estimate")
+
+
+def predict(result: EstimationResult, flight: Flight, *, substeps: int | None = None,
+            initial_state: np.ndarray | None = None) -> pd.DataFrame:
+    """Return the model's outputs at the flight's samples (module docstring).
+
+    Parameters
+    ----------
+    result : EstimationResult
+    flight : Flight
+        The log the result was fitted to (or another one of the same airframe).
+    substeps : int, optional
+        RK4 steps per sample interval (default: the fit's, else :data:`PREDICT_SUBSTEPS`).
+    initial_state : ndarray, shape (9,), optional
+        The state at the first sample [m/s, rad/s, rad] (default: the fit's).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index ``t`` [s]; columns :data:`aeroid.model.OUTPUT_CHANNELS` (both triads'
+        accelerations [m/s^2], then p, q, r [rad/s]); ``attrs``: ``input``, ``delay_s``,
+        ``substeps``, ``accel_positions_m``, ``initial_state``, ``initial_state_from``,
+        ``estimator``.
+        NaN where the simulation diverged (or every value, for NaN coefficients).
+    """
+    from aeroid.flights import flight_record, model_constants
+    from aeroid.model import ForwardModel
+
+    options = _options(result)
+    input_mode = str(result.info.get("input", options.get("input", "hold")))
+    delay = result.info.get("delay_s", options.get("delay_s", 0.0))
+    delay = float(delay) if delay is not None and math.isfinite(float(delay)) else 0.0
+    steps = int(substeps if substeps is not None else options.get("substeps",
+                                                                  PREDICT_SUBSTEPS))
+    positions = result.info.get("accel_positions_m")
+    positions = (flight.airframe.accel_positions if positions is None
+                 else np.asarray(positions, dtype=float).reshape(-1, 3))
+    record = flight_record(flight, input_mode, delay)
+    model = ForwardModel(model_constants(flight), record, positions, substeps=steps)
+    if initial_state is None:
+        x0, source = _initial_state(result, flight, model)
+    else:
+        x0, source = np.asarray(initial_state, dtype=float).reshape(-1), "given"
+    with np.errstate(all="ignore"):
+        outputs = model.outputs(x0, result.theta)[0]
+    frame = pd.DataFrame(outputs, columns=list(model.output_names),
+                         index=pd.Index(flight.t, name="t"))
+    frame.attrs.update(input=input_mode, delay_s=delay, substeps=steps,
+                       accel_positions_m=positions.tolist(), initial_state=x0.tolist(),
+                       initial_state_from=source, estimator=result.estimator)
+    return frame
+
+
+def correlation(covariance: np.ndarray | None) -> np.ndarray | None:
+    """The correlation matrix of a covariance (NaN where a variance is not positive)."""
+    if covariance is None:
+        return None
+    cov = np.asarray(covariance, dtype=float)
+    sd = np.sqrt(np.where(np.diag(cov) > 0, np.diag(cov), np.nan))
+    with np.errstate(all="ignore"):
+        return cov / np.outer(sd, sd)
+
+
+def coefficient_frame(result: EstimationResult, flight: Flight | None = None,
+                      *, floor: np.ndarray | None = None) -> pd.DataFrame:
+    """Return one row per coefficient: estimate, stderr, and what else is known.
+
+    Columns ``estimate``, ``stderr`` (NaN for a method without standard errors); with a
+    flight, ``prior`` (the airframe's prior: the start and the PSO box's centre) and, for
+    a simulated flight, ``truth`` and ``error_pct``; ``floor`` (the Cramér-Rao floor)
+    when given (:func:`aeroid.estimation.data_floor` computes it from the data) or when
+    the result carries ``info["floor"]``.
+    """
+    names = list(result.names)
+    nan = np.full(len(names), np.nan)
+    frame = pd.DataFrame({"estimate": result.theta,
+                          "stderr": nan if result.stderr is None else result.stderr},
+                         index=pd.Index(names, name="coefficient"))
+    if flight is not None:
+        frame["prior"] = flight.airframe.prior_vector()
+    if floor is None and result.info.get("floor") is not None:
+        floor = result.info["floor"]
+    if floor is not None:
+        frame["floor"] = np.asarray(floor, dtype=float).reshape(-1)
+    truth = None if flight is None else flight.true_coefficients
+    if truth is not None:
+        frame["truth"] = truth
+        frame["error_pct"] = result.relative_error_pct(truth)
+    return frame
+
+
+def json_safe(value: Any) -> Any:
+    """Return ``value`` as JSON types: arrays -> lists, non-finite -> None, tuples -> lists."""
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if value is None or isinstance(value, str):
+        return value
+    return str(value)
+
+
+def _drop_series(value: Any, path: str, omitted: list[str]) -> Any:
+    if isinstance(value, dict):
+        return {k: v for k, v in ((k, _drop_series(v, f"{path}.{k}" if path else str(k),
+                                                   omitted)) for k, v in value.items())
+                if v is not _OMIT}
+    if isinstance(value, np.ndarray) and value.size > JSON_ARRAY_LIMIT:
+        omitted.append(f"{path} {tuple(value.shape)}")
+        return _OMIT
+    return value
+
+
+_OMIT = object()
+
+
+def json_safe_info(result: EstimationResult) -> dict[str, Any]:
+    """Return ``result.info`` as JSON types, per-sample series left out and named.
+
+    Arrays of more than :data:`JSON_ARRAY_LIMIT` elements (states, measurements,
+    reconstructed forces) are replaced by their name and shape in ``omitted``; a method
+    with a covariance and no ``correlation`` of its own gets its ``correlation`` here.
+    """
+    omitted: list[str] = []
+    info = _drop_series(dict(result.info), "", omitted)
+    if "correlation" not in info:
+        corr = correlation(result.covariance)
+        if corr is not None:
+            info["correlation"] = corr
+    if omitted:
+        info["omitted"] = omitted
+    return json_safe(info)

@@ -1,0 +1,59 @@
+"""Reports: what a fit looks like against its data, and several methods side by side.
+
+This layer sits above estimation and flights (it uses their faces and the model's) and
+below the command line:
+
+- :func:`write_report`: ``report.md`` and PNG figures of one fit in a folder
+  (``aeroid estimate LOG --method M --report DIR``);
+- :func:`report_figures`: the same figures as matplotlib objects (notebooks, tests);
+- :func:`compare_results` / :func:`comparison_text`: every method on one log in one
+  table (``aeroid estimate LOG --method all``).
+
+Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
+report), ``_compare`` (several methods).
+"""
+
+from aeroid.report._compare import (
+    compare_results,
+    comparison_markdown,
+    comparison_text,
+    options_note,
+    result_notes,
+)
+from aeroid.report._figures import (
+    BAND_SD,
+    autocorrelation,
+    autocorrelation_figure,
+    channel_figure,
+    correlation_figure,
+    deflection_figure,
+)
+from aeroid.report._files import (
+    make_directory,
+    write_bytes_atomic,
+    write_figure_atomic,
+    write_text_atomic,
+)
+from aeroid.report._fit import REPORT_NAME, report_figures, report_markdown, write_report
+
+__all__ = [
+    "BAND_SD",
+    "REPORT_NAME",
+    "autocorrelation",
+    "autocorrelation_figure",
+    "channel_figure",
+    "compare_results",
+    "comparison_markdown",
+    "comparison_text",
+    "correlation_figure",
+    "deflection_figure",
+    "make_directory",
+    "options_note",
+    "report_figures",
+    "report_markdown",
+    "result_notes",
+    "write_bytes_atomic",
+    "write_figure_atomic",
+    "write_report",
+    "write_text_atomic",
+]

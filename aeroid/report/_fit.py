@@ -1,0 +1,279 @@
+"""The report of one fit: ``report.md`` and its PNG figures in a folder.
+
+What it shows (issue "See the fit"): the status and every warning; the coefficient table
+(estimate, standard error, prior, Cramér-Rao floor from the data, and the truth of a
+simulated flight); the fit check, every key the method reports; measured against model
+for every output channel with the residual and its noise band; the residual
+autocorrelation; the deflection the model used; the correlation of the estimates.
+
+The model is :meth:`aeroid.estimation.EstimationResult.predict`: an open-loop simulation
+with the fit's input, delay, positions and start. For the filters that is not what they
+fitted (their residuals are one-step innovations) and for the equation-error and EBM
+methods neither (theirs are forces and moments): the fit check's numbers are the method's
+own, the figures the model's outputs; the report says so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aeroid.estimation import (
+    EstimationResult,
+    correlation,
+    data_floor,
+    estimate_noise_sd,
+    switch_free_samples,
+)
+from aeroid.flights import UNITS, Flight, schedule
+from aeroid.model import OUTPUT_CHANNELS
+from aeroid.report._figures import (
+    BAND_SD,
+    DPI,
+    autocorrelation_figure,
+    channel_figure,
+    correlation_figure,
+    deflection_figure,
+)
+from aeroid.report._files import make_directory, write_figure_atomic, write_text_atomic
+
+__all__ = ["REPORT_NAME", "report_figures", "report_markdown", "write_report"]
+
+#: The markdown file of a report folder.
+REPORT_NAME = "report.md"
+
+
+def _noise_levels(result: EstimationResult, flight: Flight) -> dict[str, float]:
+    """Each output channel's noise level: the fit check's, else from the data alone."""
+    check = result.info.get("fit_check") or {}
+    given = check.get("noise_sd", {}) if isinstance(check, Mapping) else {}
+    use = switch_free_samples(flight["delta"])
+    out = {}
+    for name in OUTPUT_CHANNELS:
+        if name in given:
+            out[name] = float(given[name])
+        else:
+            out[name] = float(estimate_noise_sd(flight[name], statistic="rms", use=use))
+    return out
+
+
+def _schedule_knots(flight: Flight, input_mode: str, delay: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The knots of the deflection the model used, clipped to the log's window."""
+    sched = schedule(flight, input_mode)
+    if delay:
+        sched = sched.shifted(delay)
+    t0, t1 = float(flight.t[0]), float(flight.t[-1])
+    inside = (sched.times > t0) & (sched.times < t1)
+    times = np.concatenate([[t0], sched.times[inside], [t1]])
+    values = np.concatenate([np.atleast_1d(sched.at(np.array([t0]))), sched.values[inside],
+                             np.atleast_1d(sched.before(np.array([t1])))])
+    return times, values
+
+
+def report_figures(result: EstimationResult, flight: Flight,
+                   prediction: Any | None = None) -> dict[str, Any]:
+    """Return the report's figures by file stem: one per output channel, ``autocorrelation``,
+    ``deflection`` and, with a covariance, ``correlation`` (matplotlib Figures).
+
+    ``prediction``: :meth:`EstimationResult.predict` of the flight, when already made.
+    No model figures when the estimates are not finite (a failed method).
+    """
+    figures: dict[str, Any] = {}
+    if np.all(np.isfinite(result.theta)):
+        frame = result.predict(flight) if prediction is None else prediction
+        levels = _noise_levels(result, flight)
+        residuals = {}
+        for name in OUTPUT_CHANNELS:
+            measured = flight[name]
+            model = frame[name].to_numpy()
+            residuals[name] = measured - model
+            figures[name] = channel_figure(name, UNITS[name], flight.t, measured, model,
+                                           levels[name])
+        figures["autocorrelation"] = autocorrelation_figure(residuals, flight.dt)
+        times, values = _schedule_knots(flight, frame.attrs["input"], frame.attrs["delay_s"])
+        label = f"model's delta (input {frame.attrs['input']}"
+        label += f", delay {frame.attrs['delay_s'] * 1e3:.3g} ms)" if frame.attrs["delay_s"] \
+            else ")"
+        figures["deflection"] = deflection_figure(flight.t, flight["delta"], times, values,
+                                                  label)
+    matrix = _correlation(result)
+    if matrix is not None:
+        figures["correlation"] = correlation_figure(matrix, result.names)
+    return figures
+
+
+def _correlation(result: EstimationResult) -> np.ndarray | None:
+    given = result.info.get("correlation")
+    if given is not None:
+        return np.asarray(given, dtype=float)
+    return correlation(result.covariance)
+
+
+def _number(value: Any) -> str:
+    if isinstance(value, bool | np.bool_):
+        return str(bool(value)).lower()
+    if isinstance(value, int | np.integer):
+        return str(int(value))
+    if isinstance(value, float | np.floating):
+        return "n/a" if not np.isfinite(value) else f"{value:.6g}"
+    return " ".join(str(value).split()).replace("|", "\\|")
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_number(v) for v in row) + " |" for row in rows]
+    return lines
+
+
+def _per_channel(check: Mapping[str, Any]) -> dict[str, Mapping[str, Any]]:
+    """The fit check's per-channel entries as columns: ``{channel: scalar}`` entries as
+    they are, ``{channel: {name: scalar}}`` entries one column per name (``key.name``)."""
+    columns: dict[str, Mapping[str, Any]] = {}
+    for key, value in check.items():
+        if not isinstance(value, Mapping) or not value:
+            continue
+        if all(not isinstance(x, Mapping) for x in value.values()):
+            columns[key] = value
+        elif all(isinstance(x, Mapping) for x in value.values()):
+            names: list[str] = []
+            for inner in value.values():
+                names += [n for n in inner if n not in names]
+            for name in names:
+                columns[f"{key}.{name}"] = {c: v.get(name, "") for c, v in value.items()}
+    return columns
+
+
+def _fit_check_lines(check: Mapping[str, Any]) -> list[str]:
+    """Every key of the fit check: per-channel entries as columns, the rest as lines."""
+    per_channel = _per_channel(check)
+    channels: list[str] = []
+    for values in per_channel.values():
+        channels += [c for c in values if c not in channels]
+    lines = []
+    if channels:
+        header = ["channel", *per_channel]
+        rows = [[c, *(per_channel[k].get(c, "") for k in per_channel)] for c in channels]
+        lines += _table(header, rows)
+        lines.append("")
+    shown = {k.split(".")[0] for k in per_channel}
+    for key, value in check.items():
+        if key not in shown:
+            lines.append(f"- {key}: {_number(value)}")
+    return lines
+
+
+def _coefficient_rows(frame: Any) -> tuple[list[str], list[list[Any]]]:
+    labels = {"estimate": "estimate", "stderr": "std err", "prior": "prior (start)",
+              "floor": "Cramér-Rao floor", "truth": "truth", "error_pct": "error %"}
+    columns = [c for c in labels if c in frame.columns]
+    rows = [[name, *(frame.loc[name, c] for c in columns)] for name in frame.index]
+    return ["coefficient", *(labels[c] for c in columns)], rows
+
+
+def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[str],
+                    notes: Sequence[str] = (), prediction: Any | None = None,
+                    floor: np.ndarray | None = None) -> str:
+    """Return the report's markdown, linking the figure files ``figures`` (stems)."""
+    source = flight.metadata.get("source", "flight")
+    status = "ok" if result.success else "FAILED"
+    lines = [f"# {result.estimator} on {source}", "",
+             f"**{status}**" + (f": {_number(result.message)}" if result.message else ""),
+             "", f"{flight.n_samples} samples, t = {flight.t[0]:g} .. {flight.t[-1]:g} s; "
+             f"{result.n_evaluations} evaluations, {result.n_iterations} iterations, "
+             f"{result.wall_time_s:.3g} s.", "", "## Warnings and notes", ""]
+    found = [f"- warning: {_number(w)}" for w in result.warnings]
+    found += [f"- {_number(n)}" for n in notes]
+    lines += (found or ["none"]) + [""]
+    frame = result.to_frame(flight, floor=floor)
+    header, rows = _coefficient_rows(frame)
+    lines += ["## Coefficients", ""] + _table(header, rows) + [""]
+    if "floor" not in frame.columns:
+        lines += ["No Cramér-Rao floor: the data are noise-free (every channel's noise "
+                  "level at the fit check's resolution) or the model diverges.", ""]
+    else:
+        lines += ["The floor is the Cramér-Rao standard deviation of output-error "
+                  "(both triads, p q r, initial rates estimated) with each channel's noise "
+                  "level estimated from the data, at the estimate.", ""]
+    check = result.info.get("fit_check")
+    lines += ["## Fit check", ""]
+    if isinstance(check, Mapping) and check:
+        lines += ["The method's residual RMS against each channel's noise level estimated "
+                  "from the data (about 1 when the model fits).", ""]
+        lines += _fit_check_lines(check) + [""]
+    else:
+        lines += ["The method reports no residuals: no fit check.", ""]
+    if prediction is not None:
+        attrs = prediction.attrs
+        lines += ["## Model against the data", "",
+                  f"The model's outputs simulated at the estimate: input "
+                  f"`{attrs['input']}`, delay {attrs['delay_s']:g} s, "
+                  f"{attrs['substeps']} RK4 step(s) per sample, accelerometer positions "
+                  f"{_positions(attrs['accel_positions_m'])} m, initial state "
+                  f"{attrs['initial_state_from']}. Residual band: +-{BAND_SD:g} noise sd.",
+                  ""]
+        if "fit_check" in result.info and not set(OUTPUT_CHANNELS) & set(
+                result.info["fit_check"].get("ratio", {})):
+            lines += ["This method fits forces and moments, not these outputs: the fit "
+                      "check above is on its own channels.", ""]
+    for stem in figures:
+        lines += [f"![{_caption(stem)}]({stem}.png)", ""]
+    lines += _details(result)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _positions(positions: Sequence[Sequence[float]]) -> str:
+    return "; ".join("(" + ", ".join(f"{v:.4g}" for v in row) + ")" for row in positions)
+
+
+def _caption(stem: str) -> str:
+    if stem in UNITS:
+        return f"{stem} [{UNITS[stem]}]: measured, model and residual"
+    return {"autocorrelation": "residual autocorrelation [-] of every output channel",
+            "deflection": "delta [deg]: logged and used by the model",
+            "correlation": "correlation of the estimates [-]"}.get(stem, stem)
+
+
+def _details(result: EstimationResult) -> list[str]:
+    info = result.info
+    lines = ["## Method details", ""]
+    for key in ("passes", "delay_s", "delay_stderr_s", "compiled", "input"):
+        if key in info:
+            lines.append(f"- {key}: {_number(info[key])}")
+    if "accel_positions_m" in info:
+        lines.append(f"- estimated accelerometer positions [m]: "
+                     f"{_positions(np.asarray(info['accel_positions_m']).tolist())}")
+    options = info.get("options")
+    if isinstance(options, Mapping):
+        lines.append("- options: " + ", ".join(f"{k} = {_number(v)}"
+                                                for k, v in options.items()))
+    return lines + [""]
+
+
+def write_report(result: EstimationResult, flight: Flight, directory: str | Path, *,
+                 notes: Sequence[str] = ()) -> Path:
+    """Write ``report.md`` and its PNG figures into ``directory``; return the markdown path.
+
+    Every file is written atomically (a temporary file beside it, then ``os.replace``).
+    ``notes``: one-line notes to list with the warnings (what reading the log did, the
+    flight's validation warnings).
+
+    Raises
+    ------
+    UsageError
+        One line naming the path when the folder or a file cannot be written.
+    """
+    folder = make_directory(directory)
+    finite = bool(np.all(np.isfinite(result.theta)))
+    prediction = result.predict(flight) if finite else None
+    floor = None
+    if finite:
+        floor = data_floor(flight, result.theta, prediction.attrs["input"])  # type: ignore
+    figures = report_figures(result, flight, prediction)
+    for stem, fig in figures.items():
+        write_figure_atomic(fig, folder / f"{stem}.png", DPI)
+    text = report_markdown(result, flight, list(figures), notes, prediction, floor)
+    return write_text_atomic(folder / REPORT_NAME, text)
