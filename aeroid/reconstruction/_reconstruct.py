@@ -74,27 +74,41 @@ class Reconstruction:
     fin: tuple[np.ndarray, np.ndarray] | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
 
-    def to_flight(self) -> Flight:
+    def to_flight(self, *, atmosphere: str = "airframe") -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
 
         Channels: the corrected IMU readings, ``u v w phi theta psi`` reconstructed,
         ``delta`` the latest fin sample at or before each IMU time (the fin is a relay:
-        held, not interpolated); with a barometer also ``altitude``, and the airframe's
-        atmosphere becomes ``per_sample = "altitude"`` (ISA density at each sample).
+        held, not interpolated).
+
+        Parameters
+        ----------
+        atmosphere : {"airframe", "altitude"}
+            ``"airframe"``: the airframe's own atmosphere (as the model's simulator, which
+            holds the density of one altitude); ``"altitude"``: the reconstructed
+            altitude becomes a channel and the atmosphere ``per_sample = "altitude"``
+            (ISA density at each sample; needs a barometer).
         """
+        where = self.metadata.get("source", "suite log")
+        if atmosphere not in ("airframe", "altitude"):
+            raise FlightError(f"{where}: atmosphere must be 'airframe' or 'altitude', got "
+                              f"{atmosphere!r}")
         if self.fin is None:
-            raise FlightError(f"{self.metadata.get('source', 'suite log')}: no fin group: "
-                              "a Flight needs the fin deflection")
+            raise FlightError(f"{where}: no fin group: a Flight needs the fin deflection")
         tab = self.table
         channels = {c: tab[c].to_numpy() for c in ("t", *IMU_CHANNELS, "u", "v", "w", "phi",
                                                    "theta", "psi")}
         channels["delta"] = _held(self.fin, tab["t"].to_numpy(), self.metadata)
         airframe = self.airframe
-        if "altitude" in tab:
+        notes = [*self.notes, "density: the airframe's atmosphere"]
+        if atmosphere == "altitude":
+            if "altitude" not in tab:
+                raise FlightError(f"{where}: atmosphere 'altitude' needs a barometer group")
             channels["altitude"] = tab["altitude"].to_numpy()
             airframe = airframe.replace(altitude_m=None, given_density_kgm3=None,
                                         atmosphere_channel="altitude")
-        return make_flight(channels, airframe, {**self.metadata, "notes": list(self.notes)})
+            notes[-1] = "density: ISA at the reconstructed altitude, per sample"
+        return make_flight(channels, airframe, {**self.metadata, "notes": notes})
 
 
 def _held(fin: tuple[np.ndarray, np.ndarray], t: np.ndarray, meta: dict[str, Any]
