@@ -54,8 +54,11 @@ def reconstruct(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f"aeroid: {note}")
     for source, stats in result.nis.items():
+        low, high = stats["interval"]
+        verdict = "consistent" if stats["consistent"] else "NOT consistent"
         print(f"{source}: mean NIS per dof {stats['mean_nis_per_dof']:.3f} over "
-              f"{stats['n_updates']} updates (1 when the stated noise sd fit)")
+              f"{stats['n_updates']} updates, {verdict} with the stated noise sd "
+              f"(chi-square interval {low:.2f}-{high:.2f})")
     print(f"wrote {args.output} ({len(result.table)} samples)")
     if args.flight is not None:
         atmosphere = "altitude" if args.per_sample_density else "airframe"

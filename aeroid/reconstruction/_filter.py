@@ -16,6 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2
 
 from aeroid.flights import wrap_angle
 from aeroid.reconstruction._kinematics import N_STATES, jacobians, rk4_step
@@ -53,13 +54,34 @@ class Aiding:
 
 @dataclass(frozen=True)
 class Passes:
-    """Smoothed states (n, N) and covariances (n, N, N); innovation statistics per source."""
+    """Smoothed states (n, N) and covariances (n, N, N); the residual check per source.
+
+    ``nis[source]``: ``mean_nis_per_dof`` (1 for a consistent source), ``n_updates``,
+    ``n_values``, ``interval`` (the chi-square interval of the mean at two-sided level
+    :data:`NIS_LEVEL`) and ``consistent`` (the mean inside it).
+    """
 
     states: np.ndarray
     covariance: np.ndarray
     filtered: np.ndarray
-    nis: dict[str, dict[str, float]]
+    nis: dict[str, dict[str, object]]
     innovations: dict[str, np.ndarray]
+
+
+#: Two-sided level of the residual check: a consistent source's mean NIS per dof falls
+#: outside its interval with this probability.
+NIS_LEVEL = 0.002
+
+
+def _nis_check(total: float, n_values: int, n_updates: int) -> dict[str, object]:
+    """Return the residual check of one source: mean NIS per dof against chi-square."""
+    if not n_values:
+        return {"mean_nis_per_dof": float("nan"), "n_updates": 0, "n_values": 0,
+                "interval": (float("nan"), float("nan")), "consistent": False}
+    low, high = chi2.ppf([NIS_LEVEL / 2, 1 - NIS_LEVEL / 2], n_values) / n_values
+    mean = total / n_values
+    return {"mean_nis_per_dof": mean, "n_updates": n_updates, "n_values": n_values,
+            "interval": (float(low), float(high)), "consistent": bool(low <= mean <= high)}
 
 
 def _measurement_jacobian(model: Callable[[np.ndarray], np.ndarray], x: np.ndarray
@@ -100,7 +122,7 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
     for aid in aidings:
         for j, k in enumerate(aid.index):
             events.setdefault(int(k), []).append((aid, j))
-    sums = {aid.name: [0.0, 0, 0] for aid in aidings}
+    sums: dict[str, list] = {aid.name: [0.0, 0, 0] for aid in aidings}
     innovations = {aid.name: np.full(aid.values.shape, np.nan) for aid in aidings}
     lever = lever[:, None]
     x, p = x0.astype(float).copy(), p0.astype(float).copy()
@@ -146,6 +168,5 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
         xs[k] = xf[k] + gain @ (xs[k + 1] - xp[k + 1])
         ps[k] = pf[k] + gain @ (ps[k + 1] - pp[k + 1]) @ gain.T
         ps[k] = 0.5 * (ps[k] + ps[k].T)
-    nis = {name: {"mean_nis_per_dof": s[0] / s[1] if s[1] else float("nan"),
-                  "n_updates": s[2], "n_values": s[1]} for name, s in sums.items()}
+    nis = {name: _nis_check(*s) for name, s in sums.items()}
     return Passes(xs, ps, xf, nis, innovations)

@@ -24,6 +24,8 @@ perturbations gives the exact Jacobians (complex step).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from aeroid.flights import body_to_ned
@@ -62,9 +64,9 @@ def corrected_imu(x: np.ndarray, imu: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return accel, gyro
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+def _cross(a: Any, b: Any) -> tuple[Any, Any, Any]:
+    """Return ``a x b`` by components (sequences of three arrays)."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def derivative(x: np.ndarray, imu: np.ndarray, omega_dot: np.ndarray,
@@ -82,13 +84,16 @@ def derivative(x: np.ndarray, imu: np.ndarray, omega_dot: np.ndarray,
         Mean position of the two triads from the c.g. [m].
     """
     accel, gyro = corrected_imu(x, imu)
-    force = accel.mean(axis=0) - _cross(omega_dot, lever) - _cross(gyro, _cross(gyro, lever))
+    mean = 0.5 * (accel[0] + accel[1])
+    spin = _cross(omega_dot, lever)
+    centripetal = _cross(gyro, _cross(gyro, lever))
+    force = [mean[j] - spin[j] - centripetal[j] for j in range(3)]
     state = State(x[IX["u"]], x[IX["v"]], x[IX["w"]], gyro[0], gyro[1], gyro[2],
                   x[IX["phi"]], x[IX["theta"]], x[IX["psi"]])
     zero = 0.0 * force[0]
     d = equations.derivative(state, Loads(force[0], force[1], force[2], zero, zero, zero),
                              _KINEMATIC, equations.trig(state))
-    out = np.zeros(np.broadcast_shapes(x.shape, (1, force.shape[-1])), dtype=force.dtype)
+    out = np.zeros(np.broadcast_shapes(x.shape, (1, force[0].shape[-1])), dtype=force[0].dtype)
     out[VEL] = d.u, d.v, d.w
     out[ATT] = d.phi, d.theta, d.psi
     out[POS] = ned_velocity(x)

@@ -10,6 +10,7 @@ of it (corrected IMU channels, reconstructed states, the fin held from its own c
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,12 +37,16 @@ from aeroid.reconstruction._kinematics import (
     ned_velocity,
 )
 
+Model = Callable[[np.ndarray], np.ndarray]
 #: Savitzky-Golay window [samples] and order of the gyro derivative (the lever-arm term).
 OMEGA_DOT_WINDOW = 11
 OMEGA_DOT_ORDER = 3
 #: Prior sd of states with no measurement at the start (no GNSS: position from the
 #: origin at the first IMU sample; no barometer: alt0, unobserved).
 UNOBSERVED_SD = 1.0
+#: A prior set from a first sample has that sample's sd times this (the sample then is not
+#: used again), plus what the time from the sample to the first IMU sample may change.
+PRIOR_INFLATION = 2.0
 
 
 @dataclass(frozen=True)
@@ -57,8 +62,9 @@ class Reconstruction:
     covariance : ndarray, shape (n, N, N)
         Smoothed state covariance.
     nis : dict
-        Per aiding source: ``mean_nis_per_dof`` (1 for consistent innovations),
-        ``n_updates``, ``n_values``.
+        The residual check per aiding source: ``mean_nis_per_dof`` (1 for consistent
+        innovations), ``n_updates``, ``n_values``, ``interval`` (chi-square, two-sided
+        level 0.002) and ``consistent``.
     innovations : dict of str to ndarray, shape (m, d)
         Filter innovations over their predicted sd, per source.
     notes : tuple of str
@@ -67,7 +73,7 @@ class Reconstruction:
 
     table: pd.DataFrame
     covariance: np.ndarray
-    nis: dict[str, dict[str, float]]
+    nis: dict[str, dict[str, Any]]
     innovations: dict[str, np.ndarray]
     notes: tuple[str, ...]
     airframe: Airframe
@@ -142,7 +148,8 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     initial_velocity : (u, v, w) [m/s], optional
         Needed without GNSS velocity (else the first fix turned into body axes).
     initial_sd : (attitude [rad], velocity [m/s])
-        Prior sd of a given initial attitude and velocity (and added to the INS/GNSS ones).
+        Prior sd of a given initial attitude and velocity (from the first INS and GNSS
+        samples: their sd times :data:`PRIOR_INFLATION`).
     """
     source = log.source
     airframe = airframe or log.airframe
@@ -169,9 +176,10 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     notes = [f"specific force at the c.g.: mean of the two triads at {lever.tolist()} m, "
              "lever-arm terms from the corrected gyros and their Savitzky-Golay derivative",
              "no wind state: u v w are over the ground (no air data in a suite log)"]
-    aidings = _aidings(log, t, notes)
-    x0, p0 = _prior(log, t, imu, aidings, notes, accel_bias_sd, gyro_bias_sd, scale_sd,
+    used: dict[str, int] = {}
+    x0, p0 = _prior(log, t, imu, used, notes, accel_bias_sd, gyro_bias_sd, scale_sd,
                     initial_attitude, initial_velocity, initial_sd)
+    aidings = _aidings(log, t, notes, used)
     # the derivative's noise enters the lever-arm term: sd(wdot) = sd(gyro) |SG weights| / dt
     weights = savgol_filter(np.eye(OMEGA_DOT_WINDOW)[OMEGA_DOT_WINDOW // 2], OMEGA_DOT_WINDOW,
                             OMEGA_DOT_ORDER, deriv=1, delta=dt, mode="constant")
@@ -209,10 +217,12 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
                           tuple(notes), airframe, fin, meta)
 
 
-def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str]) -> list[Aiding]:
+def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int]
+             ) -> list[Aiding]:
+    """Return the aiding sources, leaving out each sample that set the initial state."""
     dt = float(np.median(np.diff(t)))
     out = []
-    models = {
+    models: dict[str, Model] = {
         "gnss": lambda x: np.vstack([ned_velocity(x), x[POS]]),
         "baro": lambda x: (x[IX["alt0"]] - x[IX["pd"]])[None],
         "ins": lambda x: x[ATT],
@@ -238,16 +248,28 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str]) -> list[Aiding]:
         if not inside.all():
             notes.append(f"{name}: {int((~inside).sum())} sample(s) outside the IMU record "
                          "not used")
+        if name in used:
+            inside[used[name]] = False
+            notes.append(f"{name}: the sample at {group.t[used[name]]:.6g} s set the initial "
+                         "state and is not used again")
         full = models[name]
         out.append(Aiding(name, index[inside], lead[inside],
                           np.column_stack([group.channels[c] for c in present])[inside],
                           np.array([group.noise_sd[c] for c in present]),
                           np.array([c in ("phi", "psi") for c in present]),
-                          lambda x, full=full, rows=rows: full(x)[rows]))
+                          _subset(full, rows)))
     return out
 
 
-def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, aidings: list[Aiding],
+def _subset(full: Model, rows: list[int]) -> Model:
+    """Return the model of some rows of ``full``."""
+    def model(x: np.ndarray) -> np.ndarray:
+        return full(x)[rows]
+
+    return model
+
+
+def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
            notes: list[str], accel_bias_sd: float, gyro_bias_sd: float, scale_sd: float,
            initial_attitude: Any, initial_velocity: Any, initial_sd: tuple[float, float]
            ) -> tuple[np.ndarray, np.ndarray]:
@@ -262,36 +284,36 @@ def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, aidings: list[Aiding],
             return None
         group = log[name]
         k = int(np.argmin(np.abs(group.t - t[0])))
+        used[name] = k
         return (np.array([group.channels[c][k] for c in channels]), float(group.t[k] - t[0]),
                 max(group.noise_sd[c] for c in channels))
 
-    ins = first("ins", ("phi", "theta", "psi"))
     if initial_attitude is not None:
         x0[ATT], sd[ATT] = initial_attitude, att_sd
-    elif ins is not None:
+    elif (ins := first("ins", ("phi", "theta", "psi"))) is not None:
         angles, lead, ins_sd = ins
         x0[ATT] = angles - imu[0, 6:] * lead  # back to t[0] along the body rates
-        sd[ATT] = att_sd + 3.0 * ins_sd
+        sd[ATT] = PRIOR_INFLATION * ins_sd + np.abs(imu[0, 6:]) * abs(lead)
     else:
         raise FlightError(f"{log.source}: no INS attitude: give initial_attitude")
-    gnss_v = first("gnss", ("vn", "ve", "vd"))
     if initial_velocity is not None:
         x0[VEL], sd[VEL] = initial_velocity, vel_sd
-    elif gnss_v is not None:
+    elif (gnss_v := first("gnss", ("vn", "ve", "vd"))) is not None:
         c = body_to_ned(*x0[ATT])
         x0[VEL] = c.T @ gnss_v[0]
-        sd[VEL] = vel_sd + 3.0 * gnss_v[2] + np.linalg.norm(gnss_v[0]) * sd[IX["phi"]]
+        sd[VEL] = (PRIOR_INFLATION * gnss_v[2] + np.linalg.norm(gnss_v[0]) * sd[ATT].max()
+                   + 50.0 * abs(gnss_v[1]))  # 50 m/s^2: a bound on the change until t[0]
     else:
         raise FlightError(f"{log.source}: no GNSS velocity: give initial_velocity")
     gnss_p = first("gnss", ("pn", "pe", "pd"))
     if gnss_p is not None:
         x0[POS] = gnss_p[0] - body_to_ned(*x0[ATT]) @ x0[VEL] * gnss_p[1]
-        sd[POS] = 3.0 * gnss_p[2] + abs(gnss_p[1]) * sd[IX["u"]]
+        sd[POS] = PRIOR_INFLATION * gnss_p[2] + abs(gnss_p[1]) * sd[IX["u"]]
     else:
         notes.append("no GNSS position: NED position from the first IMU sample")
     baro = first("baro", ("altitude",))
     if baro is not None:
         x0[IX["alt0"]] = baro[0][0] + x0[IX["pd"]]
-        sd[IX["alt0"]] = (3.0 * baro[2] + sd[IX["pd"]]
+        sd[IX["alt0"]] = (PRIOR_INFLATION * baro[2] + sd[IX["pd"]]
                           + np.linalg.norm(x0[VEL]) * abs(baro[1]))
     return x0, np.diag(sd ** 2)

@@ -27,9 +27,6 @@ from aeroid.reconstruction import STATES, reconstruct
 #: errors are correlated in time, so a few runs of samples may leave; seeds 1-2 on the
 #: reference flight: 100%).
 WITHIN_3SD = 0.97
-#: The mean NIS per dof of a consistent source is 1 with sd sqrt(2 / n_values): 0.17 for
-#: the 66 GNSS values, 0.2 for the 51 barometer values; these bounds are > 2.5 sd away.
-NIS_BOUNDS = (0.5, 1.6)
 
 
 @pytest.fixture(scope="module")
@@ -79,9 +76,13 @@ def test_instrument_errors_within_3_sd(reference):
 def test_residual_check(reference):
     sim, rec = reference
     for source in ("gnss", "baro", "ins"):
-        nis = rec.nis[source]["mean_nis_per_dof"]
-        assert NIS_BOUNDS[0] < nis < NIS_BOUNDS[1], (source, nis)
-    assert rec.nis["ins"]["n_updates"] == 101
+        check = rec.nis[source]
+        assert check["consistent"], (source, check)
+        # the interval is chi-square's: for the 300 INS values about 0.77-1.26
+        low, high = check["interval"]
+        assert low < 1.0 < high and high - low < 2.5
+    # the first sample of each source set the prior and is not used again
+    assert rec.nis["ins"]["n_updates"] == 100 and rec.nis["gnss"]["n_values"] == 60
 
 
 def test_residual_check_flags_a_wrong_noise_level(reference):
@@ -90,7 +91,8 @@ def test_residual_check_flags_a_wrong_noise_level(reference):
     ins = sim.log["ins"]
     wrong = dataclasses.replace(ins, noise_sd={c: s / 5 for c, s in ins.noise_sd.items()})
     log = dataclasses.replace(sim.log, groups={**sim.log.groups, "ins": wrong})
-    assert reconstruct(log).nis["ins"]["mean_nis_per_dof"] > 5.0
+    check = reconstruct(log).nis["ins"]
+    assert check["mean_nis_per_dof"] > 5.0 and not check["consistent"]
 
 
 def test_to_flight_and_density(reference):
@@ -165,7 +167,8 @@ def test_constant_rate_roll_closed_form():
     # a constant roll rate cannot tell the gyro's bias from its scale factor: their
     # combination, the corrected rate, is what the INS fixes
     assert np.abs(tab["p"] - ROLL_RATE).mean() < 0.01
-    assert rec.nis["ins"]["n_updates"] == 100
+    assert rec.nis["ins"]["n_updates"] == 99  # the first set the prior
+    assert rec.nis["ins"]["consistent"]
     assert "no gnss group: not used" in rec.notes
 
 
