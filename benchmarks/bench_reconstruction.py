@@ -4,6 +4,7 @@ Run by hand from the repository root::
 
     python benchmarks/bench_reconstruction.py                 # cost, then 10 seeds
     python benchmarks/bench_reconstruction.py --seeds 0       # cost only
+    python benchmarks/bench_reconstruction.py --seeds 20 --equation-error
 
 Cost: the reference flight (``aeroid/data/reference-scenario.toml``) logged by the
 default :class:`~aeroid.flights.SensorSuite` (1000 Hz IMU, 10 Hz GNSS, 50 Hz barometer,
@@ -13,7 +14,9 @@ memory), best and median of three, per second of flight and per IMU sample. Cali
 over seeds 0..N-1 of the 1-s window, the fraction of samples whose error lies within
 3 sd per state, the largest |error| / sd of the 18 instrument errors, and the mean NIS
 per dof per aiding source (1 when the stated noise sd fit) and how often the residual
-check (chi-square, two-sided level 0.002) refuses these correct runs. Results are printed and
+check (chi-square, two-sided level 0.002) refuses these correct runs. With
+``--equation-error``, today's equation-error fitted on the reconstruction's Flight for
+three suites (default; no scale-factor errors; no instrument errors). Results are printed and
 written to ``benchmarks/results/reconstruction.md``.
 """
 
@@ -100,18 +103,46 @@ def calibration(lines: list[str], seeds: int) -> None:
               f"{refused[s]} of {seeds} |" for s, v in nis.items()]
 
 
+def equation_error(lines: list[str]) -> None:
+    """Today's equation-error on the reconstruction's Flight, three suites of one seed."""
+    from aeroid.estimation import make_estimator
+    from aeroid.flights import SensorSuite
+
+    scenario = reference_scenario()
+    suites = {"default (biases and scale factors)": SensorSuite(),
+              "no scale-factor errors": SensorSuite(scale_factor=(0.0, 0.0)),
+              "no scale-factor errors, no biases": SensorSuite(
+                  scale_factor=(0.0, 0.0), accel_bias_mps2=(0.0, 0.0),
+                  gyro_bias_radps=(0.0, 0.0))}
+    lines += ["", "Equation-error on `Reconstruction.to_flight()` (window 5-6 s, seed 2026):",
+              "", "| suite | success | mean relative error | message |", "|---|---|---|---|"]
+    for label, suite in suites.items():
+        sim = simulate_suite(scenario.airframe, scenario.coefficient_vector,
+                             scenario.manoeuvre, suite, rng=2026)
+        result = make_estimator("equation-error").fit(reconstruct(sim.log).to_flight(), rng=0)
+        error = np.mean(np.abs(result.theta / scenario.coefficient_vector - 1.0))
+        lines.append(f"| {label} | {result.success} | {error:.4f} | "
+                     f"{result.message.split(';')[0]} |")
+        print(lines[-1], flush=True)
+
+
 def main() -> None:
     """Run the benchmark, print and write the results."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="calibration seeds (0: none)")
+    parser.add_argument("--equation-error", action="store_true",
+                        help="also fit equation-error on three reconstructions")
     args = parser.parse_args()
     lines = ["# Flight-path reconstruction: cost and calibration", "",
-             f"`python benchmarks/bench_reconstruction.py --seeds {args.seeds}` on "
+             f"`python benchmarks/bench_reconstruction.py --seeds {args.seeds}"
+             f"{' --equation-error' if args.equation_error else ''}` on "
              f"{platform.processor() or platform.machine()}, Python "
              f"{platform.python_version()}, numpy {np.__version__}.", ""]
     cost(lines)
     if args.seeds:
         calibration(lines, args.seeds)
+    if args.equation_error:
+        equation_error(lines)
     out = ROOT / "benchmarks" / "results" / "reconstruction.md"
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out}")
