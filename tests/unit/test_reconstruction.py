@@ -71,6 +71,13 @@ def test_instrument_errors_within_3_sd(reference):
     assert first["sd_sp"] < 2e-4
     # the corrected roll rate is then good to 0.02 rad/s at 50 rad/s
     assert np.max(np.abs(rec.table["p"] - sim.truth["p"])) < 0.02
+    # the two triads' mean axial bias is informed too (sd 0.087 from the prior's 0.14)
+    i, j = STATES.index("bax1"), STATES.index("bax2")
+    cov = rec.covariance[0]
+    sd_mean = 0.5 * math.sqrt(cov[i, i] + cov[j, j] + 2 * cov[i, j])
+    assert sd_mean < 0.7 * 0.2 / math.sqrt(2)
+    error = 0.5 * (first["bax1"] + first["bax2"]) - e["accel_bias"][:, 0].mean()
+    assert abs(error) < 3 * sd_mean
 
 
 def test_residual_check(reference):
@@ -185,6 +192,13 @@ def test_needs_an_initial_state():
     with pytest.raises(FlightError, match="no noise_sd for q"):
         reconstruct(dataclasses.replace(log, groups={**log.groups, "imu": partial}),
                     initial_velocity=(SPEED, 0, 0))
+
+
+def test_cli_help(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["reconstruct", "--help"])
+    assert info.value.code == 0
+    assert "examples:\n  aeroid reconstruct" in capsys.readouterr().out
 
 
 def test_cli_reconstruct(tmp_path, capsys):
