@@ -18,10 +18,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
+from aeroid.errors import FlightError
 from aeroid.flights import wrap_angle
-from aeroid.reconstruction._kinematics import N_STATES, jacobians, rk4_step
+from aeroid.reconstruction._kinematics import IX, N_STATES, jacobians, rk4_step
 
 _STEP = 1e-30
+THETA = IX["theta"]
+#: Largest pitch angle the Euler-angle kinematics are trusted with [rad] (85 deg).
+MAX_PITCH = np.radians(85.0)
 
 
 @dataclass(frozen=True)
@@ -158,6 +162,11 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
         fk = eye + ad + ad2 / 2.0 + ad2 @ ad / 6.0 + ad2 @ ad2 / 24.0
         bd = (eye + ad / 2.0) @ b * dt
         x = rk4_step(x, imu[k], imu[k + 1], od, lever, dt, f)
+        if not np.all(np.isfinite(x)):
+            raise FlightError(f"reconstruction: the filter diverged at t = {t[k + 1]:.6g} s")
+        if abs(x[THETA]) > MAX_PITCH:
+            raise FlightError(f"reconstruction: pitch beyond 85 deg at t = {t[k + 1]:.6g} s "
+                              "(the Euler-angle kinematics are singular at 90 deg)")
         p = fk @ p @ fk.T + bd @ q_imu @ bd.T + np.diag(extra_noise * dt)
         p = 0.5 * (p + p.T)
         fm[k] = fk

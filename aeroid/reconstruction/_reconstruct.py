@@ -44,6 +44,9 @@ OMEGA_DOT_ORDER = 3
 #: Prior sd of states with no measurement at the start (no GNSS: position from the
 #: origin at the first IMU sample; no barometer: alt0, unobserved).
 UNOBSERVED_SD = 1.0
+#: Largest departure of an IMU interval from the median, relative (the gyro derivative
+#: assumes uniform sampling).
+UNIFORM_TOLERANCE = 0.01
 #: A prior set from a first sample has that sample's sd times this (the sample then is not
 #: used again), plus what the time from the sample to the first IMU sample may change.
 PRIOR_INFLATION = 2.0
@@ -170,6 +173,12 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
                           f"needs at least {OMEGA_DOT_WINDOW}")
     imu = np.column_stack([imu_group.channels[c] for c in IMU_CHANNELS])
     dt = float(np.median(np.diff(t)))
+    uneven = np.flatnonzero(np.abs(np.diff(t) - dt) > UNIFORM_TOLERANCE * dt)
+    if uneven.size:
+        k = int(uneven[0])
+        raise FlightError(f"{imu_group.source}: IMU sampling not uniform: {t[k + 1] - t[k]:.6g} s "
+                          f"after t = {t[k]:.9g} s, median interval {dt:.6g} s (split the log "
+                          "at gaps)")
     omega_dot = savgol_filter(imu[:, 6:], OMEGA_DOT_WINDOW, OMEGA_DOT_ORDER, deriv=1,
                               delta=dt, axis=0)
     lever = airframe.accel_positions.mean(axis=0)
