@@ -193,8 +193,8 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
     t = _numbers(frame, file, time_col) * _factor(time_unit, "s", f"{file}: column {time_col!r}")
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
-        raise FlightError(f"{file}: column {time_col!r}: time not strictly increasing at row "
-                          f"{bad[0] + 2} ({t[bad[0]]:.9g} then {t[bad[0] + 1]:.9g} s)")
+        raise FlightError(f"{file}: column {time_col!r}: time not strictly increasing at line "
+                          f"{bad[0] + 3} of the file ({t[bad[0]]:.9g} then {t[bad[0] + 1]:.9g} s)")
     channels = {}
     for channel, (column, unit) in specs.items():
         factor = _factor(unit, SI_UNITS[channel], f"{file}: column {column!r}")
@@ -235,7 +235,7 @@ def _numbers(frame: pd.DataFrame, file: Path, column: str) -> np.ndarray:
     values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
-        raise FlightError(f"{file}: column {column!r}: not a finite number at row {bad[0] + 2} "
+        raise FlightError(f"{file}: column {column!r}: not a finite number at line {bad[0] + 2} "
                           f"({frame[column].iloc[bad[0]]!r})")
     return values
 

@@ -150,8 +150,9 @@ def test_units_converted(tmp_path):
 @pytest.mark.parametrize(("kwargs", "needles"), [
     ({"file": "absent.csv"}, ["absent.csv", "does not exist"]),
     ({"time": "[\"clock\", \"s\"]"}, ["ins.csv", "'clock'"]),
-    ({"rows": "0,1\n2,2\n1,3\n"}, ["ins.csv", "'time_ms'", "not strictly increasing"]),
-    ({"rows": "0,1\n1,x\n2,3\n"}, ["ins.csv", "'roll_rate'", "not a finite number"]),
+    ({"rows": "0,1\n2,2\n1,3\n"},
+     ["ins.csv", "'time_ms'", "not strictly increasing at line 4 of the file"]),
+    ({"rows": "0,1\n1,x\n2,3\n"}, ["ins.csv", "'roll_rate'", "not a finite number at line 3"]),
     ({"unit": "furlongs"}, ["ins.csv", "'roll_rate'", "unknown unit 'furlongs'"]),
     ({"unit": "m/s"}, ["ins.csv", "'roll_rate'", "not a unit of rad/s"]),
     ({"time": "[\"time_ms\", \"deg\"]"}, ["ins.csv", "'time_ms'", "not a unit of s"]),
