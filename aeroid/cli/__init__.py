@@ -204,6 +204,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_estimate(sub)
     _add_methods(sub)
     _add_study(sub)
+    from aeroid.cli._reconstruct import add_parser as add_reconstruct
+
+    add_reconstruct(sub)
     return parser
 
 
@@ -216,6 +219,10 @@ def _dispatch(args: argparse.Namespace) -> int:
         from aeroid.cli import _estimate as commands
 
         return commands.estimate(args) if args.command == "estimate" else commands.methods(args)
+    if args.command == "reconstruct":
+        from aeroid.cli._reconstruct import reconstruct
+
+        return reconstruct(args)
     from aeroid.cli import _study as study_commands
 
     return study_commands.study(args)

@@ -56,6 +56,22 @@ from aeroid.flights._simulate import (
     simulate_scenario,
     simulate_truth,
 )
+from aeroid.flights._suite import (
+    SensorSuite,
+    SuiteSimulation,
+    body_to_ned,
+    imu_manoeuvre,
+    simulate_suite,
+    wrap_angle,
+)
+from aeroid.flights._suite_log import (
+    GROUPS,
+    SI_UNITS,
+    SensorGroup,
+    SuiteLog,
+    read_suite_log,
+    write_suite_log,
+)
 
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
@@ -68,4 +84,7 @@ __all__ = [
     "read_flight", "record_flight", "reference_scenario", "scenario_from_dict", "sidecar_path",
     "simulate", "simulate_scenario", "simulate_truth", "write_flight",
     "EVALUATIONS", "Truth",
+    "GROUPS", "SI_UNITS", "SensorGroup", "SensorSuite", "SuiteLog", "SuiteSimulation",
+    "body_to_ned", "imu_manoeuvre", "read_suite_log", "simulate_suite", "wrap_angle",
+    "write_suite_log",
 ]

@@ -1,0 +1,234 @@
+"""Simulate a flight-test sensor suite: an IMU, GNSS, a barometer, an INS, the fin.
+
+Conventions. The truth is the model's: body axes (u v w, p q r) and 3-2-1 Euler angles
+(phi theta psi) over a flat, non-rotating Earth with no wind. Positions are NED (north,
+east, down) in metres from the airframe's position at t = 0, integrated here from the
+truth (the model has no position states): the NED velocity ``C_nb(phi, theta, psi) [u v
+w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
+The barometer reads pressure altitude ``h0 - down`` with ``h0`` the airframe's
+``[atmosphere] altitude_m``; note that the model's dynamics hold the density of ``h0``
+constant, so an ISA density of the logged altitude differs from the truth's by the climb.
+
+Sampling. Each group samples the truth at its own rate, every ``imu_rate / rate``-th IMU
+instant (so the rates must divide the IMU rate; a group's ``offset_s`` shifts its logged
+clock). The truth is simulated at the IMU's rate: the manoeuvre's ``sample_rate_hz`` is
+set to ``imu_rate_hz`` with ``truth_substeps`` scaled to keep the RK4 step, and a
+``latched`` relay keeps the manoeuvre's own clock (it becomes ``control_rate`` at the
+manoeuvre's rate: the same switch instants, so the same flight; the 500 Hz reference and
+its 1000 Hz suite agree to 3e-7 m/s).
+
+Sensor errors, per axis: ``reading = (1 + scale) truth + bias + noise``, with bias and
+scale drawn once per flight (uniform magnitude in the stated range, random sign), noise
+white Gaussian per sample. The accelerometers read specific force at their true
+positions (eq. 28) with the fin deflection at the sample. INS angles are wrapped to
+(-pi, pi] after the noise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
+from aeroid.errors import AirframeError
+from aeroid.flights._scenario import Manoeuvre
+from aeroid.flights._simulate import simulate_truth
+from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog
+from aeroid.model import (
+    PHI,
+    PSI,
+    STATE_NAMES,
+    THETA,
+    Airframe,
+    accelerometers,
+    as_vector,
+    constants,
+)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorSuite:
+    """The sensors of a flight-test logger: rates [Hz], error ranges and noise sd (SI).
+
+    Ranges ``(low, high)`` are magnitudes drawn uniformly, with a random sign, once per
+    flight for every axis; noise sd are per sample. A rate of 0 leaves the group out.
+    """
+
+    imu_rate_hz: float = 1000.0
+    gnss_rate_hz: float = 10.0
+    baro_rate_hz: float = 50.0
+    ins_rate_hz: float = 100.0
+    fin_rate_hz: float = 1000.0
+    accel_bias_mps2: tuple[float, float] = (0.02, 0.2)
+    gyro_bias_radps: tuple[float, float] = (0.001, 0.005)
+    scale_factor: tuple[float, float] = (0.001, 0.005)
+    accel_noise_mps2: float = 0.05
+    gyro_noise_radps: float = 0.002
+    gnss_velocity_sd_mps: float = 0.1
+    gnss_position_sd_m: float = 1.5
+    baro_altitude_sd_m: float = 1.0
+    ins_attitude_sd_rad: float = 0.003
+    fin_sd_rad: float = 0.0
+    offsets_s: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.imu_rate_hz > 0:
+            raise AirframeError(f"sensor suite: imu_rate_hz must be positive, got "
+                                f"{self.imu_rate_hz}")
+        for name in ("gnss", "baro", "ins", "fin"):
+            rate = getattr(self, f"{name}_rate_hz")
+            stride = self.imu_rate_hz / rate if rate > 0 else 1.0
+            if rate < 0 or abs(stride - round(stride)) > 1e-9:
+                raise AirframeError(f"sensor suite: {name}_rate_hz = {rate:g} must divide "
+                                    f"imu_rate_hz = {self.imu_rate_hz:g} (or be 0)")
+        for name, range_ in (("accel_bias_mps2", self.accel_bias_mps2),
+                             ("gyro_bias_radps", self.gyro_bias_radps),
+                             ("scale_factor", self.scale_factor)):
+            if len(range_) != 2 or not 0 <= range_[0] <= range_[1]:
+                raise AirframeError(f"sensor suite: {name} must be (low, high) with "
+                                    f"0 <= low <= high, got {range_}")
+        unknown = sorted({g for g, _ in self.offsets_s} - set(GROUPS))
+        if unknown:
+            raise AirframeError(f"sensor suite: offsets_s names unknown group(s) {unknown}")
+
+
+class SuiteSimulation(NamedTuple):
+    """A simulated suite log with its truth.
+
+    Attributes
+    ----------
+    log : SuiteLog
+        The groups at their own rates (SI, true time axis).
+    truth : dict of str to ndarray, shape (n,)
+        At the IMU instants: ``t``, the nine states, ``pn pe pd`` [m], ``vn ve vd`` [m/s],
+        ``altitude`` [m], ``delta`` [rad].
+    errors : dict of str to ndarray
+        ``accel_bias`` and ``accel_scale`` (2, 3) (triad, axis), ``gyro_bias`` and
+        ``gyro_scale`` (3,).
+    """
+
+    log: SuiteLog
+    truth: dict[str, np.ndarray]
+    errors: dict[str, np.ndarray]
+
+
+def body_to_ned(phi: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> np.ndarray:
+    """Return the rotation matrices ``C_nb`` (..., 3, 3) of 3-2-1 Euler angles [rad]."""
+    sf, cf, st, ct, ss, cs = (np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta),
+                              np.sin(psi), np.cos(psi))
+    return np.stack([
+        np.stack([ct * cs, sf * st * cs - cf * ss, cf * st * cs + sf * ss], -1),
+        np.stack([ct * ss, sf * st * ss + cf * cs, cf * st * ss - sf * cs], -1),
+        np.stack([-st, sf * ct, cf * ct], -1)], -2)
+
+
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
+    """Return ``angle`` [rad] wrapped to (-pi, pi]."""
+    return math.pi - np.mod(math.pi - np.asarray(angle, dtype=float), 2.0 * math.pi)
+
+
+def imu_manoeuvre(manoeuvre: Manoeuvre, imu_rate_hz: float) -> Manoeuvre:
+    """Return ``manoeuvre`` sampled at the IMU's rate with the same flight (module docstring)."""
+    if manoeuvre.sample_rate_hz == imu_rate_hz:
+        return manoeuvre
+    changes: dict[str, Any] = {
+        "sample_rate_hz": imu_rate_hz,
+        "truth_substeps": max(1, round(manoeuvre.truth_substeps * manoeuvre.sample_rate_hz
+                                       / imu_rate_hz))}
+    if manoeuvre.evaluation == "latched":
+        changes.update(evaluation="control_rate", control_rate_hz=manoeuvre.sample_rate_hz)
+    return dataclasses.replace(manoeuvre, **changes)
+
+
+def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
+                   suite: SensorSuite | None = None, *,
+                   rng: np.random.Generator | int | None = None,
+                   backend: str = "auto") -> SuiteSimulation:
+    """Simulate a flight and log it with a sensor suite (module docstring).
+
+    Parameters
+    ----------
+    airframe : Airframe
+        True airframe (accelerometer positions; ``altitude_m`` is the barometer's origin).
+    coefficients : array_like, shape (9,) or mapping
+    manoeuvre : Manoeuvre
+        The flight; its window is what the log records.
+    suite : SensorSuite, optional
+        Default :class:`SensorSuite()`.
+    rng : numpy.random.Generator or int, optional
+        Source of every draw (sensor errors first, then the noise, group by group).
+    """
+    suite = suite or SensorSuite()
+    rng = np.random.default_rng(rng)
+    if suite.baro_rate_hz > 0 and airframe.altitude_m is None:
+        raise AirframeError("sensor suite: the barometer needs the airframe's [atmosphere] "
+                            "altitude_m (its altitude at t = 0)")
+    coefficients = as_vector(coefficients)
+    sampled = imu_manoeuvre(manoeuvre, suite.imu_rate_hz)
+    truth = simulate_truth(airframe, coefficients, sampled, backend=backend)
+    ned_velocity = np.einsum("kij,kj->ki", body_to_ned(*truth.states[:, [PHI, THETA, PSI]].T),
+                             truth.states[:, :3])
+    position = cumulative_trapezoid(ned_velocity, truth.t, axis=0, initial=0.0)
+    k0 = int(round(manoeuvre.window_s[0] * suite.imu_rate_hz))
+    t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
+    specific = accelerometers(states, delta, coefficients, constants(airframe),
+                              airframe.accel_positions).reshape(-1, 2, 3)
+    altitude = (airframe.altitude_m or 0.0) - position[k0:, 2]
+    table = {"t": t, **{name: states[:, j] for j, name in enumerate(STATE_NAMES)},
+             **{c: position[k0:, j] for j, c in enumerate(("pn", "pe", "pd"))},
+             **{c: ned_velocity[k0:, j] for j, c in enumerate(("vn", "ve", "vd"))},
+             "altitude": altitude, "delta": delta}
+
+    def draw(range_: tuple[float, float], shape: tuple[int, ...]) -> np.ndarray:
+        return rng.uniform(*range_, size=shape) * rng.choice([-1.0, 1.0], size=shape)
+
+    errors = {"accel_bias": draw(suite.accel_bias_mps2, (2, 3)),
+              "accel_scale": draw(suite.scale_factor, (2, 3)),
+              "gyro_bias": draw(suite.gyro_bias_radps, (3,)),
+              "gyro_scale": draw(suite.scale_factor, (3,))}
+    accel = ((1.0 + errors["accel_scale"]) * specific + errors["accel_bias"]
+             + suite.accel_noise_mps2 * rng.standard_normal(specific.shape)).reshape(-1, 6)
+    gyro = ((1.0 + errors["gyro_scale"]) * states[:, 3:6] + errors["gyro_bias"]
+            + suite.gyro_noise_radps * rng.standard_normal((len(t), 3)))
+    imu = {c: accel[:, j] for j, c in enumerate(GROUPS["imu"][:6])}
+    imu.update(p=gyro[:, 0], q=gyro[:, 1], r=gyro[:, 2])
+    sd_imu = {**{c: suite.accel_noise_mps2 for c in GROUPS["imu"][:6]},
+              **{c: suite.gyro_noise_radps for c in ("p", "q", "r")}}
+    groups = {"imu": _group("imu", t, imu, sd_imu, suite)}
+    aiding = {"gnss": ({c: table[c] for c in GROUPS["gnss"]},
+                       {**{c: suite.gnss_velocity_sd_mps for c in ("vn", "ve", "vd")},
+                        **{c: suite.gnss_position_sd_m for c in ("pn", "pe", "pd")}}),
+              "baro": ({"altitude": altitude}, {"altitude": suite.baro_altitude_sd_m}),
+              "ins": ({c: table[c] for c in ("phi", "theta", "psi")},
+                      dict.fromkeys(("phi", "theta", "psi"), suite.ins_attitude_sd_rad)),
+              "fin": ({"delta": delta}, {"delta": suite.fin_sd_rad})}
+    for name, (values, sd) in aiding.items():
+        rate = getattr(suite, f"{name}_rate_hz")
+        if rate == 0:
+            continue
+        every = int(round(suite.imu_rate_hz / rate))
+        noisy = {c: v[::every] + sd[c] * rng.standard_normal(len(v[::every]))
+                 for c, v in values.items()}
+        if name == "ins":
+            noisy = {c: wrap_angle(v) if c != "theta" else v for c, v in noisy.items()}
+        groups[name] = _group(name, t[::every], noisy, {c: s for c, s in sd.items() if s > 0},
+                              suite)
+    metadata = {"truth": {k: v.tolist() for k, v in errors.items()},
+                "imu_sampling": (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
+                                 f"{sampled.truth_substeps} RK4 substeps, relay "
+                                 f"{sampled.evaluation}"
+                                 + (f" at {sampled.control_rate_hz:g} Hz"
+                                    if sampled.control_rate_hz else ""))}
+    return SuiteSimulation(SuiteLog(groups, airframe, metadata, "simulated suite log"),
+                           table, errors)
+
+
+def _group(name: str, t: np.ndarray, channels: dict[str, np.ndarray],
+           noise_sd: dict[str, float], suite: SensorSuite) -> SensorGroup:
+    offset = dict(suite.offsets_s).get(name, 0.0)
+    return SensorGroup(name, t.copy(), channels, noise_sd, float(offset),
+                       f"simulated {name}")

@@ -1,0 +1,281 @@
+"""Multi-rate sensor-suite logs: one CSV per sensor group, described by a log TOML.
+
+A flight-test logger writes each sensor group at its own rate with its own clock. A
+suite log keeps them apart (nothing is resampled here): the log file names, per group,
+its CSV file, its time column and unit, a time offset, and a column map with units::
+
+    [log]
+    airframe = "airframe.toml"          # relative to this file (optional)
+
+    [groups.imu]
+    file = "flight-imu.csv"             # relative to this file
+    time = ["time_ms", "ms"]            # column and unit of the group's clock
+    offset_s = 0.0                      # true time = logged time + offset_s
+    [groups.imu.columns]                # aeroid channel = [column, unit]
+    ax1 = ["ax1", "m/s^2"]
+    p = ["gyro_x", "deg/s"]
+    [groups.imu.noise_sd]               # white-noise sd per sample, SI (optional)
+    ax1 = 0.05
+
+The groups and their channels are :data:`GROUPS` (``imu``: two accelerometer triads and
+three gyros, body axes; ``gnss``: NED velocity and position from the origin, flat
+Earth; ``baro``: pressure altitude; ``ins``: Euler attitude, possibly wrapped; ``fin``:
+fin deflection). Units are converted to SI (radians) on reading (:data:`UNITS`). An
+optional ``[truth]`` table of numbers and lists (a simulator's sensor errors) is kept as
+metadata. Every bad input is a one-line :class:`~aeroid.errors.FlightError` naming the
+file and column.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from aeroid.errors import AeroidError, FlightError
+from aeroid.model import G0, Airframe, load_airframe, read_toml, save_airframe
+
+#: The sensor groups and their channels (SI units inside aeroid; NED from the origin).
+GROUPS: dict[str, tuple[str, ...]] = {
+    "imu": ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r"),
+    "gnss": ("vn", "ve", "vd", "pn", "pe", "pd"),
+    "baro": ("altitude",),
+    "ins": ("phi", "theta", "psi"),
+    "fin": ("delta",),
+}
+#: The SI unit of each channel.
+SI_UNITS: dict[str, str] = {
+    **{c: "m/s^2" for c in GROUPS["imu"][:6]}, "p": "rad/s", "q": "rad/s", "r": "rad/s",
+    "vn": "m/s", "ve": "m/s", "vd": "m/s", "pn": "m", "pe": "m", "pd": "m", "altitude": "m",
+    "phi": "rad", "theta": "rad", "psi": "rad", "delta": "rad",
+}
+#: Units a file may use: {unit: (SI unit, factor to SI)}.
+UNITS: dict[str, tuple[str, float]] = {
+    "m/s^2": ("m/s^2", 1.0), "g": ("m/s^2", G0),
+    "rad/s": ("rad/s", 1.0), "deg/s": ("rad/s", math.pi / 180.0),
+    "m/s": ("m/s", 1.0), "m": ("m", 1.0), "ft": ("m", 0.3048),
+    "rad": ("rad", 1.0), "deg": ("rad", math.pi / 180.0),
+    "s": ("s", 1.0), "ms": ("s", 1e-3), "us": ("s", 1e-6),
+}
+_GROUP_KEYS = ("file", "time", "offset_s", "columns", "noise_sd")
+
+
+@dataclass(frozen=True)
+class SensorGroup:
+    """One sensor group of a suite log, in SI units on the true time axis.
+
+    Attributes
+    ----------
+    name : str
+        A key of :data:`GROUPS`.
+    t : ndarray, shape (n,)
+        Sample times [s], strictly increasing, offset applied.
+    channels : dict of str to ndarray, shape (n,)
+        The group's channels present in the log (SI, :data:`SI_UNITS`).
+    noise_sd : dict of str to float
+        White-noise sd per sample of the channels that state one (SI).
+    offset_s : float
+        The offset added to the logged times [s].
+    source : str
+        Where the group came from (file name), for messages.
+    """
+
+    name: str
+    t: np.ndarray
+    channels: dict[str, np.ndarray]
+    noise_sd: dict[str, float] = field(default_factory=dict)
+    offset_s: float = 0.0
+    source: str = "suite log"
+
+    @property
+    def rate_hz(self) -> float:
+        """Mean sample rate [Hz]."""
+        return (len(self.t) - 1) / float(self.t[-1] - self.t[0]) if len(self.t) > 1 else 0.0
+
+
+@dataclass(frozen=True)
+class SuiteLog:
+    """A multi-rate sensor-suite log: groups by name, the airframe, metadata."""
+
+    groups: dict[str, SensorGroup]
+    airframe: Airframe | None = None
+    metadata: dict[str, Any] = field(default_factory=dict)
+    source: str = "suite log"
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.groups
+
+    def __getitem__(self, name: str) -> SensorGroup:
+        if name not in self.groups:
+            raise FlightError(f"{self.source}: no {name!r} group (has "
+                              f"{', '.join(self.groups) or 'none'})")
+        return self.groups[name]
+
+
+# Reading ------------------------------------------------------------------------------
+def read_suite_log(path: str | Path) -> SuiteLog:
+    """Read a suite log TOML and its CSV files (module docstring).
+
+    Raises
+    ------
+    FlightError
+        One line naming the file (and column): a missing file, an unknown group, channel
+        or unit, a unit of the wrong kind, a missing time or data column, a time column
+        that is not strictly increasing, a value that is not a finite number.
+    """
+    path = Path(path)
+    try:
+        data = read_toml(path)
+    except AeroidError as exc:
+        raise FlightError(str(exc)) from None
+    unknown = sorted(set(data) - {"log", "groups", "truth"})
+    if unknown:
+        raise FlightError(f"{path}: unknown table(s) {', '.join(unknown)} "
+                          "(allowed: log, groups, truth)")
+    groups_table = data.get("groups")
+    if not isinstance(groups_table, Mapping) or not groups_table:
+        raise FlightError(f"{path}: no [groups.NAME] table (groups: {', '.join(GROUPS)})")
+    groups = {name: _read_group(path, name, table) for name, table in groups_table.items()}
+    log = data.get("log", {})
+    airframe = None
+    if not isinstance(log, Mapping) or sorted(set(log) - {"airframe"}):
+        raise FlightError(f"{path}: [log] takes only airframe = \"FILE\"")
+    if "airframe" in log:
+        airframe_path = path.parent / str(log["airframe"])
+        if not airframe_path.is_file():
+            raise FlightError(f"{path}: airframe file {airframe_path} does not exist")
+        try:
+            airframe = load_airframe(airframe_path)
+        except AeroidError as exc:
+            raise FlightError(str(exc)) from None
+    truth = data.get("truth", {})
+    return SuiteLog(groups, airframe, {"truth": dict(truth), "source": str(path)}, str(path))
+
+
+def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
+    where = f"{path}: [groups.{name}]"
+    if name not in GROUPS:
+        raise FlightError(f"{where}: unknown group {name!r} (known: {', '.join(GROUPS)})")
+    if not isinstance(table, Mapping):
+        raise FlightError(f"{where} must be a table")
+    extra = sorted(set(table) - set(_GROUP_KEYS))
+    missing = [k for k in ("file", "time", "columns") if k not in table]
+    if extra or missing:
+        raise FlightError(f"{where}: " + (f"unknown key(s) {', '.join(extra)}" if extra else
+                                          f"missing {', '.join(missing)}"))
+    file = path.parent / str(table["file"])
+    if not file.is_file():
+        raise FlightError(f"{where}: file {file} does not exist")
+    time_col, time_unit = _column_spec(table["time"], f"{where} time")
+    _factor(time_unit, "s", f"{file}: column {time_col!r}")
+    columns = table["columns"]
+    if not isinstance(columns, Mapping) or not columns:
+        raise FlightError(f"{where}.columns must map channels to [column, unit]")
+    specs = {}
+    for channel, spec in columns.items():
+        if channel not in GROUPS[name]:
+            raise FlightError(f"{where}.columns: unknown channel {channel!r} for group "
+                              f"{name!r} (known: {', '.join(GROUPS[name])})")
+        specs[channel] = _column_spec(spec, f"{where}.columns.{channel}")
+    offset = table.get("offset_s", 0.0)
+    if not isinstance(offset, int | float) or isinstance(offset, bool) or not math.isfinite(offset):
+        raise FlightError(f"{where}: offset_s must be a finite number of seconds")
+    try:
+        frame = pd.read_csv(file)
+    except (ValueError, OSError) as exc:  # pandas' parser errors are ValueErrors
+        raise FlightError(f"{file}: cannot read CSV ({' '.join(str(exc).split())})") from None
+    t = _numbers(frame, file, time_col) * _factor(time_unit, "s", f"{file}: column {time_col!r}")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        raise FlightError(f"{file}: column {time_col!r}: time not strictly increasing at line "
+                          f"{bad[0] + 3} of the file ({t[bad[0]]:.9g} then {t[bad[0] + 1]:.9g} s)")
+    channels = {}
+    for channel, (column, unit) in specs.items():
+        factor = _factor(unit, SI_UNITS[channel], f"{file}: column {column!r}")
+        channels[channel] = _numbers(frame, file, column) * factor
+    noise = table.get("noise_sd", {})
+    if not isinstance(noise, Mapping):
+        raise FlightError(f"{where}.noise_sd must be a table of channel = sd")
+    noise_sd = {}
+    for channel, sd in noise.items():
+        if channel not in channels:
+            raise FlightError(f"{where}.noise_sd: {channel!r} is not a channel of this group")
+        if not isinstance(sd, int | float) or isinstance(sd, bool) or not sd > 0:
+            raise FlightError(f"{where}.noise_sd.{channel} must be a positive number (SI)")
+        noise_sd[channel] = float(sd)
+    return SensorGroup(name, t + float(offset), channels, noise_sd, float(offset), str(file))
+
+
+def _column_spec(spec: Any, where: str) -> tuple[str, str]:
+    if (not isinstance(spec, list) or len(spec) != 2
+            or not all(isinstance(s, str) for s in spec)):
+        raise FlightError(f"{where} must be [\"column\", \"unit\"], got {spec!r}")
+    return spec[0], spec[1]
+
+
+def _factor(unit: str, si: str, where: str) -> float:
+    if unit not in UNITS:
+        raise FlightError(f"{where}: unknown unit {unit!r} (known: {', '.join(UNITS)})")
+    kind, factor = UNITS[unit]
+    if kind != si:
+        raise FlightError(f"{where}: unit {unit!r} is not a unit of {si}")
+    return factor
+
+
+def _numbers(frame: pd.DataFrame, file: Path, column: str) -> np.ndarray:
+    if column not in frame.columns:
+        raise FlightError(f"{file}: no column {column!r} (columns: "
+                          f"{', '.join(map(str, frame.columns))})")
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise FlightError(f"{file}: column {column!r}: not a finite number at line {bad[0] + 2} "
+                          f"({frame[column].iloc[bad[0]]!r})")
+    return values
+
+
+# Writing ------------------------------------------------------------------------------
+def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
+    """Write ``log`` as a log TOML at ``path`` with one CSV per group beside it (SI units).
+
+    The CSVs are ``<stem>-<group>.csv`` with a ``t`` column [s] (logged time: true time
+    minus the group's offset) and one column per channel, 17 significant digits; the
+    airframe (if any) is ``<stem>-airframe.toml``. Returns the files written.
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise FlightError(f"{path}: folder {path.parent} does not exist")
+    written = []
+    lines = []
+    if log.airframe is not None:
+        airframe_file = path.with_name(f"{path.stem}-airframe.toml")
+        save_airframe(log.airframe, airframe_file)
+        written.append(airframe_file)
+        lines += ["[log]", f"airframe = {json.dumps(airframe_file.name)}", ""]
+    for name, group in log.groups.items():
+        file = path.with_name(f"{path.stem}-{name}.csv")
+        frame = pd.DataFrame({"t": group.t - group.offset_s, **group.channels})
+        frame.to_csv(file, index=False, float_format="%.17g")
+        written.append(file)
+        lines += [f"[groups.{name}]", f"file = {json.dumps(file.name)}", 'time = ["t", "s"]',
+                  f"offset_s = {group.offset_s!r}", "", f"[groups.{name}.columns]"]
+        lines += [f'{c} = ["{c}", "{SI_UNITS[c]}"]' for c in group.channels] + [""]
+        if group.noise_sd:
+            lines += [f"[groups.{name}.noise_sd]"]
+            lines += [f"{c} = {sd!r}" for c, sd in group.noise_sd.items()] + [""]
+    truth = log.metadata.get("truth") or {}
+    if truth:
+        lines += ["[truth]"] + [f"{k} = {json.dumps(_plain(v))}" for k, v in truth.items()]
+    path.write_text("\n".join(lines) + "\n")
+    return [path, *written]
+
+
+def _plain(value: Any) -> Any:
+    """Return numbers and (nested) lists of numbers as Python floats (TOML-writable)."""
+    return np.asarray(value, dtype=float).tolist()
