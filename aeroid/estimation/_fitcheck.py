@@ -18,6 +18,9 @@ channel (``info["fit_check"]``):
   :data:`WHITENESS_ALPHA` divided by the number of tests (Bonferroni over the
   channels), the result is ``success=False``: the model leaves structure the noise does
   not have, even when its size is near the noise level.
+- **the method's noise model**: a method that weights its residuals by its own noise
+  variances (``info["R"]``: output-error) must find them that size: a mean squared
+  standardized residual above :data:`NOISE_MODEL_LIMIT` fails the result.
 - **identifiability** (:mod:`aeroid.estimation._identifiability`), from the result's
   covariance or ``info["information"]``: a coefficient without information fails the
   result; pairs correlated above 0.98 are a warning.
@@ -73,6 +76,12 @@ NOISE_FREE_FRACTION = 1e-3
 #: Family error rate of the whiteness tests of one result (Bonferroni over its tests).
 #: Calibrated on correct-input fits of the shipped studies (benchmarks/fitcheck_rates.py).
 WHITENESS_ALPHA = 1e-3
+#: A method that weights its residuals by its own noise model (``info["R"]``) must find
+#: them that size: a mean squared standardized residual ``e^2 / R`` above this fails the
+#: fit. Right fits: 0.97-1.0 (output-error, paper noise); output-error stopped in a poorer
+#: optimum of its likelihood (run 51 of paper_table5_prior, cost 15 400 above the fit from
+#: the truth, residuals the same to 3 digits, whiteness p >= 0.09) leaves r at 65.
+NOISE_MODEL_LIMIT = 2.0
 #: Channels whose residual RMS is below this fraction of the data's noise level are not
 #: tested for whiteness: such a residual is not the noise (noise-free data, where the
 #: level is the resolution floor and a right model leaves its integration error).
@@ -129,14 +138,15 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
               signals: Mapping[str, np.ndarray] | None = None,
               noise_sd: Mapping[str, float] | None = None,
               levels: Mapping[str, float] | None = None, *,
-              white: bool = True) -> dict[str, Any]:
+              white: bool = True, variance: Any = None) -> dict[str, Any]:
     """Return the fit check of residuals against the data's noise levels and whiteness.
 
     ``noise_sd`` are the method's own levels for its channels; ``levels`` the data's
     levels of flight channels already computed (:func:`data_noise_levels`); any other
     channel's level is computed here. ``white``: whether the method's residuals of flight
     channels should be white when its model is right (False for residuals of smoothed
-    targets).
+    targets). ``variance``: the method's own noise variances of its residuals
+    (``info["R"]``, see :func:`_standardized`).
 
     Returns
     -------
@@ -173,11 +183,32 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
                     "switches": switch_test(res, flight["delta"]).p_value}
              for name, res in tests.items() if name in noisy_channels(flight, tuple(tests))}
     worst = max(ratio, key=lambda k: ratio[k] if np.isfinite(ratio[k]) else np.inf)
+    standardized = _standardized(residuals, variance)
     limit = family_limit(WHITENESS_ALPHA, sum(len(t) for t in tests.values()))
     low = {name: min(t.values()) for name, t in tests.items() if min(t.values()) < limit}
     return {"residual_rms": rms, "noise_sd": sd, "ratio": ratio, "worst": worst,
             "limit": RATIO_LIMIT, "whiteness": tests, "white_limit": limit,
-            "not_white": sorted(low, key=low.__getitem__)}
+            "not_white": sorted(low, key=low.__getitem__), "standardized": standardized}
+
+
+def _standardized(residuals: Mapping[str, np.ndarray], variance: Any) -> dict[str, float]:
+    """Return each channel's mean ``e^2 / R`` under the method's own noise model.
+
+    ``variance``: ``info["R"]`` of the method, shape (n, m) (one variance per sample) or
+    (m,), columns in the order of ``residuals``; anything else gives no figures.
+    """
+    if variance is None:
+        return {}
+    R = np.asarray(variance, dtype=float)
+    names = tuple(residuals)
+    n = {np.asarray(e).shape[0] for e in residuals.values()}
+    if R.ndim == 1:
+        R = R[None, :]
+    if R.ndim != 2 or R.shape[1] != len(names) or len(n) != 1 or R.shape[0] not in (1, *n):
+        return {}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return {name: float(np.mean(np.asarray(residuals[name], float) ** 2 / R[:, j]))
+                for j, name in enumerate(names)}
 
 
 def _smoothed_residuals(info: Mapping[str, Any], options: Mapping[str, Any] | None) -> bool:
@@ -203,7 +234,8 @@ def apply_fit_check(result: EstimationResult, flight: Flight,
     if residuals:
         check = fit_check(flight, residuals, result.info.get("fit_signals"),
                           result.info.get("fit_noise_sd"), levels,
-                          white=not _smoothed_residuals(result.info, options))
+                          white=not _smoothed_residuals(result.info, options),
+                          variance=result.info.get("R"))
         info["fit_check"] = check
         worst = check["worst"]
         ratio = check["ratio"][worst]
@@ -211,6 +243,13 @@ def apply_fit_check(result: EstimationResult, flight: Flight,
             failure = (f"the model does not fit the data: {worst} residual RMS is {ratio:.3g}x "
                        f"its noise level estimated from the data (limit {RATIO_LIMIT:g}); "
                        "check the input between samples, per-sample inputs, sensor positions")
+        elif any(not v <= NOISE_MODEL_LIMIT for v in check["standardized"].values()):
+            name, value = max(check["standardized"].items(), key=lambda kv: -np.inf
+                              if np.isnan(kv[1]) else kv[1])
+            failure = (f"the method's noise model does not explain its residuals: {name} "
+                       f"mean squared standardized residual {value:.3g} (limit "
+                       f"{NOISE_MODEL_LIMIT:g}; a poorer optimum of the likelihood): try "
+                       "more starts (n_starts) or noise_model = channel")
         elif check["not_white"]:
             failure = _not_white_message(check)
     warnings = tuple(result.warnings)

@@ -2,13 +2,17 @@
 
 From what a result carries: its ``covariance`` (inverse information) or, for methods
 without one, ``info["information"]`` (the curvature of the method's objective in the
-coefficients, any positive scale: EBM-PSO's quadratic form). Two findings:
+coefficients, any positive scale: EBM-PSO's quadratic form). Three findings:
 
-- **zero information**: a coefficient the objective does not depend on: its diagonal of
-  the information, scaled to the coefficient's size, at most :data:`ZERO_INFORMATION`
-  of the largest (from a covariance: also a standard error above the estimate's size;
-  a non-finite variance has none). Its estimate is whatever
-  the search left it at: never part of a success.
+- **no information**: a coefficient the objective does not depend on. From the
+  information: its diagonal, scaled to the coefficient's size, is zero to rounding
+  (:data:`ZERO_INFORMATION` of the largest: a regressor column that is zero); from a
+  covariance: a variance that is not finite, or a standard error above
+  :data:`NO_INFORMATION_SD` times the estimate. Its estimate is wherever the search
+  stopped: never part of a success.
+- **almost no information** (from a covariance only: an information matrix of unknown
+  scale has no absolute yardstick): a standard error above the estimate itself
+  (:data:`LITTLE_INFORMATION_SD`): the data do not fix even its sign (a warning).
 - **confounded pairs**: two coefficients whose estimates correlate above
   :data:`CORRELATION_LIMIT` in magnitude: the data determine a combination of the two
   much better than either (a warning naming them).
@@ -20,62 +24,60 @@ from collections.abc import Sequence
 
 import numpy as np
 
-#: A coefficient whose scaled information is at most this fraction of the largest has
-#: none: 1e-12 is far below any real difference in how well the data determine two
-#: coefficients (the reference flight's scaled information spans 1e-5 between Cl0 and
-#: Cx under output-error, measured) and far above rounding (1e-16).
-ZERO_INFORMATION = 1e-12
+#: Scaled information at most this fraction of the largest is zero: squares of rounding
+#: (1e-16 relative) sum to 1e-32; real differences between coefficients stay far above
+#: 1e-24 (EBM-PSO's quadratic form on the reference flight spans 1e-9 between Czq and
+#: Cl0 on the noise-free log, where its noise weights are at their floors; measured).
+ZERO_INFORMATION = 1e-24
+#: A standard error above this many times the estimate: no information (a singular
+#: information matrix inverted, or a prior variance the data never reduced).
+NO_INFORMATION_SD = 1e6
+#: A standard error above the estimate's own size: almost no information (a warning).
+LITTLE_INFORMATION_SD = 1.0
 #: Correlations above this magnitude are reported (issue 18). Cl0 and Clp correlate
 #: 0.9999 in every fit of the reference flight (the roll rate stays near its steady
-#: state, which fixes Cl0 / Clp), so those fits carry this warning.
+#: state, which fixes the ratio Cl0 / Clp), so those fits carry this warning.
 CORRELATION_LIMIT = 0.98
 
+Pairs = tuple[tuple[str, str, float], ...]
 
-def _scaled_information(theta: np.ndarray, covariance: np.ndarray | None,
-                        information: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """Return (scaled information diagonal, correlation) from either matrix."""
-    scale = np.where(np.isfinite(theta) & (theta != 0.0), np.abs(theta), 1.0)
-    if information is not None:
-        info = np.asarray(information, dtype=float) * np.outer(scale, scale)
-        diag = np.diag(info).copy()
-        top = np.max(np.abs(diag)) if diag.size else 0.0
-        keep = diag > ZERO_INFORMATION * top
-        corr = np.full(info.shape, np.nan)
-        if np.any(keep):
-            sub = info[np.ix_(keep, keep)]
-            d = np.sqrt(np.diag(sub))
-            cov = np.linalg.pinv(sub / np.outer(d, d))
-            s = np.sqrt(np.abs(np.diag(cov)))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                corr[np.ix_(keep, keep)] = cov / np.outer(s, s)
-        return diag, corr
-    cov = np.asarray(covariance, dtype=float)
-    var = np.diag(cov).copy()
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # a zero variance is a perfectly determined coefficient (noise-free data)
-        diag = np.where(var > 0.0, scale**2 / var, np.inf)
-        s = np.sqrt(np.where(var > 0.0, var, np.nan))
-        corr = cov / np.outer(s, s)
-    return diag, corr
+
+def _from_information(theta_scale: np.ndarray, information: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Return (no-information mask, correlation) from an information matrix."""
+    info = np.asarray(information, dtype=float) * np.outer(theta_scale, theta_scale)
+    diag = np.diag(info).copy()
+    top = np.max(np.abs(diag)) if diag.size else 0.0
+    keep = diag > ZERO_INFORMATION * top
+    corr = np.full(info.shape, np.nan)
+    if np.any(keep):
+        d = np.sqrt(diag[keep])
+        cov = np.linalg.pinv(info[np.ix_(keep, keep)] / np.outer(d, d))
+        s = np.sqrt(np.abs(np.diag(cov)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr[np.ix_(keep, keep)] = cov / np.outer(s, s)
+    return ~keep, corr
 
 
 def identifiability(names: Sequence[str], theta: np.ndarray, *,
                     covariance: np.ndarray | None = None,
                     information: np.ndarray | None = None,
-                    ) -> tuple[tuple[str, ...], tuple[tuple[str, str, float], ...]]:
-    """Return the coefficients without information and the pairs correlated above the limit.
+                    ) -> tuple[tuple[str, ...], tuple[str, ...], Pairs]:
+    """Return the coefficients without and with almost no information, and confounded pairs.
 
     Parameters
     ----------
     names : sequence of str, length k
     theta : ndarray, shape (k,)
     covariance, information : ndarray, shape (k, k)
-        One of them (``information`` wins when both are given).
+        One of them (``covariance`` wins when both are given: it has a scale).
 
     Returns
     -------
-    zero : tuple of str
-        Coefficients with no information (:data:`ZERO_INFORMATION`).
+    none : tuple of str
+        Coefficients with no information.
+    little : tuple of str
+        Coefficients whose standard error exceeds the estimate (covariance only).
     pairs : tuple of (str, str, float)
         ``(a, b, correlation)`` with ``|correlation| > CORRELATION_LIMIT``.
     """
@@ -83,47 +85,57 @@ def identifiability(names: Sequence[str], theta: np.ndarray, *,
     k = theta.size
     if len(names) != k:
         raise ValueError(f"identifiability: {len(names)} names for {k} coefficients")
-    matrix = information if information is not None else covariance
+    matrix = covariance if covariance is not None else information
     if matrix is None:
-        return (), ()
-    if np.shape(matrix) != (k, k):
-        raise ValueError(f"identifiability: a {np.shape(matrix)} matrix for {k} coefficients")
-    bad = ~np.all(np.isfinite(matrix), axis=1)
-    if np.any(bad):  # a row that is not a number: nothing is known of that coefficient
-        return tuple(n for n, b in zip(names, bad, strict=True) if b), ()
-    diag, corr = _scaled_information(theta, covariance, information)
-    finite = diag[np.isfinite(diag)]
-    top = np.max(finite) if finite.size else np.inf
-    # from a covariance, also the estimate's own size: on noise-free data the variances
-    # are rounding and span 1e15 between coefficients (equation-error, measured), while
-    # a coefficient without information has a standard error beyond its estimate
-    absolute = 1.0 if information is None else np.inf
-    zero = tuple(n for n, d in zip(names, diag, strict=True)
-                 if np.isnan(d) or (d <= ZERO_INFORMATION * top and d < absolute))
+        return (), (), ()
+    matrix = np.asarray(matrix, dtype=float)
+    if matrix.shape != (k, k):
+        raise ValueError(f"identifiability: a {matrix.shape} matrix for {k} coefficients")
+    size = np.where(np.isfinite(theta) & (theta != 0.0), np.abs(theta), 1.0)
+    little = np.zeros(k, dtype=bool)
+    if covariance is not None:
+        var = np.diag(matrix).copy()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            relative = np.sqrt(np.abs(var)) / size
+            s = np.sqrt(np.where(var > 0.0, var, np.nan))
+            corr = matrix / np.outer(s, s)
+        none = ~np.isfinite(var) | (relative > NO_INFORMATION_SD)
+        little = ~none & (relative > LITTLE_INFORMATION_SD)
+    else:
+        bad = ~np.all(np.isfinite(matrix), axis=1)
+        clean = np.where(np.isfinite(matrix), matrix, 0.0)
+        none, corr = _from_information(size, clean)
+        none |= bad
+    pick = [names[j] for j in range(k)]
     pairs = tuple((names[i], names[j], float(corr[i, j]))
                   for i in range(k) for j in range(i + 1, k)
-                  if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT)
-    return zero, pairs
+                  if not (none[i] or none[j]) and np.isfinite(corr[i, j])
+                  and abs(corr[i, j]) > CORRELATION_LIMIT)
+    return (tuple(n for n, z in zip(pick, none, strict=True) if z),
+            tuple(n for n, z in zip(pick, little, strict=True) if z), pairs)
 
 
 def identifiability_findings(names: Sequence[str], theta: np.ndarray,
                              covariance: np.ndarray | None, information: np.ndarray | None,
                              ) -> tuple[str | None, tuple[str, ...]]:
     """Return (failure message or None, warnings) of :func:`identifiability`."""
-    zero, pairs = identifiability(names, theta, covariance=covariance,
-                                  information=information)
+    none, little, pairs = identifiability(names, theta, covariance=covariance,
+                                          information=information)
     failure = None
-    if zero:
-        failure = (f"no information on {', '.join(zero)} in this method's objective: the "
+    if none:
+        failure = (f"no information on {', '.join(none)} in this method's objective: the "
                    "data cannot determine it; the estimate is where the search stopped "
                    "(fix it, or use a method or flight that carries it)")
     warnings: tuple[str, ...] = ()
+    if little:
+        warnings += (f"almost no information on {', '.join(little)}: the standard error "
+                     "exceeds the estimate (the data do not fix even its sign)",)
     if pairs:
         text = ", ".join(f"{a}-{b} ({r:+.5f})" for a, b, r in pairs)
-        warnings = (f"nearly confounded (|correlation| > {CORRELATION_LIMIT:g}): {text}; the "
-                    "data determine a combination of each pair better than either",)
+        warnings += (f"nearly confounded (|correlation| > {CORRELATION_LIMIT:g}): {text}; "
+                     "the data determine a combination of each pair better than either",)
     return failure, warnings
 
 
-__all__ = ["CORRELATION_LIMIT", "ZERO_INFORMATION", "identifiability",
-           "identifiability_findings"]
+__all__ = ["CORRELATION_LIMIT", "LITTLE_INFORMATION_SD", "NO_INFORMATION_SD",
+           "ZERO_INFORMATION", "identifiability", "identifiability_findings"]
