@@ -116,22 +116,24 @@ def data_noise_levels(flight: Flight, names: tuple[str, ...] = OUTPUT_CHANNELS,
     return dict(zip(present, (float(v) for v in sd), strict=True))
 
 
-def noisy_channels(flight: Flight, names: tuple[str, ...]) -> tuple[str, ...]:
-    """Return the channels of ``names`` whose data carry noise, not only a smooth signal.
+def noisy_channels(columns: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """Return which channels carry noise, not only a smooth signal, (m,) bool.
 
     White noise gives the same level from differences of any order; a smooth signal's
     leakage falls by ``w dt`` (about 0.06 on the reference flight) with each order. A
     channel is noisy when its level from 5th differences is at least
     :data:`NOISE_ORDER_AGREEMENT` of its level from 4th differences.
+
+    Parameters
+    ----------
+    columns : ndarray, shape (n, m)
+        Flight channels.
+    delta : ndarray, shape (n,)
+        The logged deflection.
     """
-    if not names:
-        return ()
-    columns = flight._columns(names)
-    delta = flight["delta"]
     fourth, _ = difference_noise_sd(columns, delta, order=DIFFERENCE_ORDER)
     fifth, _ = difference_noise_sd(columns, delta, order=DIFFERENCE_ORDER + 1)
-    return tuple(name for name, a, b in zip(names, fourth, fifth, strict=True)
-                 if b >= NOISE_ORDER_AGREEMENT * a and a > 0.0)
+    return (fifth >= NOISE_ORDER_AGREEMENT * fourth) & (fourth > 0.0)
 
 
 def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
@@ -160,10 +162,13 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
     signals = dict(signals or {})
     given = dict(noise_sd or {})
     known = dict(levels or {})
-    rms, sd, ratio, tests = {}, {}, {}, {}
+    own = tuple(name for name in residuals if name not in signals and name in flight.channels)
+    data = dict(zip(own, flight._columns(own).T, strict=True)) if own else {}
+    rms, sd, ratio, candidates = {}, {}, {}, []
     for name, res in residuals.items():
         res = np.asarray(res, dtype=float)
-        signal = np.asarray(signals[name] if name in signals else flight[name], dtype=float)
+        signal = np.asarray(signals[name] if name in signals else data.get(name, flight[name]),
+                            dtype=float)
         level = float(np.sqrt(np.mean(signal * signal)))
         if name in given:
             estimate = given[name]
@@ -176,12 +181,17 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
         rms[name] = float(np.sqrt(np.mean(res * res)))
         sd[name] = noise
         ratio[name] = rms[name] / noise
-        if (white and name in flight.channels and name not in signals
-                and ratio[name] >= WHITENESS_MIN_RATIO and np.all(np.isfinite(res))):
-            tests[name] = res
-    tests = {name: {"autocorrelation": autocorrelation_test(res).p_value,
-                    "switches": switch_test(res, flight["delta"]).p_value}
-             for name, res in tests.items() if name in noisy_channels(flight, tuple(tests))}
+        if (white and name in data and ratio[name] >= WHITENESS_MIN_RATIO
+                and np.all(np.isfinite(res))):
+            candidates.append(name)
+    tests = {}
+    if candidates:
+        delta = flight["delta"]
+        noisy = noisy_channels(np.column_stack([data[n] for n in candidates]), delta)
+        for name in (n for n, keep in zip(candidates, noisy, strict=True) if keep):
+            res = np.asarray(residuals[name], dtype=float)
+            tests[name] = {"autocorrelation": autocorrelation_test(res).p_value,
+                           "switches": switch_test(res, delta).p_value}
     worst = max(ratio, key=lambda k: ratio[k] if np.isfinite(ratio[k]) else np.inf)
     standardized = _standardized(residuals, variance)
     limit = family_limit(WHITENESS_ALPHA, sum(len(t) for t in tests.values()))
