@@ -152,3 +152,24 @@ def test_per_sample_weighting_is_not_judged_by_the_per_channel_floor(reference_s
     assert fit.success
     assert np.any(fit.stderr < 0.5 * data_floor(flight, fit.theta))  # what it used to flag
     assert not any("Cramér-Rao floor" in w for w in fit.warnings)
+
+
+def test_difference_yardstick_closed_forms() -> None:
+    """4th differences annihilate a cubic exactly; on white noise their RMS over
+    sqrt(C(8, 4)) = sqrt(70) is the noise sd (100 000 samples: within 1 %); only windows
+    of constant deflection enter, and with too few of them a robust spread of all."""
+    from aeroid.estimation import difference_noise_sd, switch_free_windows
+
+    t = np.linspace(0.0, 1.0, 200)
+    cubic = 3.0 - 2.0 * t + 5.0 * t**2 - 7.0 * t**3
+    sd, how = difference_noise_sd(cubic)
+    assert sd < 1e-12 and how == "between switches"
+    noise = np.random.default_rng(0).standard_normal(100_000) * 0.3
+    assert difference_noise_sd(noise)[0] == pytest.approx(0.3, rel=0.01)
+    delta = np.array([0.0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 0, 0])
+    np.testing.assert_array_equal(switch_free_windows(delta, 5), [0, 1, 6])
+    steps = delta[np.arange(noise.size) % delta.size]  # a switch every 5-6 samples
+    jumps = 50.0 * steps + noise
+    assert difference_noise_sd(jumps)[0] > 10  # told of no switch: the jumps enter
+    assert difference_noise_sd(jumps, steps)[0] == pytest.approx(0.3, rel=0.02)
+    assert difference_noise_sd(jumps[:13], delta)[1] == "robust, all windows"  # 3 windows
