@@ -102,6 +102,8 @@ def right_input(scenario_path: str, options: dict) -> bool:
 
 def correct(args: argparse.Namespace, out) -> None:
     for path in sorted((ROOT / "studies").glob("*.toml")):
+        if args.studies and path.stem not in args.studies:
+            continue
         study = load_study(path)
         text = path.read_text()
         scen = next((line for line in text.splitlines() if line.startswith("scenario")), "")
@@ -228,6 +230,7 @@ def main() -> None:
                         help="poorer: output-error's tol of the early stops")
     parser.add_argument("--skip", nargs="*", default=list(SKIP))
     parser.add_argument("--only", nargs="*", default=[], help="correct: only these methods")
+    parser.add_argument("--studies", nargs="*", default=[], help="correct: only these studies")
     parser.add_argument("--out", default="-")
     args = parser.parse_args()
     if args.part == "summary":
