@@ -121,7 +121,7 @@ def data_noise_levels(flight: Flight, names: tuple[str, ...] = OUTPUT_CHANNELS,
     present = tuple(name for name in names if name in flight.channels)
     if not present:
         return {}
-    sd = data_noise_sd(flight, flight._columns(present))
+    sd = np.atleast_1d(data_noise_sd(flight, flight._columns(present)))
     return dict(zip(present, (float(v) for v in sd), strict=True))
 
 
@@ -184,7 +184,7 @@ def fit_check(flight: Flight, residuals: Mapping[str, np.ndarray],
         elif name in known and name not in signals:
             estimate = known[name]
         else:
-            estimate = data_noise_sd(flight, signal)
+            estimate = float(np.max(data_noise_sd(flight, signal)))  # one channel: a float
         floor = DERIVED_RESOLUTION if name in signals else RESOLUTION
         noise = max(estimate, floor * level, np.finfo(float).tiny)
         rms[name] = float(np.sqrt(np.mean(res * res)))
