@@ -10,7 +10,8 @@ type), ``_predict`` (what a result's model says of a flight, its table and JSON 
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
 ``_reconstruct``, ``_objectives``, ``_floor``, ``_gyro_floor`` (what the p gyro alone
-tells of Cl0, Clp), ``_polish`` (from a swarm's best point to the optimum of its
+tells of Cl0, Clp), ``_whiteness`` and ``_identifiability`` (what the fit check tests
+beyond the residuals' size), ``_polish`` (from a swarm's best point to the optimum of its
 objective), ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``,
 ``_ebm``, ``_sebm``, which import none of one another.
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
@@ -20,6 +21,7 @@ from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._fitcheck import data_floor
 from aeroid.estimation._floor import cramer_rao_sd
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
+from aeroid.estimation._identifiability import identifiability
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -66,13 +68,16 @@ from aeroid.estimation._result import (
     failed_result,
 )
 from aeroid.estimation._signals import (
+    difference_noise_sd,
     estimate_noise_law,
     estimate_noise_sd,
     fit_noise_law,
     rate_derivatives,
     smooth,
     switch_free_samples,
+    switch_free_windows,
 )
+from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, switch_test
 
 # The paper's methods register themselves on import (after the registry exists).
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
@@ -112,9 +117,11 @@ __all__ = [
     "data_floor",
     "ebm_cost",
     "ebm_regression",
+    "difference_noise_sd",
     "estimate_noise_sd",
     "failed_result",
     "get_estimator",
+    "identifiability",
     "gyro_only_floor",
     "load_errors",
     "make_estimator",
@@ -130,4 +137,8 @@ __all__ = [
     "sebm_costs",
     "smooth",
     "switch_free_samples",
+    "switch_free_windows",
+    "switch_test",
+    "autocorrelation_test",
+    "WhitenessTest",
 ]

@@ -118,7 +118,8 @@ class EBMPSO(Estimator):
         info = reconstruction_info(rec)
         info.update({"weighting": self.weighting, "smoothing": self.smoothing,
                      "rows": rows, "n_particles": self.n_particles, "bounds": bounds,
-                     "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min})
+                     "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min,
+                     "information": cost.hessian})  # the fit check's identifiability
         if polished is not None:
             info["polish"] = polish_info(polished)
         X, y = ebm_regression(flight, rec, smoothing=self.smoothing)

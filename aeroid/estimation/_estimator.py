@@ -110,7 +110,7 @@ class Estimator(abc.ABC):
             result = dataclasses.replace(result, success=False,
                                          message=result.message or "non-finite estimate")
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
-        result = apply_fit_check(result, flight, levels)
+        result = apply_fit_check(result, flight, levels, self.options())
         info = dict(result.info)
         info.setdefault("options", self.options())
         if choice is not None:

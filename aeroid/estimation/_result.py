@@ -184,6 +184,11 @@ class EstimationResult:
             lines.append(f"fit check: residual RMS / data noise {check['ratio'][worst]:.3g} "
                          f"at worst ({worst}; limit {check['limit']:g}, about 1 when the "
                          "model fits)")
+            tests = check.get("whiteness") or {}
+            if tests:
+                p = min(min(t.values()) for t in tests.values())
+                lines.append(f"whiteness: {len(tests)} channels tested, smallest p {p:.2g} "
+                             f"(limit {check['white_limit']:.2g})")
         head = f"{'coef':>5} {'estimate':>14} {'std err':>12}"
         if truth is not None:
             head += f" {'truth':>12} {'error %':>9}"

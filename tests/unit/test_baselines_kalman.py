@@ -405,7 +405,10 @@ def test_passes_agree_with_output_error_where_one_pass_does_not(paper_prior_off)
     one = ExtendedKalmanEstimator(max_passes=1).fit(paper_prior_off, rng=0)
     assert oe.success and ekf.success and one.success
     assert 2 <= ekf.info["passes"] <= ExtendedKalmanEstimator().max_passes
-    assert ekf.info["pass_changes"][-1] <= _common.PASS_TOL and not ekf.warnings
+    # the only warning: Cl0-Clp confounded (issue 18's identifiability check, every fit of
+    # this flight); no pass warning
+    assert ekf.info["pass_changes"][-1] <= _common.PASS_TOL
+    assert [w.split(":")[0] for w in ekf.warnings] == ["nearly confounded (|correlation| > 0.98)"]
     assert one.info["passes"] == 1 and one.info["pass_changes"] == []
     gap = np.abs(ekf.theta - oe.theta) / oe.stderr
     gap_one = np.abs(one.theta - oe.theta) / oe.stderr
@@ -448,5 +451,6 @@ def test_passes_stay_at_the_truth_on_a_noise_free_delayed_relay():
     res = ExtendedKalmanEstimator(input="events").fit(flight, rng=0)
     assert res.success, res.message
     assert res.info["passes"] >= 2 and res.info["pass_changes"][-1] <= _common.PASS_TOL
-    assert not res.warnings
+    # the only warning: Cl0-Clp confounded (issue 18's identifiability check)
+    assert [w.split(":")[0] for w in res.warnings] == ["nearly confounded (|correlation| > 0.98)"]
     np.testing.assert_allclose(res.theta, truth, rtol=PASSES_NOISE_FREE_RTOL)

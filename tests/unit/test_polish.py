@@ -132,7 +132,9 @@ def test_eam_polish_recovers_the_noise_free_flight(clean_flight) -> None:
     assert result.warnings == ()
     # the simulation from the fitted initial state is what the fit check judged
     np.testing.assert_allclose(result.info["state0"], result.info["polish"]["state0"])
-    assert result.info["fit_check"]["ratio"][result.info["fit_check"]["worst"]] < 1.0
+    # against a noise-free log's resolution floor, 1e-5 of each channel's RMS since issue
+    # 18 (1e-3 before, when this was < 1.0): measured 1.15, the integration's own error
+    assert result.info["fit_check"]["ratio"][result.info["fit_check"]["worst"]] < 2.0
 
 
 def test_eam_polish_with_held_rates_reaches_the_optimum_of_the_swarms_objective(
