@@ -10,7 +10,11 @@ but suspect (:class:`aeroid.errors.AeroidWarning`) are one line each on stderr,
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
+import io
 import logging
+import signal
 import sys
 import textwrap
 import warnings
@@ -221,12 +225,26 @@ def _show_warning(original: Callable[..., None]) -> Callable[..., None]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``aeroid`` command; returns the exit status."""
-    from aeroid.errors import USER_ERRORS
-
     parser = build_parser()
     args = parser.parse_args(argv)
     quiet = bool(getattr(args, "quiet", False))
     notices = _notices(quiet)
+    stdout, sys.stdout = sys.stdout, _NamedStream(sys.stdout, "standard output")
+    sigterm = _catch_sigterm()
+    try:
+        return _run(args, quiet)
+    finally:
+        sys.stdout = stdout
+        _restore_sigterm(sigterm)
+        logging.getLogger("aeroid").removeHandler(notices)
+
+
+def _run(args: argparse.Namespace, quiet: bool) -> int:
+    """Dispatch the command; every way it can end is one line on stderr and a status."""
+    from aeroid.errors import USER_ERRORS
+
+    resume = ("; run the same command with --resume to complete only what is missing"
+              if args.command == "study" else "")
     try:
         if args.command in ("estimate", "simulate", "study") and not quiet:
             from aeroid.model import kernels_cached
@@ -237,20 +255,106 @@ def main(argv: Sequence[str] | None = None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
             warnings.showwarning = _show_warning(warnings.showwarning)
-            return _dispatch(args)
+            status = _dispatch(args)
+        sys.stdout.flush()  # a full disk behind '> file' shows here, not at exit
+        return status
+    except BrokenPipeError:
+        _drop_stdout()
+        return _fail(args, "standard output was closed before everything was written "
+                     "(broken pipe)")
     except USER_ERRORS as exc:
-        if args.debug:
-            raise
-        message = " ".join(str(exc).split("\n")) or type(exc).__name__
-        print(f"aeroid: error: {message}", file=sys.stderr)
-        return 2
+        return _fail(args, " ".join(str(exc).split("\n")) or type(exc).__name__)
+    except OSError as exc:  # output that cannot be written, a name too long, a loop...
+        if getattr(exc, "filename", None) == "standard output":
+            _drop_stdout()
+        return _fail(args, _os_message(exc))
+    except RecursionError:
+        return _fail(args, "input nested too deeply to read (thousands of levels)")
+    except _Terminated:
+        print(f"aeroid: terminated by SIGTERM{resume}", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
-        hint = ("; run the same command with --resume to complete only what is missing"
-                if args.command == "study" else "")
-        print(f"aeroid: interrupted{hint}", file=sys.stderr)
+        print(f"aeroid: interrupted{resume}", file=sys.stderr)
         return 130
-    finally:
-        logging.getLogger("aeroid").removeHandler(notices)
+
+
+def _fail(args: argparse.Namespace, message: str) -> int:
+    """Print ``aeroid: error: MESSAGE`` (or re-raise with --debug); return status 2."""
+    if args.debug:
+        raise  # noqa: PLE0704 - called only from an except block of _run
+    print(f"aeroid: error: {message}", file=sys.stderr)
+    return 2
+
+
+def _os_message(exc: OSError) -> str:
+    """One line for an OS error: the file, what failed, and a hint for the usual causes."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    where = exc.filename if exc.filename is not None else "a file"
+    hints = {errno.ENAMETOOLONG: " (a file name is at most 255 bytes, a path 4096)",
+             errno.ELOOP: " (a symbolic link that points to itself?)",
+             errno.ENOSPC: " (the disk is full)"}
+    return f"{where}: cannot read or write it: {reason}{hints.get(exc.errno or 0, '')}"
+
+
+class _NamedStream:
+    """A text stream whose write errors name it (``standard output: No space left``)."""
+
+    def __init__(self, stream: Any, name: str) -> None:
+        self._stream = stream
+        self._name = name
+
+    def write(self, text: str) -> int:
+        """Write ``text``; an OSError is raised again naming the stream."""
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror or str(exc), self._name) from None
+
+    def flush(self) -> None:
+        """Flush; an OSError is raised again naming the stream."""
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror or str(exc), self._name) from None
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _drop_stdout() -> None:
+    """Point standard output at /dev/null, so the exit's flush cannot fail again."""
+    import os
+
+    with contextlib.suppress(OSError, ValueError, AttributeError,
+                             io.UnsupportedOperation):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.__stdout__.fileno())  # type: ignore[union-attr]
+        os.close(devnull)
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread: the same unwinding as Ctrl-C (nothing lost)."""
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise _Terminated
+
+
+def _catch_sigterm() -> Any:
+    """Turn SIGTERM into :class:`_Terminated`; return the previous handler (None: not set)."""
+    try:
+        return signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread (main() called from a thread)
+        return None
+
+
+def _restore_sigterm(previous: Any) -> None:
+    if previous is not None:
+        signal.signal(signal.SIGTERM, previous)
 
 
 class _NoticeHandler(logging.Handler):
