@@ -171,8 +171,8 @@ def move_aside(out_dir: Path) -> Path | None:
 
 
 def remove_temporary(out_dir: Path) -> None:
-    """Remove temporary files left by a killed writer (``*.tmp`` in the store)."""
-    for folder in (out_dir, out_dir / HISTORY_DIR):
+    """Remove temporary files left by a killed writer (``*.tmp`` in the store, figures)."""
+    for folder in (out_dir, out_dir / HISTORY_DIR, out_dir / "figures"):
         if folder.is_dir():
             for p in folder.glob(f"*{TMP_SUFFIX}"):
                 with contextlib.suppress(OSError):
