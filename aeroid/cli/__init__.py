@@ -211,16 +211,45 @@ def _dispatch(args: argparse.Namespace) -> int:
     return study_commands.study(args)
 
 
-def _show_warning(original: Callable[..., None]) -> Callable[..., None]:
-    """Return a ``warnings.showwarning`` printing an AeroidWarning as one line."""
-    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
-             file: Any = None, line: str | None = None) -> None:
-        if issubclass(category, AeroidWarning):
-            print(f"aeroid: warning: {' '.join(str(message).split())}", file=sys.stderr)
-        else:
-            original(message, category, filename, lineno, file, line)
+class _WarningLines:
+    """``warnings.showwarning`` for the command line: one line per warning, once per place.
 
-    return show
+    An AeroidWarning is ``aeroid: warning: MESSAGE``, every time (each names its own
+    input). Any other warning (numpy, scipy, filterpy) is one line the first time it
+    comes from a place (category, file, line); later ones from that place are counted and
+    :meth:`summary` says how many (the EKF on extreme accelerations printed 4006 lines of
+    one scipy warning).
+    """
+
+    def __init__(self) -> None:
+        self.repeats: dict[tuple[str, str, int], int] = {}
+
+    def __call__(self, message: Warning | str, category: type[Warning], filename: str,
+                 lineno: int, file: Any = None, line: str | None = None) -> None:
+        """Print one warning (or count it)."""
+        text = " ".join(str(message).split())
+        if issubclass(category, AeroidWarning):
+            print(f"aeroid: warning: {text}", file=sys.stderr)
+            return
+        key = (category.__name__, filename, lineno)
+        if key in self.repeats:
+            self.repeats[key] += 1
+            return
+        self.repeats[key] = 0
+        print(f"aeroid: warning: {category.__name__} at {_short_path(filename)}:{lineno}: "
+              f"{text}", file=sys.stderr)
+
+    def summary(self) -> None:
+        """One line per place whose warning came again."""
+        for (name, filename, lineno), count in self.repeats.items():
+            if count:
+                print(f"aeroid: warning: {name} at {_short_path(filename)}:{lineno} came "
+                      f"{count} more time(s), not shown", file=sys.stderr)
+
+
+def _short_path(filename: str) -> str:
+    """``filterpy/kalman/EKF.py`` for a file in site-packages (the last three parts)."""
+    return "/".join(Path(filename).parts[-3:])
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -252,10 +281,14 @@ def _run(args: argparse.Namespace, quiet: bool) -> int:
             if not kernels_cached():
                 print("aeroid: compiling the numerical kernels once (about 20-60 s; "
                       "cached for later runs)", file=sys.stderr)
+        lines = _WarningLines()
         with warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
-            warnings.showwarning = _show_warning(warnings.showwarning)
-            status = _dispatch(args)
+            warnings.showwarning = lines
+            try:
+                status = _dispatch(args)
+            finally:
+                lines.summary()
         sys.stdout.flush()  # a full disk behind '> file' shows here, not at exit
         return status
     except BrokenPipeError:
