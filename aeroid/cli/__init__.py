@@ -10,9 +10,6 @@ but suspect (:class:`aeroid.errors.AeroidWarning`) are one line each on stderr,
 from __future__ import annotations
 
 import argparse
-import contextlib
-import errno
-import io
 import logging
 import signal
 import sys
@@ -23,6 +20,15 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from aeroid import __version__
+from aeroid.cli._exits import (
+    NamedStream,
+    Terminated,
+    WarningLines,
+    catch_sigterm,
+    drop_stdout,
+    os_message,
+    restore_sigterm,
+)
 from aeroid.errors import AeroidWarning
 
 #: Most local worker processes (``--jobs``, ``--dask-local``). Each is a Python process
@@ -211,60 +217,19 @@ def _dispatch(args: argparse.Namespace) -> int:
     return study_commands.study(args)
 
 
-class _WarningLines:
-    """``warnings.showwarning`` for the command line: one line per warning, once per place.
-
-    An AeroidWarning is ``aeroid: warning: MESSAGE``, every time (each names its own
-    input). Any other warning (numpy, scipy, filterpy) is one line the first time it
-    comes from a place (category, file, line); later ones from that place are counted and
-    :meth:`summary` says how many (the EKF on extreme accelerations printed 4006 lines of
-    one scipy warning).
-    """
-
-    def __init__(self) -> None:
-        self.repeats: dict[tuple[str, str, int], int] = {}
-
-    def __call__(self, message: Warning | str, category: type[Warning], filename: str,
-                 lineno: int, file: Any = None, line: str | None = None) -> None:
-        """Print one warning (or count it)."""
-        text = " ".join(str(message).split())
-        if issubclass(category, AeroidWarning):
-            print(f"aeroid: warning: {text}", file=sys.stderr)
-            return
-        key = (category.__name__, filename, lineno)
-        if key in self.repeats:
-            self.repeats[key] += 1
-            return
-        self.repeats[key] = 0
-        print(f"aeroid: warning: {category.__name__} at {_short_path(filename)}:{lineno}: "
-              f"{text}", file=sys.stderr)
-
-    def summary(self) -> None:
-        """One line per place whose warning came again."""
-        for (name, filename, lineno), count in self.repeats.items():
-            if count:
-                print(f"aeroid: warning: {name} at {_short_path(filename)}:{lineno} came "
-                      f"{count} more time(s), not shown", file=sys.stderr)
-
-
-def _short_path(filename: str) -> str:
-    """``filterpy/kalman/EKF.py`` for a file in site-packages (the last three parts)."""
-    return "/".join(Path(filename).parts[-3:])
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``aeroid`` command; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
     quiet = bool(getattr(args, "quiet", False))
     notices = _notices(quiet)
-    stdout, sys.stdout = sys.stdout, _NamedStream(sys.stdout, "standard output")
-    sigterm = _catch_sigterm()
+    stdout, sys.stdout = sys.stdout, NamedStream(sys.stdout, "standard output")
+    sigterm = catch_sigterm()
     try:
         return _run(args, quiet)
     finally:
         sys.stdout = stdout
-        _restore_sigterm(sigterm)
+        restore_sigterm(sigterm)
         logging.getLogger("aeroid").removeHandler(notices)
 
 
@@ -281,7 +246,7 @@ def _run(args: argparse.Namespace, quiet: bool) -> int:
             if not kernels_cached():
                 print("aeroid: compiling the numerical kernels once (about 20-60 s; "
                       "cached for later runs)", file=sys.stderr)
-        lines = _WarningLines()
+        lines = WarningLines()
         with warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
             warnings.showwarning = lines
@@ -292,18 +257,18 @@ def _run(args: argparse.Namespace, quiet: bool) -> int:
         sys.stdout.flush()  # a full disk behind '> file' shows here, not at exit
         return status
     except BrokenPipeError:
-        _drop_stdout()
+        drop_stdout()
         return _fail(args, "standard output was closed before everything was written "
                      "(broken pipe)")
     except USER_ERRORS as exc:
         return _fail(args, " ".join(str(exc).split("\n")) or type(exc).__name__)
     except OSError as exc:  # output that cannot be written, a name too long, a loop...
         if getattr(exc, "filename", None) == "standard output":
-            _drop_stdout()
-        return _fail(args, _os_message(exc))
+            drop_stdout()
+        return _fail(args, os_message(exc))
     except RecursionError:
         return _fail(args, "input nested too deeply to read (thousands of levels)")
-    except _Terminated:
+    except Terminated:
         print(f"aeroid: terminated by SIGTERM{resume}", file=sys.stderr)
         return 128 + signal.SIGTERM
     except KeyboardInterrupt:
@@ -317,77 +282,6 @@ def _fail(args: argparse.Namespace, message: str) -> int:
         raise  # noqa: PLE0704 - called only from an except block of _run
     print(f"aeroid: error: {message}", file=sys.stderr)
     return 2
-
-
-def _os_message(exc: OSError) -> str:
-    """One line for an OS error: the file, what failed, and a hint for the usual causes."""
-    reason = exc.strerror or str(exc) or type(exc).__name__
-    where = exc.filename if exc.filename is not None else "a file"
-    hints = {errno.ENAMETOOLONG: " (a file name is at most 255 bytes, a path 4096)",
-             errno.ELOOP: " (a symbolic link that points to itself?)",
-             errno.ENOSPC: " (the disk is full)"}
-    return f"{where}: cannot read or write it: {reason}{hints.get(exc.errno or 0, '')}"
-
-
-class _NamedStream:
-    """A text stream whose write errors name it (``standard output: No space left``)."""
-
-    def __init__(self, stream: Any, name: str) -> None:
-        self._stream = stream
-        self._name = name
-
-    def write(self, text: str) -> int:
-        """Write ``text``; an OSError is raised again naming the stream."""
-        try:
-            return self._stream.write(text)
-        except BrokenPipeError:
-            raise
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror or str(exc), self._name) from None
-
-    def flush(self) -> None:
-        """Flush; an OSError is raised again naming the stream."""
-        try:
-            self._stream.flush()
-        except BrokenPipeError:
-            raise
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror or str(exc), self._name) from None
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._stream, name)
-
-
-def _drop_stdout() -> None:
-    """Point standard output at /dev/null, so the exit's flush cannot fail again."""
-    import os
-
-    with contextlib.suppress(OSError, ValueError, AttributeError,
-                             io.UnsupportedOperation):
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.__stdout__.fileno())  # type: ignore[union-attr]
-        os.close(devnull)
-
-
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread: the same unwinding as Ctrl-C (nothing lost)."""
-
-
-def _on_sigterm(signum: int, frame: Any) -> None:
-    raise _Terminated
-
-
-def _catch_sigterm() -> Any:
-    """Turn SIGTERM into :class:`_Terminated`; return the previous handler (None: not set)."""
-    try:
-        return signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:  # not the main thread (main() called from a thread)
-        return None
-
-
-def _restore_sigterm(previous: Any) -> None:
-    if previous is not None:
-        signal.signal(signal.SIGTERM, previous)
 
 
 class _NoticeHandler(logging.Handler):
