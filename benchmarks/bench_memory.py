@@ -5,8 +5,8 @@ Run by hand from the repository root::
     python benchmarks/bench_memory.py --old /work/main --seconds 60 240 1120
 
 For each length the reference scenario is recorded from 0 s for that long at 500 Hz
-with the paper's noise (seed 1) and written as CSV with its sidecar (without the switch
-knots, which outgrow the sidecar's size limit), by this tree. Then
+with the paper's noise (seed 1) and written as CSV with its sidecar (airframe only: the
+metadata outgrow the sidecar's size limit), by this tree. Then
 each tree, in a fresh interpreter with ``PYTHONPATH`` set to it, reads the CSV, fits
 ``equation-error`` (defaults, ``Estimator.fit``: validation, the fit, the fit check and
 the floor warnings) and reports its peak resident memory (``ru_maxrss``) before and
@@ -35,10 +35,9 @@ s = load_scenario(None)
 import dataclasses
 flight = simulate(s.airframe, s.coefficient_vector, Manoeuvre(window_s=(0.0, float(sys.argv[1]))),
                   PaperNoise(), rng=1)
-# the switch knots grow with the flight beyond the sidecar's size limit; no estimator
-# here uses them (input = "hold")
-meta = {k: v for k, v in flight.metadata.items() if k != "delta_knots"}
-dataclasses.replace(flight, metadata=meta).write(sys.argv[2])
+# the metadata (switch knots, the manoeuvre's record) grow with the flight beyond the
+# sidecar's size limit; the fit uses none of it (input = "hold")
+dataclasses.replace(flight, metadata={}).write(sys.argv[2])
 print(flight.n_samples)
 """
 
@@ -60,7 +59,10 @@ print(before / 1024, after / 1024, wall, result.success, float(result.theta[0]))
 def _python(code: str, tree: Path, *args: str) -> str:
     env = {**os.environ, "PYTHONPATH": str(tree)}
     done = subprocess.run([sys.executable, "-c", code, *args], env=env, capture_output=True,
-                          text=True, check=True)
+                          text=True, cwd=tempfile.gettempdir())  # not a tree's root: "-c"
+    # puts the working directory first on sys.path, ahead of PYTHONPATH
+    if done.returncode:
+        raise SystemExit(f"{tree}: {done.stderr.strip().splitlines()[-1]}")
     return done.stdout.strip().splitlines()[-1]
 
 

@@ -47,8 +47,9 @@ DEFAULT_REL_STEP = 1e-5
 #: Memory for the perturbed trajectories of one block of :meth:`ForwardModel.sensitivities`
 #: [bytes]; the reference flight's 24 trajectories of 501 samples take 1.7 MB (one block).
 SENSITIVITY_BLOCK_BYTES = 256 * 2**20
-#: Arrays of a trajectory's size alive while its outputs are computed (states, outputs
-#: and the accelerometer temporaries; measured with tracemalloc: about 4).
+#: Arrays of a trajectory's size (states and outputs) counted per trajectory of a block:
+#: a margin for the accelerometer equations' temporaries (an allowance, not a
+#: measurement; benchmarks/bench_memory.py measures the whole fit).
 SENSITIVITY_TEMPORARIES = 4
 
 
