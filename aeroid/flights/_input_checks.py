@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from aeroid.flights._channels import UNITS
 from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
 from aeroid.model._airframe import Airframe
 
@@ -95,15 +96,9 @@ def check_inputs(finite: dict[str, np.ndarray], airframe: Airframe, errors: list
         worst = hi if hi > high else lo
         hint = range_hint(channel, v, low, high)
         errors.append(f"channel {channel!r} reaches {worst:.4g}, outside the plausible "
-                      f"{low:g} to {high:g} {_unit(channel)}{hint}")
+                      f"{low:g} to {high:g} {UNITS[channel]}{hint}")
     if "qbar" in finite and all(c in finite for c in ("u", "v", "w")):
         _dynamic_pressure(finite, errors)
-
-
-def _unit(channel: str) -> str:
-    from aeroid.flights._channels import UNITS
-
-    return UNITS[channel]
 
 
 def range_hint(channel: str, v: np.ndarray, low: float, high: float) -> str:
