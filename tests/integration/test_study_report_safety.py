@@ -162,3 +162,62 @@ def test_the_lock_of_a_killed_study_is_taken_over_with_a_note(study_file, tmp_pa
     err = capsys.readouterr().err
     assert f"took over the lock {out / 'study.lock'} left by pid {holder.pid} on " in err
     assert len(read_results(out / "results.jsonl")) == 2
+
+
+# Real kills during the report ----------------------------------------------------------
+REPORT_SCRIPT = """
+import os, signal, sys
+from study_fakes import REGISTRY, STUDY
+from aeroid.study import _store, loads_study, run_study, write_report
+out, target = sys.argv[1], sys.argv[2]
+study = loads_study(STUDY, registry=REGISTRY)
+outcome = run_study(study, out, resume=True, progress=False)
+if target.endswith(".png"):
+    import matplotlib.figure
+    original = matplotlib.figure.Figure.savefig
+    def savefig(self, fname, **kwargs):
+        if os.path.basename(str(fname)) == target + ".tmp":
+            with open(fname, "wb") as fh:
+                fh.write(b"\\x89PNG\\r\\n\\x1a\\n")  # the first bytes of the PNG, then killed
+            os.kill(os.getpid(), signal.SIGKILL)
+        return original(self, fname, **kwargs)
+    matplotlib.figure.Figure.savefig = savefig
+elif target != "none":
+    original = _store._write_all
+    def write(fd, data):
+        if os.path.basename(os.readlink(f"/proc/self/fd/{fd}")) == target + ".tmp":
+            os.write(fd, data[: len(data) // 2])
+            os.kill(os.getpid(), signal.SIGKILL)
+        original(fd, data)
+    _store._write_all = write
+write_report(study, out, outcome.records)
+"""
+#: Seconds a report subprocess may take (a 12-fit study of stand-ins, its floors, figures).
+REPORT_TIMEOUT_S = 300
+
+
+def _report_killed_at(out: Path, target: str) -> int:
+    here = Path(__file__).parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(here), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", REPORT_SCRIPT, str(out), target], env=env,
+                          capture_output=True, text=True, timeout=REPORT_TIMEOUT_S)
+    assert done.returncode in (0, -signal.SIGKILL), done.stderr
+    return done.returncode
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc")
+def test_a_sigkill_during_the_report_never_leaves_a_truncated_file(tmp_path):
+    out = tmp_path / "out"
+    # killed while the first results.csv is half written: there is none, not half of one
+    assert _report_killed_at(out, "results.csv") == -signal.SIGKILL
+    assert not (out / "results.csv").exists()
+    assert _report_killed_at(out, "none") == 0
+    whole = {p.relative_to(out): p.read_bytes()
+             for p in [out / "results.csv", out / "summary.csv", out / "report.md",
+                       *sorted((out / "figures").glob("*.png"))]}
+    assert list(out.rglob("*.tmp")) == []
+    for target in ("results.csv", "summary.csv", "report.md", "runtime.png"):
+        assert _report_killed_at(out, target) == -signal.SIGKILL, target
+        for name, data in whole.items():  # each file is the previous one, whole
+            assert (out / name).read_bytes() == data, (target, name)
