@@ -13,7 +13,7 @@ the logged alpha and beta against ``atan(w/u)`` and ``asin(v/V)`` (eqs. 14-16). 
 least-squares scale ``k`` between the two sides is 1 for consistent data, about 1/57.3
 for rates in deg/s with angles in radians and about 57.3 for angles in degrees. The
 per-sample inputs (mass, thrust, inertias, atmosphere) are checked against ranges, the
-airframe and the altitude's rate by :mod:`aeroid.flights._input_checks`.
+airframe and the altitude's change by :mod:`aeroid.flights._input_checks`.
 """
 
 from __future__ import annotations

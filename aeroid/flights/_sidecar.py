@@ -86,7 +86,7 @@ def read_sidecar(path: Path, *, need_airframe: bool
         return {}, None, f"{sidecar.name} is not an aeroid sidecar: not JSON"
     except RecursionError:  # json's parser recurses once per nested array or object
         raise FlightError(f"{sidecar}: JSON nested too deeply to read (thousands of levels; "
-                          "aeroid's sidecars nest 4); move it away if it is not aeroid's"
+                          "aeroid's nest a few); move it away if it is not aeroid's"
                           ) from None
     tag = payload.get("format") if isinstance(payload, dict) else None
     if not (isinstance(tag, str) and tag.startswith("aeroid-flight/")):
