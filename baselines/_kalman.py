@@ -28,7 +28,9 @@ positive, or the state is not finite) stops the loop and is reported.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import warnings
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -189,9 +191,40 @@ def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
     return FilterOutput(xs, sds, P, k, reason, innovation, s_var, r_var)
 
 
+@contextlib.contextmanager
+def collapsed_warnings() -> Iterator[None]:
+    """Issue each warning raised inside once per place, with how often it was raised.
+
+    filterpy inverts the innovation covariance at every sample; on a flight with
+    accelerations 1e150 m/s^2 scipy warned "ill-conditioned matrix" 2003 times per pass
+    (4006 lines on stderr), each with its own rcond. Here it is one warning:
+    ``LinAlgWarning (2003 times in this filter pass; first: ...)``.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield
+    seen: dict[tuple, list] = {}
+    for w in caught:
+        entry = seen.setdefault((w.category, w.filename, w.lineno), [w, 0])
+        entry[1] += 1
+    for w, count in seen.values():
+        text = " ".join(str(w.message).split())
+        if count > 1:
+            text = f"{text} (and {count - 1} more like it in this filter pass)"
+        warnings.warn_explicit(text, w.category, w.filename, w.lineno)
+
+
 def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             R: np.ndarray, zs: np.ndarray,
             R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
+    """Run :func:`_run_ekf` with its repeated warnings collapsed (:func:`collapsed_warnings`)."""
+    with collapsed_warnings():
+        return _run_ekf(model, x0, P0, Q, R, zs, R_of)
+
+
+def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
+             R: np.ndarray, zs: np.ndarray,
+             R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's EKF with the model's nonlinear prediction over measurements ``zs``.
 
     Sample 0 is an update of the prior ``(x0, P0)`` with ``zs[0]``; each later sample
@@ -252,6 +285,16 @@ def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
             kappa: float = 0.0,
             R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
+    """Run :func:`_run_ukf` with its repeated warnings collapsed (:func:`collapsed_warnings`)."""
+    with collapsed_warnings():
+        return _run_ukf(model, x0, P0, Q, R, zs, alpha=alpha, beta=beta, kappa=kappa,
+                        R_of=R_of)
+
+
+def _run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
+             R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
+             kappa: float = 0.0,
+             R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's UKF (Merwe scaled sigma points) with batched sigma-point propagation.
 
     Same sequence and arguments as :func:`run_ekf` (``R_of`` gets the sigma points'

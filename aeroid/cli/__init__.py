@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
 import textwrap
 import warnings
@@ -19,6 +20,15 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from aeroid import __version__
+from aeroid.cli._exits import (
+    NamedStream,
+    Terminated,
+    WarningLines,
+    catch_sigterm,
+    drop_stdout,
+    os_message,
+    restore_sigterm,
+)
 from aeroid.errors import AeroidWarning
 
 #: Most local worker processes (``--jobs``, ``--dask-local``). Each is a Python process
@@ -228,26 +238,28 @@ def _dispatch(args: argparse.Namespace) -> int:
     return study_commands.study(args)
 
 
-def _show_warning(original: Callable[..., None]) -> Callable[..., None]:
-    """Return a ``warnings.showwarning`` printing an AeroidWarning as one line."""
-    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
-             file: Any = None, line: str | None = None) -> None:
-        if issubclass(category, AeroidWarning):
-            print(f"aeroid: warning: {' '.join(str(message).split())}", file=sys.stderr)
-        else:
-            original(message, category, filename, lineno, file, line)
-
-    return show
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``aeroid`` command; returns the exit status."""
-    from aeroid.errors import USER_ERRORS
-
     parser = build_parser()
     args = parser.parse_args(argv)
     quiet = bool(getattr(args, "quiet", False))
     notices = _notices(quiet)
+    stdout, sys.stdout = sys.stdout, NamedStream(sys.stdout, "standard output")
+    sigterm = catch_sigterm()
+    try:
+        return _run(args, quiet)
+    finally:
+        sys.stdout = stdout
+        restore_sigterm(sigterm)
+        logging.getLogger("aeroid").removeHandler(notices)
+
+
+def _run(args: argparse.Namespace, quiet: bool) -> int:
+    """Dispatch the command; every way it can end is one line on stderr and a status."""
+    from aeroid.errors import USER_ERRORS
+
+    resume = ("; run the same command with --resume to complete only what is missing"
+              if args.command == "study" else "")
     try:
         if args.command in ("estimate", "simulate", "study") and not quiet:
             from aeroid.model import kernels_cached
@@ -255,23 +267,42 @@ def main(argv: Sequence[str] | None = None) -> int:
             if not kernels_cached():
                 print("aeroid: compiling the numerical kernels once (about 20-60 s; "
                       "cached for later runs)", file=sys.stderr)
+        lines = WarningLines()
         with warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
-            warnings.showwarning = _show_warning(warnings.showwarning)
-            return _dispatch(args)
+            warnings.showwarning = lines
+            try:
+                status = _dispatch(args)
+            finally:
+                lines.summary()
+        sys.stdout.flush()  # a full disk behind '> file' shows here, not at exit
+        return status
+    except BrokenPipeError:
+        drop_stdout()
+        return _fail(args, "standard output was closed before everything was written "
+                     "(broken pipe)")
     except USER_ERRORS as exc:
-        if args.debug:
-            raise
-        message = " ".join(str(exc).split("\n")) or type(exc).__name__
-        print(f"aeroid: error: {message}", file=sys.stderr)
-        return 2
+        return _fail(args, " ".join(str(exc).split("\n")) or type(exc).__name__)
+    except OSError as exc:  # output that cannot be written, a name too long, a loop...
+        if getattr(exc, "filename", None) == "standard output":
+            drop_stdout()
+        return _fail(args, os_message(exc))
+    except RecursionError:
+        return _fail(args, "input nested too deeply to read (thousands of levels)")
+    except Terminated:
+        print(f"aeroid: terminated by SIGTERM{resume}", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
-        hint = ("; run the same command with --resume to complete only what is missing"
-                if args.command == "study" else "")
-        print(f"aeroid: interrupted{hint}", file=sys.stderr)
+        print(f"aeroid: interrupted{resume}", file=sys.stderr)
         return 130
-    finally:
-        logging.getLogger("aeroid").removeHandler(notices)
+
+
+def _fail(args: argparse.Namespace, message: str) -> int:
+    """Print ``aeroid: error: MESSAGE`` (or re-raise with --debug); return status 2."""
+    if args.debug:
+        raise  # noqa: PLE0704 - called only from an except block of _run
+    print(f"aeroid: error: {message}", file=sys.stderr)
+    return 2
 
 
 class _NoticeHandler(logging.Handler):

@@ -8,10 +8,22 @@ status 2.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from aeroid.errors import UsageError
 
 __all__ = ["simulate"]
+
+
+def _exists(folder: Path) -> bool:
+    """Whether ``folder`` exists; a name the system refuses (too long, a loop) says why."""
+    try:
+        folder.stat()
+    except FileNotFoundError:
+        return False
+    except OSError as exc:
+        raise UsageError(f"-o: folder {folder}: {exc.strerror or exc}") from None
+    return True
 
 
 def simulate(args: argparse.Namespace) -> int:
@@ -20,14 +32,18 @@ def simulate(args: argparse.Namespace) -> int:
     from aeroid.flights._simulate import simulate as simulate_flight
     from aeroid.model._airframe import read_toml
 
-    if not args.output.parent.exists():
+    if not _exists(args.output.parent):
         raise UsageError(f"{args.output}: folder {args.output.parent} does not exist")
     scenario = load_scenario(args.scenario)
     data = read_toml(args.scenario) if args.scenario else reference_scenario_data()
     noise = noise_for(data, args.noise)
     flight = simulate_flight(scenario.airframe, scenario.coefficient_vector,
                              scenario.manoeuvre, noise, rng=args.seed)
-    sidecar = flight.write(args.output)
+    try:
+        sidecar = flight.write(args.output)
+    except OSError as exc:  # a full disk, /proc, a name over 255 bytes, no permission
+        raise UsageError(f"-o {args.output}: cannot write the flight: "
+                         f"{exc.strerror or exc}") from None
     print(f"wrote {args.output} ({flight.n_samples} samples, noise {args.noise}, "
           f"seed {args.seed}) and {sidecar}")
     return 0

@@ -7,6 +7,8 @@ estimators of the quick study that are not installed are skipped with a warning 
 ``results/<study name>/`` unless ``--out`` says otherwise; the last line printed says
 where it is. A folder that already holds a study's results is refused unless
 ``--resume`` (complete it) or ``--overwrite`` (move it aside into ``previous-N/``).
+One study writes a folder at a time (``study.lock``, :mod:`aeroid.study._lock`); a
+report that cannot be written (a full disk) keeps the records and says so in one line.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ def default_out(name: str) -> Path:
 
 def study(args: argparse.Namespace) -> int:
     """Run ``aeroid study``; return the exit status (0 also when some fits failed)."""
-    from aeroid.study import load_study, run_study, write_report
+    from aeroid.study import load_study, run_study, study_lock, write_report
     from aeroid.study._executors import check_scheduler
     from aeroid.study._store import check_out_dir
 
@@ -55,13 +57,24 @@ def study(args: argparse.Namespace) -> int:
     print(f"study {design.name}: {design.runs} runs x {len(design.noise)} noise x "
           f"{len(design.estimators)} estimators = {design.n_fits} fits on {where}",
           file=sys.stderr)
-    outcome = run_study(design, out, jobs=args.jobs, scheduler=args.scheduler,
-                        dask_local=args.dask_local, resume=args.resume,
-                        overwrite=args.overwrite,
-                        progress=False if args.no_progress else None)
-    command = "aeroid " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
-        if Path(sys.argv[0]).name == "aeroid" else ""
-    report = write_report(design, out, outcome.records, command=command)
+    with study_lock(out) as notes:
+        for note in notes:
+            print(f"aeroid: {note}", file=sys.stderr)
+        outcome = run_study(design, out, jobs=args.jobs, scheduler=args.scheduler,
+                            dask_local=args.dask_local, resume=args.resume,
+                            overwrite=args.overwrite,
+                            progress=False if args.no_progress else None)
+        command = "aeroid " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
+            if Path(sys.argv[0]).name == "aeroid" else ""
+        try:
+            report = write_report(design, out, outcome.records, command=command)
+        except (StudyError, OSError) as exc:  # a full disk: the records are safe already
+            reason = " ".join(str(exc).split()) if isinstance(exc, StudyError) else \
+                f"{exc.filename or out}: {exc.strerror or exc}"
+            raise StudyError(f"the report was not written ({reason}); all "
+                             f"{len(outcome.records)} fit records are kept in "
+                             f"{out / 'results.jsonl'}: free some space, then run the same "
+                             "command with --resume to write the report") from None
     print(f"{outcome.n_new} new fits in {outcome.wall_time_s:.1f} s; "
           f"{outcome.n_failed} of {len(outcome.records)} fits failed", file=sys.stderr)
     print(f"report: {report}")

@@ -91,10 +91,10 @@ def gyro_only_floor(flight: Flight, theta: np.ndarray, *,
     state0 = states[0].copy()
     window = min(7, states.shape[0] - 1 + states.shape[0] % 2)
     state0[3:6] = smooth(states[:window, 3:6], window, min(2, window - 1))[0]
-    with np.errstate(all="ignore"):
-        sens = model.sensitivities(state0, theta, free_states=("p",))
-    cols = [NAMES.index(name) for name in GYRO_FLOOR_NAMES] + [len(NAMES)]
-    jac = sens[:, model.output_names.index("p"), cols]  # (n, 3)
+    roll = [NAMES.index(name) for name in GYRO_FLOOR_NAMES]  # only these: 6 trajectories,
+    with np.errstate(all="ignore"):  # not 20 (a 560,000-sample log peaked at 2.7 GB here)
+        sens = model.sensitivities(state0, theta, free_states=("p",), coefficients=roll)
+    jac = sens[:, model.output_names.index("p"), :]  # (n, 3): Cl0, Clp, p0
     if not np.all(np.isfinite(jac)):
         return np.full(len(GYRO_FLOOR_NAMES), np.nan)
     weight = np.zeros_like(sd)

@@ -11,7 +11,9 @@ angle's derivative against eq. 8, ``phidot = p + (q sin phi + r cos phi) tan the
 the pitch angle's derivative against eq. 9, ``thetadot = q cos phi - r sin phi``, and
 the logged alpha and beta against ``atan(w/u)`` and ``asin(v/V)`` (eqs. 14-16). A
 least-squares scale ``k`` between the two sides is 1 for consistent data, about 1/57.3
-for rates in deg/s with angles in radians and about 57.3 for angles in degrees.
+for rates in deg/s with angles in radians and about 57.3 for angles in degrees. The
+per-sample inputs (mass, thrust, inertias, atmosphere) are checked against ranges, the
+airframe and the altitude's change by :mod:`aeroid.flights._input_checks`.
 """
 
 from __future__ import annotations
@@ -29,6 +31,13 @@ from aeroid.flights._channels import (
 )
 from aeroid.flights._channels import (
     UNITS as PER_SAMPLE_UNITS,
+)
+from aeroid.flights._input_checks import (
+    ALTITUDE_RATE,
+    altitude_hint,
+    altitude_pair,
+    check_inputs,
+    range_hint,
 )
 from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
 from aeroid.model._airframe import Airframe
@@ -112,6 +121,7 @@ def check_flight(data: pd.DataFrame, airframe: Airframe) -> tuple[list[str], lis
     spikes = _spikes(finite)
     errors.extend(spikes)
     errors.extend(_ranges(finite, airframe, warns))
+    check_inputs(finite, airframe, errors, warns)
     if clean and not errors:
         _kinematics(finite, errors, warns)
     return errors, warns
@@ -148,7 +158,8 @@ def _per_sample(values: dict[str, np.ndarray], airframe: Airframe) -> list[str]:
     low, high = AIRFRAME_LIMITS["altitude_m"]
     if altitude is not None and np.all(np.isfinite(altitude)) and (
             np.any(altitude < low) or np.any(altitude > high)):
-        found.append(f"channel 'altitude' outside the ISA model's {low:g} to {high:g} m")
+        found.append(f"channel 'altitude' outside the ISA model's {low:g} to {high:g} m"
+                     f"{range_hint('altitude', altitude, low, high)}")
     return found
 
 
@@ -258,6 +269,9 @@ def _kinematics(finite: dict[str, np.ndarray], errors: list[str], warns: list[st
             if "beta" in have:
                 pairs.append(("beta", "asin(v/V) (eq. 16)", finite["beta"],
                               np.arcsin(v / np.sqrt(u * u + v * v + w * w))))
+    climb = altitude_pair(finite)
+    if climb is not None:
+        pairs.append(climb)
     for left, right, y, x in pairs:
         k = _scale(y, x)
         if k is None:
@@ -265,10 +279,12 @@ def _kinematics(finite: dict[str, np.ndarray], errors: list[str], warns: list[st
         off = abs(math.log(abs(k))) if k != 0 else math.inf
         line = f"{left} is {k:.3g} x {right}"
         if k < 0 or off > math.log(KINEMATIC_ERROR_FACTOR):
-            errors.append(f"{line}: {_hint(k, left if left in ('alpha', 'beta') else None)}")
+            errors.append(f"{line}: " + (altitude_hint(k) if left == ALTITUDE_RATE else
+                                         _hint(k, left if left in ("alpha", "beta") else None)))
         elif off > math.log(KINEMATIC_WARN_FACTOR):
-            warns.append(f"{line}: check the gyro scale, the time column and the axis "
-                         "conventions")
+            warns.append(f"{line}: " + ("check the altitude's unit and the time column"
+                                        if left == ALTITUDE_RATE else "check the gyro scale, "
+                                        "the time column and the axis conventions"))
 
 
 def _scale(y: np.ndarray, x: np.ndarray) -> float | None:

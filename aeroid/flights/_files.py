@@ -163,6 +163,12 @@ def read_flight(
     parquet = path.suffix == ".parquet"
     header = _parquet_header(path) if parquet else _csv_header(path)
     names = _mapped_names(header, columns, path)
+    padded = [h for h, n in zip(header, names, strict=True) if n not in CHANNELS
+              and h.strip() in CHANNELS]  # "t, ax1, ...": a space after each comma
+    if padded:
+        raise FlightError(f"{path}: column name(s) {', '.join(map(repr, padded[:4]))}"
+                          f"{', ...' if len(padded) > 4 else ''} have spaces around them; "
+                          "names must match exactly: remove the spaces from the header")
     metadata, sidecar_airframe, sidecar_note = read_sidecar(path, need_airframe=airframe is None)
     airframe = airframe or sidecar_airframe
     if airframe is None:

@@ -210,8 +210,9 @@ def make_noise(name: str, **options: Any) -> NoiseModel:
         return cls(**options)  # type: ignore[no-any-return]
     except TypeError:
         allowed = [f.name for f in fields(cls) if f.name != "name"]
+        unknown = sorted(str(k) for k in options if k not in allowed)
         raise AirframeError(
-            f"noise model {name!r}: unknown option(s) {sorted(options)}; allowed {allowed}"
+            f"noise model {name!r}: unknown option(s) {unknown}; allowed {allowed}"
         ) from None
 
 

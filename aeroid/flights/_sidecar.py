@@ -76,9 +76,18 @@ def read_sidecar(path: Path, *, need_airframe: bool
     if size > MAX_SIDECAR_BYTES:
         return {}, None, f"{sidecar.name} is not an aeroid sidecar: {size} bytes"
     try:
-        payload = json.loads(sidecar.read_bytes())
-    except (ValueError, OSError):
+        raw = sidecar.read_bytes()
+    except OSError as exc:  # it may be this flight's sidecar: say why it is not read
+        raise FlightError(f"{sidecar}: cannot read the sidecar ({exc.strerror or exc}); "
+                          "make it readable, or move it away if it is not aeroid's") from None
+    try:
+        payload = json.loads(raw)
+    except ValueError:
         return {}, None, f"{sidecar.name} is not an aeroid sidecar: not JSON"
+    except RecursionError:  # json's parser recurses once per nested array or object
+        raise FlightError(f"{sidecar}: JSON nested too deeply to read (thousands of levels; "
+                          "aeroid's nest a few); move it away if it is not aeroid's"
+                          ) from None
     tag = payload.get("format") if isinstance(payload, dict) else None
     if not (isinstance(tag, str) and tag.startswith("aeroid-flight/")):
         return {}, None, (f"{sidecar.name} is not an aeroid sidecar: no \"format\": "

@@ -371,6 +371,8 @@ class Airframe:
                     if set(unknown) & set(SCENARIO_TABLES) else "")
             raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
                                 f"(allowed: {', '.join(known)}){hint}")
+        for name in (t for t in AIRFRAME_TABLES if t in data):  # `airframe = 5` is no table
+            check_table(data[name], f"{source}: [{name}]")
         for name in ("airframe", "atmosphere"):
             if name not in data:
                 what = ("exactly one of altitude_m, density_kgm3 or per_sample; aeroid "

@@ -64,11 +64,25 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         with path.open("rb") as fh:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
-        raise AirframeError(f"{path}: malformed TOML ({exc})") from None
+        raise AirframeError(f"{path}: malformed TOML ({exc}){_bom_hint(path)}") from None
+    except RecursionError:  # tomllib recurses once per nested array or inline table
+        raise AirframeError(f"{path}: malformed TOML (arrays or tables nested thousands "
+                            "deep)") from None
     except UnicodeDecodeError:
         raise AirframeError(f"{path}: malformed TOML (not UTF-8 text)") from None
     except OSError as exc:
         raise AirframeError(f"{path}: cannot read ({exc.strerror})") from None
+
+
+def _bom_hint(path: Path) -> str:
+    """A hint when the file starts with a UTF-8 byte-order mark (TOML forbids it)."""
+    try:
+        with path.open("rb") as fh:
+            bom = fh.read(3) == b"\xef\xbb\xbf"
+    except OSError:
+        return ""
+    return ("; the file starts with a UTF-8 byte-order mark (BOM), which TOML does not "
+            "allow: save it as UTF-8 without BOM" if bom else "")
 
 
 def _toml_value(value: Any) -> str:
@@ -114,14 +128,25 @@ def check_keys(table: Mapping[str, Any], allowed: Collection[str], where: str,
 
 
 def is_number(value: Any) -> bool:
-    """Return True for a real number that is not a boolean (finite or not)."""
-    return isinstance(value, Real) and not isinstance(value, bool)
+    """Return True for a real number that is not a boolean (finite or not) and is a float.
+
+    An integer beyond the float range (TOML and JSON read a 400-digit integer exactly)
+    is not one: ``float()`` of it raises OverflowError.
+    """
+    if not isinstance(value, Real) or isinstance(value, bool):
+        return False
+    try:
+        float(value)
+    except OverflowError:
+        return False
+    return True
 
 
 def number(value: Any, where: str) -> float:
     """Return ``value`` as a finite float; a boolean or text is not a number."""
     if not is_number(value) or not math.isfinite(float(value)):
-        raise AirframeError(f"{where} must be a finite number, got {_shown(value)}")
+        raise AirframeError(f"{where} must be a finite number, got {_shown(value)}"
+                            f"{_too_large(value)}")
     return float(value)
 
 
@@ -148,6 +173,13 @@ def text(value: Any, where: str) -> str:
     if not isinstance(value, str) or not value.strip():
         raise AirframeError(f"{where} must be a non-empty string, got {_shown(value)}")
     return value
+
+
+def _too_large(value: Any) -> str:
+    """`` (an integer of N digits, beyond the float range)`` for such a value, else ``""``."""
+    if isinstance(value, int) and not isinstance(value, bool) and not is_number(value):
+        return f" (an integer of {len(str(abs(value)))} digits, beyond the float range)"
+    return ""
 
 
 def _shown(value: Any) -> str:

@@ -44,6 +44,13 @@ from aeroid.model._integrate import propagate
 #: Default relative step of the central-difference sensitivities (the floor's decision:
 #: measured error <= 4e-7 of each column's largest entry on the reference flight).
 DEFAULT_REL_STEP = 1e-5
+#: Memory for the perturbed trajectories of one block of :meth:`ForwardModel.sensitivities`
+#: [bytes]; the reference flight's 24 trajectories of 501 samples take 1.7 MB (one block).
+SENSITIVITY_BLOCK_BYTES = 256 * 2**20
+#: Arrays of a trajectory's size (states and outputs) counted per trajectory of a block:
+#: a margin for the accelerometer equations' temporaries (an allowance, not a
+#: measurement; benchmarks/bench_memory.py measures the whole fit).
+SENSITIVITY_TEMPORARIES = 4
 
 
 class ForwardModel:
@@ -149,12 +156,13 @@ class ForwardModel:
         return np.where(np.isfinite(cost), cost, np.inf)
 
     def sensitivities(self, state0: np.ndarray, theta: np.ndarray, *,
-                      free_states: Sequence[str] = (), rel_step: float = DEFAULT_REL_STEP
-                      ) -> np.ndarray:
-        """Return ``d y_kc / d (theta, x0)`` by central differences, shape (n, m, 9 + f).
+                      free_states: Sequence[str] = (), rel_step: float = DEFAULT_REL_STEP,
+                      coefficients: Sequence[int] | None = None) -> np.ndarray:
+        """Return ``d y_kc / d (theta, x0)`` by central differences, shape (n, m, c + f).
 
-        Axes: sample, output channel, parameter (the nine coefficients, then the initial
-        state components named in ``free_states``, e.g. ``("p", "q", "r")``). The step of
+        Axes: sample, output channel, parameter (the nine coefficients, or those indexed
+        by ``coefficients`` in that order, then the initial state components named in
+        ``free_states``, e.g. ``("p", "q", "r")``). The step of
         coefficient j is ``rel_step |theta_j|`` (``rel_step`` when theta_j = 0), that of a
         state component ``rel_step max(|x0_i|, 1)``; all perturbed trajectories are
         integrated in one batched call.
@@ -171,20 +179,34 @@ class ForwardModel:
             raise ValueError(f"forward model: unknown state name(s) {unknown} "
                              f"(expected some of {', '.join(STATE_NAMES)})")
         idx = [STATE_NAMES.index(name) for name in free_states]
-        n_par = N_COEFFICIENTS + len(idx)
-        step = np.concatenate([rel_step * np.where(theta != 0, np.abs(theta), 1.0),
+        coefs = list(range(N_COEFFICIENTS)) if coefficients is None else list(coefficients)
+        n_coef = len(coefs)
+        n_par = n_coef + len(idx)
+        step = np.concatenate([rel_step * np.where(theta != 0, np.abs(theta), 1.0)[coefs],
                                rel_step * np.maximum(np.abs(state0[idx]), 1.0)])
         thetas = np.tile(theta, (2 * n_par, 1))
         states = np.tile(state0, (2 * n_par, 1))
         for j in range(n_par):
             for sign, row in ((1.0, j), (-1.0, n_par + j)):
-                if j < N_COEFFICIENTS:
-                    thetas[row, j] += sign * step[j]
+                if j < n_coef:
+                    thetas[row, coefs[j]] += sign * step[j]
                 else:
-                    states[row, idx[j - N_COEFFICIENTS]] += sign * step[j]
-        y = self.outputs(states, thetas)
-        jac = (y[:n_par] - y[n_par:]) / (2.0 * step[:, None, None])
-        return np.moveaxis(jac, 0, -1)
+                    states[row, idx[j - n_coef]] += sign * step[j]
+        # in blocks of parameters: a 560,000-sample log integrated all 2 x 12 perturbed
+        # trajectories at once and peaked at gigabytes; each trajectory is integrated on
+        # its own either way, so the blocks give the same numbers
+        block = max(1, SENSITIVITY_BLOCK_BYTES // (2 * 8 * SENSITIVITY_TEMPORARIES
+                                                  * self.n_samples * (N_STATE + len(
+                                                      self.output_names))))
+        jac = np.empty((self.n_samples, len(self.output_names), n_par))
+        for lo in range(0, n_par, block):
+            rows = np.r_[lo:min(lo + block, n_par)]
+            y = self.outputs(states[np.r_[rows, n_par + rows]],
+                             thetas[np.r_[rows, n_par + rows]])
+            k = rows.size
+            jac[:, :, rows] = np.moveaxis((y[:k] - y[k:]) / (2.0 * step[rows, None, None]),
+                                          0, -1)
+        return jac
 
 
 # --------------------------------------------------------------------------------------

@@ -8,6 +8,7 @@
 
 from aeroid.study._design import load_study, loads_study
 from aeroid.study._histories import load_history
+from aeroid.study._lock import study_lock
 from aeroid.study._provenance import code_identity
 from aeroid.study._runner import StudyOutcome, run_study
 from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study
@@ -15,7 +16,7 @@ from aeroid.study._store import read_design, read_results
 
 __all__ = ["EstimatorSpec", "NoiseCondition", "Study", "StudyOutcome", "code_identity",
            "load_history", "load_study", "loads_study", "read_design", "read_results",
-           "run_study", "write_report"]
+           "run_study", "study_lock", "write_report"]
 
 
 def __getattr__(name: str):  # the report pulls in matplotlib: import it on first use

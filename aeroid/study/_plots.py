@@ -14,6 +14,8 @@ Every function takes plain arrays/tables, writes one PNG and returns its path.
 
 from __future__ import annotations
 
+import contextlib
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -34,10 +36,19 @@ _PLAIN = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
 
 
 def _save(fig: Any, path: str | Path) -> Path:
+    """Write ``fig`` as PNG through ``path.tmp`` and a rename: never a truncated PNG."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(tmp, dpi=DPI, format="png")
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    finally:
+        plt.close(fig)
     return path
 
 

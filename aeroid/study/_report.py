@@ -39,7 +39,13 @@ from aeroid.study._floors import (
 from aeroid.study._histories import read_history
 from aeroid.study._paper import PAPER_METHODS, paper_condition, paper_errors, paper_results
 from aeroid.study._spec import Study
-from aeroid.study._store import DESIGN_FILE, RESULTS_FILE, read_design, read_results
+from aeroid.study._store import (
+    DESIGN_FILE,
+    RESULTS_FILE,
+    read_design,
+    read_results,
+    write_atomic,
+)
 
 #: Below this many runs the report is compact (no bias/spread/coverage table).
 COMPACT_RUNS = 10
@@ -366,11 +372,14 @@ def write_report(study: Study, out_dir: str | Path,
     cramer_rao = {(noise, label): entry.get(key) for noise, entry in floors.items()
                   for label, key in reachable_floors(study).items()}
     summary = metrics.summarize(tidy, cramer_rao)
-    tidy.to_csv(out_dir / "results.csv", index=False)
-    summary.to_csv(out_dir / "summary.csv", index=False)
+    # every file through a temporary name and a rename: a kill or a full disk leaves the
+    # previous file or none, never a truncated one
+    write_atomic(out_dir / "results.csv", tidy.to_csv(index=False).encode())
+    write_atomic(out_dir / "summary.csv", summary.to_csv(index=False).encode())
     paths = make_figures(study, tidy, summary, out_dir, records, floors) if figures else []
     report = out_dir / "report.md"
-    report.write_text(markdown(study, summary, floors, paths, out_dir, command, floors_from))
+    write_atomic(report, markdown(study, summary, floors, paths, out_dir, command,
+                                  floors_from).encode())
     return report
 
 

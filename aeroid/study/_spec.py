@@ -193,7 +193,8 @@ def check_prior_offset(value: Any, source: str = "<memory>") -> tuple[float, flo
     """
     where = f"{source}: [study] prior_offset"
     if (not isinstance(value, list | tuple) or len(value) != 2
-            or any(isinstance(v, bool) or not isinstance(v, int | float) for v in value)):
+            or any(isinstance(v, bool) or not isinstance(v, int | float) for v in value)
+            or any(isinstance(v, int) and abs(v) > 1e308 for v in value)):  # float() overflows
         raise StudyError(f"{where} must be two numbers [lo, hi], got {value!r}")
     lo, hi = (float(v) for v in value)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 <= lo <= hi < 1.0):

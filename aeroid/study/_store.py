@@ -111,13 +111,23 @@ def check_out_dir(out_dir: str | Path) -> Path:
         (a study writes and moves files: it gets a folder of its own).
     """
     path = Path(out_dir)
-    if path.exists() and not path.is_dir():
-        raise StudyError(f"--out {path}: is a file, not a folder")
-    resolved, cwd = path.resolve(), Path.cwd().resolve()
+    try:
+        if path.exists() and not path.is_dir():
+            raise StudyError(f"--out {path}: is a file, not a folder")
+        resolved, cwd = path.resolve(strict=False), Path.cwd().resolve()
+    except (OSError, RuntimeError) as exc:  # RuntimeError: pathlib's symlink loop
+        reason = getattr(exc, "strerror", None) or "a symbolic link loop"
+        raise StudyError(f"--out {_short(path)}: cannot use it as a folder: {reason}") from None
     if resolved == cwd or resolved in cwd.parents:
         raise StudyError(f"--out {path}: is the working directory or one of its parents; "
                          "a study needs a folder of its own (e.g. --out results/NAME)")
     return path
+
+
+def _short(path: Path, limit: int = 200) -> str:
+    """``path`` for a message: a 5000-character name is cut to its start and end."""
+    text = str(path)
+    return text if len(text) <= limit else f"{text[:90]}...{text[-90:]} ({len(text)} characters)"
 
 
 def study_files(out_dir: Path) -> list[str]:
@@ -161,8 +171,8 @@ def move_aside(out_dir: Path) -> Path | None:
 
 
 def remove_temporary(out_dir: Path) -> None:
-    """Remove temporary files left by a killed writer (``*.tmp`` in the store)."""
-    for folder in (out_dir, out_dir / HISTORY_DIR):
+    """Remove temporary files left by a killed writer (``*.tmp`` in the store, figures)."""
+    for folder in (out_dir, out_dir / HISTORY_DIR, out_dir / "figures"):
         if folder.is_dir():
             for p in folder.glob(f"*{TMP_SUFFIX}"):
                 with contextlib.suppress(OSError):
