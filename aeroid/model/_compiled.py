@@ -125,7 +125,10 @@ def sources_digest(paths: tuple[str, ...] = INLINED_SOURCES) -> str:
 
 
 if HAVE_NUMBA:
-    _DIGEST = sources_digest()
+    try:
+        _DIGEST: str | None = sources_digest()
+    except OSError:  # the sources are no readable files (a zipped install): no disk cache
+        _DIGEST = None
 
     class _SourcesKeyedCache(FunctionCache):  # type: ignore[misc]
         """numba's disk cache of one kernel, stamped with every source the kernel inlines.
@@ -145,11 +148,12 @@ if HAVE_NUMBA:
         """Return ``numba.njit(**options)`` with the disk cache of :class:`_SourcesKeyedCache`.
 
         Used in place of ``cache=True`` (which would stamp the cache with this file only).
+        Without readable sources the kernels are compiled in every process, never cached.
         """
         def decorate(fn: Callable[..., Any]) -> Any:
             kernel = numba.njit(**options)(fn)
-            # what numba's Dispatcher.enable_caching does, with the stamp above
-            kernel._cache = _SourcesKeyedCache(kernel.py_func)
+            if _DIGEST is not None:  # what numba's Dispatcher.enable_caching does, restamped
+                kernel._cache = _SourcesKeyedCache(kernel.py_func)
             return kernel
         return decorate
 
