@@ -412,9 +412,10 @@ def _prior_tuple(prior: Any) -> tuple[float, ...]:
         check_keys(prior, NAMES, "airframe prior", required=NAMES)
         prior = [prior[n] for n in NAMES]
     try:
-        return numbers(prior, 9, "airframe prior")
+        return numbers(prior, len(NAMES), "airframe prior")
     except AirframeError:
-        raise AirframeError(f"airframe prior: expected 9 finite values, got {prior!r}") from None
+        raise AirframeError(f"airframe prior: expected {len(NAMES)} finite values, got {prior!r}"
+                            ) from None
 
 
 def load_airframe(path: str | Path) -> Airframe:
