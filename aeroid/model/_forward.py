@@ -162,7 +162,8 @@ class ForwardModel:
         theta = as_vector(np.asarray(theta, dtype=float))
         state0 = np.asarray(state0, dtype=float)
         if theta.shape != (N_COEFFICIENTS,) or state0.shape != (N_STATE,):
-            raise ValueError(f"forward model: sensitivities need theta (9,) and state0 (9,), "
+            raise ValueError(f"forward model: sensitivities need theta ({N_COEFFICIENTS},) and "
+                             f"state0 ({N_STATE},), "
                              f"got {theta.shape} and {state0.shape}")
         if not (math.isfinite(rel_step) and 0 < rel_step < 1):
             raise ValueError(f"forward model: rel_step must be in (0, 1), got {rel_step}")
