@@ -212,12 +212,12 @@ if HAVE_NUMBA:
     @cached_kernel(fastmath=FASTMATH_FLAGS)
     def integrate_set(x0, c0, end, start, stop, exo, varying, dt, substeps, base,
                       out):  # pragma: no cover - compiled
-        """Integrate one coefficient set over the record into ``out`` (n_samples, 9).
+        """Integrate one coefficient set over the record into ``out`` (n_samples, N_STATE).
 
         Interval ``s`` is cut into the pieces ``end[s]`` (fractions; the deflection goes
         linearly from ``start`` to ``stop`` within a piece, constant when they are
         equal), each integrated with ``substeps`` RK4 steps; with ``varying`` the
-        exogenous table ``exo`` (n, 7) is interpolated linearly within the interval,
+        exogenous table ``exo`` (n, len(EXOGENOUS)) is interpolated linearly within the interval,
         otherwise the constants ``base`` hold.
         """
         c = coefficients_from_array(c0)
@@ -300,7 +300,7 @@ if HAVE_NUMBA:
         """Return ``(1/n) sum_k sum_c w_kc (z_kc - y_kc)^2`` for every set, shape (n_sets,).
 
         ``y`` are the model outputs (eq. 28 at each triad position, then the rate gyros)
-        of the trajectories ``states`` (n_sets, n, 9) with the deflection ``delta`` (n,)
+        of the trajectories ``states`` (n_sets, n, N_STATE) with the deflection ``delta`` (n,)
         and the constants (``base``, or the rows of ``exo`` with ``varying``) at the
         samples; ``z``, ``w`` (n, 3 n_triads + 3).
         """

@@ -140,7 +140,8 @@ class ForwardModel:
         with np.errstate(all="ignore"):
             if self.backend == "numba":
                 varying = self.record.exogenous is not None
-                table = self.record.exogenous if varying else np.zeros((1, 7))
+                table = (self.record.exogenous if varying
+                         else np.zeros((1, len(inputs.EXOGENOUS))))
                 cost = _compiled.weighted_cost(states, self.delta, theta, self.const, table,
                                                varying, self.positions, measured, weights)
             else:
