@@ -78,6 +78,7 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AeroidError, EstimatorError
+from aeroid.estimation._objectives import EAM_OUTPUTS
 from aeroid.flights._flight import Flight
 from aeroid.flights._noise import NOISE_FORMS, GaussianNoise, NoiseModel, NoNoise, PaperNoise
 from aeroid.flights._record import flight_record
@@ -93,7 +94,7 @@ from aeroid.model._inputs import Record
 #: (the EAM output set: triad 1 at [Rx1, 0, 0] only).
 CHANNEL_SETS: dict[str, tuple[int, ...]] = {
     "both": tuple(range(len(OUTPUT_CHANNELS))),
-    "triad1": (0, 1, 2, 6, 7, 8),
+    "triad1": tuple(OUTPUT_CHANNELS.index(c) for c in EAM_OUTPUTS),
 }
 #: Options of :func:`cramer_rao_sd` that reproduce the reference README's floor (an
 #: independent prototype): one standard deviation per channel, triad 1 and the rates
