@@ -14,7 +14,7 @@ from scipy.signal import savgol_filter
 import aeroid
 from aeroid import estimation
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import INPUTS, Flight, flight_record, model_constants
+from aeroid.flights import INPUTS, Flight, PaperNoise, flight_record, model_constants
 from aeroid.model import Buffered, Pieces, Record, symbolic
 from baselines import _gauss_newton, _kalman
 
@@ -23,12 +23,18 @@ SG_WINDOW = 7
 #: float32 log keeps 7 significant digits) [relative to the channel's RMS; and m/s or rad].
 INITIAL_SD_FLOOR_REL = 1e-6
 INITIAL_SD_FLOOR = 1e-6
-#: Default uniform noise amplitude of eq. 43 (the paper's xi on accelerations and rates).
-PAPER_XI = 0.05
+#: The filters' augmented state ``[x, theta, d]``: the model's states, its coefficients,
+#: then the offsets of the free position components (sizes from the model).
+STATES = slice(0, aeroid.model.N_STATE)
+COEFFICIENTS = slice(aeroid.model.N_STATE, aeroid.model.N_STATE + aeroid.model.N_COEFFICIENTS)
+#: State columns of the body rates and of the Euler angles; output columns of the gyros.
+RATES = slice(aeroid.model.P, aeroid.model.R + 1)
+ANGLES = slice(aeroid.model.PHI, aeroid.model.PSI + 1)
+GYROS = slice(len(aeroid.model.ACCEL_CHANNELS), len(aeroid.model.OUTPUT_CHANNELS))
 
 
 def measurements(flight: Flight) -> np.ndarray:
-    """Return the measurement matrix ``[ax1, ay1, az1, ax2, ay2, az2, p, q, r]``, (n, 9)."""
+    """Return the measurement matrix ``[ax1, ay1, az1, ax2, ay2, az2, p, q, r]``, (n, m)."""
     return np.column_stack([flight[c] for c in aeroid.model.OUTPUT_CHANNELS])
 
 
@@ -44,11 +50,12 @@ def measurement_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float)
 
     ``"data"``: :func:`aeroid.estimation.estimate_noise_sd` (RMS of the 7-point SG
     residual over the samples whose window holds no relay switch); ``"paper"``: the sd of
-    eq. 43's multiplicative uniform noise, ``xi / sqrt(3) * RMS(y)`` with ``xi = 0.05``.
+    eq. 43's multiplicative uniform noise at the paper's xi, ``xi / sqrt(3) * RMS(y)``
+    (:meth:`aeroid.flights.PaperNoise.output_sd`, homoscedastic form).
     Both floored at ``floor_rel`` times the channel's RMS.
     """
     if method == "paper":
-        sd = PAPER_XI / math.sqrt(3.0) * np.sqrt(np.mean(y * y, axis=0))
+        sd = PaperNoise().output_sd(y, form="homoscedastic")[0]
         return np.maximum(sd, floor_rel * np.sqrt(np.mean(y * y, axis=0)))
     if method == "data":
         return estimation.estimate_noise_sd(
@@ -75,7 +82,7 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
     pos_flat = flight.airframe.accel_positions.ravel()
     varying = record.exogenous is not None
     free = tuple(position_free)
-    n_aug = 18 + len(free)
+    n_aug = COEFFICIENTS.stop + len(free)
     f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying,
                                         free)
 
@@ -104,25 +111,27 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
         # (measured, 45 sigma points; equal to 2e-16)
         interval = Pieces(*(a[k:k + 1] for a in record.pieces))
         exo = None if not varying else record.exogenous[k:k + 2]
-        x_next = aeroid.model.propagate(Z[:, :9], Z[:, 9:18], interval, record.dt, const,
+        x_next = aeroid.model.propagate(Z[:, STATES], Z[:, COEFFICIENTS], interval, record.dt,
+                                        const,
                                         substeps=substeps, exogenous=exo,
                                         parallel=False)[:, 1]
-        return np.concatenate([x_next, Z[:, 9:]], axis=1)
+        return np.concatenate([x_next, Z[:, STATES.stop:]], axis=1)
 
     def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
         const_k = const if not varying else aeroid.model.with_exogenous(
             const, record.exogenous[k])
         pos = np.tile(pos_flat, (len(Z), 1))  # per sigma point
         for j, c in enumerate(free):
-            pos[:, c] += Z[:, 18 + j]
+            pos[:, c] += Z[:, COEFFICIENTS.stop + j]
         eq = aeroid.model.equations
-        x = aeroid.model.as_state(Z[:, :9])
-        loads = eq.aerodynamic_loads(x, aeroid.model.as_coefficients(Z[:, 9:18]), delta[k],
-                                     const_k)
+        x = aeroid.model.as_state(Z[:, STATES])
+        loads = eq.aerodynamic_loads(x, aeroid.model.as_coefficients(Z[:, COEFFICIENTS]),
+                                     delta[k], const_k)
         acc = [eq.accelerometer(x, loads, const_k, *pos[:, 3 * t:3 * t + 3].T) for t in (0, 1)]
-        return np.column_stack([*acc[0], *acc[1], Z[:, 3:6]])
+        return np.column_stack([*acc[0], *acc[1], Z[:, RATES]])
 
-    return _kalman.DiscreteModel(n_aug, 9, transition, observe, transition_batch,
+    return _kalman.DiscreteModel(n_aug, len(aeroid.model.OUTPUT_CHANNELS), transition, observe,
+                                 transition_batch,
                                  observe_batch)
 
 
@@ -295,11 +304,11 @@ class AugmentedFilterOptions(Estimator):
                              np.maximum(INITIAL_SD_FLOOR_REL * rms, INITIAL_SD_FLOOR))
         velocity_sd = (data_sd[0:3] if self.initial_velocity_sd_mps is None
                        else np.full(3, self.initial_velocity_sd_mps))
-        angle_sd = (data_sd[6:9] if self.initial_angle_sd_rad is None
+        angle_sd = (data_sd[ANGLES] if self.initial_angle_sd_rad is None
                     else np.full(3, self.initial_angle_sd_rad))
         position_sd = flight.airframe.accel_position_sd.ravel()[list(free)]
         x0 = np.concatenate([states[0], prior, np.zeros(len(free))])
-        sd0 = np.concatenate([velocity_sd, meas_sd[6:9], angle_sd,
+        sd0 = np.concatenate([velocity_sd, meas_sd[GYROS], angle_sd,
                               self.initial_coefficient_sd_rel * np.abs(prior), position_sd])
         sdq = np.concatenate([
             np.full(3, self.process_velocity_sd_mps), np.full(3, self.process_rate_sd_radps),
@@ -354,9 +363,10 @@ class AugmentedFilterOptions(Estimator):
         n_passes = 1
         while out.failed_at is None and n_passes < self.max_passes:
             x0 = setup.x0.copy()
-            x0[9:18] = out.x[-1, 9:18]
+            x0[COEFFICIENTS] = out.x[-1, COEFFICIENTS]
             P0 = setup.P0.copy()
-            P0[9:18, 9:18] = PASS_INFLATION**2 * out.P[9:18, 9:18]
+            P0[COEFFICIENTS, COEFFICIENTS] = PASS_INFLATION**2 * out.P[COEFFICIENTS,
+                                                                        COEFFICIENTS]
             law = self.innovation_noise_law(out, setup) if n_passes <= LAW_REFITS else setup.law
             nxt_setup = setup._replace(x0=x0, P0=P0, law=law)
             nxt = run_filter(model, nxt_setup)
@@ -366,8 +376,9 @@ class AugmentedFilterOptions(Estimator):
                     f"pass {n_passes} diverged at t = {flight.t[nxt.failed_at]:.4f} s "
                     f"({nxt.reason}); the result is pass {n_passes - 1}'s")
                 break
-            changes.append(float(np.max(np.abs(nxt.x[-1, 9:18] - out.x[-1, 9:18])
-                                        / nxt.sd[-1, 9:18])))
+            changes.append(float(np.max(np.abs(nxt.x[-1, COEFFICIENTS]
+                                               - out.x[-1, COEFFICIENTS])
+                                        / nxt.sd[-1, COEFFICIENTS])))
             out, setup = nxt, nxt_setup
             if changes[-1] <= PASS_TOL:
                 break
@@ -389,15 +400,15 @@ class AugmentedFilterOptions(Estimator):
                n_evaluations: int) -> EstimationResult:
         """Turn a filter pass into an :class:`EstimationResult` (history axis 'time')."""
         t = flight.t
-        history = {"axis": "time", "step": t, "theta": out.x[:, 9:18],
-                   "theta_sd": out.sd[:, 9:18]}
-        info = {"measurement_sd": setup.meas_sd, "state": out.x[:, :9],
-                "state_sd": out.sd[:, :9]}
+        history = {"axis": "time", "step": t, "theta": out.x[:, COEFFICIENTS],
+                   "theta_sd": out.sd[:, COEFFICIENTS]}
+        info = {"measurement_sd": setup.meas_sd, "state": out.x[:, STATES],
+                "state_sd": out.sd[:, STATES]}
         if out.failed_at is not None:
             message = f"filter diverged at t = {t[out.failed_at]:.4f} s: {out.reason}"
             return aeroid.failed_result(self.name, message, history=history, info=info,
                                         n_iterations=int(out.failed_at))
-        cov = out.P[9:18, 9:18].copy()
+        cov = out.P[COEFFICIENTS, COEFFICIENTS].copy()
         # the fit check reads the innovations of the second half (after the coefficients'
         # initial uncertainty has been worked off)
         half = len(t) // 2
@@ -406,12 +417,12 @@ class AugmentedFilterOptions(Estimator):
         positions = flight.airframe.accel_positions.ravel().copy()
         position_sd = np.zeros(6)
         for j, c in enumerate(setup.position_free):
-            positions[c] += out.x[-1, 18 + j]
-            position_sd[c] = out.sd[-1, 18 + j]
+            positions[c] += out.x[-1, COEFFICIENTS.stop + j]
+            position_sd[c] = out.sd[-1, COEFFICIENTS.stop + j]
         info["accel_positions_m"] = positions.reshape(2, 3)
         info["accel_position_stderr_m"] = position_sd.reshape(2, 3)
         return EstimationResult(
-            estimator=self.name, theta=out.x[-1, 9:18], stderr=np.sqrt(np.diag(cov)),
+            estimator=self.name, theta=out.x[-1, COEFFICIENTS], stderr=np.sqrt(np.diag(cov)),
             covariance=cov, cost=math.nan, success=True, message="",
             n_evaluations=n_evaluations, n_iterations=len(t), history=history, info=info,
         )

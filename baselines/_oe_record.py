@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from aeroid.flights import Flight, exogenous, model_constants, schedule
-from aeroid.model import Buffered, Record, symbolic_record
+from aeroid.model import NAMES, OUTPUT_CHANNELS, Buffered, Record, symbolic_record
 
 #: Central-difference step of the delay sensitivity [s]: 1 us, 5e-4 of a 2 ms sample; the
 #: outputs are smooth in the delay while no knot crosses a sample within +-1 us.
@@ -45,7 +45,7 @@ class RecordModel:
         self.estimate_delay = estimate_delay
         self.delay_s = float(delay_s)
         self.delay_scale = flight.dt
-        self.n_graph = 9 + len(x0_free) + len(position_free)
+        self.n_graph = len(NAMES) + len(x0_free) + len(position_free)
         self.scale = np.asarray(scale, dtype=float)
         self._graphs: dict[int, tuple[Buffered, Buffered]] = {}
         self._last: tuple[float, Record] | None = None
@@ -93,28 +93,28 @@ class RecordModel:
 
     # OutputModel -------------------------------------------------------------------
     def outputs(self, p: np.ndarray) -> np.ndarray:
-        """Return ``y(p)``, shape (n, 9)."""
+        """Return ``y(p)``, shape (n, m)."""
         sim, _ = self._buffers(self.record(self.tau(p)))
         (y,) = sim(p[:self.n_graph])
-        return y.reshape(9, -1).T.copy()
+        return y.reshape(len(OUTPUT_CHANNELS), -1).T.copy()
 
     def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``y(p)`` (n, 9) and ``dy/dp`` (9, n, n_p)."""
+        """Return ``y(p)`` (n, m) and ``dy/dp`` (m, n, n_p)."""
         tau = self.tau(p)
         record = self.record(tau)
         _, jac = self._buffers(record)
         y, dy = jac(p[:self.n_graph])
         n = self.t.size
-        y = y.reshape(9, n).T.copy()
-        # dY (9, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) 9 + j
-        J = dy.reshape(n, -1, 9).transpose(2, 0, 1).copy()
+        y = y.reshape(len(OUTPUT_CHANNELS), n).T.copy()
+        # dY (m, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) m + j
+        J = dy.reshape(n, -1, len(OUTPUT_CHANNELS)).transpose(2, 0, 1).copy()
         if not self.estimate_delay:
             return y, J
         columns = []
         for sign in (1.0, -1.0):
             sim, _ = self._buffers(self.record(tau + sign * DELAY_STEP_S), record.delta)
             (ys,) = sim(p[:self.n_graph])
-            columns.append(ys.reshape(9, n).T.copy())  # the buffer is reused
+            columns.append(ys.reshape(len(OUTPUT_CHANNELS), n).T.copy())  # buffer is reused
         self._buffers(record)  # restore the inputs of the current delay
         d_tau = (columns[0] - columns[1]) / (2.0 * DELAY_STEP_S) * self.delay_scale
         return y, np.concatenate([J, d_tau.T[:, :, None]], axis=2)

@@ -162,14 +162,16 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
                                      for v in aeroid.flights.sample_constants(flight)))
     states = flight.states() if states is None else states
     delta = flight["delta"]
-    basis = np.vstack([np.zeros(9), np.eye(9)])  # (10, 9)
+    n_c = aeroid.model.N_COEFFICIENTS
+    basis = np.vstack([np.zeros(n_c), np.eye(n_c)])  # (1 + n_c, n_c)
     acc = aeroid.model.accelerometers(states[:, None, :], delta[:, None], basis[None], const,
-                                flight.airframe.accel_positions).reshape(len(states), 10, 6)
+                                      flight.airframe.accel_positions
+                                      ).reshape(len(states), 1 + n_c, -1)
     wdot = aeroid.model.state_derivative(states[:, None, :], delta[:, None], basis[None],
-                                   const)[..., 3:6]
-    out = np.concatenate([acc, wdot], axis=2)  # (n, 10, 9)
+                                         const)[..., aeroid.model.P:aeroid.model.R + 1]
+    out = np.concatenate([acc, wdot], axis=2)  # (n, 1 + n_c, 9)
     c = out[:, 0, :]
-    A = np.swapaxes(out[:, 1:, :] - c[:, None, :], 1, 2)  # (n, 9 outputs, 9 coefs)
+    A = np.swapaxes(out[:, 1:, :] - c[:, None, :], 1, 2)  # (n, 9 outputs, n_c coefs)
     return c, A
 
 
@@ -205,9 +207,10 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
         Per sub-problem, the Newey-West bandwidth ``{"lags": int, "capped": bool}``
         (:func:`_lstsq`).
     """
-    theta = np.full(9, np.nan)
-    cov = np.zeros((9, 9))
-    corr = np.full((9, 9), np.nan)
+    n_c = aeroid.model.N_COEFFICIENTS
+    theta = np.full(n_c, np.nan)
+    cov = np.zeros((n_c, n_c))
+    corr = np.full((n_c, n_c), np.nan)
     sigma2, bandwidth, cost = {}, {}, 0.0
     for label, row, cols in SUBPROBLEMS:
         cols = list(cols)
@@ -302,7 +305,7 @@ class EquationErrorEstimator(Estimator):
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:
             return result
-        G = np.empty((9, free.size))
+        G = np.empty((aeroid.model.N_COEFFICIENTS, free.size))
         given = flight.airframe.accel_positions.ravel()
         for j, c in enumerate(free):
             ends = []
@@ -353,7 +356,7 @@ class EquationErrorEstimator(Estimator):
         sd = rc.estimate_noise_sd(meas)
         theta = cov = None
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
-            Aw = (A / sd[None, :, None]).reshape(-1, 9)
+            Aw = (A / sd[None, :, None]).reshape(-1, A.shape[-1])
             bw = (target / sd[None, :]).reshape(-1)
             theta, cov, s2, bandwidth = _lstsq(Aw, bw, n_time=n, covariance=covariance)
             resid = target - np.einsum("noc,c->no", A, theta)
@@ -364,14 +367,15 @@ class EquationErrorEstimator(Estimator):
                 "hac_bandwidth": {"one_step": bandwidth}}
         names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels
         info["fit_residuals"] = {name: resid[:, j] for j, name in enumerate(names)}
-        return self._result(flight, theta, cov, corr, s2 * max(Aw.shape[0] - 9, 1), info,
+        return self._result(flight, theta, cov, corr, s2 * max(Aw.shape[0] - Aw.shape[1], 1),
+                            info,
                             floor=not theta_only)
 
     def _result(self, flight: Flight, theta: np.ndarray, cov: np.ndarray, corr: np.ndarray,
                 cost: float, info: dict, *, floor: bool = True) -> EstimationResult:
         names = aeroid.NAMES
-        collinear = [(names[i], names[j], float(corr[i, j])) for i in range(9)
-                     for j in range(i + 1, 9)
+        collinear = [(names[i], names[j], float(corr[i, j])) for i in range(len(names))
+                     for j in range(i + 1, len(names))
                      if np.isfinite(corr[i, j]) and abs(corr[i, j]) > COLLINEAR_R]
         info.update(correlation=corr, collinear=collinear)
         if floor and np.all(np.isfinite(theta)):

@@ -215,7 +215,7 @@ class OutputErrorEstimator(Estimator):
             return np.zeros((scale.size, scale.size))
         wide_free = tuple(sorted(set(considered) | {3 * t for t in self.rx_free()}))
         wide: RecordModel = self.problem(flight, position_free=wide_free).model  # type: ignore
-        first = 9 + len(self.x0_free())
+        first = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         p = np.zeros(wide.scale.size)
         p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
         _, J = wide.outputs_jacobian(p)
@@ -263,13 +263,13 @@ class OutputErrorEstimator(Estimator):
         scale = np.concatenate(scale)
         weight = np.zeros(scale.size)
         if self.positions == "estimate":
-            first = 9 + len(self.x0_free())
+            first = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
             for j, c in enumerate(position_free):
                 if pos_sd[c] > 0:
                     weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
         z = _common.measurements(flight)
         x0 = flight.states()[0]
-        x0[3:6] = _common.smoothed_start(z[:, 6:9])
+        x0[_common.RATES] = _common.smoothed_start(z[:, _common.GYROS])
         model = RecordModel(flight, input=self.input, substeps=self.substeps,
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
@@ -316,18 +316,19 @@ class OutputErrorEstimator(Estimator):
         scale = model.scale
         n_p = scale.size
         prior = flight.airframe.prior_vector()
+        n_c = aeroid.model.N_COEFFICIENTS
         first = np.zeros(n_p)
-        first[:9] = prior / scale[:9]
+        first[:n_c] = prior / scale[:n_c]
         if self.estimate_delay:
             first[-1] = self.delay_s / scale[-1]
         extra_evals = 0
         if self.pso_warm_start:
             theta_pso, extra_evals = self.warm_start(prob, flight, rng)
-            first[:9] = theta_pso / scale[:9]
+            first[:n_c] = theta_pso / scale[:n_c]
         starts = [first]
         for _ in range(self.n_starts - 1):
             p = first.copy()
-            p[:9] = prior * (1.0 + 0.2 * rng.standard_normal(9)) / scale[:9]
+            p[:n_c] = prior * (1.0 + 0.2 * rng.standard_normal(n_c)) / scale[:n_c]
             starts.append(p)
         fits, failures = [], []
         for p0 in starts:
@@ -351,11 +352,11 @@ class OutputErrorEstimator(Estimator):
         if self.positions == "consider":
             cov_phys = cov_phys + self.consider_term(flight, best, scale)
         phys = best.p * scale
-        theta = phys[:9]
-        cov = cov_phys[:9, :9]
+        theta = phys[:n_c]
+        cov = cov_phys[:n_c, :n_c]
         hist_p = np.array(best.history_p)
         history = {"axis": "iteration", "step": np.arange(len(hist_p)),
-                   "theta": hist_p[:, :9] * scale[:9],
+                   "theta": hist_p[:, :n_c] * scale[:n_c],
                    "cost": np.array(best.history_cost)}
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
         position_free = model.position_free
@@ -366,7 +367,7 @@ class OutputErrorEstimator(Estimator):
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
                 "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
-        first_pos = 9 + len(self.x0_free())
+        first_pos = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         positions = model.pos.copy()
         position_sd = np.zeros(6)
         for j, c in enumerate(position_free):

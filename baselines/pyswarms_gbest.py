@@ -143,7 +143,7 @@ class PyswarmsEstimator(Estimator):
         return self.input if self.objective == "eam" else None
 
     def cost_function(self, flight: Flight):
-        """Return the objective ``theta (P, 9) -> (P,)``."""
+        """Return the objective ``theta (P, N_COEFFICIENTS) -> (P,)``."""
         if self.objective == "ebm":
             rec = estimation.reconstruct(flight)
             return estimation.ebm_cost(flight, rec, weighting=self.weighting,
@@ -174,15 +174,16 @@ class PyswarmsEstimator(Estimator):
             values = np.asarray(cost(low + u * span), dtype=float)
             return np.where(np.isfinite(values), values, np.inf)
 
-        init = rng.random((self.n_particles, 9))
+        init = rng.random((self.n_particles, len(bounds)))
         init[0] = np.clip((flight.airframe.prior_vector() - low) / span, 0.0, 1.0)
         options = {"c1": self.c1, "c2": self.c2, "w": self.w}
         with seeded_global_state(rng), _quiet_pyswarms():
             from pyswarms.single import GlobalBestPSO
 
             optimizer = GlobalBestPSO(
-                n_particles=self.n_particles, dimensions=9, options=options,
-                bounds=(np.zeros(9), np.ones(9)), velocity_clamp=(-self.v_max, self.v_max),
+                n_particles=self.n_particles, dimensions=len(bounds), options=options,
+                bounds=(np.zeros(len(bounds)), np.ones(len(bounds))),
+                velocity_clamp=(-self.v_max, self.v_max),
                 init_pos=init)
             best_cost, best_u = optimizer.optimize(fun, iters=self.n_iterations,
                                                    verbose=False)

@@ -30,6 +30,7 @@ from aeroid.estimation._pso_methods import (
 from aeroid.estimation._registry import register
 from aeroid.estimation._result import EstimationResult
 from aeroid.flights._flight import Flight
+from aeroid.model._dynamics import N_STATE
 
 __all__ = ["EAMPSO", "MAX_SWARM_STATE_BYTES"]
 
@@ -56,7 +57,7 @@ class EAMPSO(Estimator):
         levels estimated from the data) or "relative" (the paper's eq. 23 with the guard).
     guard_fraction : float
         Guard of the relative weighting, as a fraction of each channel's mean square.
-    box : 18 numbers or None
+    box : 2 N_COEFFICIENTS numbers or None
         Search box ``[low0, high0, ...]``; default the airframe's prior x [0.5, 1.5].
     topology : {"ring", "global"}
         Neighbourhood of the swarm: the paper's singly-linked ring, or global best.
@@ -135,14 +136,14 @@ class EAMPSO(Estimator):
                              f"got {self.stall_iterations}")
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
-        """Estimate the nine coefficients by output error (see class docstring).
+        """Estimate the coefficients by output error (see class docstring).
 
         Raises
         ------
         EstimatorError
             When the swarm's simulated states would exceed :data:`MAX_SWARM_STATE_BYTES`.
         """
-        need = self.n_particles * flight.n_samples * 9 * 8
+        need = self.n_particles * flight.n_samples * N_STATE * 8  # float64 states
         if need > MAX_SWARM_STATE_BYTES:
             raise EstimatorError(
                 f"{self.name}: {self.n_particles} particles x {flight.n_samples} samples need "

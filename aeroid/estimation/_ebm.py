@@ -62,7 +62,7 @@ class EBMPSO(Estimator):
         Also fit F_AY and M_Z (default False: the paper's four rows F_AX, F_AZ, M_X, M_Y).
     guard_fraction : float
         Guard of the relative weighting, as a fraction of each row's mean square.
-    box : 18 numbers or None
+    box : 2 N_COEFFICIENTS numbers or None
         Search box ``[low0, high0, ...]``; default the airframe's prior x [0.5, 1.5].
     topology : {"ring", "global"}
         Neighbourhood of the swarm: the paper's singly-linked ring, or global best.

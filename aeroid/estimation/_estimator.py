@@ -192,17 +192,19 @@ class Estimator(abc.ABC):
 
 def prior_bounds(airframe: Airframe, box: Any = None,
                  scale: tuple[float, float] = (0.5, 1.5)) -> np.ndarray:
-    """Return the PSO search box, shape (9, 2) [low, high] per coefficient.
+    """Return the PSO search box, shape (N_COEFFICIENTS, 2) [low, high] per coefficient.
 
     The box is the airframe's prior (nominal values when it has none) times ``scale``,
     sorted per coefficient (negative coefficients flip), or ``box`` when given: a
-    (9, 2) array-like, or a flat list of 18 numbers ``[low0, high0, low1, ...]``.
+    (N_COEFFICIENTS, 2) array-like, or a flat list of 2 N_COEFFICIENTS numbers
+    ``[low0, high0, low1, ...]``.
     The true coefficients are never read.
     """
     if box is not None:
         arr = np.asarray(box, dtype=float).reshape(len(NAMES), 2)
         if not (np.all(np.isfinite(arr)) and np.all(arr[:, 0] < arr[:, 1])):
-            raise EstimatorError("search box: need 9 finite [low, high] pairs with low < high")
+            raise EstimatorError(f"search box: need {len(NAMES)} finite [low, high] pairs "
+                                 "with low < high")
         return arr
     prior = airframe.prior_vector()
     ends = np.stack([prior * scale[0], prior * scale[1]], axis=1)

@@ -72,7 +72,6 @@ measured values cannot exploit the exact zero crossings in the same way.
 
 from __future__ import annotations
 
-import math
 import warnings
 from typing import NamedTuple
 
@@ -80,25 +79,25 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AeroidError, AeroidWarning, EstimatorError
+from aeroid.estimation._objectives import EAM_OUTPUTS
 from aeroid.flights import check_input
 from aeroid.flights._flight import Flight
-from aeroid.flights._noise import GaussianNoise, NoiseModel, NoNoise, PaperNoise
+from aeroid.flights._noise import NOISE_FORMS, GaussianNoise, NoiseModel, NoNoise, PaperNoise
 from aeroid.flights._record import flight_record
 from aeroid.flights._scenario import Scenario
 from aeroid.flights._simulate import simulate
 from aeroid.model._airframe import Airframe
 from aeroid.model._coefficients import N_COEFFICIENTS, NAMES, as_vector
-from aeroid.model._dynamics import OUTPUT_CHANNELS, constants
+from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, constants
 from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
 from aeroid.model._inputs import Record
 
 #: Channel subsets: ``both`` triads and the rates (default), or ``triad1`` and the rates
 #: (the EAM output set: triad 1 at [Rx1, 0, 0] only).
 CHANNEL_SETS: dict[str, tuple[int, ...]] = {
-    "both": tuple(range(9)),
-    "triad1": (0, 1, 2, 6, 7, 8),
+    "both": tuple(range(len(OUTPUT_CHANNELS))),
+    "triad1": tuple(OUTPUT_CHANNELS.index(c) for c in EAM_OUTPUTS),
 }
-NOISE_FORMS: tuple[str, ...] = ("heteroscedastic", "homoscedastic")
 #: Options of :func:`cramer_rao_sd` that reproduce the reference README's floor (an
 #: independent prototype): one standard deviation per channel, triad 1 and the rates
 #: only, initial rates estimated. Not the default (see the module docstring).
@@ -150,8 +149,9 @@ def _as_inputs(flight_or_inputs: Flight | OutputErrorInputs) -> OutputErrorInput
     if isinstance(flight_or_inputs, OutputErrorInputs):
         state0 = np.asarray(flight_or_inputs.state0, dtype=float)
         delta = np.asarray(flight_or_inputs.delta, dtype=float).reshape(-1)
-        if state0.shape != (9,) or delta.size < 2:
-            raise ValueError("fisher: inputs need state0 of shape (9,) and at least 2 samples")
+        if state0.shape != (N_STATE,) or delta.size < 2:
+            raise ValueError(f"fisher: inputs need state0 of shape ({N_STATE},) and at least "
+                             "2 samples")
         return OutputErrorInputs(state0, delta, float(flight_or_inputs.dt),
                                  flight_or_inputs.record)
     raise TypeError(
@@ -252,19 +252,13 @@ def model_noise_sd(
     """
     outputs = np.asarray(outputs, dtype=float)
     if outputs.ndim != 2 or outputs.shape[1] != len(OUTPUT_CHANNELS):
-        raise ValueError(f"fisher: outputs must have shape (n, 9), got {outputs.shape}")
+        raise ValueError(f"fisher: outputs must have shape (n, {len(OUTPUT_CHANNELS)}), "
+                         f"got {outputs.shape}")
     if noise_form not in NOISE_FORMS:
         raise ValueError(f"fisher: unknown noise_form {noise_form!r} "
                          f"(expected {' or '.join(NOISE_FORMS)})")
-    if isinstance(noise_model, PaperNoise):
-        xi = np.array([noise_model.accelerations_xi] * 6 + [noise_model.rates_xi] * 3)
-        if noise_form == "heteroscedastic":
-            return np.abs(outputs) * xi / math.sqrt(3.0)
-        rms = np.sqrt(np.mean(outputs**2, axis=0))
-        return np.broadcast_to(rms * xi / math.sqrt(3.0), outputs.shape).copy()
-    if isinstance(noise_model, GaussianNoise):
-        sd = np.array([noise_model.accel_sd_mps2] * 6 + [noise_model.rate_sd_radps] * 3)
-        return np.broadcast_to(sd, outputs.shape).copy()
+    if isinstance(noise_model, PaperNoise | GaussianNoise):  # the noise model's own sd
+        return noise_model.output_sd(outputs, form=noise_form)
     raise ValueError(
         f"fisher: no Cramér-Rao floor for noise model {getattr(noise_model, 'name', noise_model)!r}"
         " (needs 'paper' or 'gaussian': noise-free data have no floor)"

@@ -72,11 +72,12 @@ def gyro_only_floor(flight: Flight, theta: np.ndarray, *,
     Raises
     ------
     ValueError
-        On a ``theta`` that is not 9 finite numbers or a negative or non-finite sd.
+        On a ``theta`` that is not len(NAMES) finite numbers or a negative or non-finite sd.
     """
     theta = np.asarray(theta, dtype=float).reshape(-1)
     if theta.shape != (len(NAMES),) or not np.all(np.isfinite(theta)):
-        raise ValueError(f"gyro_only_floor: theta must be 9 finite numbers, got {theta}")
+        raise ValueError(f"gyro_only_floor: theta must be {len(NAMES)} finite numbers, "
+                         f"got {theta}")
     p = flight["p"]
     if noise_sd is None:
         noise_sd = float(estimate_noise_sd(p, use=switch_free_samples(flight["delta"])))

@@ -74,12 +74,13 @@ def check_common_options(est: Any) -> None:
         raise ValueError(f"n_iterations must be in [1, {MAX_ITERATIONS}] (0 would return the "
                          f"best point of the random initial swarm), got {est.n_iterations}")
     if est.box is not None:
-        if len(est.box) != 18:
-            raise ValueError(f"box needs 18 numbers [low0, high0, ..., low8, high8], "
-                             f"got {len(est.box)}")
-        box = np.asarray(est.box, dtype=float).reshape(9, 2)
+        n = len(NAMES)
+        if len(est.box) != 2 * n:
+            raise ValueError(f"box needs {2 * n} numbers [low, high] per coefficient "
+                             f"({', '.join(NAMES)}), got {len(est.box)}")
+        box = np.asarray(est.box, dtype=float).reshape(n, 2)
         if not (np.all(np.isfinite(box)) and np.all(box[:, 0] < box[:, 1])):
-            raise ValueError("box needs 9 finite [low, high] pairs with low < high")
+            raise ValueError(f"box needs {n} finite [low, high] pairs with low < high")
 
 
 def check_step_one_options(est: Any) -> None:

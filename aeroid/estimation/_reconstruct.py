@@ -54,7 +54,7 @@ from aeroid.flights._flight import Flight
 from aeroid.flights._record import sample_constants
 from aeroid.model import _equations as eq
 from aeroid.model._airframe import Airframe
-from aeroid.model._dynamics import FM_NAMES, Constants, constants, regressors
+from aeroid.model._dynamics import FM_NAMES, OUTPUT_CHANNELS, Constants, constants, regressors
 
 __all__ = [
     "RATE_WEIGHT",
@@ -252,7 +252,7 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
                                             const))
     matrix = sensor_matrix(const, positions)
     z = accel - sensor_offset(const, positions, omega)
-    row_sd = np.full(9, np.nan)
+    row_sd = np.full(len(OUTPUT_CHANNELS), np.nan)  # the accelerometer rows, then p, q, r
     row_sd[:6] = estimate_noise_sd(accel)
     wdot_sg = None
     if rate_rows:
@@ -285,7 +285,7 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     fm_sd = np.sqrt(np.median(np.sum((gain * row_sd[:n_rows]) ** 2, axis=-1).reshape(
         -1, len(FM_NAMES)), axis=0))
     rank = int(np.min(np.linalg.matrix_rank(weighted)))
-    residual = np.full((n, 9), np.nan)
+    residual = np.full((n, len(OUTPUT_CHANNELS)), np.nan)
     residual[:, :n_rows] = model - z
     omega_dot = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2],
                                                  eq.Loads(*fm.T), const))

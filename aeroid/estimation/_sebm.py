@@ -12,6 +12,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
 from aeroid.estimation._polish import polish_info
@@ -48,7 +49,7 @@ class SEBMPSO(Estimator):
 
     Options
     -------
-    n_particles : 4 ints
+    n_particles : ints, one per sub-problem (:data:`SEBM_PROBLEMS`)
         Swarm sizes of the F_AX, F_AZ, M_X, M_Y problems (paper: 50, 150, 100, 150).
     n_iterations : int
         Iterations of each problem, at least 1 (paper: 200).
@@ -59,7 +60,7 @@ class SEBMPSO(Estimator):
         targets only ("forces", the paper's way), or of neither.
     guard_fraction : float
         Guard of the relative weighting, as a fraction of each row's mean square.
-    box : 18 numbers or None
+    box : 2 N_COEFFICIENTS numbers or None
         Search box ``[low0, high0, ...]``; default the airframe's prior x [0.5, 1.5].
     topology : {"ring", "global"}
         Neighbourhood of each swarm: the paper's singly-linked ring, or global best.
@@ -110,13 +111,20 @@ class SEBMPSO(Estimator):
     def __post_init__(self) -> None:
         check_common_options(self)
         check_step_one_options(self)
-        if len(self.n_particles) != 4:
-            raise ValueError(f"n_particles needs 4 swarm sizes >= 3, got {self.n_particles}")
+        if len(self.n_particles) != len(SEBM_PROBLEMS):
+            raise ValueError(f"n_particles needs {len(SEBM_PROBLEMS)} swarm sizes >= 3, "
+                             f"got {self.n_particles}")
         for n in self.n_particles:
             check_swarm_size(n)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Reconstruct, smooth and solve the four problems (see class docstring)."""
+        missing = sorted(set(range(len(NAMES))) - {c for _, _, cols, _ in SEBM_PROBLEMS
+                                                   for c in cols})
+        if missing:  # a coefficient added to the model but to no sub-problem
+            raise EstimatorError(f"sebm-pso: no sub-problem estimates "
+                                 f"{', '.join(NAMES[c] for c in missing)} (SEBM_PROBLEMS, "
+                                 "aeroid/estimation/_objectives.py)")
         rec = step_one(self, flight)
         bounds = prior_bounds(flight.airframe, self.box)
         theta = np.empty(len(NAMES))

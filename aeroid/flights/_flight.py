@@ -97,7 +97,7 @@ class Flight:
         return float((t[-1] - t[0]) / (len(t) - 1))
 
     def states(self) -> np.ndarray:
-        """Return the measured state ``[u, v, w, p, q, r, phi, theta, psi]``, shape (n, 9)."""
+        """Return the measured state ``[u, v, w, p, q, r, phi, theta, psi]``, (n, N_STATE)."""
         return self._columns(STATE_CHANNELS)
 
     def accelerations(self) -> np.ndarray:
@@ -113,7 +113,7 @@ class Flight:
 
     @property
     def true_coefficients(self) -> np.ndarray | None:
-        """The true coefficients (simulated flights), shape (9,), else None."""
+        """The true coefficients (simulated flights), shape (N_COEFFICIENTS,), else None."""
         truth = self.metadata.get("true_coefficients")
         if truth is None:
             return None

@@ -24,7 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from aeroid.errors import AirframeError
-from aeroid.model._dynamics import ACCEL_CHANNELS, RATE_CHANNELS
+from aeroid.model._dynamics import ACCEL_CHANNELS, OUTPUT_CHANNELS, RATE_CHANNELS
 from aeroid.model._fileform import is_number
 
 
@@ -62,9 +62,28 @@ class NoiseModel(Protocol):
         """Return the sd of the position error of each component given ``positions`` (2, 3)."""
         ...
 
+    def output_sd(self, outputs: np.ndarray, *, form: str = "heteroscedastic") -> np.ndarray:
+        """Return the measurement-error sd of every output, shape of ``outputs`` (n, m)."""
+        ...
+
     def to_dict(self) -> dict[str, Any]:
         """Return the model's settings (for flight metadata and reports)."""
         ...
+
+
+#: How a multiplicative noise's sd is taken: per sample from ``|s_k|`` (what eq. 43 says),
+#: or per channel from the channel's RMS.
+NOISE_FORMS: tuple[str, ...] = ("heteroscedastic", "homoscedastic")
+
+
+def _per_output(outputs: np.ndarray, accel: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``outputs`` as floats (n, m) and one value per column: ``accel`` on the
+    accelerometer channels, ``rate`` on the gyros (:data:`OUTPUT_CHANNELS` columns)."""
+    outputs = np.asarray(outputs, dtype=float)
+    if outputs.ndim != 2 or outputs.shape[1] != len(OUTPUT_CHANNELS):
+        raise ValueError(f"noise sd: outputs must have shape (n, {len(OUTPUT_CHANNELS)}) "
+                         f"({', '.join(OUTPUT_CHANNELS)}), got {outputs.shape}")
+    return outputs, np.array([accel if c in ACCEL_CHANNELS else rate for c in OUTPUT_CHANNELS])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -104,6 +123,21 @@ class PaperNoise:
     def position_sd(self, positions: np.ndarray) -> np.ndarray:
         """``xi |R| / sqrt(3)``: the sd of the uniform +-xi relative error, per component."""
         return self.accel_position_xi * np.abs(np.asarray(positions, dtype=float)) / math.sqrt(3)
+
+    def output_sd(self, outputs: np.ndarray, *, form: str = "heteroscedastic") -> np.ndarray:
+        """Return the sd of eq. 43's error on the noise-free ``outputs`` (n, m), same shape.
+
+        U[-xi, xi] has sd ``xi / sqrt(3)``: ``|s_k| xi / sqrt(3)`` per sample
+        (``form="heteroscedastic"``, what eq. 43 says) or ``xi RMS(s) / sqrt(3)`` per
+        channel (``"homoscedastic"``); columns :data:`aeroid.model.OUTPUT_CHANNELS`.
+        """
+        outputs, xi = _per_output(outputs, self.accelerations_xi, self.rates_xi)
+        if form == "heteroscedastic":
+            return np.abs(outputs) * xi / math.sqrt(3.0)
+        if form == "homoscedastic":
+            rms = np.sqrt(np.mean(outputs**2, axis=0))
+            return np.broadcast_to(rms * xi / math.sqrt(3.0), outputs.shape).copy()
+        raise ValueError(f"noise sd: unknown form {form!r} (expected {' or '.join(NOISE_FORMS)})")
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
@@ -158,6 +192,15 @@ class GaussianNoise:
         """``position_sd_m`` for every component."""
         return np.full(np.shape(positions), float(self.position_sd_m))
 
+    def output_sd(self, outputs: np.ndarray, *, form: str = "heteroscedastic") -> np.ndarray:
+        """Return ``accel_sd_mps2`` / ``rate_sd_radps`` for every output, shape of ``outputs``
+        (additive noise: both forms are the same)."""
+        outputs, sd = _per_output(outputs, self.accel_sd_mps2, self.rate_sd_radps)
+        if form not in NOISE_FORMS:
+            raise ValueError(f"noise sd: unknown form {form!r} "
+                             f"(expected {' or '.join(NOISE_FORMS)})")
+        return np.broadcast_to(sd, outputs.shape).copy()
+
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
         return {"model": self.name, "accel_sd_mps2": self.accel_sd_mps2,
@@ -182,6 +225,14 @@ class NoNoise:
     def position_sd(self, positions: np.ndarray) -> np.ndarray:
         """Zero: the positions are known."""
         return np.zeros(np.shape(positions))
+
+    def output_sd(self, outputs: np.ndarray, *, form: str = "heteroscedastic") -> np.ndarray:
+        """Zero for every output: no measurement error."""
+        outputs, _ = _per_output(outputs, 0.0, 0.0)
+        if form not in NOISE_FORMS:
+            raise ValueError(f"noise sd: unknown form {form!r} "
+                             f"(expected {' or '.join(NOISE_FORMS)})")
+        return np.zeros(outputs.shape)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""

@@ -79,7 +79,7 @@ class Manoeuvre:
         linear in time.
     command_phase_deg : float or tuple of (time_s, value) pairs
         ``phi0`` [deg], the same.
-    initial_state : tuple of 9 float
+    initial_state : tuple of float, one per state
         State at t = 0 [m/s, rad/s, rad] in :data:`aeroid.model.STATE_NAMES` order.
     sample_rate_hz : float
         Recording (and relay) rate [Hz].
@@ -132,7 +132,7 @@ class Manoeuvre:
             if rate <= 0:
                 raise AirframeError(f"manoeuvre: control_rate_Hz must be positive, got {rate:g}")
             object.__setattr__(self, "control_rate_hz", rate)
-        state = numbers(self.initial_state, 9, "manoeuvre: initial_state")
+        state = numbers(self.initial_state, len(STATE_NAMES), "manoeuvre: initial_state")
         object.__setattr__(self, "initial_state", state)
         t0, t1 = numbers(self.window_s, 2, "manoeuvre: window_s")
         if not (0.0 <= t0 < t1):
@@ -186,7 +186,7 @@ class Scenario:
 
     @property
     def coefficient_vector(self) -> np.ndarray:
-        """The true coefficients, shape (9,)."""
+        """The true coefficients, shape (N_COEFFICIENTS,)."""
         return np.array(self.coefficients)
 
 
@@ -213,7 +213,8 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
     init = check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
     check_keys(init, _STATE_KEYS, f"{source}: [initial_state]", required=_STATE_KEYS)
     state = [number(init[k], f"{source}: [initial_state] {k}") for k in _STATE_KEYS]
-    state[6:9] = [math.radians(x) for x in state[6:9]]
+    state = [math.radians(x) if k.endswith("_deg") else x for k, x in zip(_STATE_KEYS, state,
+                                                                           strict=True)]
     rec = check_table(data.get("recording", {}), f"{source}: [recording]")
     check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
     options = _actuator_options(act, f"{source}: [actuator]")

@@ -129,7 +129,7 @@ def sidecar_metadata(metadata: Any, source: str) -> dict[str, Any]:
     if metadata.get("true_coefficients") is not None:
         truth = check_table(metadata["true_coefficients"], f"{where} true_coefficients")
         check_keys(truth, NAMES, f"{where} true_coefficients", required=NAMES)
-        numbers([truth[n] for n in NAMES], 9, f"{where} true_coefficients")
+        numbers([truth[n] for n in NAMES], len(NAMES), f"{where} true_coefficients")
     if metadata.get("true_accel_positions_m") is not None:
         rows = metadata["true_accel_positions_m"]
         if not isinstance(rows, list) or len(rows) != 2:

@@ -70,7 +70,7 @@ def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
     dt = manoeuvre.dt
     n = int(round(manoeuvre.window_s[1] / dt)) + 1
     t = np.arange(n) * dt
-    states = np.empty((n, 9))
+    states = np.empty((n, len(STATE_CHANNELS)))
     delta = np.empty(n)
     x = np.array(manoeuvre.initial_state)
     c = as_vector(coefficients)[None, :]
@@ -128,7 +128,7 @@ def simulate(
     ----------
     airframe : Airframe
         The true airframe (its accelerometer positions are the true ones).
-    coefficients : array_like, shape (9,) or mapping
+    coefficients : array_like, shape (N_COEFFICIENTS,) or mapping
         True coefficients.
     manoeuvre : Manoeuvre
     noise : NoiseModel, optional

@@ -155,7 +155,7 @@ class Airframe:
         Name of the flight channel carrying the atmosphere per sample (file key
         ``per_sample``: ``"rho"``, ``"altitude"`` (ISA density) or ``"qbar"`` (density
         from the dynamic pressure and the measured speed).
-    prior : tuple of 9 float or None
+    prior : tuple of float (one per coefficient) or None
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
     fin_law : FinLaw or None
         The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
@@ -316,7 +316,7 @@ class Airframe:
         return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
 
     def prior_vector(self) -> np.ndarray:
-        """Return the prior coefficients (nominal values when none is given), shape (9,)."""
+        """Return the prior coefficients (nominal values when none is given), (N_COEFFICIENTS,)."""
         return nominal() if self.prior is None else np.array(self.prior)
 
     def replace(self, **changes: Any) -> Airframe:
@@ -411,14 +411,15 @@ class Airframe:
 
 
 def _prior_tuple(prior: Any) -> tuple[float, ...]:
-    """Return a prior (mapping of the nine names or 9 values) as a tuple of floats."""
+    """Return a prior (mapping of the names :data:`NAMES`, or one value per name) as floats."""
     if isinstance(prior, Mapping):
         check_keys(prior, NAMES, "airframe prior", required=NAMES)
         prior = [prior[n] for n in NAMES]
     try:
-        return numbers(prior, 9, "airframe prior")
+        return numbers(prior, len(NAMES), "airframe prior")
     except AirframeError:
-        raise AirframeError(f"airframe prior: expected 9 finite values, got {prior!r}") from None
+        raise AirframeError(f"airframe prior: expected {len(NAMES)} finite values, got {prior!r}"
+                            ) from None
 
 
 def load_airframe(path: str | Path) -> Airframe:

@@ -1,6 +1,8 @@
-"""The nine aerodynamic coefficients of the rolling airframe (paper, section 1).
+"""The aerodynamic coefficients of the rolling airframe (paper, section 1).
 
-The estimated vector is always ordered ``Cx, Cza, Czd, Czq, Cl0, Clp, Cma, Cmd, Cmq``.
+The estimated vector is always ordered as :data:`NAMES`, the fields of
+:class:`~aeroid.model._equations.Coefficients` (the paper's nine: ``Cx, Cza, Czd, Czq,
+Cl0, Clp, Cma, Cmd, Cmq``); every count of coefficients in aeroid is ``len(NAMES)``.
 The lateral (y, yaw) coefficients are not estimated: the cruciform symmetry of
 eq. 1 ties them to the pitch-plane ones (:func:`lateral_from_pitch`).
 """
@@ -46,22 +48,23 @@ LABELS: dict[str, str] = {
 
 
 def nominal() -> np.ndarray:
-    """Return the nominal coefficient vector, shape (9,)."""
+    """Return the nominal coefficient vector, shape (N_COEFFICIENTS,)."""
     return np.array([NOMINAL[n] for n in NAMES])
 
 
 def as_vector(coefficients: Mapping[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
-    """Return coefficients as a float vector of shape (..., 9) in :data:`NAMES` order.
+    """Return coefficients as a float vector of shape (..., N_COEFFICIENTS) in :data:`NAMES` order.
 
     Parameters
     ----------
     coefficients : mapping or array_like
-        A mapping with exactly the nine names, or an array whose last axis has length 9.
+        A mapping with exactly the names :data:`NAMES`, or an array whose last axis has
+        length :data:`N_COEFFICIENTS`.
 
     Raises
     ------
     ValueError
-        If a name is missing or unknown, or the last axis is not of length 9.
+        If a name is missing or unknown, or the last axis has another length.
     """
     if isinstance(coefficients, Mapping):
         unknown = sorted(set(coefficients) - set(NAMES))
@@ -74,12 +77,13 @@ def as_vector(coefficients: Mapping[str, float] | Sequence[float] | np.ndarray) 
         return np.array([float(coefficients[n]) for n in NAMES])
     array = np.asarray(coefficients, dtype=float)
     if array.ndim == 0 or array.shape[-1] != N_COEFFICIENTS:
-        raise ValueError(f"coefficients: expected last axis of length 9, got shape {array.shape}")
+        raise ValueError(f"coefficients: expected last axis of length {N_COEFFICIENTS} "
+                         f"({', '.join(NAMES)}), got shape {array.shape}")
     return array
 
 
 def as_dict(vector: np.ndarray) -> dict[str, float]:
-    """Return a (9,) coefficient vector as a name -> value dict."""
+    """Return a (N_COEFFICIENTS,) coefficient vector as a name -> value dict."""
     vector = as_vector(vector)
     return {n: float(v) for n, v in zip(NAMES, vector, strict=True)}
 

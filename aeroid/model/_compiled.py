@@ -22,12 +22,20 @@ Fast-math flags (:data:`FASTMATH_FLAGS`): reassociation, contraction (FMA), reci
 approximate functions, signed zeros; NOT ``nnan``/``ninf``, so a diverging trajectory
 still yields inf/NaN (the estimators' costs rely on it). Agreement with the numpy path is
 tested to 1e-12 relative.
+
+numba's disk cache checks only the file that defines a kernel, not the functions it
+inlines, so the kernels here are cached by :func:`cached_kernel`: the cache's source stamp
+also holds the SHA-256 of every source the kernels inline (:data:`INLINED_SOURCES`). An
+edit of the equations invalidates the cached kernels, which are recompiled and overwrite
+their old cache files (no stale copies accumulate).
 """
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 import math
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -38,6 +46,7 @@ from aeroid.model import _inputs as inputs
 
 try:  # numba is a runtime dependency, but the numpy path must work without it
     import numba
+    from numba.core.caching import FunctionCache
     from numba.extending import overload
 
     HAVE_NUMBA = True
@@ -98,7 +107,56 @@ def _register(fn: Callable[..., Any], impl: Callable[..., Any]) -> None:
     overload(fn, inline="always")(typer)
 
 
+#: The source files the kernels inline: this module, the equations and the inputs (whose
+#: generated helpers are written from their definitions), and the module of every
+#: registered element-wise function.
+INLINED_SOURCES: tuple[str, ...] = tuple(sorted(
+    {inspect.getfile(module) for module in (sys.modules[__name__], eq, inputs)}
+    | {inspect.getfile(fn) for fn in eq.ELEMENT_WISE}))
+
+
+def sources_digest(paths: tuple[str, ...] = INLINED_SOURCES) -> str:
+    """Return the SHA-256 (hex) of the contents of ``paths``, in order."""
+    digest = hashlib.sha256()
+    for path in paths:
+        with open(path, "rb") as f:
+            digest.update(f.read())
+    return digest.hexdigest()
+
+
 if HAVE_NUMBA:
+    try:
+        _DIGEST: str | None = sources_digest()
+    except OSError:  # the sources are no readable files (a zipped install): no disk cache
+        _DIGEST = None
+
+    class _SourcesKeyedCache(FunctionCache):  # type: ignore[misc]
+        """numba's disk cache of one kernel, stamped with every source the kernel inlines.
+
+        numba stamps a cache index with the hash of the defining file and treats an index
+        with another stamp as empty, so the kernel is recompiled and its files rewritten.
+        The stamp here is numba's paired with :func:`sources_digest` (read once, when the
+        kernel is defined).
+        """
+
+        def __init__(self, py_func: Callable[..., Any]) -> None:
+            super().__init__(py_func)
+            # numba keeps the stamp on its index file object (numba/core/caching.py)
+            self._cache_file._source_stamp = (self._cache_file._source_stamp, _DIGEST)
+
+    def cached_kernel(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+        """Return ``numba.njit(**options)`` with the disk cache of :class:`_SourcesKeyedCache`.
+
+        Used in place of ``cache=True`` (which would stamp the cache with this file only).
+        Without readable sources the kernels are compiled in every process, never cached.
+        """
+        def decorate(fn: Callable[..., Any]) -> Any:
+            kernel = numba.njit(**options)(fn)
+            if _DIGEST is not None:  # what numba's Dispatcher.enable_caching does, restamped
+                kernel._cache = _SourcesKeyedCache(kernel.py_func)
+            return kernel
+        return decorate
+
     for _fn in eq.ELEMENT_WISE:
         _register(_fn, _fast_atan2 if _fn is eq.atan2 else _fn)
     for _fn in (from_array, coefficients_from_array, axpy, rk4_combine, inputs.with_exogenous,
@@ -151,15 +209,15 @@ if HAVE_NUMBA:
                                                                   h * e.theta))
         return rk4_combine(x, h / 6.0, a, b, e, f)
 
-    @numba.njit(cache=True, fastmath=FASTMATH_FLAGS)
+    @cached_kernel(fastmath=FASTMATH_FLAGS)
     def integrate_set(x0, c0, end, start, stop, exo, varying, dt, substeps, base,
                       out):  # pragma: no cover - compiled
-        """Integrate one coefficient set over the record into ``out`` (n_samples, 9).
+        """Integrate one coefficient set over the record into ``out`` (n_samples, N_STATE).
 
         Interval ``s`` is cut into the pieces ``end[s]`` (fractions; the deflection goes
         linearly from ``start`` to ``stop`` within a piece, constant when they are
         equal), each integrated with ``substeps`` RK4 steps; with ``varying`` the
-        exogenous table ``exo`` (n, 7) is interpolated linearly within the interval,
+        exogenous table ``exo`` (n, len(EXOGENOUS)) is interpolated linearly within the interval,
         otherwise the constants ``base`` hold.
         """
         c = coefficients_from_array(c0)
@@ -216,7 +274,7 @@ if HAVE_NUMBA:
             for j in range(len(x)):
                 out[s + 1, j] = x[j]
 
-    @numba.njit(cache=True, parallel=True)
+    @cached_kernel(parallel=True)
     def propagate_parallel(state0, coefficients, end, start, stop, exo, varying, dt,
                            substeps, base):  # pragma: no cover - compiled
         """Integrate many sets, one thread per set (``prange``)."""
@@ -226,7 +284,7 @@ if HAVE_NUMBA:
                           substeps, base, out[i])
         return out
 
-    @numba.njit(cache=True)
+    @cached_kernel()
     def propagate_serial(state0, coefficients, end, start, stop, exo, varying, dt,
                          substeps, base):  # pragma: no cover - compiled
         """Integrate many sets in one thread."""
@@ -236,13 +294,13 @@ if HAVE_NUMBA:
                           substeps, base, out[i])
         return out
 
-    @numba.njit(cache=True, parallel=True, fastmath=False)
+    @cached_kernel(parallel=True, fastmath=False)
     def weighted_cost(states, delta, theta, base, exo, varying, positions, z,
                       w):  # pragma: no cover - compiled
         """Return ``(1/n) sum_k sum_c w_kc (z_kc - y_kc)^2`` for every set, shape (n_sets,).
 
         ``y`` are the model outputs (eq. 28 at each triad position, then the rate gyros)
-        of the trajectories ``states`` (n_sets, n, 9) with the deflection ``delta`` (n,)
+        of the trajectories ``states`` (n_sets, n, N_STATE) with the deflection ``delta`` (n,)
         and the constants (``base``, or the rows of ``exo`` with ``varying``) at the
         samples; ``z``, ``w`` (n, 3 n_triads + 3).
         """
@@ -275,16 +333,15 @@ if HAVE_NUMBA:
 def kernels_cached() -> bool:
     """Return whether the compiled kernels are in numba's on-disk cache (no compilation due).
 
-    Reads numba's cache index of each kernel (a private numba attribute: on any surprise
-    the answer is True, i.e. no notice). The first run after an install compiles them:
+    Reads numba's cache index of each kernel (private numba attributes: on any surprise
+    the answer is True, i.e. no notice); an index stamped with other sources counts as
+    missing. The first run after an install or an edit of the equations compiles them:
     tens of seconds, announced by the command line.
     """
     if not HAVE_NUMBA:
         return True
     try:
-        import os
-
-        return all(os.path.exists(kernel._cache._cache_file._index_path)
+        return all(bool(kernel._cache._cache_file._load_index())
                    for kernel in (integrate_set, propagate_parallel, propagate_serial,
                                   weighted_cost))
     except AttributeError:  # pragma: no cover - a numba without this layout

@@ -4,7 +4,7 @@ Every function here is element-wise and indexes states, coefficients and constan
 name, so the same definition is evaluated three ways:
 
 * by numpy on arrays (any broadcastable shapes; :mod:`aeroid.model._dynamics` stacks the
-  results into ``(..., 9)`` arrays);
+  results into ``(..., len(fields))`` arrays);
 * by numba on scalars, inlined into the RK4 and cost kernels
   (:mod:`aeroid.model._compiled` registers each function as a numba overload of itself);
 * by CasADi on symbols, to build exact derivatives (:mod:`aeroid.model._symbolic`; numpy's
@@ -36,7 +36,7 @@ Scalar = Any  # a float, an ndarray or a CasADi symbol: everything here is eleme
 
 
 class State(NamedTuple):
-    """The nine states [m/s, rad/s, rad]; the order is :data:`STATE_NAMES`."""
+    """The states [m/s, rad/s, rad]; the order is :data:`STATE_NAMES`."""
 
     u: Scalar
     v: Scalar
@@ -50,7 +50,10 @@ class State(NamedTuple):
 
 
 class Coefficients(NamedTuple):
-    """The nine aerodynamic coefficients (dimensionless); the order is ``NAMES``."""
+    """The aerodynamic coefficients (dimensionless); the order is ``NAMES``.
+
+    Every count of coefficients in aeroid is the number of these fields.
+    """
 
     Cx: Scalar
     Cza: Scalar

@@ -147,7 +147,8 @@ class ForwardModel:
         with np.errstate(all="ignore"):
             if self.backend == "numba":
                 varying = self.record.exogenous is not None
-                table = self.record.exogenous if varying else np.zeros((1, 7))
+                table = (self.record.exogenous if varying
+                         else np.zeros((1, len(inputs.EXOGENOUS))))
                 cost = _compiled.weighted_cost(states, self.delta, theta, self.const, table,
                                                varying, self.positions, measured, weights)
             else:
@@ -170,7 +171,8 @@ class ForwardModel:
         theta = as_vector(np.asarray(theta, dtype=float))
         state0 = np.asarray(state0, dtype=float)
         if theta.shape != (N_COEFFICIENTS,) or state0.shape != (N_STATE,):
-            raise ValueError(f"forward model: sensitivities need theta (9,) and state0 (9,), "
+            raise ValueError(f"forward model: sensitivities need theta ({N_COEFFICIENTS},) and "
+                             f"state0 ({N_STATE},), "
                              f"got {theta.shape} and {state0.shape}")
         if not (math.isfinite(rel_step) and 0 < rel_step < 1):
             raise ValueError(f"forward model: rel_step must be in (0, 1), got {rel_step}")

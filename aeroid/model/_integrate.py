@@ -22,6 +22,7 @@ import numpy as np
 
 from aeroid.model import _compiled
 from aeroid.model import _inputs as inputs
+from aeroid.model._coefficients import N_COEFFICIENTS
 from aeroid.model._compiled import HAVE_NUMBA, PARALLEL_MIN_SETS
 from aeroid.model._dynamics import N_STATE, Constants, state_derivative
 from aeroid.model._inputs import Pieces
@@ -114,9 +115,9 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
 
     Parameters
     ----------
-    state0 : ndarray, shape (9,) or (n_sets, 9)
+    state0 : ndarray, shape (N_STATE,) or (n_sets, N_STATE)
         Initial state(s) [m/s, rad/s, rad]; one state is shared by all sets.
-    coefficients : ndarray, shape (9,) or (n_sets, 9)
+    coefficients : ndarray, shape (N_COEFFICIENTS,) or (n_sets, N_COEFFICIENTS)
     delta : ndarray, shape (n_samples - 1,), or Pieces
         Fin deflection [rad]: held constant over each sample interval
         ``[t_k, t_k + dt)`` (an array: zero-order hold of the recorded ``delta``), or
@@ -129,7 +130,7 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
         RK4 steps per sample interval (per piece).
     backend : {"auto", "numba", "numpy"}
         ``auto`` takes numba when it is installed.
-    exogenous : ndarray, shape (n_samples, 7), optional
+    exogenous : ndarray, shape (n_samples, len(EXOGENOUS)), optional
         Air density, mass, thrust, inertias and gravity at every sample
         (:data:`aeroid.model.EXOGENOUS` columns, :func:`aeroid.model.exogenous_table`),
         interpolated linearly in time within each interval; default the constants.
@@ -141,24 +142,24 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
 
     Returns
     -------
-    ndarray, shape (n_sets, n_samples, 9)
+    ndarray, shape (n_sets, n_samples, N_STATE)
         The state at every sample. A set whose trajectory diverges gives non-finite
         values (never an exception), which the estimators' costs treat as +inf.
 
     Raises
     ------
     ValueError
-        One line: shapes that are not (9,) / (n_sets, 9) or do not broadcast,
+        One line: shapes that are not (n,) / (n_sets, n) or do not broadcast,
         ``substeps < 1``, ``dt <= 0``, an unknown backend.
     """
     coefficients = np.asarray(coefficients, dtype=float)
     state0 = np.asarray(state0, dtype=float)
-    if coefficients.ndim not in (1, 2) or coefficients.shape[-1] != 9:
-        raise ValueError(f"propagate: coefficients must have shape (9,) or (n_sets, 9), "
-                         f"got {coefficients.shape}")
+    if coefficients.ndim not in (1, 2) or coefficients.shape[-1] != N_COEFFICIENTS:
+        raise ValueError(f"propagate: coefficients must have shape ({N_COEFFICIENTS},) or "
+                         f"(n_sets, {N_COEFFICIENTS}), got {coefficients.shape}")
     if state0.ndim not in (1, 2) or state0.shape[-1] != N_STATE:
-        raise ValueError(f"propagate: state0 must have shape (9,) or (n_sets, 9), "
-                         f"got {state0.shape}")
+        raise ValueError(f"propagate: state0 must have shape ({N_STATE},) or "
+                         f"(n_sets, {N_STATE}), got {state0.shape}")
     coefficients = np.atleast_2d(coefficients)
     n_sets = max(coefficients.shape[0], 1 if state0.ndim == 1 else state0.shape[0])
     if (coefficients.shape[0] not in (1, n_sets)
@@ -166,7 +167,7 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
         raise ValueError(f"propagate: {state0.shape[0]} initial states and "
                          f"{coefficients.shape[0]} coefficient sets do not broadcast")
     state0 = np.ascontiguousarray(np.broadcast_to(state0, (n_sets, N_STATE)))
-    coefficients = np.ascontiguousarray(np.broadcast_to(coefficients, (n_sets, 9)))
+    coefficients = np.ascontiguousarray(np.broadcast_to(coefficients, (n_sets, N_COEFFICIENTS)))
     pieces = delta if isinstance(delta, Pieces) else inputs.held(delta)
     pieces = Pieces(*(np.ascontiguousarray(a, dtype=float) for a in pieces))
     if pieces.end.ndim != 2 or pieces.start.shape != pieces.end.shape \

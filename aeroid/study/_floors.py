@@ -67,7 +67,7 @@ def noise_free_flight(study: Study) -> Any:
 
 def position_sensitivities(airframe: Any, theta: np.ndarray, inputs: Any,
                            positions: np.ndarray, components: list[int]) -> np.ndarray:
-    """Return ``d y_kc / d r_i`` of the listed position components, shape (n, 9, m).
+    """Return ``d y_kc / d r_i`` of the listed position components, shape (n, n_outputs, m).
 
     ``components`` index ``[x1, y1, z1, x2, y2, z2]``; central differences of
     :func:`aeroid.estimation._floor.model_outputs` with a step of :data:`POSITION_STEP_M`.
@@ -81,7 +81,11 @@ def position_sensitivities(airframe: Any, theta: np.ndarray, inputs: Any,
         up = model_outputs(airframe, theta, inputs, positions=positions + step.reshape(2, 3))
         down = model_outputs(airframe, theta, inputs, positions=positions - step.reshape(2, 3))
         columns.append((up - down) / (2.0 * POSITION_STEP_M))
-    return np.stack(columns, axis=-1) if columns else np.zeros((len(inputs.delta), 9, 0))
+    from aeroid.model import OUTPUT_CHANNELS
+
+    if not columns:
+        return np.zeros((len(inputs.delta), len(OUTPUT_CHANNELS), 0))
+    return np.stack(columns, axis=-1)
 
 
 def floors_of(flight: Any, noise: Any) -> dict[str, Any]:

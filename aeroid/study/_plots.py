@@ -106,6 +106,16 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
 ZOOM_RATIO = 10.0
 
 
+def _coefficient_grid(**kwargs: Any) -> tuple[Any, list[Any]]:
+    """Return a figure with one panel per coefficient (three columns) and those panels."""
+    rows = -(-len(NAMES) // 3)
+    fig, axes = plt.subplots(rows, 3, layout="constrained", **kwargs)
+    panels = list(axes.flat)
+    for ax in panels[len(NAMES):]:
+        ax.set_visible(False)
+    return fig, panels[:len(NAMES)]
+
+
 def _keep_in_view(ax: Any, step: np.ndarray, values: np.ndarray, truth: float) -> bool:
     """Set y limits that hold the truth and the path; mark points left outside.
 
@@ -146,18 +156,18 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
     Parameters
     ----------
     history : dict
-        ``axis`` ("iteration" or "time"), ``step`` (n,) [-, s], ``theta`` (n, 9) and
-        optionally ``theta_sd`` (n, 9) (shown as a +-1.96 sd band).
-    truth : sequence of 9 float
+        ``axis`` ("iteration" or "time"), ``step`` (n,) [-, s], ``theta`` (n, N_COEFFICIENTS)
+        and optionally ``theta_sd`` (same shape; shown as a +-1.96 sd band).
+    truth : sequence of float, one per coefficient
         True coefficients (dashed line).
     """
     step = np.asarray(history["step"], dtype=float)
     theta = np.asarray(history["theta"], dtype=float).reshape(len(step), -1)
     sd = history.get("theta_sd")
     axis = str(history.get("axis", "iteration"))
-    fig, axes = plt.subplots(3, 3, figsize=(10, 7.5), sharex=True, layout="constrained")
+    fig, panels = _coefficient_grid(figsize=(10, 2.5 * -(-len(NAMES) // 3)), sharex=True)
     clipped = False
-    for j, ax in enumerate(axes.flat):
+    for j, ax in enumerate(panels):
         ax.plot(step, theta[:, j], lw=1.4, color="C0", label="estimate")
         if sd is not None:
             s = np.asarray(sd, dtype=float).reshape(len(step), -1)[:, j]
@@ -167,9 +177,9 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
         clipped |= _keep_in_view(ax, step, theta[:, j], truth[j])
         ax.set_title(names[j], fontsize=10)
         ax.grid(True, alpha=0.3)
-        if j >= 6:
+        if j >= len(panels) - 3:
             ax.set_xlabel("time [s]" if axis == "time" else "iteration")
-    axes.flat[0].legend(fontsize=7)
+    panels[0].legend(fontsize=7)
     if clipped:
         fig.supxlabel("▲ ▼ mark estimates beyond the axis (early iterations far from the "
                       "truth); the axis keeps the truth and the converged part in view",
@@ -272,10 +282,10 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
     failed = {lab: int((~fits.loc[fits["estimator"] == lab, "success"]).sum())
               for lab in labels}
     ticks = [lab + (f"\n({failed[lab]} failed)" if failed[lab] else "") for lab in labels]
-    fig, axes = plt.subplots(3, 3, figsize=(12, 9), layout="constrained")
+    fig, panels = _coefficient_grid(figsize=(12, 3 * -(-len(NAMES) // 3)))
     rng = np.random.default_rng(0)  # horizontal jitter of the strip only
     n_clipped = 0
-    for j, ax in enumerate(axes.flat):
+    for j, ax in enumerate(panels):
         name = names[j]
         rows = good[good["coefficient"] == name]
         data = []
@@ -319,9 +329,9 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
         ax.grid(True, axis="y", alpha=0.3)
         if j % 3 == 0:
             ax.set_ylabel("(estimate - truth) / |truth| [%]")
-    handles, texts = axes.flat[0].get_legend_handles_labels()
+    handles, texts = panels[0].get_legend_handles_labels()
     if handles:
-        axes.flat[0].legend(handles, texts, fontsize=7, loc="upper left")
+        panels[0].legend(handles, texts, fontsize=7, loc="upper left")
     if n_clipped:
         fig.supxlabel(f"▲ ▼ {n_clipped} error(s) beyond ±{_tick_label(CLIP_PCT)} % drawn on "
                       "the edge", fontsize=8)

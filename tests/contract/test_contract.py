@@ -107,7 +107,7 @@ def test_returns_an_estimation_result_with_the_nine_names(fitted) -> None:
     assert isinstance(result, EstimationResult)
     assert result.estimator == fitted["name"]
     assert tuple(result.names) == NAMES
-    assert result.theta.shape == (9,)
+    assert result.theta.shape == (len(NAMES),)
     assert result.wall_time_s > 0
     assert isinstance(result.success, bool)
     if result.success:
@@ -154,7 +154,7 @@ def test_history_is_well_formed(fitted) -> None:
     assert history["axis"] == HISTORY_AXIS.get(name, history["axis"])
     n = len(history["step"])
     assert n >= 2
-    assert np.shape(history["theta"]) == (n, 9)
+    assert np.shape(history["theta"]) == (n, len(NAMES))
     for key in ("cost", "theta_sd"):
         if key in history:
             assert len(history[key]) == n

@@ -113,10 +113,10 @@ class _Scripted(Estimator):
         if self.action == "user-error":
             raise FlightError("flight.csv: channel 'q' is in deg/s")
         if self.action == "nan":
-            return EstimationResult(estimator=self.name, theta=np.full(9, np.nan))
+            return EstimationResult(estimator=self.name, theta=np.full(len(NAMES), np.nan))
         for k in range(3):
             report_progress(k, 2, "stage")
-        return EstimationResult(estimator=self.name, theta=np.zeros(9), cost=0.0)
+        return EstimationResult(estimator=self.name, theta=np.zeros(len(NAMES)), cost=0.0)
 
 
 def test_fit_turns_a_crash_into_a_failed_result(paper_flight) -> None:
@@ -156,7 +156,7 @@ def test_progress_goes_to_the_listener_of_its_own_fit_only(paper_flight) -> None
             report_progress(1, 2, "outer")
             _Scripted().fit(flight)  # no listener: silent, even inside this fit
             _Scripted().fit(flight, progress=inner.append)
-            return EstimationResult(estimator=self.name, theta=np.zeros(9))
+            return EstimationResult(estimator=self.name, theta=np.zeros(len(NAMES)))
 
     Nested().fit(paper_flight, progress=outer.append)
     assert outer == [ProgressEvent(1, 2, "outer")]

@@ -73,7 +73,7 @@ class Jitter(Estimator):
     def run(self, flight, rng):
         prior = flight.airframe.prior_vector()
         data = 1e-3 * np.mean(flight["ax1"]) + 1e-4 * np.mean(flight["p"])
-        theta = prior * (1.0 + self.scale * rng.standard_normal(9)) + data
+        theta = prior * (1.0 + self.scale * rng.standard_normal(prior.size)) + data
         steps = np.arange(4)
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.abs(prior) * self.scale,

@@ -205,7 +205,7 @@ def _scripted(monkeypatch, result=None, warn: str | None = None):
         def run(self, flight, rng):
             if warn:
                 warnings.warn(warn, AeroidWarning, stacklevel=2)
-            return result or EstimationResult(estimator=self.name, theta=np.ones(9))
+            return result or EstimationResult(estimator=self.name, theta=np.ones(len(NAMES)))
 
     monkeypatch.setattr(commands, "make_estimator", lambda name, options: Scripted())
 
@@ -221,7 +221,7 @@ def test_estimate_prints_each_aeroid_warning_as_one_line(flight_csv, capsys,
 def test_estimate_says_compiled_or_interpreted(flight_csv, capsys, monkeypatch) -> None:
     from aeroid.estimation import EstimationResult
 
-    _scripted(monkeypatch, EstimationResult(estimator="scripted", theta=np.ones(9),
+    _scripted(monkeypatch, EstimationResult(estimator="scripted", theta=np.ones(len(NAMES)),
                                             info={"compiled": False}))
     assert main(["estimate", str(flight_csv), "--method", "scripted"]) == 0
     assert "model evaluated interpreted" in capsys.readouterr().out

@@ -106,7 +106,7 @@ def test_floors_equal_the_output_error_information_at_the_truth(study, floors, n
     est = OutputErrorEstimator(noise_model=noise_model, substeps=8, compile_model=False)
     prob = est.problem(flight)
     p = np.zeros(prob.model.scale.size)
-    p[:9] = 1.0  # the truth (scale = prior = truth)
+    p[:truth.size] = 1.0  # the truth (scale = prior = truth)
     y, J = prob.model.outputs_jacobian(p)
     from aeroid.estimation import _floor as fisher
 
@@ -115,7 +115,7 @@ def test_floors_equal_the_output_error_information_at_the_truth(study, floors, n
     info, _ = fisher_information(J, np.zeros_like(y), var)
     info += prob.prior_terms(p)[2]
     cov = np.linalg.inv(info) * np.outer(prob.model.scale, prob.model.scale)
-    np.testing.assert_allclose(floors["conditions"][0][key], np.sqrt(np.diag(cov))[:9],
+    np.testing.assert_allclose(floors["conditions"][0][key], np.sqrt(np.diag(cov))[:truth.size],
                                rtol=OE_AGREEMENT_RTOL)
 
 

@@ -28,7 +28,7 @@ class FakePSO(Estimator):
 
     def run(self, flight, rng):
         prior = flight.airframe.prior_vector()
-        theta = prior * (1.0 + 0.02 * rng.standard_normal(9))
+        theta = prior * (1.0 + 0.02 * rng.standard_normal(prior.size))
         steps = np.arange(30)
         path = theta + np.exp(-steps / 5.0)[:, None] * (prior * 0.3)
         t = flight.t
@@ -49,7 +49,7 @@ class FakeFilter(Estimator):
 
     def run(self, flight, rng):
         prior = flight.airframe.prior_vector()
-        theta = prior * (1.0 + 0.01 * rng.standard_normal(9))
+        theta = prior * (1.0 + 0.01 * rng.standard_normal(prior.size))
         t = flight.t
         sd = np.abs(prior)[None, :] * 0.1 / np.sqrt(1.0 + 50 * (t - t[0]))[:, None]
         return EstimationResult(
@@ -92,10 +92,10 @@ def report(tmp_path_factory):
 def test_tables_have_the_expected_rows(report):
     study, out, _ = report
     results = pd.read_csv(out / "results.csv")
-    assert len(results) == 2 * 1 * 2 * 9
-    assert list(results["coefficient"].iloc[:9]) == list(NAMES)
+    assert len(results) == 2 * 1 * 2 * len(NAMES)
+    assert list(results["coefficient"].iloc[:len(NAMES)]) == list(NAMES)
     summary = pd.read_csv(out / "summary.csv")
-    assert len(summary) == 2 * 9
+    assert len(summary) == 2 * len(NAMES)
     # the filter has standard errors (coverage defined), the PSO-like one has none
     assert summary.loc[summary["estimator"] == "EKF", "coverage"].notna().all()
     assert summary.loc[summary["estimator"] == "PSO-like", "coverage"].isna().all()

@@ -15,6 +15,7 @@ from study_fakes import Jitter, stable  # shared with the store's tests
 
 from aeroid import Estimator, failed_result, simulate
 from aeroid.errors import StudyError
+from aeroid.model import NAMES
 from aeroid.study import _runner as study_runner
 from aeroid.study import loads_study, read_results, run_study
 
@@ -191,7 +192,7 @@ method = "fails"
     for r in out.records:
         if r["estimator"] == "R":
             assert not r["success"] and r["message"] == "RuntimeError: boom"
-            assert r["theta"] == [None] * 9
+            assert r["theta"] == [None] * len(NAMES)
         elif r["estimator"] == "F":
             assert not r["success"] and r["message"] == "filter diverged"
         else:

@@ -55,7 +55,7 @@ def coverage():
             res = est.fit(flight, rng=0)
             if not res.success:
                 failures[name] += 1
-                covered[name].append(np.zeros(9, dtype=bool))
+                covered[name].append(np.zeros(len(truth), dtype=bool))
                 continue
             covered[name].append(np.abs(res.theta - truth) <= Z95 * res.stderr)
     out = {name: (np.array(v), failures[name]) for name, v in covered.items()}
@@ -108,7 +108,8 @@ def paper_condition():
     for seed in np.random.SeedSequence(SEED + 1).spawn(N_PAPER_FLIGHTS):
         rng = np.random.default_rng(seed)
         flight = simulate_scenario(scenario, PaperNoise(), rng=rng)
-        prior = truth * (1 + rng.choice([-1.0, 1.0], 9) * rng.uniform(0.10, 0.25, 9))
+        prior = truth * (1 + rng.choice([-1.0, 1.0], truth.size)
+                         * rng.uniform(0.10, 0.25, truth.size))
         flight = dataclasses.replace(flight,
                                      airframe=flight.airframe.replace(prior=tuple(prior)))
         for name, rec in out.items():

@@ -58,7 +58,7 @@ def test_smoothing_forces_only_biases_fin_coefficients(prior_off_flight):
 
 def test_affine_form_reproduces_sensor_model(noisy_flight):
     const = aeroid.model.constants(noisy_flight.airframe)
-    theta = aeroid.nominal() * np.linspace(0.7, 1.3, 9)
+    theta = aeroid.nominal() * np.linspace(0.7, 1.3, len(aeroid.NAMES))
     c, A = affine_accelerations(noisy_flight)
     states = noisy_flight.states()
     delta = noisy_flight["delta"]
@@ -123,7 +123,7 @@ def test_collinearity_of_cl0_and_clp_is_flagged(noisy_flight):
         assert ("Cl0", "Clp") in pairs
         i, j = aeroid.NAMES.index("Cl0"), aeroid.NAMES.index("Clp")
         assert abs(res.info["correlation"][i, j]) > 0.99
-        assert res.info["correlation"].shape == (9, 9)
+        assert res.info["correlation"].shape == (len(aeroid.NAMES),) * 2
 
 
 def test_noisy_two_step_lies_within_reported_bounds(noisy_flight):
@@ -155,7 +155,7 @@ def test_consider_adds_the_position_effect_and_keeps_the_estimate(paper_flight):
     G = cons.info["position_sensitivity"]
     free = cons.info["position_components"]
     sd = paper_flight.airframe.accel_position_sd.ravel()[free]
-    assert len(free) == 4 and G.shape == (9, 4)
+    assert len(free) == 4 and G.shape == (len(aeroid.NAMES), 4)
     assert_close_in_norm(cons.covariance - known.covariance, (G * sd**2) @ G.T, 1e-12)
     # G by a step of sd / 10, independently of the estimator's loop
     given = paper_flight.airframe.accel_positions.ravel()

@@ -87,8 +87,9 @@ def test_augmented_jacobians_equal_finite_differences(flight, const):
     _, F = f(z, piece, [], [])
     _, H = h(z, d, [], pos)
     F, H = np.asarray(F), np.asarray(H)
-    F_fd, H_fd = np.empty((18, 18)), np.empty((9, 18))
-    for j in range(18):
+    n_z, n_y = z.size, len(aeroid.model.OUTPUT_CHANNELS)  # [x, theta], the outputs
+    F_fd, H_fd = np.empty((n_z, n_z)), np.empty((n_y, n_z))
+    for j in range(n_z):
         step = 1e-6 * max(abs(z[j]), 1e-2)
         zp, zm = z.copy(), z.copy()
         zp[j] += step
@@ -244,9 +245,11 @@ def test_filter_loop_reports_loss_of_positive_definiteness(loop):
 def test_failure_becomes_result_with_time(flight):
     est = ExtendedKalmanEstimator()
     n = flight.n_samples
-    out = _kalman.FilterOutput(np.zeros((n, 18)), np.ones((n, 18)), np.eye(18), 7,
+    n_z = aeroid.model.N_STATE + aeroid.model.N_COEFFICIENTS
+    n_y = len(aeroid.model.OUTPUT_CHANNELS)
+    out = _kalman.FilterOutput(np.zeros((n, n_z)), np.ones((n, n_z)), np.eye(n_z), 7,
                                "covariance not positive definite (Cholesky failed)",
-                               np.zeros((n, 9)), np.ones((n, 9)), np.ones((n, 9)))
+                               np.zeros((n, n_y)), np.ones((n, n_y)), np.ones((n, n_y)))
     res = est.result(flight, out, est.setup(flight), n_evaluations=7)
     assert not res.success
     assert f"t = {flight.t[7]:.4f} s" in res.message
@@ -269,7 +272,7 @@ def test_filters_converge_on_noise_free_flight(filter_results, name):
     truth = aeroid.nominal()
     rel = np.abs(res.theta / truth - 1.0)
     roll = [aeroid.NAMES.index("Cl0"), aeroid.NAMES.index("Clp")]
-    others = [j for j in range(9) if j not in roll]
+    others = [j for j in range(len(aeroid.NAMES)) if j not in roll]
     assert np.all(rel[others] < FILTER_RTOL), rel
     assert np.all(rel[roll] < FILTER_RTOL_ROLL), rel
     # the filter's own uncertainty covers its error (consistency, 3 sd)
@@ -282,11 +285,12 @@ def test_filter_result_layout(filter_results, flight, name):
     n = flight.n_samples
     assert res.history["axis"] == "time"
     np.testing.assert_array_equal(res.history["step"], flight.t)
-    assert res.history["theta"].shape == (n, 9) and res.history["theta_sd"].shape == (n, 9)
+    n_c = len(aeroid.NAMES)
+    assert res.history["theta"].shape == (n, n_c) and res.history["theta_sd"].shape == (n, n_c)
     np.testing.assert_array_equal(res.history["theta"][-1], res.theta)
     np.testing.assert_allclose(res.history["theta"][0] / flight.airframe.prior_vector(), 1.0,
                                atol=0.5)
-    assert res.covariance.shape == (9, 9)
+    assert res.covariance.shape == (n_c, n_c)
     np.testing.assert_array_equal(res.covariance, res.covariance.T)
     np.testing.assert_allclose(res.stderr, np.sqrt(np.diag(res.covariance)))
     # the sd shrinks from the prior's 30 %

@@ -68,8 +68,9 @@ def test_jacobian_equals_finite_differences(noisy_flight, options):
     prob = est.problem(noisy_flight)
     rng = np.random.default_rng(2)
     p = np.ones(prob.model.scale.size)
-    p[:9] += 0.05 * rng.standard_normal(9)
-    p[9:] = 0.01 * rng.standard_normal(p.size - 9)
+    n_c = aeroid.model.N_COEFFICIENTS
+    p[:n_c] += 0.05 * rng.standard_normal(n_c)
+    p[n_c:] = 0.01 * rng.standard_normal(p.size - n_c)
     _, J = prob.residuals_jacobian(p)
     for i in range(p.size):
         h = 1e-6
@@ -85,7 +86,8 @@ def test_compiled_model_equals_casadi_virtual_machine(noisy_flight):
     assert not vm.model.compiled
     if not compiled.model.compiled:
         pytest.skip("no working C compiler: the compiled path is not available here")
-    p = np.concatenate([np.full(9, 1.05), np.full(compiled.model.scale.size - 9, 0.01)])
+    n_c = aeroid.model.N_COEFFICIENTS
+    p = np.concatenate([np.full(n_c, 1.05), np.full(compiled.model.scale.size - n_c, 0.01)])
     e_c, J_c = compiled.residuals_jacobian(p)
     e_v, J_v = vm.residuals_jacobian(p)
     # same floating-point operations, possibly reordered by the C compiler (-O1, no
@@ -104,18 +106,19 @@ def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit
     const = aeroid.model.constants(noisy_flight.airframe)
     delta = noisy_flight["delta"]
     positions = noisy_flight.airframe.accel_positions
-    phys = res.info["parameters"]  # 9 coefficients, then the p0, q0, r0 offsets
-    assert res.info["parameter_names"][9:] == ("p0", "q0", "r0")
+    phys = res.info["parameters"]  # the coefficients, then the p0, q0, r0 offsets
+    n_c = aeroid.model.N_COEFFICIENTS
+    assert res.info["parameter_names"][n_c:] == ("p0", "q0", "r0")
 
     def outputs(params):
         x0 = prob.model.x0.copy()
-        x0[3:6] += params[9:12]
-        states = aeroid.model.propagate(x0, params[:9], delta[:-1], noisy_flight.dt, const,
+        x0[3:6] += params[n_c:n_c + 3]
+        states = aeroid.model.propagate(x0, params[:n_c], delta[:-1], noisy_flight.dt, const,
                                   substeps=est.substeps)[0]
-        acc = aeroid.model.accelerometers(states, delta, params[:9], const, positions)
-        return np.concatenate([acc.reshape(-1, 6), states[:, 3:6]], axis=1)  # (n, 9)
+        acc = aeroid.model.accelerometers(states, delta, params[:n_c], const, positions)
+        return np.concatenate([acc.reshape(-1, 6), states[:, 3:6]], axis=1)  # (n, m)
 
-    J = np.empty((noisy_flight.n_samples, 9, phys.size))
+    J = np.empty((noisy_flight.n_samples, len(aeroid.model.OUTPUT_CHANNELS), phys.size))
     for i in range(phys.size):
         h = 1e-6 * max(abs(phys[i]), 1.0)
         up, dn = phys.copy(), phys.copy()
@@ -129,7 +132,7 @@ def test_cramer_rao_equals_independent_numpy_computation(noisy_flight, noisy_fit
     np.testing.assert_allclose(res.info["R"], r_diag, rtol=1e-6)
     fisher = np.einsum("nci,c,ncj->ij", J, 1.0 / r_diag, J)
     cov = np.linalg.inv(fisher)
-    np.testing.assert_allclose(res.stderr, np.sqrt(np.diag(cov))[:9], rtol=CR_RTOL)
+    np.testing.assert_allclose(res.stderr, np.sqrt(np.diag(cov))[:n_c], rtol=CR_RTOL)
     np.testing.assert_allclose(res.info["parameter_stderr"], np.sqrt(np.diag(cov)),
                                rtol=CR_RTOL)
 
@@ -195,7 +198,8 @@ def test_a_record_longer_than_the_limit_is_refused_in_one_line(noisy_flight, mon
         OutputErrorEstimator().fit(noisy_flight, rng=0)
     assert "\n" not in str(info.value)
     monkeypatch.setattr(output_error, "MAX_SAMPLES", noisy_flight.n_samples)
-    assert OutputErrorEstimator(max_iterations=1).fit(noisy_flight, rng=0).theta.shape == (9,)
+    assert OutputErrorEstimator(max_iterations=1).fit(noisy_flight, rng=0).theta.shape == (
+        aeroid.model.N_COEFFICIENTS,)
 
 
 def test_options_are_checked():

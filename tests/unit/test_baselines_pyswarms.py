@@ -80,7 +80,7 @@ def test_polish_on_the_ebm_objective_reaches_its_bounded_optimum(flight):
     sw = np.sqrt(cost.weights.reshape(-1) / cost.n_samples)
     scale = np.abs(bounds).max(axis=1)
     best = scipy.optimize.lsq_linear(
-        cost.X.reshape(-1, 9) * sw[:, None] * scale, cost.y.reshape(-1) * sw,
+        cost.X.reshape(-1, cost.n_params) * sw[:, None] * scale, cost.y.reshape(-1) * sw,
         bounds=(bounds[:, 0] / scale, bounds[:, 1] / scale), method="bvls", tol=1e-14).x * scale
     width = bounds[:, 1] - bounds[:, 0]
     plain = PyswarmsEstimator(**CHEAP).fit(flight, rng=0)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from aeroid.estimation import accel_only_matrix
+from aeroid.model import N_COEFFICIENTS
 from aeroid.model._airframe import reference_airframe
 from aeroid.model._atmosphere import G0
 from aeroid.model._dynamics import (
@@ -98,7 +99,8 @@ def test_regressors_times_coefficients_equal_forces_and_moments(const, reference
     rng = np.random.default_rng(11)
     states = _random_states(rng, 50)
     delta = rng.choice([-0.14, 0.14], 50)
-    coefficients = reference_scenario.coefficient_vector * rng.uniform(0.5, 1.5, (50, 9))
+    coefficients = reference_scenario.coefficient_vector * rng.uniform(0.5, 1.5,
+                                                                       (50, N_COEFFICIENTS))
     fm = aero_forces_moments(states, delta, coefficients, const)
     via_regressors = np.einsum("nij,nj->ni", regressors(states, delta, const), coefficients)
     np.testing.assert_allclose(via_regressors, fm, rtol=IDENTITY_RTOL,
@@ -156,7 +158,7 @@ def test_torque_free_spinning_body_conserves_momentum_and_energy(const, backend)
     p0, q0, r0 = 30.0, 2.0, -1.0
     x0 = np.array([300.0, 5.0, -3.0, p0, q0, r0, 0.1, 0.2, 0.3])
     dt, n = 1e-3, 1000
-    out = propagate(x0, np.zeros(9), np.zeros(n), dt, free, backend=backend)[0]
+    out = propagate(x0, np.zeros(N_COEFFICIENTS), np.zeros(n), dt, free, backend=backend)[0]
     inertia = np.array([free.ix, free.iy, free.iz])
     omega = out[:, 3:6]
     momentum = np.linalg.norm(omega * inertia, axis=1)

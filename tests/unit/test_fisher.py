@@ -20,7 +20,7 @@ from aeroid.estimation._floor import (
 )
 from aeroid.flights._noise import GaussianNoise, NoNoise, PaperNoise
 from aeroid.model._coefficients import NAMES, nominal
-from aeroid.model._dynamics import accelerometers, constants, regressors
+from aeroid.model._dynamics import OUTPUT_CHANNELS, accelerometers, constants, regressors
 from aeroid.model._integrate import propagate
 
 #: Central differences (relative step 1e-5) of outputs that are linear in theta at k = 0:
@@ -58,7 +58,7 @@ def test_sensitivities_at_the_first_sample_equal_the_closed_form(reference_scena
     airframe = reference_scenario.airframe
     const = constants(airframe)
     jac = output_sensitivities(airframe, nominal(), short_inputs)
-    assert jac.shape == (N_SHORT, 9, 9)
+    assert jac.shape == (N_SHORT, len(OUTPUT_CHANNELS), len(NAMES))
     x = regressors(short_inputs.state0, short_inputs.delta[0], const)
     inv_inertia = np.diag([1 / const.ix, 1 / const.iy, 1 / const.iz])
     expected = np.vstack([np.hstack([np.eye(3) / const.mass, -_skew(r) @ inv_inertia]) @ x
@@ -83,7 +83,8 @@ def second_jacobian(reference_scenario, short_inputs):
     theta = nominal()
     step = 1e-4 * np.abs(theta)
     sets = np.concatenate([theta + m * np.diag(step) for m in (-2, -1, 1, 2)])
-    y = _numpy_outputs(reference_scenario.airframe, sets, short_inputs).reshape(4, 9, N_SHORT, 9)
+    y = _numpy_outputs(reference_scenario.airframe, sets, short_inputs).reshape(
+        4, len(NAMES), N_SHORT, len(OUTPUT_CHANNELS))
     jac = (y[0] - 8 * y[1] + 8 * y[2] - y[3]) / (12 * step[:, None, None])
     return np.moveaxis(jac, 0, -1)
 
@@ -96,7 +97,7 @@ def test_sensitivities_equal_a_second_stencil_and_backend(reference_scenario, sh
 
 def test_model_outputs_reproduce_the_clean_flight(reference_scenario, clean_flight):
     out = model_outputs(reference_scenario.airframe, nominal(), clean_flight)
-    assert out.shape == (clean_flight.n_samples, 9)
+    assert out.shape == (clean_flight.n_samples, len(OUTPUT_CHANNELS))
     measured = np.column_stack([clean_flight.accelerations().reshape(-1, 6),
                                 clean_flight.states()[:, 3:6]])
     scale = np.max(np.abs(measured), axis=0)
@@ -129,7 +130,7 @@ def test_scaling_with_the_noise_level_is_exact(reference_scenario):
     g1 = cramer_rao_sd(reference_scenario, GaussianNoise())
     g2 = cramer_rao_sd(reference_scenario, GaussianNoise(accel_sd_mps2=0.1, rate_sd_radps=0.01))
     np.testing.assert_allclose(g2, 2 * g1, rtol=1e-12)
-    assert base.shape == (9,) and np.all(base > 0)
+    assert base.shape == (len(NAMES),) and np.all(base > 0)
 
 
 def test_heteroscedastic_sd_follows_eq43(reference_scenario, short_inputs):
@@ -145,13 +146,14 @@ def test_heteroscedastic_sd_follows_eq43(reference_scenario, short_inputs):
 def test_nuisance_initial_state_is_the_schur_complement(reference_scenario, short_inputs):
     airframe = reference_scenario.airframe
     jac = output_sensitivities(airframe, nominal(), short_inputs, estimate_initial=("p", "q"))
-    assert jac.shape == (N_SHORT, 9, 11)
+    n_c = len(NAMES)
+    assert jac.shape == (N_SHORT, len(OUTPUT_CHANNELS), n_c + 2)
     # d y / d p0 on the p channel is 1 at k = 0 and close to 1 just after
-    assert jac[0, 6, 9] == pytest.approx(1.0, rel=1e-8)
+    assert jac[0, OUTPUT_CHANNELS.index("p"), n_c] == pytest.approx(1.0, rel=1e-8)
     full = information_from_sensitivities(jac, 0.05)
     reduced = coefficient_information(full)
-    np.testing.assert_allclose(np.linalg.inv(reduced), np.linalg.inv(full)[:9, :9], rtol=1e-6)
-    known = information_from_sensitivities(jac[..., :9], 0.05)
+    np.testing.assert_allclose(np.linalg.inv(reduced), np.linalg.inv(full)[:n_c, :n_c], rtol=1e-6)
+    known = information_from_sensitivities(jac[..., :n_c], 0.05)
     assert np.all(np.diag(np.linalg.inv(reduced)) >= np.diag(np.linalg.inv(known)))
 
 

@@ -22,7 +22,7 @@ WHITE_RTOL = 0.2
 
 
 def _result(residuals, **info) -> EstimationResult:
-    return EstimationResult(estimator="x", theta=np.ones(9),
+    return EstimationResult(estimator="x", theta=np.ones(aeroid.model.N_COEFFICIENTS),
                             info={"fit_residuals": residuals, **info})
 
 
@@ -115,8 +115,9 @@ def test_given_noise_levels_and_failed_results(paper_flight) -> None:
     result = apply_fit_check(_result({"MX": np.full(n, 2.0)}, fit_noise_sd={"MX": 1.0},
                                      fit_signals={"MX": np.full(n, 10.0)}), paper_flight)
     assert result.info["fit_check"]["ratio"]["MX"] == pytest.approx(2.0)
-    failed = EstimationResult(estimator="x", theta=np.ones(9), success=False,
-                              message="diverged", info={"fit_residuals": {"q": np.ones(n)}})
+    failed = EstimationResult(estimator="x", theta=np.ones(aeroid.model.N_COEFFICIENTS),
+                              success=False, message="diverged",
+                              info={"fit_residuals": {"q": np.ones(n)}})
     assert apply_fit_check(failed, paper_flight).message == "diverged"
 
 
@@ -134,7 +135,8 @@ def test_standard_errors_below_the_floor_are_flagged(reference_scenario) -> None
     assert corr < -0.98
     assert fit.warnings == (f"nearly confounded (|correlation| > 0.98): Cl0-Clp ({corr:+.5f}); "
                             "the data determine a combination of each pair better than either",)
-    boasting = dataclasses.replace(fit, stderr=fit.stderr * np.where(np.arange(9) == 4, 0.3, 1))
+    boasting = dataclasses.replace(fit, stderr=fit.stderr * np.where(
+        np.arange(aeroid.model.N_COEFFICIENTS) == 4, 0.3, 1))
     (warning,) = floor_warnings(boasting, flight)
     assert "below half the Cramér-Rao floor for Cl0" in warning and "Clp" not in warning
     clean = aeroid.simulate_scenario(reference_scenario, aeroid.NoNoise(), rng=0)

@@ -18,6 +18,7 @@ from aeroid.flights import (
     read_flight,
     sidecar_path,
 )
+from aeroid.model import N_STATE
 
 HAVE_PYARROW = importlib.util.find_spec("pyarrow") is not None
 #: degrees -> radians after radians -> degrees: a few ulp.
@@ -55,7 +56,7 @@ def test_accessors_return_copies_with_the_right_shapes(clean_flight):
     p = clean_flight["p"]
     p[:] = 0.0
     assert clean_flight["p"][0] != 0.0
-    assert clean_flight.states().shape == (501, 9)
+    assert clean_flight.states().shape == (501, N_STATE)
     acc = clean_flight.accelerations()
     assert acc.shape == (501, 2, 3)
     np.testing.assert_array_equal(acc[:, 1, 2], clean_flight["az2"])

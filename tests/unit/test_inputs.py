@@ -11,6 +11,8 @@ from scipy.integrate import solve_ivp
 from aeroid.model import (
     EXOGENOUS,
     HAVE_NUMBA,
+    N_COEFFICIENTS,
+    N_STATE,
     ForwardModel,
     Record,
     Schedule,
@@ -172,12 +174,12 @@ def test_numba_numpy_and_casadi_agree_on_pieces_and_exogenous(setup) -> None:
     z = np.concatenate([x0, theta])
     for k in range(n - 1):
         z = np.asarray(f(z, pieces[:, k], exo[:, k], exo[:, k + 1])[0]).ravel()
-        np.testing.assert_allclose(z[:9], a[k + 1], rtol=SAME_RTOL,
+        np.testing.assert_allclose(z[:N_STATE], a[k + 1], rtol=SAME_RTOL,
                                    atol=SAME_RTOL * np.abs(a).max())
     # the output-error record graph equals the forward model's outputs
     positions = np.array([[0.6, 0.0, 0.0], [-0.6, 0.01, 0.01]])
     simulate, _, _ = symbolic_record(const, DT, 1, n, (), (), False, record.n_pieces, True)
-    y = np.asarray(simulate(np.ones(9), theta, x0, *record.symbolic_inputs(),
+    y = np.asarray(simulate(np.ones(N_COEFFICIENTS), theta, x0, *record.symbolic_inputs(),
                             positions.ravel()))
     expected = ForwardModel(const, record, positions).outputs(x0, theta)[0]
     np.testing.assert_allclose(y, expected, rtol=SAME_RTOL,

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from aeroid.model import N_COEFFICIENTS, N_STATE
 from aeroid.model._dynamics import constants, state_derivative
 from aeroid.model._integrate import HAVE_NUMBA, PARALLEL_MIN_SETS, propagate, rk4
 
@@ -93,7 +94,7 @@ def test_propagate_equals_solve_ivp(ivp_reference, clean_flight, reference_scena
     ref, delta, const = ivp_reference
     truth = reference_scenario.coefficient_vector
     fine = propagate(ref[0], truth, delta, clean_flight.dt, const, substeps=32, backend=backend)
-    assert fine.shape == (1, len(delta) + 1, 9)
+    assert fine.shape == (1, len(delta) + 1, N_STATE)
     assert _scaled_error(fine[0], ref) < SOLVE_IVP_RTOL
     # and the error is RK4's: halving the step divides it by ~16
     e1 = _scaled_error(propagate(ref[0], truth, delta, clean_flight.dt, const, substeps=1,
@@ -118,14 +119,14 @@ def test_propagate_matches_the_recorded_flight(clean_flight, reference_scenario)
 def test_numba_and_numpy_backends_agree(clean_flight, reference_scenario):
     rng = np.random.default_rng(7)
     n_sets = PARALLEL_MIN_SETS + 4  # takes the parallel kernel
-    spread = 1 + 0.4 * (rng.random((n_sets, 9)) - 0.5)
+    spread = 1 + 0.4 * (rng.random((n_sets, N_COEFFICIENTS)) - 0.5)
     coefficients = reference_scenario.coefficient_vector * spread
     const = constants(reference_scenario.airframe)
     args = (clean_flight.states()[0], coefficients, clean_flight["delta"][:-1], clean_flight.dt,
             const)
     fast = propagate(*args, backend="numba")
     slow = propagate(*args, backend="numpy")
-    assert fast.shape == slow.shape == (n_sets, clean_flight.n_samples, 9)
+    assert fast.shape == slow.shape == (n_sets, clean_flight.n_samples, N_STATE)
     assert _scaled_error(fast, slow) < BACKEND_RTOL
     # the serial kernel (few sets) gives the parallel kernel's numbers
     few = propagate(args[0], coefficients[:3], *args[2:], backend="numba")
@@ -191,7 +192,8 @@ def test_diverging_set_gives_non_finite_values_not_an_exception(clean_flight, re
     [
         ({"coefficients": np.zeros(8)}, "coefficients must have shape"),
         ({"state0": np.zeros((2, 8))}, "state0 must have shape"),
-        ({"state0": np.ones((3, 9)), "coefficients": np.ones((2, 9))}, "do not broadcast"),
+        ({"state0": np.ones((3, N_STATE)),
+          "coefficients": np.ones((2, N_COEFFICIENTS))}, "do not broadcast"),
         ({"substeps": 0}, "substeps must be >= 1"),
         ({"dt": -0.002}, "dt must be a positive"),
         ({"backend": "fortran"}, "unknown backend"),

@@ -85,7 +85,8 @@ def _problems(flight):
     meas = np.concatenate([flight.accelerations().reshape(n, 6), rc.rate_derivatives(flight)],
                           axis=1)
     sd = np.std(meas - c, axis=0)
-    out.append(((A9 / sd[None, :, None]).reshape(-1, 9), ((meas - c) / sd).reshape(-1), n))
+    out.append(((A9 / sd[None, :, None]).reshape(-1, A9.shape[-1]),
+                ((meas - c) / sd).reshape(-1), n))
     scaled = []
     for A, b, n_time in out:
         As = A / np.sqrt(np.sum(A * A, axis=0))

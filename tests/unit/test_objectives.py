@@ -16,6 +16,7 @@ from aeroid.estimation._objectives import (
     ebm_cost,
     sebm_costs,
 )
+from aeroid.model import N_COEFFICIENTS
 
 #: Quadratic form vs residual form: both exact; the difference is round-off of sums of
 #: ~1e3 terms with condition ~1e6.
@@ -81,20 +82,20 @@ def test_quadratic_cost_equals_residual_form_and_scipy_lstsq() -> None:
 def test_ebm_cost_quadratic_form_on_flight(paper_flight, paper_rec, weighting) -> None:
     cost = ebm_cost(paper_flight, paper_rec, weighting=weighting)
     theta = paper_flight.airframe.prior_vector() * np.random.default_rng(2).uniform(
-        0.5, 1.5, (40, 9))
+        0.5, 1.5, (40, N_COEFFICIENTS))
     np.testing.assert_allclose(cost(theta), cost.direct(theta), rtol=QUADRATIC_RTOL)
 
 
 def test_sebm_costs_sum_to_ebm_cost(paper_flight, paper_rec) -> None:
     """With one noise level per channel, eq. 34's cost is the sum of eqs. 39-42."""
     theta = paper_flight.airframe.prior_vector() * np.random.default_rng(4).uniform(
-        0.5, 1.5, (30, 9))
+        0.5, 1.5, (30, N_COEFFICIENTS))
     total = sum(c.direct(theta[:, list(cols)])
                 for _, cols, c in sebm_costs(paper_flight, paper_rec))
     ebm = ebm_cost(paper_flight, paper_rec, rows=EBM_ROWS)
     np.testing.assert_allclose(total, ebm.direct(theta), rtol=QUADRATIC_RTOL)
     cols = [c for _, cs, _ in sebm_costs(paper_flight, paper_rec) for c in cs]
-    assert sorted(cols) == list(range(9))
+    assert sorted(cols) == list(range(N_COEFFICIENTS))
 
 
 def test_noise_free_ebm_optimum_is_the_truth(clean_flight, clean_rec) -> None:
@@ -108,7 +109,7 @@ def test_noise_free_ebm_optimum_is_the_truth(clean_flight, clean_rec) -> None:
 @pytest.mark.parametrize("weighting", ["noise", "relative"])
 def test_eam_cost_backends_agree(paper_flight, weighting) -> None:
     theta = paper_flight.airframe.prior_vector() * np.random.default_rng(9).uniform(
-        0.7, 1.3, (12, 9))
+        0.7, 1.3, (12, N_COEFFICIENTS))
     fast = OutputErrorCost(paper_flight, weighting=weighting, backend="numba")(theta)
     slow = OutputErrorCost(paper_flight, weighting=weighting, backend="numpy")(theta)
     np.testing.assert_allclose(fast, slow, rtol=BACKEND_RTOL)

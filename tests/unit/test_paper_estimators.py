@@ -11,6 +11,7 @@ from aeroid.estimation import EDGE_FRACTION, make_estimator, prior_bounds
 from aeroid.estimation import _eam as eam
 from aeroid.estimation._objectives import ebm_cost, sebm_costs
 from aeroid.estimation._reconstruct import reconstruct
+from aeroid.model import N_STATE
 from aeroid.model._coefficients import NAMES
 
 #: Noise-free EBM-PSO / SEBM-PSO with the paper's relative weighting, |error| in % per
@@ -22,7 +23,7 @@ from aeroid.model._coefficients import NAMES
 #: 0.05/0.79 %; the SEBM sub-problems (1-3-D) reach the closed form (<= 0.006 %).
 #: Margin about x3.
 EBM_NOISE_FREE_TOL_PCT = np.array([0.15, 0.2, 0.2, 2.0, 2.5, 3.0, 0.6, 0.15, 2.5])
-SEBM_NOISE_FREE_TOL_PCT = np.full(9, 0.02)
+SEBM_NOISE_FREE_TOL_PCT = np.full(len(NAMES), 0.02)
 #: Noise-free EAM-PSO at a reduced swarm (100 x 100, random start, no warm start), with
 #: the paper's relative weighting (eq. 23): on noise-free data the noise weighting's
 #: per-channel sd estimates are round-off-level artefacts (p is smooth to 1e-9), so
@@ -158,7 +159,7 @@ def test_history_and_info(paper_flight, paper_results, method) -> None:
     h = result.history
     n_iter = 200
     assert h["axis"] == "iteration"
-    assert h["theta"].shape == (n_iter + 1, 9)
+    assert h["theta"].shape == (n_iter + 1, len(NAMES))
     assert h["cost"].shape == h["step"].shape == (n_iter + 1,)
     assert np.all(np.diff(h["cost"]) <= 0)
     np.testing.assert_array_equal(h["theta"][-1], result.theta)
@@ -190,7 +191,7 @@ def test_sebm_keeps_each_subproblem_history(paper_results) -> None:
     ("sebm-pso", {"n_particles": "[50, 150, 100, 20000]"}, "n_particles"),
     ("eam-pso", {"substeps": "1000"}, "substeps"),
     ("eam-pso", {"stall_iterations": "0"}, "stall_iterations"),
-    ("ebm-pso", {"box": "[" + ", ".join(["2, 1"] * 9) + "]"}, "low < high"),
+    ("ebm-pso", {"box": "[" + ", ".join(["2, 1"] * len(NAMES)) + "]"}, "low < high"),
 ])
 def test_bad_options_are_one_line_errors(method, options, match) -> None:
     with pytest.raises(EstimatorError, match=match) as info:
@@ -210,7 +211,7 @@ def test_user_box_is_used(paper_flight) -> None:
 def test_eam_refuses_a_swarm_too_large_for_the_flight(paper_flight, monkeypatch) -> None:
     """Checked before the first simulation: one line, not a failed fit or a dead machine."""
     est = make_estimator("eam-pso", {"n_particles": 10, "n_iterations": 1})
-    need = 10 * paper_flight.n_samples * 9 * 8
+    need = 10 * paper_flight.n_samples * N_STATE * 8
     monkeypatch.setattr(eam, "MAX_SWARM_STATE_BYTES", need - 1)
     with pytest.raises(EstimatorError, match="particles x 501 samples need"):
         est.fit(paper_flight, rng=SEED)

@@ -13,6 +13,7 @@ from aeroid.estimation._reconstruct import (
     smooth,
 )
 from aeroid.flights._flight import make_flight
+from aeroid.model import N_COEFFICIENTS
 from aeroid.model._airframe import reference_airframe
 from aeroid.model._dynamics import accelerometers, aero_forces_moments, constants
 
@@ -69,7 +70,8 @@ def test_eq29_matches_the_sensor_model() -> None:
     theta = af.prior_vector()
     fm = aero_forces_moments(state, delta, theta, const)
     a_model = accelerometers(state, delta, theta, const, af.accel_positions).reshape(20, 6)
-    a_zero = accelerometers(state, delta, np.zeros(9), const, af.accel_positions).reshape(20, 6)
+    a_zero = accelerometers(state, delta, np.zeros(N_COEFFICIENTS), const,
+                          af.accel_positions).reshape(20, 6)
     # with zero coefficients FM = 0, so the reading is B alone
     A = accel_only_matrix(af)
     np.testing.assert_allclose(fm @ A.T + a_zero, a_model, rtol=ROUNDOFF_RTOL, atol=1e-9)
@@ -111,7 +113,7 @@ def test_ebm_regression_smoothing_modes(clean_flight) -> None:
     X_none, y_none = ebm_regression(clean_flight, rec, smoothing="none")
     X_forces, y_forces = ebm_regression(clean_flight, rec, smoothing="forces")
     X_both, y_both = ebm_regression(clean_flight, rec, smoothing="both")
-    assert X_none.shape == (clean_flight.n_samples, 6, 9)
+    assert X_none.shape == (clean_flight.n_samples, 6, N_COEFFICIENTS)
     np.testing.assert_array_equal(y_none, rec.fm)
     np.testing.assert_array_equal(X_forces, X_none)
     np.testing.assert_array_equal(y_forces, rec.fm_smooth)

@@ -16,7 +16,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from aeroid.flights import read_flight, simulate, simulate_truth
-from aeroid.model import FinLaw, Schedule, constants, propagate, state_derivative
+from aeroid.model import N_STATE, FinLaw, Schedule, constants, propagate, state_derivative
 
 #: Switch instants, simulator vs event-located solve_ivp: both locate zeros to ~1e-13 s
 #: (the simulator to 1e-12 s by brentq); measured 1.5e-13 s. 1e-11 s leaves room for the
@@ -43,7 +43,7 @@ def reference_loop(law: FinLaw, coefficients, const, x0, t_end: float, t_samples
     clock = (np.arange(1, int(t_end * control_rate_hz) + 1) / control_rate_hz
              if control_rate_hz else np.array([]))
     t, x = 0.0, np.array(x0, dtype=float)
-    out = np.full((len(t_samples), 9), np.nan)
+    out = np.full((len(t_samples), N_STATE), np.nan)
     switches = []
 
     def rhs(when, state, p0, t0, rate_now):

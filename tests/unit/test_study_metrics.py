@@ -28,7 +28,7 @@ def _record(run, offsets, stderr, success=True, estimator="A", noise="n1"):
 @pytest.fixture(scope="module")
 def records():
     # relative offsets -0.1, +0.1, +0.3 (in units of |truth|); stderr 0.05, 0.2, 0.1
-    ones = np.ones(9)
+    ones = np.ones(len(NAMES))
     return [
         _record(0, -0.1 * ones, 0.05 * ones),   # |e| = 0.1 > 1.96*0.05 = 0.098: not covered
         _record(1, 0.1 * ones, 0.2 * ones),     # 0.1 <= 0.392: covered
@@ -41,7 +41,7 @@ def records():
 def test_tidy_has_one_row_per_fit_and_coefficient(records):
     frame = metrics.tidy(records)
     assert list(frame.columns) == metrics.TIDY_COLUMNS
-    assert len(frame) == 5 * 9
+    assert len(frame) == 5 * len(NAMES)
     run2 = frame[frame["run"] == 2]
     assert list(run2["coefficient"]) == list(NAMES)
     np.testing.assert_allclose(run2["error"], 0.3 * np.abs(TRUTH), rtol=0, atol=EXACT_TOL)
@@ -53,7 +53,7 @@ def test_tidy_has_one_row_per_fit_and_coefficient(records):
 
 def test_summary_matches_hand_computation(records):
     summary = metrics.summarize(metrics.tidy(records))
-    assert len(summary) == 9
+    assert len(summary) == len(NAMES)
     # successful offsets (in |truth| units): -0.1, 0.1, 0.3, 0.0
     offsets = np.array([-0.1, 0.1, 0.3, 0.0])
     for _, row in summary.iterrows():
@@ -82,7 +82,7 @@ def test_cramer_rao_columns(records):
 
 
 def test_groups_are_kept_apart_and_overall_averages_coefficients():
-    ones = np.ones(9)
+    ones = np.ones(len(NAMES))
     recs = [_record(0, 0.1 * ones, None, estimator="A"),
             _record(0, -0.2 * ones, None, estimator="B"),
             _record(0, 0.4 * ones, None, estimator="A", noise="n2")]
