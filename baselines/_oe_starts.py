@@ -5,14 +5,15 @@ coefficients, the other parameters at their own start). The default is two start
 airframe's prior (or the PSO warm start's best point) and equation-error's closed-form
 estimate of the same flight, which does not depend on the prior (:mod:`baselines.
 equation_error`, fitted with the positions as given and the white-residual covariance: only
-its point is used). The likeliest end wins; :func:`start_report` says how many ended
+its point is used). The likeliest converged end wins; :func:`start_report` says how many ended
 elsewhere and how much worse.
 
 Measured on the paper condition from a prior 10-25 % off (200 runs, seeds 20240605 and
-20240606, ``studies/oe_starts_*.toml``): once the noise law is fitted by maximum
-likelihood (:func:`baselines._gauss_newton.most_likely_law`) every prior start reached the
-optimum of a fit started at the truth; the equation-error start is the check that
-says so in each result (module README text: /work/readme-parts/oestart.md).
+20240606, ``studies/output_error_prior_a.toml`` and ``_b.toml``): once the noise law is
+fitted by maximum likelihood (:func:`baselines._gauss_newton.most_likely_law`), every
+prior start reached the optimum of a fit started at the truth; the equation-error start
+is the check that says so in each result, and the rescue when the prior is far off (a
+prior with the wrong sign of Cma, on which the prior start does not converge).
 """
 
 from __future__ import annotations
