@@ -27,8 +27,8 @@ import aeroid
 from aeroid.flights import Flight
 
 #: Two ends lie at the same optimum when no coefficient differs by more than this many of
-#: the best end's standard errors: 50x the fit's convergence tolerance (1e-3 sd); ends of
-#: one optimum reached from different starts agreed within 1.3e-3 sd over 200 runs.
+#: the best end's standard errors: 50x the fit's convergence tolerance (1e-3 sd); the two
+#: starts' ends agreed within 1.7e-3 sd on each of 200 paper-condition runs.
 SAME_OPTIMUM_SD = 0.05
 #: An end farther than this many standard errors from the best is a warning: the answer
 #: depended on the start by more than its own uncertainty.

@@ -67,7 +67,8 @@ MAX_SAMPLES = 50_000
 class OutputErrorEstimator(Estimator):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
-    Starts from the airframe's prior coefficients and the first measured sample.
+    Starts from the airframe's prior coefficients and from equation-error's estimate, the
+    state from the first measured sample.
 
     Attributes
     ----------
@@ -375,7 +376,7 @@ class OutputErrorEstimator(Estimator):
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
-                "input": self.input,
+                "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale))
         info.update(start_info)
