@@ -75,8 +75,8 @@ def best_end(ends: list[Any]) -> int:
     return min(converged, key=lambda k: ends[k].nll)
 
 
-def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarray
-                 ) -> tuple[dict[str, Any], list[str]]:
+def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarray,
+                 failures: list[str] = ()) -> tuple[dict[str, Any], list[str]]:
     """Compare every start's end with the best one; return ``info`` entries and warnings.
 
     Parameters
@@ -90,6 +90,8 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
         converged, :func:`best_end`).
     stderr : ndarray, shape (n_p,)
         Standard errors of the best end's scaled parameters (positive).
+    failures : list of str
+        The starts that could not be made or fitted, ``"label: why"`` each.
 
     Returns
     -------
@@ -101,7 +103,8 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
         ends lie farther than :data:`SAME_OPTIMUM_SD`).
     warnings : list of str
         One line when a converged end lies more than :data:`WARN_SD` standard errors
-        away: a second optimum (an unconverged end shows none; ``info`` has it).
+        away: a second optimum (an unconverged end shows none; ``info`` has it); one per
+        failed start.
     """
     n = len(aeroid.NAMES)
     p_best, nll_best = ends[best].p[:n], ends[best].nll
@@ -114,7 +117,8 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
             "start_cost_excess": excess, "start_distance_sd": distance,
             "starts_elsewhere": len(elsewhere)}
     far = [i for i in elsewhere if not distance[i] <= WARN_SD and ends[i].converged]
-    warnings = []
+    warnings = [f"output-error: the {why.replace(': ', ' start failed: ', 1)}"
+                for why in failures]
     if far:
         k = max(far, key=lambda i: distance[i])
         warnings.append(

@@ -348,8 +348,7 @@ class OutputErrorEstimator(Estimator):
                 failures.append(f"{start.label}: {exc}")
         if not fits:
             return aeroid.failed_result(self.name, failures[0])
-        k_best = best_end(fits)
-        best = fits[k_best]
+        best = fits[k_best := best_end(fits)]
         n_evals = extra_evals + sum(f.n_evaluations for f in fits)
         n_iter = sum(f.n_iterations for f in fits)
         M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
@@ -378,7 +377,8 @@ class OutputErrorEstimator(Estimator):
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
                 "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
-        start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale))
+        start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
+                                            failures)
         info.update(start_info)
         first_pos = 9 + len(self.x0_free())
         positions = model.pos.copy()

@@ -136,6 +136,10 @@ def test_start_report_counts_the_ends_elsewhere_and_warns_beyond_one_standard_er
     assert "'r 2' 3 standard errors" in warning and "higher by 350" in warning
     info, warnings = _oe_starts.start_report(["prior", "equation-error"], [same, best], 1, sd)
     assert info["starts_elsewhere"] == 0 and warnings == []
+    _, warnings = _oe_starts.start_report(["equation-error"], [best], 0, sd,
+                                          ["prior: the model diverges at the starting point"])
+    assert warnings == ["output-error: the prior start failed: the model diverges at the "
+                        "starting point"]
     assert _oe_starts.best_end([stopped, _End(best.p, -10.0, converged=False)]) == 0
 
 
@@ -147,3 +151,5 @@ def test_an_equation_error_start_that_cannot_be_made_is_recorded(poorer_optimum_
     assert res.info["starts"] == 2 and res.info["start_labels"] == ["prior"]
     (failure,) = res.info["failed_starts"]
     assert failure.startswith("equation-error: ") and "covariance" in failure
+    (warning,) = res.warnings  # said, not silently dropped
+    assert warning.startswith("output-error: the equation-error start failed: ")
