@@ -33,6 +33,13 @@ SAME_OPTIMUM_SD = 0.05
 #: An end farther than this many standard errors from the best is a warning: the answer
 #: depended on the start by more than its own uncertainty.
 WARN_SD = 1.0
+#: Ends within this relative distance (largest over the coefficients) are the same point
+#: whatever their standard errors: on a noise-free flight the residuals are the model's
+#: discretisation error and the standard errors shrink with them (1e-10 relative), and
+#: the two starts' ends, 4.7e-6 apart, were 1.3e4 "standard errors" apart
+#: (continuous_relay, noise-free, input events). The smallest standard error under the
+#: paper's noise is 9e-5 relative (Cma), so a genuine second optimum is far beyond.
+SAME_POINT_REL = 2e-5
 #: Options of the equation-error start: only its point is used, so the cheapest
 #: covariance and the positions as given.
 EQUATION_ERROR_OPTIONS = {"positions": "known", "covariance": "ols"}
@@ -99,8 +106,9 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
         ``start_labels``, ``start_costs``, ``start_converged``, ``start_cost_excess``
         (each end's cost minus the result's; negative only for an end that did not
         converge), ``start_distance_sd`` (each end's largest coefficient distance from
-        the result, in the result's standard errors) and ``starts_elsewhere`` (how many
-        ends lie farther than :data:`SAME_OPTIMUM_SD`).
+        the result, in the result's standard errors), ``start_distance_rel`` (the same,
+        relative to the result's coefficients) and ``starts_elsewhere`` (how many ends
+        lie farther than :data:`SAME_OPTIMUM_SD` and :data:`SAME_POINT_REL`).
     warnings : list of str
         One line when a converged end lies more than :data:`WARN_SD` standard errors
         away: a second optimum (an unconverged end shows none; ``info`` has it); one per
@@ -110,12 +118,14 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
     p_best, nll_best = ends[best].p[:n], ends[best].nll
     with np.errstate(all="ignore"):
         distance = [float(np.max(np.abs(f.p[:n] - p_best) / stderr[:n])) for f in ends]
+        relative = [float(np.max(np.abs(f.p[:n] / p_best - 1.0))) for f in ends]
     excess = [float(f.nll - nll_best) for f in ends]
-    elsewhere = [i for i, d in enumerate(distance) if not d <= SAME_OPTIMUM_SD]
+    elsewhere = [i for i, (d, r) in enumerate(zip(distance, relative, strict=True))
+                 if not (d <= SAME_OPTIMUM_SD or r <= SAME_POINT_REL)]
     info = {"start_labels": list(labels), "start_costs": [float(f.nll) for f in ends],
             "start_converged": [bool(f.converged) for f in ends],
             "start_cost_excess": excess, "start_distance_sd": distance,
-            "starts_elsewhere": len(elsewhere)}
+            "start_distance_rel": relative, "starts_elsewhere": len(elsewhere)}
     far = [i for i in elsewhere if not distance[i] <= WARN_SD and ends[i].converged]
     warnings = [f"output-error: the {why.replace(': ', ' start failed: ', 1)}"
                 for why in failures]

@@ -136,6 +136,14 @@ def test_start_report_counts_the_ends_elsewhere_and_warns_beyond_one_standard_er
     assert "'r 2' 3 standard errors" in warning and "higher by 350" in warning
     info, warnings = _oe_starts.start_report(["prior", "equation-error"], [same, best], 1, sd)
     assert info["starts_elsewhere"] == 0 and warnings == []
+    # noise-free: standard errors of 1e-10 relative; ends 5e-6 apart are the same point
+    tiny = np.full(n + 3, 1e-10)
+    apart = _End(best.p * (1 + 5e-6), -99.0)
+    info, warnings = _oe_starts.start_report(["prior", "equation-error"], [best, apart], 0,
+                                             tiny)
+    assert info["start_distance_sd"][1] == pytest.approx(5e4, rel=1e-6)
+    assert info["start_distance_rel"][1] == pytest.approx(5e-6, rel=1e-6)
+    assert info["starts_elsewhere"] == 0 and warnings == []
     _, warnings = _oe_starts.start_report(["equation-error"], [best], 0, sd,
                                           ["prior: the model diverges at the starting point"])
     assert warnings == ["output-error: the prior start failed: the model diverges at the "
