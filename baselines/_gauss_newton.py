@@ -4,7 +4,9 @@ The output-error baseline's solver: measurement noise Gaussian, white, with unkn
 diagonal covariance ``R``; Gauss-Newton on the weighted least-squares cost
 ``1/2 sum_k e_k^T R^-1 e_k`` with Levenberg damping, and ``R_jj = mean_k e_kj^2``
 re-estimated after every accepted step (the relaxation technique), until the
-Gauss-Newton step is below ``tol`` standard deviations and ``R`` has settled.
+Gauss-Newton step is below ``tol`` standard deviations and ``R`` has settled. With the
+per-sample noise law (``signal``) the re-estimate is that law's likelihood maximum
+(:func:`most_likely_law`), so neither half-step can lower the likelihood.
 """
 
 from __future__ import annotations
@@ -53,6 +55,13 @@ NOISE_MODELS: tuple[str, ...] = ("channel", "signal")
 #: 0.468 % (``aeroid study studies/paper_table5_prior.toml``, 50 runs, at commits
 #: b008e8f and 9d489cc; data with additive noise have a_c well above either floor).
 A_FLOOR_REL = 1e-6
+#: The noise law's likelihood maximisation (:func:`most_likely_law`) ends when no
+#: channel's negative log-likelihood falls by more than this in an iteration (a law
+#: that much less likely moves no coefficient visibly), or after LAW_MAX_ITERATIONS.
+LAW_NLL_TOL = 1e-6
+LAW_MAX_ITERATIONS = 100
+#: Smallest fraction of a scoring step tried before that channel's law stays put.
+LAW_MIN_STEP = 1e-9
 
 
 @dataclass(frozen=True)
@@ -68,10 +77,11 @@ class Problem:
         Floor of every variance (keeps the weights finite on noise-free data).
     noise_model : {"channel", "signal"}
         ``channel``: one variance per channel, ``R_c = mean_k e_kc^2`` (Klein & Morelli);
-        ``signal``: per sample, ``R_kc = a_c + b_c yhat_kc^2`` with ``a_c, b_c >= 0`` fitted
-        by weighted non-negative least squares of ``e_kc^2`` on ``[1, yhat_kc^2]``
-        (weights ``1 / R_kc^2``, the variance of ``e^2`` for Gaussian ``e`` being
-        ``2 R^2``), ``a_c`` floored at :data:`A_FLOOR_REL` of the mean squared residual.
+        ``signal``: per sample, ``R_kc = a_c + b_c yhat_kc^2`` with ``a_c, b_c >= 0`` the
+        maximum-likelihood law (:func:`most_likely_law`, started from the weighted
+        non-negative least squares of ``e_kc^2`` on ``[1, yhat_kc^2]``,
+        :func:`aeroid.estimation.fit_noise_law`, or from ``b_c = 0`` where that is
+        likelier), ``a_c`` floored at :data:`A_FLOOR_REL` of the mean squared residual.
     prior_mean, prior_weight : ndarray, shape (n_p,), optional
         A Gaussian prior on the scaled parameters (MAP): mean and inverse variance (0: no
         prior on that parameter).
@@ -102,7 +112,13 @@ class Problem:
         if self.noise_model == "channel":
             return ms
         y2 = (self.z - e) ** 2
-        a, b = estimation.fit_noise_law(e * e, y2, floor=A_FLOOR_REL * ms)
+        floor = A_FLOOR_REL * ms
+        a, b = estimation.fit_noise_law(e * e, y2, floor=floor)
+        # the regression's law is the start; one variance per channel (b = 0), a member
+        # of the law, where it is the likelier
+        uniform = _law_nll(e * e, y2, ms, 0.0) < _law_nll(e * e, y2, a, b)
+        a, b = most_likely_law(e * e, y2, np.where(uniform, ms, a),
+                               np.where(uniform, 0.0, b), floor=floor)
         return np.maximum(a + b * y2, self.r_floor)
 
     def prior_terms(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
@@ -112,6 +128,82 @@ class Problem:
         d = self.prior_mean - p
         return (0.5 * float(np.sum(self.prior_weight * d * d)), self.prior_weight * d,
                 np.diag(self.prior_weight))
+
+
+def _law_nll(e2: np.ndarray, s2: np.ndarray, a: np.ndarray | float,
+             b: np.ndarray | float) -> np.ndarray:
+    """Negative log-likelihood per channel of the law ``a + b s2``, shape (m,)."""
+    var = a + b * s2
+    return 0.5 * np.sum(e2 / var + np.log(var), axis=0)
+
+
+def most_likely_law(e2: np.ndarray, s2: np.ndarray, a: np.ndarray, b: np.ndarray, *,
+                    floor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the maximum-likelihood noise law ``var = a + b s2`` per channel from a start.
+
+    Newton's method on the Gaussian likelihood of the residuals where its curvature is
+    positive, else Fisher scoring (whose full step is the reweighted regression of
+    :func:`aeroid.estimation.fit_noise_law`), each step halved until the likelihood
+    does not fall, within ``a >= floor``, ``b >= 0``. The regression alone makes a fixed
+    number of unguarded steps and can oscillate: on the residuals of a poor iterate (a
+    paper-noise flight, ay1) it alternated between ``b = 0`` with a variance 50 times
+    below the residuals' and ``a`` at its floor, a likelihood 1.2e4 worse than one
+    variance per channel, and Gauss-Newton then fitted those weights into a poorer
+    optimum (issue 18: 2 of 200 paper-condition runs from a prior 10-25 % off).
+
+    Parameters
+    ----------
+    e2, s2 : ndarray, shape (n, m)
+        Squared residuals and squared model outputs.
+    a, b : ndarray, shape (m,)
+        The start.
+    floor : ndarray, shape (m,)
+        Lower bound of ``a``.
+    """
+    floor = np.broadcast_to(np.asarray(floor, dtype=float), np.shape(a))
+    a, b = np.maximum(a, floor), np.maximum(b, 0.0)
+    active = np.arange(a.size)  # channels still moving
+    for _ in range(LAW_MAX_ITERATIONS):
+        if active.size == 0:
+            break
+        ca, cb, fl, e2c, s2c = a[active], b[active], floor[active], e2[:, active], s2[:, active]
+        nll = _law_nll(e2c, s2c, ca, cb)
+        var = ca + cb * s2c
+        w = 1.0 / (var * var)
+        r = w * (e2c - var)
+        u0, u1 = np.sum(r, 0), np.sum(r * s2c, 0)
+        # Newton where the likelihood's curvature is positive, else Fisher scoring
+        h = w * (2.0 * e2c / var - 1.0)
+        i00, i01, i11 = np.sum(h, 0), np.sum(h * s2c, 0), np.sum(h * s2c * s2c, 0)
+        convex = (i00 > 0) & (i00 * i11 - i01 * i01 > 0)
+        i00 = np.where(convex, i00, np.sum(w, 0))
+        i01 = np.where(convex, i01, np.sum(w * s2c, 0))
+        i11 = np.where(convex, i11, np.sum(w * s2c * s2c, 0))
+        with np.errstate(all="ignore"):
+            det = i00 * i11 - i01 * i01
+            da, db = (i11 * u0 - i01 * u1) / det, (i00 * u1 - i01 * u0) / det
+            # a step out of a bound it sits on: along the other parameter alone
+            on_b = (cb <= 0.0) & (db < 0.0)
+            da, db = np.where(on_b, u0 / i00, da), np.where(on_b, 0.0, db)
+            on_a = (ca <= fl) & (da < 0.0) & ~on_b
+            da, db = np.where(on_a, 0.0, da), np.where(on_a, u1 / i11, db)
+        finite = np.isfinite(da) & np.isfinite(db)
+        da, db = np.where(finite, da, 0.0), np.where(finite, db, 0.0)
+        gain = np.zeros(active.size)
+        todo = finite.copy()
+        step = 1.0
+        while np.any(todo) and step > LAW_MIN_STEP:
+            ta, tb = np.maximum(ca + step * da, fl), np.maximum(cb + step * db, 0.0)
+            trial = _law_nll(e2c[:, todo], s2c[:, todo], ta[todo], tb[todo])
+            ok = np.zeros(active.size, dtype=bool)
+            ok[todo] = trial <= nll[todo]
+            idx = active[ok]
+            a[idx], b[idx] = ta[ok], tb[ok]
+            gain[ok] = nll[ok] - trial[ok[todo]]
+            todo &= ~ok
+            step *= 0.5
+        active = active[gain > LAW_NLL_TOL]
+    return a, b
 
 
 def _cost(e: np.ndarray, var: np.ndarray) -> float:

@@ -40,6 +40,7 @@ from baselines._gauss_newton import (
     sandwich,
 )
 from baselines._oe_record import RecordModel
+from baselines._oe_starts import Start, best_end, equation_error_start, start_report
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -66,7 +67,8 @@ MAX_SAMPLES = 50_000
 class OutputErrorEstimator(Estimator):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
-    Starts from the airframe's prior coefficients and the first measured sample.
+    Starts from the airframe's prior coefficients and from equation-error's estimate, the
+    state from the first measured sample.
 
     Attributes
     ----------
@@ -129,9 +131,15 @@ class OutputErrorEstimator(Estimator):
     tol : float
         Convergence: the largest parameter step, in Cramér-Rao standard deviations of
         the current iterate, is below ``tol`` (default 1e-3) and R has settled.
+    equation_error_start : bool
+        Also start from equation-error's closed-form estimate of the flight (default
+        True; :mod:`baselines._oe_starts`): a start that does not depend on the prior.
     n_starts : int
-        Starts: the prior, then ``n_starts - 1`` draws ``prior * (1 + 0.2 N(0, 1))``
-        from ``rng`` (default 1); the start with the lowest likelihood cost wins.
+        Starts from the prior: the prior itself, then ``n_starts - 1`` draws
+        ``prior * (1 + 0.2 N(0, 1))`` from ``rng`` (default 1). The likeliest converged end
+        of all starts wins; ``info`` says how many ended elsewhere and how much worse
+        (``starts_elsewhere``, ``start_cost_excess``, ``start_distance_sd``), and a
+        converged end more than one standard error away is a warning.
     pso_warm_start : bool
         Replace the prior start by the best point of a short run of
         :func:`aeroid.estimation.minimize` on the concentrated likelihood
@@ -172,6 +180,7 @@ class OutputErrorEstimator(Estimator):
     substeps: int = 2
     max_iterations: int = 50
     tol: float = 1e-3
+    equation_error_start: bool = True
     n_starts: int = 1
     pso_warm_start: bool = False
     pso_particles: int = 30
@@ -325,20 +334,25 @@ class OutputErrorEstimator(Estimator):
         if self.pso_warm_start:
             theta_pso, extra_evals = self.warm_start(prob, flight, rng)
             first[:n_c] = theta_pso / scale[:n_c]
-        starts = [first]
-        for _ in range(self.n_starts - 1):
+        starts = [Start("pso" if self.pso_warm_start else "prior", first)]
+        if self.equation_error_start:
+            starts.append(equation_error_start(flight, first, scale, rng))
+        for k in range(self.n_starts - 1):
             p = first.copy()
             p[:n_c] = prior * (1.0 + 0.2 * rng.standard_normal(n_c)) / scale[:n_c]
-            starts.append(p)
-        fits, failures = [], []
-        for p0 in starts:
+            starts.append(Start(f"random {k + 1}", p))
+        fits, labels, failures = [], [], []
+        for start in starts:
             try:
-                fits.append(self.gauss_newton(prob, p0))
+                if start.p0 is None:
+                    raise FloatingPointError(start.failure)
+                fits.append(self.gauss_newton(prob, start.p0))
+                labels.append(start.label)
             except FloatingPointError as exc:
-                failures.append(str(exc))
+                failures.append(f"{start.label}: {exc}")
         if not fits:
             return aeroid.failed_result(self.name, failures[0])
-        best = min(fits, key=lambda f: f.nll)
+        best = fits[k_best := best_end(fits)]
         n_evals = extra_evals + sum(f.n_evaluations for f in fits)
         n_iter = sum(f.n_iterations for f in fits)
         M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
@@ -367,6 +381,9 @@ class OutputErrorEstimator(Estimator):
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
                 "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
+        start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
+                                            failures)
+        info.update(start_info)
         first_pos = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         positions = model.pos.copy()
         position_sd = np.zeros(6)
@@ -376,7 +393,7 @@ class OutputErrorEstimator(Estimator):
         info["accel_positions_m"] = positions.reshape(2, 3)
         info["accel_position_stderr_m"] = position_sd.reshape(2, 3)
         start = model.x0.copy()  # the fitted initial state (EstimationResult.predict)
-        start[list(self.x0_free())] += phys[9:first_pos]
+        start[list(self.x0_free())] += phys[n_c:first_pos]
         info["initial_state"] = start
         for t in self.rx_free():
             info[f"rx{t + 1}_m"] = positions[3 * t]
@@ -386,4 +403,5 @@ class OutputErrorEstimator(Estimator):
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,
-            n_evaluations=n_evals, n_iterations=n_iter, history=history, info=info)
+            n_evaluations=n_evals, n_iterations=n_iter, history=history, info=info,
+            warnings=tuple(warnings))

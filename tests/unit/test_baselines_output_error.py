@@ -50,6 +50,9 @@ def test_recovers_noise_free_flight_from_wrong_prior(clean_flight):
     res = OutputErrorEstimator().fit(clean_flight, rng=0)
     assert res.success, res.message
     np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=RECOVERY_RTOL)
+    # the history is the likeliest start's: the prior's when it is the only start
+    res = OutputErrorEstimator(equation_error_start=False).fit(clean_flight, rng=0)
+    np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=RECOVERY_RTOL)
     hist = res.history
     assert hist["axis"] == "iteration"
     np.testing.assert_allclose(hist["theta"][0], clean_flight.airframe.prior_vector())
@@ -176,7 +179,8 @@ def test_multistart_and_warm_start_repeat_with_seed(noisy_flight):
     b = est.fit(noisy_flight, rng=7)
     assert a.success, a.message
     np.testing.assert_array_equal(a.theta, b.theta)
-    assert a.info["starts"] == 2 and len(a.info["start_costs"]) == 2
+    assert a.info["starts"] == 3 and len(a.info["start_costs"]) == 3
+    assert a.info["start_labels"] == ["pso", "equation-error", "random 1"]
     assert a.cost == min(a.info["start_costs"])
 
 
@@ -184,9 +188,16 @@ def test_diverging_start_is_a_failed_result(noisy_flight):
     prior = aeroid.nominal() * np.array([1, 1, 1, 1, 1, 1, -50, 1, 1])  # Cma > 0: unstable
     flight = dataclasses.replace(noisy_flight,
                                  airframe=noisy_flight.airframe.replace(prior=tuple(prior)))
-    res = OutputErrorEstimator(max_iterations=3).fit(flight, rng=0)
+    res = OutputErrorEstimator(max_iterations=3, equation_error_start=False).fit(flight, rng=0)
     assert not res.success
     assert res.message
+    # equation-error's start does not depend on the prior: from there the fit succeeds
+    res = OutputErrorEstimator().fit(flight, rng=0)
+    assert res.success, res.message
+    assert res.info["start_labels"][int(np.argmin(res.info["start_costs"]))] == "equation-error"
+    at_truth = OutputErrorEstimator(equation_error_start=False).fit(noisy_flight, rng=0)
+    assert res.cost == pytest.approx(at_truth.cost, abs=1e-2)  # the same optimum
+    assert res.info["start_converged"] == [False, True]
 
 
 def test_a_record_longer_than_the_limit_is_refused_in_one_line(noisy_flight, monkeypatch):
