@@ -46,6 +46,11 @@ class WhitenessTest:
 
 
 def _score_test(e: np.ndarray, X: np.ndarray) -> WhitenessTest:
+    # the statistic is invariant to the residual's scale: normalised, residuals of 1e150
+    # (an EKF on absurd accelerations) do not overflow in e * e
+    peak = float(np.max(np.abs(e))) if e.size else 0.0
+    if np.isfinite(peak) and peak > 0.0:
+        e = e / peak
     g = X.T @ e
     V = (X * (e * e)[:, None]).T @ X
     keep = np.diag(V) > 0.0  # a regressor that is zero wherever e is not: no information
@@ -86,6 +91,9 @@ def autocorrelation_test(residual: np.ndarray, lags: int = LAGS) -> WhitenessTes
     lags = min(int(lags), e.size // 4)
     if lags < 1:
         return WhitenessTest(0.0, 0, 1.0)
+    peak = float(np.max(np.abs(e)))
+    if np.isfinite(peak) and peak > 0.0:  # q is invariant to the scale of e and its lags
+        e = e / peak
     return _score_test(e[lags:], lagged(e, range(1, lags + 1))[lags:])
 
 

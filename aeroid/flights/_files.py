@@ -164,7 +164,7 @@ def read_flight(
     header = _parquet_header(path) if parquet else _csv_header(path)
     names = _mapped_names(header, columns, path)
     padded = [h for h, n in zip(header, names, strict=True) if n not in CHANNELS
-              and h.strip() in CHANNELS]  # "t, ax1, ...": a space after each comma
+              and h != h.strip() and h.strip() in CHANNELS]  # "t, ax1, ...": padded names
     if padded:
         raise FlightError(f"{path}: column name(s) {', '.join(map(repr, padded[:4]))}"
                           f"{', ...' if len(padded) > 4 else ''} have spaces around them; "
