@@ -103,7 +103,10 @@ def test_a_run_that_stopped_in_a_poorer_optimum_reaches_the_optimum(poorer_optim
     assert np.max(np.abs(res.theta - ref.theta) / ref.stderr) < SAME_POINT_SD
     truth = np.asarray(at_truth.airframe.prior_vector())
     assert np.mean(np.abs(res.theta / truth - 1.0)) < 0.01  # was 2.87 %
-    assert res.info["starts_elsewhere"] == 0 and not res.warnings
+    # no start warning (the fit check's Cl0-Clp confounding warning is the flight's: the
+    # roll rate stays near its steady state, correlation -0.99998)
+    assert res.info["starts_elsewhere"] == 0
+    assert not [w for w in res.warnings if not w.startswith("nearly confounded")]
     n_starts = 2 if equation_error_start else 1
     assert len(res.info["start_costs"]) == n_starts == res.info["starts"]
 
@@ -159,5 +162,6 @@ def test_an_equation_error_start_that_cannot_be_made_is_recorded(poorer_optimum_
     assert res.info["starts"] == 2 and res.info["start_labels"] == ["prior"]
     (failure,) = res.info["failed_starts"]
     assert failure.startswith("equation-error: ") and "covariance" in failure
-    (warning,) = res.warnings  # said, not silently dropped
+    (warning,) = [w for w in res.warnings  # said, not silently dropped
+                  if not w.startswith("nearly confounded")]  # (Cl0-Clp: the flight's)
     assert warning.startswith("output-error: the equation-error start failed: ")
