@@ -306,11 +306,24 @@ def _fail(args: argparse.Namespace, message: str) -> int:
 
 
 class _NoticeHandler(logging.Handler):
-    """Prints aeroid's notices (logger ``aeroid``, level INFO) as ``aeroid: message``."""
+    """Prints aeroid's notices (logger ``aeroid``, level INFO) as ``aeroid: message``.
+
+    A notice already printed by this command is not printed again (a study's fits each
+    say that they take the fin law: once is enough); warnings always are.
+    """
+
+    def __init__(self, level: int) -> None:
+        super().__init__(level=level)
+        self._said: set[str] = set()
 
     def emit(self, record: logging.LogRecord) -> None:
         """Write one line on stderr."""
-        print(f"aeroid: {record.getMessage()}", file=sys.stderr)
+        message = record.getMessage()
+        if record.levelno < logging.WARNING:
+            if message in self._said:
+                return
+            self._said.add(message)
+        print(f"aeroid: {message}", file=sys.stderr)
 
 
 def _notices(quiet: bool) -> logging.Handler:

@@ -260,3 +260,25 @@ def test_the_ekf_on_extreme_accelerations_warns_in_two_lines(capsys, tmp_path, p
     assert err[0].startswith("aeroid: warning: LinAlgWarning at filterpy/kalman/EKF.py:")
     assert "more like it in this filter pass" in err[0]
     assert err[1].endswith("more time(s), not shown")
+
+
+def test_a_repeated_notice_is_printed_once_and_warnings_always(capsys) -> None:
+    """A study's fits each say the same notice (the fin law taken): the command prints
+    it once; a warning is printed every time."""
+    import logging
+
+    from aeroid.cli import _notices
+
+    logger = logging.getLogger("aeroid")
+    handler = _notices(False)
+    try:
+        for _ in range(3):
+            logger.info("output-error: input = law (the airframe has a [fin_law])")
+            logger.warning("warning: something")
+        logger.info("another notice")
+    finally:
+        logger.removeHandler(handler)
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["aeroid: output-error: input = law (the airframe has a [fin_law])",
+                   "aeroid: warning: something", "aeroid: warning: something",
+                   "aeroid: warning: something", "aeroid: another notice"]
