@@ -66,7 +66,7 @@ def reference_csv_path() -> Path:
 
 
 @pytest.fixture(scope="session", autouse=True)
-def compiled_kernels(clean_flight: Flight) -> None:
+def compiled_kernels() -> None:
     """Compile the numba kernels once before any test (as on a warm install).
 
     On a fresh checkout or after an edit of the equations the first command compiles them
@@ -82,6 +82,8 @@ def compiled_kernels(clean_flight: Flight) -> None:
 
     if not HAVE_NUMBA or kernels_cached():
         return
+    # its own flight: modules override the clean_flight fixture at a narrower scope
+    clean_flight = simulate_scenario(load_scenario(None), NoNoise(), rng=0)
     rng = np.random.default_rng(0)
     aeroid.make_estimator("eam-pso", {"n_particles": 4, "n_iterations": 1}).run(
         clean_flight, rng)  # weighted_cost, integrate_set
