@@ -39,7 +39,8 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AeroidError, FlightError
-from aeroid.model import G0, Airframe, load_airframe, read_toml, save_airframe
+from aeroid.flights._columns import UNIT_FACTORS
+from aeroid.model import Airframe, load_airframe, read_toml, save_airframe
 
 #: The sensor groups and their channels (SI units inside aeroid; NED from the origin).
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -55,14 +56,15 @@ SI_UNITS: dict[str, str] = {
     "vn": "m/s", "ve": "m/s", "vd": "m/s", "pn": "m", "pe": "m", "pd": "m", "altitude": "m",
     "phi": "rad", "theta": "rad", "psi": "rad", "delta": "rad",
 }
-#: Units a file may use: {unit: (SI unit, factor to SI)}.
+#: The SI unit of each kind of quantity a suite log carries.
+_SI_OF_KIND = {"acceleration": "m/s^2", "rate": "rad/s", "speed": "m/s", "length": "m",
+               "angle": "rad", "time": "s"}
+#: Units a file may use: {unit: (SI unit, factor to SI)}: the column maps' units of those
+#: kinds (one table, :data:`aeroid.flights._columns.UNIT_FACTORS`), and microseconds.
 UNITS: dict[str, tuple[str, float]] = {
-    "m/s^2": ("m/s^2", 1.0), "g": ("m/s^2", G0),
-    "rad/s": ("rad/s", 1.0), "deg/s": ("rad/s", math.pi / 180.0),
-    "m/s": ("m/s", 1.0), "m": ("m", 1.0), "ft": ("m", 0.3048),
-    "rad": ("rad", 1.0), "deg": ("rad", math.pi / 180.0),
-    "s": ("s", 1.0), "ms": ("s", 1e-3), "us": ("s", 1e-6),
-}
+    unit: (_SI_OF_KIND[kind], factor)
+    for unit, (factor, kind) in {**UNIT_FACTORS, "us": (1e-6, "time")}.items()
+    if kind in _SI_OF_KIND}
 _GROUP_KEYS = ("file", "time", "offset_s", "columns", "noise_sd")
 
 
