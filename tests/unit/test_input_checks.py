@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_flight_checks import _error  # one line, naming the log
 
 from aeroid.errors import AeroidWarning, FlightError
 from aeroid.estimation import make_estimator
@@ -46,14 +47,6 @@ def _climb(flight) -> np.ndarray:
 
 def _altitude_airframe(flight):
     return flight.airframe.replace(altitude_m=None, atmosphere_channel="altitude")
-
-
-def _error(flight) -> str:
-    with pytest.raises(FlightError) as info:
-        flight.validate()
-    message = str(info.value)
-    assert "\n" not in message and message.startswith("hostile.csv: ")
-    return message
 
 
 def test_the_airframe_values_as_channels_and_a_true_altitude_give_nothing(paper_flight,
