@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.estimation._identifiability import identifiability_findings
+from aeroid.estimation._information import coefficient_information, fisher_information
 from aeroid.estimation._result import EstimationResult
 from aeroid.estimation._signals import (
     DIFFERENCE_ORDER,
@@ -54,7 +55,7 @@ from aeroid.estimation._signals import (
     switch_free_windows,
 )
 from aeroid.estimation._whiteness import autocorrelation_test, family_limit, switch_test
-from aeroid.flights import Flight
+from aeroid.flights import STATE_CHANNELS, Flight
 from aeroid.model import OUTPUT_CHANNELS
 
 #: A residual RMS above this many times the data's noise level fails the fit. Measured
@@ -325,7 +326,6 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
     or the model diverges. ``levels``: the data's noise levels already computed
     (:func:`data_noise_levels`).
     """
-    from aeroid.estimation._floor import coefficient_information, information_from_sensitivities
     from aeroid.estimation._signals import smooth
     from aeroid.flights import flight_record, model_constants
     from aeroid.model import ForwardModel
@@ -346,18 +346,18 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
         sd[j] = max(estimate, RESOLUTION * level)  # a clean channel: much, not infinitely
     if not noisy:
         return None
-    states = flight.states()
+    window = min(7, flight.n_samples - 1 + flight.n_samples % 2)
+    # the first state with its rates smoothed: only the first window is read
+    states = flight.data[list(STATE_CHANNELS)].iloc[:window].to_numpy(dtype=float)
     x0 = states[0].copy()
-    window = min(7, states.shape[0] - 1 + states.shape[0] % 2)
     x0[3:6] = smooth(states[:, 3:6], window, min(2, window - 1))[0]
-    with np.errstate(all="ignore"):
-        jac = model.sensitivities(x0, np.asarray(theta, dtype=float),
+    with np.errstate(all="ignore"):  # summed block by block: the n x 9 x 12 sensitivities
+        info = fisher_information(model, x0, np.asarray(theta, dtype=float), sd,  # never held
                                   free_states=("p", "q", "r"))
-    if not np.all(np.isfinite(jac)):
+    if not np.all(np.isfinite(info)):
         return None
-    info = coefficient_information(information_from_sensitivities(jac, sd))
     try:
-        return np.sqrt(np.diag(np.linalg.inv(info)))
+        return np.sqrt(np.diag(np.linalg.inv(coefficient_information(info))))
     except np.linalg.LinAlgError:
         return None
 

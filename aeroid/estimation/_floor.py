@@ -79,25 +79,33 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AeroidError, AeroidWarning, EstimatorError
-from aeroid.estimation._objectives import EAM_OUTPUTS
+from aeroid.estimation._information import (
+    CHANNEL_SETS,
+    channel_indices,
+    check_sd,
+    coefficient_information,
+    fisher_information,
+    information_from_sensitivities,
+    model_noise_sd,
+)
 from aeroid.flights import check_input
 from aeroid.flights._flight import Flight
-from aeroid.flights._noise import NOISE_FORMS, GaussianNoise, NoiseModel, NoNoise, PaperNoise
+from aeroid.flights._noise import NoiseModel, NoNoise
 from aeroid.flights._record import flight_record
 from aeroid.flights._scenario import Scenario
 from aeroid.flights._simulate import simulate
 from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import N_COEFFICIENTS, NAMES, as_vector
+from aeroid.model._coefficients import NAMES, as_vector
 from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, constants
 from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
 from aeroid.model._inputs import Record
 
-#: Channel subsets: ``both`` triads and the rates (default), or ``triad1`` and the rates
-#: (the EAM output set: triad 1 at [Rx1, 0, 0] only).
-CHANNEL_SETS: dict[str, tuple[int, ...]] = {
-    "both": tuple(range(len(OUTPUT_CHANNELS))),
-    "triad1": tuple(OUTPUT_CHANNELS.index(c) for c in EAM_OUTPUTS),
-}
+__all__ = [  # the information and its weights live in _information, written once
+    "CHANNEL_SETS", "DEFAULT_SUBSTEPS", "PROTOTYPE_FLOOR", "OutputErrorInputs",
+    "coefficient_information", "cramer_rao_sd", "information_from_sensitivities",
+    "inputs_from_flight", "model_noise_sd", "model_outputs", "output_error_information",
+    "output_sensitivities",
+]
 #: Options of :func:`cramer_rao_sd` that reproduce the reference README's floor (an
 #: independent prototype): one standard deviation per channel, triad 1 and the rates
 #: only, initial rates estimated. Not the default (see the module docstring).
@@ -233,83 +241,6 @@ def output_sensitivities(
                                rel_step=rel_step)
 
 
-def model_noise_sd(
-    noise_model: NoiseModel,
-    outputs: np.ndarray,
-    *,
-    noise_form: str = "heteroscedastic",
-) -> np.ndarray:
-    """Return the measurement-error standard deviation of every output, shape (n, 9).
-
-    Parameters
-    ----------
-    noise_model : PaperNoise or GaussianNoise
-    outputs : ndarray, shape (n, 9)
-        Noise-free model outputs ``s`` (:func:`model_outputs`) [m/s^2, rad/s].
-    noise_form : {"heteroscedastic", "homoscedastic"}
-        Paper noise only: ``|s_k| xi / sqrt(3)`` per sample (default, what eq. 43 says),
-        or ``xi RMS(s) / sqrt(3)`` per channel. Ignored for Gaussian noise.
-    """
-    outputs = np.asarray(outputs, dtype=float)
-    if outputs.ndim != 2 or outputs.shape[1] != len(OUTPUT_CHANNELS):
-        raise ValueError(f"fisher: outputs must have shape (n, {len(OUTPUT_CHANNELS)}), "
-                         f"got {outputs.shape}")
-    if noise_form not in NOISE_FORMS:
-        raise ValueError(f"fisher: unknown noise_form {noise_form!r} "
-                         f"(expected {' or '.join(NOISE_FORMS)})")
-    if isinstance(noise_model, PaperNoise | GaussianNoise):  # the noise model's own sd
-        return noise_model.output_sd(outputs, form=noise_form)
-    raise ValueError(
-        f"fisher: no Cramér-Rao floor for noise model {getattr(noise_model, 'name', noise_model)!r}"
-        " (needs 'paper' or 'gaussian': noise-free data have no floor)"
-    )
-
-
-def information_from_sensitivities(
-    sensitivities: np.ndarray, sd: np.ndarray, *, channels: str = "both"
-) -> np.ndarray:
-    """Return ``F = sum_k sum_c J_kc^T J_kc / sd_kc^2``, shape (9, 9).
-
-    Parameters
-    ----------
-    sensitivities : ndarray, shape (n, 9, n_params)
-    sd : ndarray, broadcastable to (n, 9)
-        Error standard deviations; entries that are 0 (exact measurements of a zero
-        signal under eq. 43) are left out; negative or non-finite values are an error.
-    channels : {"both", "triad1"}
-    """
-    jac = np.asarray(sensitivities, dtype=float)
-    sd = np.broadcast_to(np.asarray(sd, dtype=float), jac.shape[:2])
-    if channels not in CHANNEL_SETS:
-        raise ValueError(f"fisher: unknown channels {channels!r} "
-                         f"(expected {' or '.join(CHANNEL_SETS)})")
-    if not np.all(np.isfinite(sd)) or np.any(sd < 0):
-        raise ValueError("fisher: noise standard deviations must be finite and >= 0")
-    if not np.all(np.isfinite(jac)):
-        raise ValueError("fisher: non-finite sensitivities (the model diverged)")
-    cols = list(CHANNEL_SETS[channels])
-    jac, sd = jac[:, cols], sd[:, cols]
-    weight = np.zeros_like(sd)
-    np.divide(1.0, sd**2, out=weight, where=sd > 0)
-    return np.einsum("kci,kc,kcj->ij", jac, weight, jac)
-
-
-def coefficient_information(information: np.ndarray) -> np.ndarray:
-    """Return the information of the nine coefficients with the nuisance parameters removed.
-
-    For a joint information ``[[F_tt, F_tx], [F_xt, F_xx]]`` of the coefficients and
-    ``m`` estimated initial-state components, the Schur complement
-    ``F_tt - F_tx F_xx^-1 F_xt`` (9 x 9), whose inverse is the coefficient block of the
-    joint inverse. With no nuisance parameters it is ``information`` itself.
-    """
-    info = np.asarray(information, dtype=float)
-    n = N_COEFFICIENTS
-    if info.shape[0] == n:
-        return info.copy()
-    f_tt, f_tx, f_xx = info[:n, :n], info[:n, n:], info[n:, n:]
-    return f_tt - f_tx @ np.linalg.solve(f_xx, f_tx.T)
-
-
 def output_error_information(
     airframe: Airframe,
     coefficients: np.ndarray,
@@ -350,11 +281,21 @@ def output_error_information(
     ndarray, shape (9, 9)
         In units of 1 / (coefficient units)^2 (all coefficients are dimensionless).
     """
-    jac = output_sensitivities(airframe, coefficients, flight_or_inputs, positions=positions,
-                               estimate_initial=estimate_initial, rel_step=rel_step,
-                               substeps=substeps)
-    return coefficient_information(
-        information_from_sensitivities(jac, noise_sd, channels=channels))
+    inputs = _as_inputs(flight_or_inputs)
+    cols = channel_indices(channels)
+    model = _forward_model(airframe, inputs, positions, substeps)
+    sd = np.asarray(noise_sd, dtype=float)
+    check_sd(sd)
+    if sd.ndim == 2:  # per sample and channel: the used channels
+        sd = np.broadcast_to(sd, (model.n_samples, len(OUTPUT_CHANNELS)))[:, cols]
+    elif sd.ndim == 1:  # per channel
+        sd = np.broadcast_to(sd, (len(OUTPUT_CHANNELS),))[cols]
+    info = fisher_information(model,
+                              inputs.state0, coefficients, sd, channels=cols,
+                              free_states=estimate_initial, rel_step=rel_step)
+    if not np.all(np.isfinite(info)):
+        raise ValueError("fisher: non-finite sensitivities (the model diverged)")
+    return coefficient_information(info)
 
 
 def cramer_rao_sd(

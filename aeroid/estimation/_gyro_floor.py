@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from aeroid.estimation._information import fisher_information
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
+from aeroid.flights import STATE_CHANNELS
 from aeroid.flights._flight import Flight
 from aeroid.flights._record import flight_record, model_constants
 from aeroid.model._coefficients import NAMES
@@ -88,19 +90,17 @@ def gyro_only_floor(flight: Flight, theta: np.ndarray, *,
         return np.zeros(len(GYRO_FLOOR_NAMES))  # noise-free: no floor
     model = ForwardModel(model_constants(flight), flight_record(flight, input),
                          flight.airframe.accel_positions[:1], substeps=GYRO_FLOOR_SUBSTEPS)
-    states = flight.states()
+    window = min(7, p.size - 1 + p.size % 2)  # the first state, rates smoothed over
+    states = flight.data[list(STATE_CHANNELS)].iloc[:window].to_numpy(dtype=float)  # it
     state0 = states[0].copy()
-    window = min(7, states.shape[0] - 1 + states.shape[0] % 2)
     state0[3:6] = smooth(states[:window, 3:6], window, min(2, window - 1))[0]
     roll = [NAMES.index(name) for name in GYRO_FLOOR_NAMES]  # only these: 6 trajectories,
-    with np.errstate(all="ignore"):  # not 20 (a 560,000-sample log peaked at 2.7 GB here)
-        sens = model.sensitivities(state0, theta, free_states=("p",), coefficients=roll)
-    jac = sens[:, model.output_names.index("p"), :]  # (n, 3): Cl0, Clp, p0
-    if not np.all(np.isfinite(jac)):
+    with np.errstate(all="ignore"):  # not 20, summed block by block in time
+        information = fisher_information(model, state0, theta, sd[:, None],
+                                         channels=[model.output_names.index("p")],
+                                         free_states=("p",), coefficients=roll)
+    if not np.all(np.isfinite(information)):  # the model diverged at theta
         return np.full(len(GYRO_FLOOR_NAMES), np.nan)
-    weight = np.zeros_like(sd)
-    np.divide(1.0, sd**2, out=weight, where=sd > 0)  # an exact sample is left out
-    information = jac.T @ (jac * weight[:, None])
     try:
         cov = np.linalg.inv(information)
     except np.linalg.LinAlgError:

@@ -22,6 +22,7 @@ from aeroid.flights._files import read_column_map, read_flight, write_flight
 from aeroid.flights._flight import Flight, make_flight
 from aeroid.flights._noise import (
     ACCEL_CHANNELS,
+    NOISE_FORMS,
     RATE_CHANNELS,
     GaussianNoise,
     NoiseModel,
@@ -83,7 +84,7 @@ __all__ = [
     "make_flight", "make_noise", "noise_for", "noise_from_dict", "read_column_map",
     "read_flight", "record_flight", "reference_scenario", "scenario_from_dict", "sidecar_path",
     "simulate", "simulate_scenario", "simulate_truth", "write_flight",
-    "EVALUATIONS", "Truth",
+    "EVALUATIONS", "Truth", "NOISE_FORMS",
     "GROUPS", "SI_UNITS", "SensorGroup", "SensorSuite", "SuiteLog", "SuiteSimulation",
     "body_to_ned", "imu_manoeuvre", "read_suite_log", "simulate_suite", "wrap_angle",
     "write_suite_log",

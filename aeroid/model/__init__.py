@@ -57,7 +57,13 @@ from aeroid.model._dynamics import (
     state_derivative,
 )
 from aeroid.model._equations import Coefficients, Loads, State, Trig
-from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
+from aeroid.model._forward import (
+    DEFAULT_REL_STEP,
+    SENSITIVITY_BLOCK_BYTES,
+    Buffered,
+    ForwardModel,
+    symbolic_record,
+)
 from aeroid.model._inputs import (
     EXOGENOUS,
     Pieces,
@@ -80,5 +86,5 @@ __all__ = [
     "lateral_from_pitch", "load_airframe", "nominal", "propagate",
     "read_toml", "reference_airframe", "reference_scenario_data", "regressors", "rk4",
     "rk4_step", "save_airframe", "state_derivative",
-    "FinLaw",
+    "FinLaw", "DEFAULT_REL_STEP", "SENSITIVITY_BLOCK_BYTES",
 ]
