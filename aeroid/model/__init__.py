@@ -57,13 +57,7 @@ from aeroid.model._dynamics import (
     state_derivative,
 )
 from aeroid.model._equations import Coefficients, Loads, State, Trig
-from aeroid.model._forward import (
-    DEFAULT_REL_STEP,
-    SENSITIVITY_BLOCK_BYTES,
-    Buffered,
-    ForwardModel,
-    symbolic_record,
-)
+from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
 from aeroid.model._inputs import (
     EXOGENOUS,
     Pieces,
@@ -73,6 +67,7 @@ from aeroid.model._inputs import (
     with_exogenous,
 )
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
+from aeroid.model._sensitivity import DEFAULT_REL_STEP, SENSITIVITY_BLOCK_BYTES
 
 __all__ = [
     "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",

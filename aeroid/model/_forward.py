@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import math
 from collections.abc import Iterator, Sequence
 
 import casadi as ca
@@ -36,22 +35,12 @@ import numpy as np
 
 from aeroid.model import _compiled, _symbolic
 from aeroid.model import _inputs as inputs
-from aeroid.model._coefficients import N_COEFFICIENTS, as_vector
-from aeroid.model._dynamics import N_STATE, STATE_NAMES, Constants, accelerometers
+from aeroid.model import _sensitivity as sensitivity
+from aeroid.model._coefficients import N_COEFFICIENTS
+from aeroid.model._dynamics import N_STATE, Constants, accelerometers
 from aeroid.model._inputs import Record
 from aeroid.model._integrate import propagate
-
-#: Default relative step of the central-difference sensitivities (the floor's decision:
-#: measured error <= 4e-7 of each column's largest entry on the reference flight).
-DEFAULT_REL_STEP = 1e-5
-#: Memory for the perturbed trajectories of one block in time of
-#: :meth:`ForwardModel.sensitivity_blocks` [bytes]: 2400 samples of the 24 trajectories of
-#: 9 coefficients and 3 free initial rates (the reference flight's 501 samples: one block).
-SENSITIVITY_BLOCK_BYTES = 32 * 2**20
-#: Arrays of a trajectory's size (states and outputs) counted per trajectory of a block:
-#: a margin for the accelerometer equations' temporaries (an allowance, not a
-#: measurement; benchmarks/bench_memory.py measures the whole fit).
-SENSITIVITY_TEMPORARIES = 4
+from aeroid.model._sensitivity import DEFAULT_REL_STEP
 
 
 class ForwardModel:
@@ -166,19 +155,10 @@ class ForwardModel:
         by ``coefficients`` in that order, then the initial state components named in
         ``free_states``, e.g. ``("p", "q", "r")``). The step of
         coefficient j is ``rel_step |theta_j|`` (``rel_step`` when theta_j = 0), that of a
-        state component ``rel_step max(|x0_i|, 1)``. The whole matrix, n m (c + f)
-        numbers: a consumer that only sums over the samples (the Fisher information,
-        :func:`aeroid.estimation.fisher_information`) takes
-        :meth:`sensitivity_blocks` instead and never holds it.
+        state component ``rel_step max(|x0_i|, 1)``. The whole matrix: a sum over the
+        samples (the Fisher information) takes :meth:`sensitivity_blocks` instead.
         """
-        blocks = self.sensitivity_blocks(state0, theta, free_states=free_states,
-                                         rel_step=rel_step, coefficients=coefficients)
-        first_rows, first = next(blocks)
-        jac = np.empty((self.n_samples, *first.shape[1:]))
-        jac[first_rows] = first
-        for rows, block in blocks:
-            jac[rows] = block
-        return jac
+        return sensitivity.whole(self, state0, theta, free_states, rel_step, coefficients)
 
     def sensitivity_blocks(self, state0: np.ndarray, theta: np.ndarray, *,
                            free_states: Sequence[str] = (), rel_step: float = DEFAULT_REL_STEP,
@@ -187,71 +167,12 @@ class ForwardModel:
                            ) -> Iterator[tuple[slice, np.ndarray]]:
         """Yield :meth:`sensitivities` block by block in time: ``(samples, d y / d params)``.
 
-        ``samples`` is a slice of the record's samples (consecutive, covering them all);
-        the array has shape (its length, m, c + f). The perturbed trajectories are
-        integrated once: each block continues them from the previous block's last state
-        with the same inputs, so the numbers equal those of one pass (tested). A block
-        holds ``block_samples`` samples (default: what
-        :data:`SENSITIVITY_BLOCK_BYTES` allows), never fewer than two (the last one is
-        widened).
+        The perturbed trajectories are integrated once, each block continuing from the
+        previous one's last state: the same numbers (:mod:`aeroid.model._sensitivity`).
+        ``block_samples`` (>= 2): default what :data:`SENSITIVITY_BLOCK_BYTES` allows.
         """
-        step, thetas, states = self._perturbed(state0, theta, free_states, rel_step,
-                                               coefficients)
-        n_par, n = step.size, self.n_samples
-        per_sample = 2 * n_par * 8 * SENSITIVITY_TEMPORARIES * (N_STATE + len(self.output_names))
-        size = (max(2, SENSITIVITY_BLOCK_BYTES // per_sample) if block_samples is None
-                else int(block_samples))
-        if size < 2:
-            raise ValueError(f"forward model: block_samples must be >= 2, got {block_samples}")
-        pieces = self.record.pieces
-        exo = self.record.exogenous
-        lo = 0
-        while lo < n:
-            hi = n if n - (lo + size) < 2 else lo + size  # no last block of one sample
-            stop = min(hi, n - 1)  # integrated to sample `stop`: the next block's start
-            part = ForwardModel(self.const, Record(
-                self.dt, self.delta[lo:stop + 1], inputs.Pieces(*(a[lo:stop] for a in pieces)),
-                None if exo is None else exo[lo:stop + 1]), self.positions,
-                substeps=self.substeps, backend=self.backend)
-            trajectories = part.states(states, thetas)
-            y = part.outputs_of(trajectories, thetas)[:, :hi - lo]
-            states = trajectories[:, -1]
-            yield slice(lo, hi), np.moveaxis(
-                (y[:n_par] - y[n_par:]) / (2.0 * step[:, None, None]), 0, -1)
-            lo = hi
-
-    def _perturbed(self, state0: np.ndarray, theta: np.ndarray, free_states: Sequence[str],
-                   rel_step: float, coefficients: Sequence[int] | None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Return the steps (n_par,), and the perturbed coefficients and initial states,
-        (2 n_par, 9) each: rows ``j`` and ``n_par + j`` are parameter j's +/- step."""
-        theta = as_vector(np.asarray(theta, dtype=float))
-        state0 = np.asarray(state0, dtype=float)
-        if theta.shape != (N_COEFFICIENTS,) or state0.shape != (N_STATE,):
-            raise ValueError(f"forward model: sensitivities need theta ({N_COEFFICIENTS},) and "
-                             f"state0 ({N_STATE},), "
-                             f"got {theta.shape} and {state0.shape}")
-        if not (math.isfinite(rel_step) and 0 < rel_step < 1):
-            raise ValueError(f"forward model: rel_step must be in (0, 1), got {rel_step}")
-        unknown = [name for name in free_states if name not in STATE_NAMES]
-        if unknown:
-            raise ValueError(f"forward model: unknown state name(s) {unknown} "
-                             f"(expected some of {', '.join(STATE_NAMES)})")
-        idx = [STATE_NAMES.index(name) for name in free_states]
-        coefs = list(range(N_COEFFICIENTS)) if coefficients is None else list(coefficients)
-        n_coef = len(coefs)
-        n_par = n_coef + len(idx)
-        step = np.concatenate([rel_step * np.where(theta != 0, np.abs(theta), 1.0)[coefs],
-                               rel_step * np.maximum(np.abs(state0[idx]), 1.0)])
-        thetas = np.tile(theta, (2 * n_par, 1))
-        states = np.tile(state0, (2 * n_par, 1))
-        for j in range(n_par):
-            for sign, row in ((1.0, j), (-1.0, n_par + j)):
-                if j < n_coef:
-                    thetas[row, coefs[j]] += sign * step[j]
-                else:
-                    states[row, idx[j - n_coef]] += sign * step[j]
-        return step, thetas, states
+        return sensitivity.blocks(self, state0, theta, free_states, rel_step, coefficients,
+                                  block_samples)
 
 
 # --------------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pytest
 
-import aeroid.model._forward as forward
+import aeroid.model._sensitivity as sensitivity
 from aeroid.errors import AeroidWarning
 from aeroid.estimation import cramer_rao_sd, data_floor, gyro_only_floor
 from aeroid.estimation._information import (
@@ -123,7 +123,7 @@ def _floors(paper_flight, reference_scenario):
 
 def test_every_floor_is_the_same_in_blocks(paper_flight, reference_scenario, monkeypatch):
     one_block = _floors(paper_flight, reference_scenario)
-    monkeypatch.setattr(forward, "SENSITIVITY_BLOCK_BYTES", 200_000)  # 5-30 blocks
+    monkeypatch.setattr(sensitivity, "SENSITIVITY_BLOCK_BYTES", 200_000)  # 5-30 blocks
     blocks = list(_model(paper_flight).sensitivity_blocks(
         paper_flight.states()[0], nominal(), free_states=RATES))
     assert len(blocks) > 5

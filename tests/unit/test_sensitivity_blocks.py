@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import aeroid.model._forward as forward
+import aeroid.model._sensitivity as sensitivity
 from aeroid.flights import flight_record, model_constants
 from aeroid.model import ForwardModel, Record, exogenous_table, nominal
 
@@ -70,7 +70,7 @@ def test_the_default_block_follows_the_memory_budget(paper_flight, monkeypatch):
     x0, theta = paper_flight.states()[0], nominal()
     whole = list(model.sensitivity_blocks(x0, theta, free_states=("p", "q", "r")))
     assert len(whole) == 1  # 501 samples of 24 trajectories: well within 32 MB
-    monkeypatch.setattr(forward, "SENSITIVITY_BLOCK_BYTES", 1)  # the smallest blocks
+    monkeypatch.setattr(sensitivity, "SENSITIVITY_BLOCK_BYTES", 1)  # the smallest blocks
     small = list(model.sensitivity_blocks(x0, theta, free_states=("p", "q", "r")))
     assert len(small) == (model.n_samples - 1) // 2
     np.testing.assert_array_equal(np.concatenate([b for _, b in small]), whole[0][1])
