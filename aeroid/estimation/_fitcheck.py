@@ -348,7 +348,7 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
         return None
     window = min(7, flight.n_samples - 1 + flight.n_samples % 2)
     # the first state with its rates smoothed: only the first window is read
-    states = flight.data[list(STATE_CHANNELS)].iloc[:window].to_numpy(dtype=float)
+    states = flight.data.iloc[:window][list(STATE_CHANNELS)].to_numpy(dtype=float)
     x0 = states[0].copy()
     x0[3:6] = smooth(states[:, 3:6], window, min(2, window - 1))[0]
     with np.errstate(all="ignore"):  # summed block by block: the n x 9 x 12 sensitivities

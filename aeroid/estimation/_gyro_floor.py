@@ -91,7 +91,7 @@ def gyro_only_floor(flight: Flight, theta: np.ndarray, *,
     model = ForwardModel(model_constants(flight), flight_record(flight, input),
                          flight.airframe.accel_positions[:1], substeps=GYRO_FLOOR_SUBSTEPS)
     window = min(7, p.size - 1 + p.size % 2)  # the first state, rates smoothed over
-    states = flight.data[list(STATE_CHANNELS)].iloc[:window].to_numpy(dtype=float)  # it
+    states = flight.data.iloc[:window][list(STATE_CHANNELS)].to_numpy(dtype=float)  # it
     state0 = states[0].copy()
     state0[3:6] = smooth(states[:window, 3:6], window, min(2, window - 1))[0]
     roll = [NAMES.index(name) for name in GYRO_FLOOR_NAMES]  # only these: 6 trajectories,
