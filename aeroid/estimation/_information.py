@@ -13,7 +13,8 @@ of one block (:data:`aeroid.model.SENSITIVITY_BLOCK_BYTES`) whatever the log's l
 Samples whose ``sd`` is exactly zero carry no usable Gaussian weight and are left out
 (eq. 43 measures a zero signal exactly).
 
-Every Cramér-Rao figure of aeroid is this sum: the output-error floor
+The weights ``1 / sd^2`` come from the noise model (:func:`model_noise_sd`) or from the
+data's noise levels. Every Cramér-Rao figure of aeroid is this sum: the output-error floor
 (:func:`aeroid.estimation.cramer_rao_sd`), the fit check's floor from the data
 (:func:`aeroid.estimation.data_floor`) and the gyro-only floor of the roll coefficients
 (:func:`aeroid.estimation.gyro_only_floor`).
@@ -107,16 +108,15 @@ def fisher_information(model: ForwardModel, state0: np.ndarray, theta: np.ndarra
     except ValueError:
         raise ValueError(f"fisher: noise sd of shape {given.shape} does not fit "
                          f"{model.n_samples} samples x {len(used)} channels") from None
-    info = None
+    n_par = (N_COEFFICIENTS if coefficients is None else len(coefficients)) + len(free_states)
+    info = np.zeros((n_par, n_par))
     for rows, jac in model.sensitivity_blocks(state0, theta, free_states=free_states,
                                               rel_step=rel_step, coefficients=coefficients,
                                               block_samples=block_samples):
         jac = jac[:, used]
         if not np.all(np.isfinite(jac)):
-            return np.full((jac.shape[-1], jac.shape[-1]), np.nan)
-        part = weighted_information(jac, inverse_variance(sd[rows]))
-        info = part if info is None else info + part
-    assert info is not None  # a record has two samples or more: one block at least
+            return np.full((n_par, n_par), np.nan)
+        info += weighted_information(jac, inverse_variance(sd[rows]))
     return info
 
 
@@ -168,7 +168,8 @@ def model_noise_sd(
     ----------
     noise_model : PaperNoise or GaussianNoise
     outputs : ndarray, shape (n, 9)
-        Noise-free model outputs ``s`` (:func:`model_outputs`) [m/s^2, rad/s].
+        Noise-free model outputs ``s`` (columns :data:`aeroid.model.OUTPUT_CHANNELS`)
+        [m/s^2, rad/s].
     noise_form : {"heteroscedastic", "homoscedastic"}
         Paper noise only: ``|s_k| xi / sqrt(3)`` per sample (default, what eq. 43 says),
         or ``xi RMS(s) / sqrt(3)`` per channel. Ignored for Gaussian noise.
