@@ -68,7 +68,7 @@ def rhs(x, delta, theta, const: Constants):
 
 
 def measurement(x, delta, theta, positions, const: Constants):
-    """Return the outputs ``[a1 (3), a2 (3), ..., p, q, r]`` (eq. 28 at each triad, gyros).
+    """Return the outputs ``[a1 (3), ..., p, q, r]`` (:func:`aeroid.model.equations.outputs`).
 
     Parameters
     ----------
@@ -79,12 +79,11 @@ def measurement(x, delta, theta, positions, const: Constants):
     """
     state = _state(x)
     loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
-    out = []
-    n_triads = (positions.shape[0] if hasattr(positions, "shape") else len(positions)) // 3
-    for j in range(n_triads):
-        out += eq.accelerometer(state, loads, const, positions[3 * j], positions[3 * j + 1],
-                                positions[3 * j + 2])
-    return ca.vertcat(*out, *eq.rate_gyros(state))
+    flat = positions if isinstance(positions, ca.SX | ca.MX) else ca.vertcat(*positions)
+    n_triads = flat.shape[0] // 3
+    symbol = type(x) if isinstance(x, ca.SX | ca.MX) else ca.SX
+    out = symbol.zeros(len(eq.output_names(n_triads)))
+    return eq.outputs(out, state, loads, const, ca.reshape(flat, 3, n_triads).T)
 
 
 def _rk4(x, theta, deltas, consts, h):
