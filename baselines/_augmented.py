@@ -78,9 +78,12 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
         x = aeroid.model.as_state(Z[:, STATES])
         loads = eq.aerodynamic_loads(x, aeroid.model.as_coefficients(Z[:, COEFFICIENTS]),
                                      delta[k], const_k)
-        y = np.empty((len(Z), len(aeroid.model.OUTPUT_CHANNELS)))
-        eq.outputs(y.T, x, loads, const_k, pos.T.reshape(-1, 3, len(Z)))  # (triad, axis, point)
-        return y
+        # channel-major, returned as its transpose (n_points, m): the layout of the former
+        # column_stack, so filterpy's products sum in the same order (a C-ordered result
+        # moved the UKF's estimates by ~1e-13 relative)
+        y = np.empty((len(aeroid.model.OUTPUT_CHANNELS), len(Z)))
+        eq.outputs(y, x, loads, const_k, pos.T.reshape(-1, 3, len(Z)))  # (triad, axis, point)
+        return y.T
 
     return _kalman.DiscreteModel(n_aug, len(aeroid.model.OUTPUT_CHANNELS), transition, observe,
                                  transition_batch,
