@@ -1,4 +1,8 @@
-"""Helpers shared by the baselines: measurements, noise levels, the filters' model (private)."""
+"""Helpers shared by the baselines: measurements, noise levels, the filters' options (private).
+
+The filters' model (the augmented state and its transition and measurement) is in
+:mod:`baselines._augmented`.
+"""
 
 from __future__ import annotations
 
@@ -14,19 +18,15 @@ from scipy.signal import savgol_filter
 import aeroid
 from aeroid import estimation
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import INPUTS, Flight, PaperNoise, flight_record, model_constants
-from aeroid.model import Buffered, Pieces, Record, symbolic
+from aeroid.flights import INPUTS, Flight, PaperNoise, flight_record
 from baselines import _gauss_newton, _kalman
+from baselines._augmented import COEFFICIENTS, STATES, augmented_model
 
 SG_WINDOW = 7
 #: Floors of the initial state sd taken from the data (a logged value's resolution: a
 #: float32 log keeps 7 significant digits) [relative to the channel's RMS; and m/s or rad].
 INITIAL_SD_FLOOR_REL = 1e-6
 INITIAL_SD_FLOOR = 1e-6
-#: The filters' augmented state ``[x, theta, d]``: the model's states, its coefficients,
-#: then the offsets of the free position components (sizes from the model).
-STATES = slice(0, aeroid.model.N_STATE)
-COEFFICIENTS = slice(aeroid.model.N_STATE, aeroid.model.N_STATE + aeroid.model.N_COEFFICIENTS)
 #: State columns of the body rates and of the Euler angles; output columns of the gyros.
 RATES = slice(aeroid.model.P, aeroid.model.R + 1)
 ANGLES = slice(aeroid.model.PHI, aeroid.model.PSI + 1)
@@ -62,77 +62,6 @@ def measurement_sd(flight: Flight, y: np.ndarray, method: str, floor_rel: float)
             y, statistic="rms", use=estimation.switch_free_samples(flight["delta"]),
             floor_fraction=floor_rel)
     raise ValueError(f"measurement_noise must be 'data' or 'paper', got {method!r}")
-
-
-def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
-                    position_free: tuple[int, ...] = ()) -> _kalman.DiscreteModel:
-    """Return the augmented model ``[x, theta, d]`` of ``flight`` for the filters.
-
-    The transition from sample k to k+1 is one interval of the model's record
-    (``record``, default the logged deflection held; ``substeps`` RK4 steps per piece);
-    the coefficients and the offsets ``d`` of the position components ``position_free``
-    (indices into ``[x1, y1, z1, x2, y2, z2]``) are constant. Jacobians come from CasADi
-    AD (:func:`aeroid.model.symbolic.augmented_functions`); the batched versions (UKF)
-    evaluate the same equations with numpy.
-    """
-    const = model_constants(flight)
-    record = record or flight_record(flight)
-    delta, pieces_table, exo_table = record.symbolic_inputs()
-    delta = delta[0]
-    pos_flat = flight.airframe.accel_positions.ravel()
-    varying = record.exogenous is not None
-    free = tuple(position_free)
-    n_aug = COEFFICIENTS.stop + len(free)
-    f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying,
-                                        free)
-
-    # numpy buffers shared with CasADi: no DM conversion per step (half the call's cost)
-    f_buf = Buffered(f, [np.zeros(n_aug), pieces_table[:, 0], exo_table[:, 0],
-                         exo_table[:, 1]])
-    h_buf = Buffered(h, [np.zeros(n_aug), delta[:1], exo_table[:, 0], pos_flat])
-
-    def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        f_buf.set(1, pieces_table[:, k])
-        f_buf.set(2, exo_table[:, k])
-        f_buf.set(3, exo_table[:, k + 1])
-        z_next, F = f_buf(z)
-        return z_next.copy(), F.reshape(n_aug, n_aug).T.copy()  # column-major buffer
-
-    def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        h_buf.set(1, delta[k:k + 1])
-        h_buf.set(2, exo_table[:, k])
-        y, H = h_buf(z)
-        return y.copy(), H.reshape(n_aug, -1).T.copy()
-
-    def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
-        # numba's serial kernel (numpy without numba): one RK4 step of 37-45 sets is too
-        # little work for the threaded kernel, whose launch cost more than the step on a
-        # busy 2-core machine; serial, the step costs 0.04 ms against numpy's 0.5 ms
-        # (measured, 45 sigma points; equal to 2e-16)
-        interval = Pieces(*(a[k:k + 1] for a in record.pieces))
-        exo = None if not varying else record.exogenous[k:k + 2]
-        x_next = aeroid.model.propagate(Z[:, STATES], Z[:, COEFFICIENTS], interval, record.dt,
-                                        const,
-                                        substeps=substeps, exogenous=exo,
-                                        parallel=False)[:, 1]
-        return np.concatenate([x_next, Z[:, STATES.stop:]], axis=1)
-
-    def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
-        const_k = const if not varying else aeroid.model.with_exogenous(
-            const, record.exogenous[k])
-        pos = np.tile(pos_flat, (len(Z), 1))  # per sigma point
-        for j, c in enumerate(free):
-            pos[:, c] += Z[:, COEFFICIENTS.stop + j]
-        eq = aeroid.model.equations
-        x = aeroid.model.as_state(Z[:, STATES])
-        loads = eq.aerodynamic_loads(x, aeroid.model.as_coefficients(Z[:, COEFFICIENTS]),
-                                     delta[k], const_k)
-        acc = [eq.accelerometer(x, loads, const_k, *pos[:, 3 * t:3 * t + 3].T) for t in (0, 1)]
-        return np.column_stack([*acc[0], *acc[1], Z[:, RATES]])
-
-    return _kalman.DiscreteModel(n_aug, len(aeroid.model.OUTPUT_CHANNELS), transition, observe,
-                                 transition_batch,
-                                 observe_batch)
 
 
 #: The filter's passes stop when no coefficient moved by more than this fraction of its

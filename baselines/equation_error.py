@@ -94,10 +94,10 @@ COLLINEAR_R = 0.99
 #: scipy.linalg.lstsq driver: SVD-based like the default gelsd (minimum-norm answer when
 #: rank deficient) but 2-4x faster on the one-step (4509 x 9) problem here (measured).
 LAPACK_DRIVER = "gelss"
-#: (label, FM row, coefficient indices) of the SEBM sub-problems (eqs. 39-42).
-SUBPROBLEMS: tuple[tuple[str, int, tuple[int, ...]], ...] = (
-    ("FAX", 0, (0,)), ("FAZ", 2, (1, 2, 3)), ("MX", 3, (4, 5)), ("MY", 4, (6, 7, 8)),
-)
+#: (label, FM row, coefficient indices) of the SEBM sub-problems (eqs. 39-42): read from
+#: their one definition, :data:`aeroid.estimation.SEBM_PROBLEMS`.
+SUBPROBLEMS: tuple[tuple[str, int, tuple[int, ...]], ...] = tuple(
+    (p.label, p.row, p.coefficients) for p in rc.SEBM_PROBLEMS)
 #: Lateral rows joined with ``lateral_rows``: (target problem, FM row).
 LATERAL = {"FAZ": 1, "MY": 5}
 

@@ -53,11 +53,12 @@ def round_times(flight: aeroid.Flight, est: aeroid.Estimator) -> tuple[float, fl
     for _ in range(REPEATS):
         checked = apply_fit_check(raw, flight, data_noise_levels(flight), options)
     check = (time.process_time() - start) / REPEATS
-    info = dict(checked.info)
-    info.setdefault("options", options)
     import dataclasses
 
-    checked = dataclasses.replace(checked, info=info)
+    # what Estimator.fit records before the floor check: the input and noise model used
+    choice = est.input_choice(flight)
+    checked = dataclasses.replace(checked, input=None if choice is None else choice.input,
+                                  noise_model=est.noise_model_used())
     start = time.process_time()
     for _ in range(REPEATS):
         floor_warnings(checked, flight, data_noise_levels(flight))

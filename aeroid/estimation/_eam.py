@@ -13,16 +13,15 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation._estimator import Estimator, prior_bounds
+from aeroid.estimation._estimator import prior_bounds
 from aeroid.estimation._objectives import (
     EAM_ROLL_WINDOW,
-    GUARD_FRACTION,
     OutputErrorCost,
 )
 from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
     MAX_SUBSTEPS,
-    check_common_options,
+    PSOMethodOptions,
     check_swarm_size,
     pso_history,
     run_pso,
@@ -43,7 +42,7 @@ MAX_SWARM_STATE_BYTES = 4 * 2**30
 
 @register
 @dataclass(frozen=True, kw_only=True)
-class EAMPSO(Estimator):
+class EAMPSO(PSOMethodOptions):
     """Output-error method with the paper's modified PSO (EAM-PSO).
 
     Options
@@ -107,12 +106,6 @@ class EAMPSO(Estimator):
                                   "modified PSO (paper, 450 x 200)")
 
     n_particles: int = 450
-    n_iterations: int = 200
-    weighting: Literal["noise", "relative"] = "noise"
-    guard_fraction: float = GUARD_FRACTION
-    box: tuple[float, ...] | None = None
-    topology: Literal["ring", "global"] = "ring"
-    interpolation: bool = True
     warm_start: bool = False
     substeps: int = 1
     stall_iterations: int | None = None
@@ -120,11 +113,10 @@ class EAMPSO(Estimator):
     roll_window: int = EAM_ROLL_WINDOW
     input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     delay_s: float = 0.0
-    polish: bool = False
     polish_initial_rates: bool = True
 
     def __post_init__(self) -> None:
-        check_common_options(self)
+        super().__post_init__()
         check_swarm_size(self.n_particles)
         if self.roll_window < 1 or self.roll_window % 2 == 0:
             raise ValueError(f"roll_window must be a positive odd integer, got {self.roll_window}")

@@ -11,16 +11,15 @@ is reported in ``info["closed_form_theta"]`` as the yardstick of the PSO.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import ClassVar
 
 import numpy as np
 
-from aeroid.estimation._estimator import Estimator, prior_bounds
-from aeroid.estimation._objectives import EBM_ROWS, GUARD_FRACTION, ebm_cost
+from aeroid.estimation._estimator import prior_bounds
+from aeroid.estimation._objectives import EBM_ROWS, ebm_cost
 from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
-    check_common_options,
-    check_step_one_options,
+    StepOneOptions,
     check_swarm_size,
     pso_history,
     reconstruction_info,
@@ -28,10 +27,6 @@ from aeroid.estimation._pso_methods import (
     step_one,
 )
 from aeroid.estimation._reconstruct import (
-    DERIVATIVE_WINDOW,
-    RATE_WEIGHT,
-    ROLL_DERIVATIVE_WINDOW,
-    SMOOTHING_WINDOW,
     ebm_regression,
     regression_fit,
 )
@@ -44,7 +39,7 @@ __all__ = ["EBMPSO"]
 
 @register
 @dataclass(frozen=True, kw_only=True)
-class EBMPSO(Estimator):
+class EBMPSO(StepOneOptions):
     """Two-step EBM with one 9-D modified-PSO problem (EBM-PSO).
 
     Options
@@ -88,23 +83,10 @@ class EBMPSO(Estimator):
                                   "SG smoothing, one 9-D modified PSO (eq. 34)")
 
     n_particles: int = 450
-    n_iterations: int = 200
-    weighting: Literal["noise", "relative"] = "noise"
-    smoothing: Literal["both", "forces", "none"] = "both"
     lateral: bool = False
-    guard_fraction: float = GUARD_FRACTION
-    box: tuple[float, ...] | None = None
-    topology: Literal["ring", "global"] = "ring"
-    interpolation: bool = True
-    rate_weight: float = RATE_WEIGHT
-    smoothing_window: int = SMOOTHING_WINDOW
-    derivative_window: int = DERIVATIVE_WINDOW
-    roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
-    polish: bool = False
 
     def __post_init__(self) -> None:
-        check_common_options(self)
-        check_step_one_options(self)
+        super().__post_init__()
         check_swarm_size(self.n_particles)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:

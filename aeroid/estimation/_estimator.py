@@ -48,9 +48,10 @@ class Estimator(abc.ABC):
     integrates the model (:data:`aeroid.flights.INPUTS`, default ``auto``): :meth:`fit`
     resolves it, checks the deflection of ``law`` and ``events`` against the logged one
     (:func:`aeroid.flights.check_input`, with the option ``delay_s`` when there is one)
-    and records the input used in the result's ``info`` (``input``, ``input_reason``,
-    ``input_agreement``). A method whose ``input`` is not used in some configuration
-    overrides :meth:`deflection_input`.
+    and records the input used in the result's field ``input`` and its ``info``
+    (``input``, ``input_reason``, ``input_agreement``); an option named ``noise_model``
+    is recorded in the result's field ``noise_model``. A method whose ``input`` is not
+    used in some configuration overrides :meth:`deflection_input`.
     """
 
     name: ClassVar[str] = ""
@@ -109,6 +110,8 @@ class Estimator(abc.ABC):
         if result.success and not np.all(np.isfinite(result.theta)):
             result = dataclasses.replace(result, success=False,
                                          message=result.message or "non-finite estimate")
+        result = dataclasses.replace(result, input=None if choice is None else choice.input,
+                                     noise_model=self.noise_model_used())
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
         result = apply_fit_check(result, flight, levels, self.options())
         info = dict(result.info)
@@ -125,6 +128,11 @@ class Estimator(abc.ABC):
     def deflection_input(self) -> str | None:
         """Return the ``input`` option of a method that integrates the model, else None."""
         return getattr(self, "input", None) if "input" in self.option_names() else None
+
+    def noise_model_used(self) -> str | None:
+        """Return the ``noise_model`` option of a method that has one, else None."""
+        return getattr(self, "noise_model", None) if "noise_model" in self.option_names() \
+            else None
 
     def input_choice(self, flight: Flight) -> InputChoice | None:
         """Resolve and check the deflection input on ``flight`` (class docstring).

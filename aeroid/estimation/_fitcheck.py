@@ -366,20 +366,20 @@ def floor_warnings(result: EstimationResult, flight: Flight,
                    levels: Mapping[str, float] | None = None) -> tuple[str, ...]:
     """Warnings for standard errors below :data:`FLOOR_FRACTION` of :func:`data_floor`.
 
-    Only for methods with one noise level per channel (no ``noise_model`` option, or
-    ``noise_model = "channel"``): the floor here is the per-channel one.
+    Only for methods with one noise level per channel (the result's ``noise_model`` None
+    or ``"channel"``): the floor here is the per-channel one. The floor's record takes
+    the result's ``input`` (``hold`` for a method that integrates no model).
     """
     if result.stderr is None or not result.success:
         return ()
-    options = result.info.get("options", {})
-    if options.get("noise_model", "channel") != "channel":
+    if (result.noise_model or "channel") != "channel":
         # A method that weights each sample (a_c + b_c yhat^2) has a per-sample floor,
         # far below this per-channel one under signal-proportional noise; the same floor
         # from the data alone (the law fitted to smoother residuals) put output-error's
         # standard errors at 0.4-23x it on two paper-noise flights (measured): no
         # yardstick for a warning.
         return ()
-    floor = data_floor(flight, result.theta, options.get("input", "hold"), levels)
+    floor = data_floor(flight, result.theta, result.input or "hold", levels)
     if floor is None:
         return ()
     low = [f"{name} ({se:.3g} < {f:.3g})"

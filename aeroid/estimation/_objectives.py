@@ -31,6 +31,7 @@ Equation-error costs (EBM, SEBM) are quadratic in the coefficients, so
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -47,6 +48,7 @@ __all__ = [
     "EBM_ROWS",
     "GUARD_FRACTION",
     "SEBM_PROBLEMS",
+    "SebmProblem",
     "WEIGHTINGS",
     "OutputErrorCost",
     "QuadraticCost",
@@ -61,12 +63,27 @@ WEIGHTINGS: tuple[str, ...] = ("noise", "relative")
 GUARD_FRACTION = 0.05
 #: Rows of the EBM cost (eq. 34): F_AX, F_AZ, M_X, M_Y in the (FAX..MZ) layout.
 EBM_ROWS: tuple[int, ...] = (0, 2, 3, 4)
-#: SEBM sub-problems (eqs. 39-42): (label, row, coefficient indices, paper's particles).
-SEBM_PROBLEMS: tuple[tuple[str, int, tuple[int, ...], int], ...] = (
-    ("FAX", 0, (0,), 50),
-    ("FAZ", 2, (1, 2, 3), 150),
-    ("MX", 3, (4, 5), 100),
-    ("MY", 4, (6, 7, 8), 150),
+class SebmProblem(NamedTuple):
+    """One SEBM sub-problem (eqs. 39-42): a load row and the coefficients it estimates.
+
+    ``label`` names the load (:data:`aeroid.model.FM_NAMES` without underscore), ``row``
+    its index in the (FAX..MZ) layout, ``coefficients`` the indices into
+    :data:`aeroid.model.NAMES`, ``particles`` the paper's swarm size.
+    """
+
+    label: str
+    row: int
+    coefficients: tuple[int, ...]
+    particles: int
+
+
+#: The SEBM sub-problems (eqs. 39-42), written once: SEBM-PSO's four swarms and
+#: equation-error's four least-squares problems (``baselines/equation_error.py``).
+SEBM_PROBLEMS: tuple[SebmProblem, ...] = (
+    SebmProblem("FAX", 0, (0,), 50),
+    SebmProblem("FAZ", 2, (1, 2, 3), 150),
+    SebmProblem("MX", 3, (4, 5), 100),
+    SebmProblem("MY", 4, (6, 7, 8), 150),
 )
 #: How EAM takes the initial rates (:class:`OutputErrorCost`).
 INITIAL_STATES: tuple[str, ...] = ("smoothed", "kinematic")

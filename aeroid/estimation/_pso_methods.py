@@ -15,21 +15,32 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 
 from aeroid.estimation import _pso as pso
-from aeroid.estimation._objectives import WEIGHTINGS
+from aeroid.estimation._estimator import Estimator
+from aeroid.estimation._objectives import GUARD_FRACTION, WEIGHTINGS
 from aeroid.estimation._polish import Polished, polish
 from aeroid.estimation._progress import pso_callback
-from aeroid.estimation._reconstruct import DERIVATIVE_POLYORDER, Reconstruction, reconstruct
+from aeroid.estimation._reconstruct import (
+    DERIVATIVE_POLYORDER,
+    DERIVATIVE_WINDOW,
+    RATE_WEIGHT,
+    ROLL_DERIVATIVE_WINDOW,
+    SMOOTHING_WINDOW,
+    Reconstruction,
+    reconstruct,
+)
 from aeroid.estimation._result import box_edge_warnings
 from aeroid.flights._flight import Flight
 from aeroid.model._coefficients import NAMES
 
 __all__ = [
-    "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "check_common_options",
+    "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "PSOMethodOptions", "StepOneOptions",
+    "check_common_options",
     "check_step_one_options", "check_swarm_size", "polish_result", "pso_history",
     "reconstruction_info", "run_pso", "step_one",
 ]
@@ -81,6 +92,45 @@ def check_common_options(est: Any) -> None:
         box = np.asarray(est.box, dtype=float).reshape(n, 2)
         if not (np.all(np.isfinite(box)) and np.all(box[:, 0] < box[:, 1])):
             raise ValueError(f"box needs {n} finite [low, high] pairs with low < high")
+
+
+@dataclass(frozen=True, kw_only=True)
+class PSOMethodOptions(Estimator):
+    """The options every paper PSO method has, written once (not registered itself).
+
+    Each method's class docstring documents them in its ``Options`` (the swarm size is
+    the method's own: one int, or one per SEBM sub-problem). Checked when the estimator
+    is built (:func:`check_common_options`).
+    """
+
+    n_iterations: int = 200
+    weighting: Literal["noise", "relative"] = "noise"
+    guard_fraction: float = GUARD_FRACTION
+    box: tuple[float, ...] | None = None
+    topology: Literal["ring", "global"] = "ring"
+    interpolation: bool = True
+    polish: bool = False
+
+    def __post_init__(self) -> None:
+        check_common_options(self)
+
+
+@dataclass(frozen=True, kw_only=True)
+class StepOneOptions(PSOMethodOptions):
+    """The options of the methods that start with EBM step 1 (EBM-PSO, SEBM-PSO).
+
+    Checked when the estimator is built (:func:`check_step_one_options`).
+    """
+
+    smoothing: Literal["both", "forces", "none"] = "both"
+    rate_weight: float = RATE_WEIGHT
+    smoothing_window: int = SMOOTHING_WINDOW
+    derivative_window: int = DERIVATIVE_WINDOW
+    roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_step_one_options(self)
 
 
 def check_step_one_options(est: Any) -> None:

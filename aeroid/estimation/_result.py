@@ -74,6 +74,15 @@ class EstimationResult:
         Method-specific extras (e.g. reconstructed forces, options used, weighting).
         ``info["compiled"]`` (bool), where a method has a compiled and an interpreted
         path, is shown by :meth:`summary` and :meth:`to_json_dict`.
+    input : str or None
+        The fin deflection between samples the method integrated the model with, ``auto``
+        resolved (:data:`aeroid.flights.INPUTS`); None for a method that integrates no
+        model. Set by :meth:`aeroid.estimation.Estimator.fit`.
+    noise_model : str or None
+        The method's measurement-noise model: ``"channel"`` (one level per channel) or
+        ``"signal"`` (per sample, ``a + b yhat^2``); None for a method without a
+        ``noise_model`` option (one level per channel, or no noise model). Set by
+        :meth:`aeroid.estimation.Estimator.fit`.
     """
 
     estimator: str
@@ -90,6 +99,8 @@ class EstimationResult:
     wall_time_s: float = 0.0
     history: dict[str, Any] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    input: str | None = None
+    noise_model: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "theta", np.asarray(self.theta, dtype=float).reshape(-1))

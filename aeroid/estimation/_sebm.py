@@ -8,27 +8,22 @@ F_AZ -> Cza, Czd, Czq (eq. 40), M_X -> Cl0, Clp (eq. 41) and M_Y -> Cma, Cmd, Cm
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar
 
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation._estimator import Estimator, prior_bounds
-from aeroid.estimation._objectives import GUARD_FRACTION, SEBM_PROBLEMS, sebm_costs
+from aeroid.estimation._estimator import prior_bounds
+from aeroid.estimation._objectives import SEBM_PROBLEMS, sebm_costs
 from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
-    check_common_options,
-    check_step_one_options,
+    StepOneOptions,
     check_swarm_size,
     reconstruction_info,
     run_pso,
     step_one,
 )
 from aeroid.estimation._reconstruct import (
-    DERIVATIVE_WINDOW,
-    RATE_WEIGHT,
-    ROLL_DERIVATIVE_WINDOW,
-    SMOOTHING_WINDOW,
     ebm_regression,
     regression_fit,
 )
@@ -44,7 +39,7 @@ PAPER_PARTICLES: tuple[int, ...] = tuple(p for *_, p in SEBM_PROBLEMS)
 
 @register
 @dataclass(frozen=True, kw_only=True)
-class SEBMPSO(Estimator):
+class SEBMPSO(StepOneOptions):
     """Separated EBM with four modified-PSO problems (SEBM-PSO).
 
     Options
@@ -95,22 +90,9 @@ class SEBMPSO(Estimator):
                                   "(eqs. 39-42; 50/150/100/150 particles)")
 
     n_particles: tuple[int, ...] = PAPER_PARTICLES
-    n_iterations: int = 200
-    weighting: Literal["noise", "relative"] = "noise"
-    smoothing: Literal["both", "forces", "none"] = "both"
-    guard_fraction: float = GUARD_FRACTION
-    box: tuple[float, ...] | None = None
-    topology: Literal["ring", "global"] = "ring"
-    interpolation: bool = True
-    rate_weight: float = RATE_WEIGHT
-    smoothing_window: int = SMOOTHING_WINDOW
-    derivative_window: int = DERIVATIVE_WINDOW
-    roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
-    polish: bool = False
 
     def __post_init__(self) -> None:
-        check_common_options(self)
-        check_step_one_options(self)
+        super().__post_init__()
         if len(self.n_particles) != len(SEBM_PROBLEMS):
             raise ValueError(f"n_particles needs {len(SEBM_PROBLEMS)} swarm sizes >= 3, "
                              f"got {self.n_particles}")

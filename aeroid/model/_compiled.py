@@ -159,8 +159,8 @@ if HAVE_NUMBA:
 
     for _fn in eq.ELEMENT_WISE:
         _register(_fn, _fast_atan2 if _fn is eq.atan2 else _fn)
-    for _fn in (from_array, coefficients_from_array, axpy, rk4_combine, inputs.with_exogenous,
-                inputs.lerp):
+    for _fn in (eq.outputs, from_array, coefficients_from_array, axpy, rk4_combine,
+                inputs.with_exogenous, inputs.lerp):
         _register(_fn, _fn)
 
     jit_inline = numba.njit(inline="always", fastmath=FASTMATH_FLAGS)
@@ -299,33 +299,27 @@ if HAVE_NUMBA:
                       w):  # pragma: no cover - compiled
         """Return ``(1/n) sum_k sum_c w_kc (z_kc - y_kc)^2`` for every set, shape (n_sets,).
 
-        ``y`` are the model outputs (eq. 28 at each triad position, then the rate gyros)
-        of the trajectories ``states`` (n_sets, n, N_STATE) with the deflection ``delta`` (n,)
-        and the constants (``base``, or the rows of ``exo`` with ``varying``) at the
-        samples; ``z``, ``w`` (n, 3 n_triads + 3).
+        ``y`` are the model outputs (:func:`aeroid.model._equations.outputs`: eq. 28 at
+        each triad position, then the rate gyros) of the trajectories ``states``
+        (n_sets, n, N_STATE) with the deflection ``delta`` (n,) and the constants
+        (``base``, or the rows of ``exo`` with ``varying``) at the samples; ``z``, ``w``
+        (n, n_outputs), columns :func:`aeroid.model._equations.output_names`.
         """
         n_sets, n = states.shape[0], states.shape[1]
-        n_triads = positions.shape[0]
         out = np.empty(n_sets)
         for i in numba.prange(n_sets):
             c = coefficients_from_array(theta[i])
+            y = np.empty(z.shape[1])  # one set's outputs at a sample (scratch)
             total = 0.0
             const = base
             for s in range(n):
                 if varying:
                     const = inputs.with_exogenous(base, exo[s])
                 x = from_array(states[i, s])
-                loads = eq.aerodynamic_loads(x, c, delta[s], const)
-                for j in range(n_triads):
-                    acc = eq.accelerometer(x, loads, const, positions[j, 0], positions[j, 1],
-                                           positions[j, 2])
-                    for a in range(3):
-                        e = z[s, 3 * j + a] - acc[a]
-                        total += w[s, 3 * j + a] * e * e
-                rates = eq.rate_gyros(x)
-                for a in range(3):
-                    e = z[s, 3 * n_triads + a] - rates[a]
-                    total += w[s, 3 * n_triads + a] * e * e
+                eq.outputs(y, x, eq.aerodynamic_loads(x, c, delta[s], const), const, positions)
+                for col in range(y.shape[0]):
+                    e = z[s, col] - y[col]
+                    total += w[s, col] * e * e
             out[i] = total / n
         return out
 

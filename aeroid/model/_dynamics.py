@@ -26,12 +26,13 @@ N_STATE = len(STATE_NAMES)
 U, V, W, P, Q, R, PHI, THETA, PSI = range(N_STATE)
 #: Aerodynamic force and moment layout.
 FM_NAMES: tuple[str, ...] = eq.LOAD_NAMES
-#: Accelerometer channels: triad 1 then triad 2, body x, y, z [m/s^2].
-ACCEL_CHANNELS: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2")
+#: The measured outputs of the model (:func:`aeroid.model._equations.outputs`): both
+#: triads of the flights' sensor layout, body x, y, z [m/s^2], then the body rates [rad/s].
+OUTPUT_CHANNELS: tuple[str, ...] = eq.output_names(n_triads=2)
 #: Rate-gyro channels [rad/s].
-RATE_CHANNELS: tuple[str, ...] = ("p", "q", "r")
-#: The measured outputs of the model: both triads, then the body rates.
-OUTPUT_CHANNELS: tuple[str, ...] = ACCEL_CHANNELS + RATE_CHANNELS
+RATE_CHANNELS: tuple[str, ...] = tuple(eq.rate_gyros(eq.State(*STATE_NAMES)))
+#: Accelerometer channels: triad 1 then triad 2, body x, y, z [m/s^2].
+ACCEL_CHANNELS: tuple[str, ...] = OUTPUT_CHANNELS[:-len(RATE_CHANNELS)]
 
 
 def constants(airframe: Airframe) -> Constants:

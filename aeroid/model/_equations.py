@@ -11,10 +11,12 @@ name, so the same definition is evaluated three ways:
   element-wise functions dispatch to CasADi objects in CasADi's numpy mode).
 
 So the functions use only arithmetic and numpy's element-wise functions (no branches, no
-array indexing). Two hooks let the compiled kernels take faster paths without copying an
-equation: :func:`atan2` (numba evaluates ``atan(y/x)`` for ``x > 0``, the same value) and
-the attitude trigonometry, which the rigid-body functions take as arguments
-(:class:`Trig`) so a kernel can get it by the addition theorem instead of calling sin/cos.
+array indexing), except :func:`outputs`, which assembles the output vector with the few
+array operations all three share. Two hooks let the compiled kernels take faster paths
+without copying an equation: :func:`atan2` (numba evaluates ``atan(y/x)`` for
+``x > 0``, the same value) and the attitude trigonometry, which the rigid-body functions
+take as arguments (:class:`Trig`) so a kernel can get it by the addition theorem instead
+of calling sin/cos.
 
 Model (notes, "Model"): body axes, flat non-rotating earth, no wind, cruciform airframe
 with no products of inertia, thrust on body +x through the c.g.; the lateral coefficients
@@ -218,7 +220,38 @@ def rate_gyros(x: State) -> tuple[Scalar, Scalar, Scalar]:
     return x.p, x.q, x.r
 
 
+def output_names(n_triads: int) -> tuple[str, ...]:
+    """Return the output channels of :func:`outputs`: ``ax1, ay1, az1, ...`` per triad, then
+    the gyros, named by the states they read (``p, q, r``)."""
+    return (tuple(f"a{axis}{j + 1}" for j in range(n_triads) for axis in "xyz")
+            + tuple(rate_gyros(State(*STATE_NAMES))))
+
+
+def outputs(out: Any, x: State, f: Loads, const: Constants, positions: Any) -> Any:
+    """Write the model's outputs into ``out[0], out[1], ...`` and return ``out``.
+
+    The output vector, written once: eq. 28 at each accelerometer triad, then the rate
+    gyros (columns :func:`output_names`). ``positions`` holds the triad positions from the
+    c.g. [m], ``positions[j, 0..2]`` for triad ``j`` (an (n_triads, 3) array, or
+    (n_triads, 3, ...) with per-evaluation positions); ``out`` takes ``out[k] = value``
+    (a numpy array whose first axis is the channel, a numba scratch vector, a CasADi
+    column). Unlike the functions above it indexes arrays, with operations numpy, numba
+    and CasADi share (``shape[0]``, ``[j, i]``, item assignment).
+    """
+    k = 0
+    for j in range(positions.shape[0]):
+        for value in accelerometer(x, f, const, positions[j, 0], positions[j, 1],
+                                   positions[j, 2]):
+            out[k] = value
+            k += 1
+    for value in rate_gyros(x):
+        out[k] = value
+        k += 1
+    return out
+
+
 #: The element-wise functions above, in dependency order (the compiled layer registers
-#: each as a numba overload of itself; :func:`atan2` gets its fast implementation there).
+#: each as a numba overload of itself, and :func:`outputs` too; :func:`atan2` gets its
+#: fast implementation there).
 ELEMENT_WISE = (atan2, air_data, trig, aerodynamic_loads, angular_acceleration,
                 specific_force, derivative, state_derivative, accelerometer, rate_gyros)

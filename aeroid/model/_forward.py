@@ -34,10 +34,16 @@ import casadi as ca
 import numpy as np
 
 from aeroid.model import _compiled, _symbolic
+from aeroid.model import _equations as eq
 from aeroid.model import _inputs as inputs
 from aeroid.model import _sensitivity as sensitivity
 from aeroid.model._coefficients import N_COEFFICIENTS
-from aeroid.model._dynamics import N_STATE, Constants, accelerometers
+from aeroid.model._dynamics import (
+    N_STATE,
+    Constants,
+    as_coefficients,
+    as_state,
+)
 from aeroid.model._inputs import Record
 from aeroid.model._integrate import propagate
 from aeroid.model._sensitivity import DEFAULT_REL_STEP
@@ -84,9 +90,7 @@ class ForwardModel:
                              f"got {backend!r}")
         self.backend = ("numba" if _compiled.HAVE_NUMBA else "numpy") if backend == "auto" \
             else backend
-        n_triads = self.positions.shape[0]
-        self.output_names = tuple(f"a{axis}{j + 1}" for j in range(n_triads)
-                                  for axis in "xyz") + ("p", "q", "r")
+        self.output_names = eq.output_names(self.positions.shape[0])
 
     @property
     def n_samples(self) -> int:
@@ -108,11 +112,13 @@ class ForwardModel:
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         const = self.const if self.record.exogenous is None else inputs.with_exogenous(
             self.const, self.record.exogenous.T)  # fields (n,): the constants per sample
+        x = as_state(states)
+        y = np.empty((*states.shape[:2], len(self.output_names)))
         with np.errstate(all="ignore"):
-            acc = accelerometers(states, self.delta[None, :], theta[:, None, :], const,
-                                 self.positions)
-        n_sets, n = states.shape[:2]
-        return np.concatenate([acc.reshape(n_sets, n, -1), states[..., 3:6]], axis=-1)
+            loads = eq.aerodynamic_loads(x, as_coefficients(theta[:, None, :]),
+                                         self.delta[None, :], const)
+            eq.outputs(np.moveaxis(y, -1, 0), x, loads, const, self.positions)
+        return y
 
     def outputs(self, state0: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """Return the predicted outputs, shape (n_sets, n, m), columns :attr:`output_names`."""

@@ -15,7 +15,7 @@ Two layers:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -28,14 +28,30 @@ from aeroid.model._dynamics import N_STATE, Constants, state_derivative
 from aeroid.model._inputs import Pieces
 
 
+def rk4_stages(fun: Callable[..., Any], x: Any, h: float, start: Sequence[Any],
+               middle: Sequence[Any], end: Sequence[Any]) -> Any:
+    """Return one classical RK4 step of ``h`` of ``dx/dt = fun(x, *inputs)``, written once.
+
+    ``start``, ``middle`` and ``end`` are the inputs at the step's start, middle and end
+    (the first stage, the two middle stages, the last). Only arithmetic on ``x`` and
+    ``fun``'s values, so numpy arrays (:func:`propagate`'s numpy backend, :func:`rk4`)
+    and CasADi vectors (:func:`aeroid.model.symbolic.interval_step`) take the same
+    step. The numba kernel has its own (:func:`aeroid.model._compiled.rk4_substep`): its
+    state is a named tuple in registers and its stages get the attitude trigonometry
+    by the addition theorem, which this generic form cannot express.
+    """
+    k1 = fun(x, *start)
+    k2 = fun(x + 0.5 * h * k1, *middle)
+    k3 = fun(x + 0.5 * h * k2, *middle)
+    k4 = fun(x + h * k3, *end)
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
 def rk4_step(fun: Callable[..., np.ndarray], t: float, x: np.ndarray, dt: float,
              *args: Any) -> np.ndarray:
     """Return one classical RK4 step of ``dx/dt = fun(t, x, *args)`` (batched ``x``)."""
-    k1 = fun(t, x, *args)
-    k2 = fun(t + 0.5 * dt, x + 0.5 * dt * k1, *args)
-    k3 = fun(t + 0.5 * dt, x + 0.5 * dt * k2, *args)
-    k4 = fun(t + dt, x + dt * k3, *args)
-    return x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return rk4_stages(lambda y, time: fun(time, y, *args), x, dt, (t,), (t + 0.5 * dt,),
+                      (t + dt,))
 
 
 def rk4(fun: Callable[..., np.ndarray], x0: np.ndarray, t0: float, dt: float, n_steps: int,
@@ -65,16 +81,6 @@ def rk4(fun: Callable[..., np.ndarray], x0: np.ndarray, t0: float, dt: float, n_
     return out
 
 
-def _rk4_numpy(x: np.ndarray, coefficients: np.ndarray, deltas: tuple[float, float, float],
-               consts: tuple[Constants, Constants, Constants], h: float) -> np.ndarray:
-    """One RK4 step of ``h`` with the deflection and constants at start, middle and end."""
-    k1 = state_derivative(x, deltas[0], coefficients, consts[0])
-    k2 = state_derivative(x + 0.5 * h * k1, deltas[1], coefficients, consts[1])
-    k3 = state_derivative(x + 0.5 * h * k2, deltas[1], coefficients, consts[1])
-    k4 = state_derivative(x + h * k3, deltas[2], coefficients, consts[2])
-    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-
-
 def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, pieces: Pieces,
                      exo: np.ndarray | None, dt: float, const: Constants,
                      substeps: int) -> np.ndarray:
@@ -101,7 +107,9 @@ def _propagate_numpy(state0: np.ndarray, coefficients: np.ndarray, pieces: Piece
                     deltas = tuple(d_start + d_span * ui for ui in u)
                     consts = (const, const, const) if exo is None else tuple(
                         inputs.lerp(k_a, k_b, f_start + length * ui) for ui in u)
-                    x = _rk4_numpy(x, coefficients, deltas, consts, h)
+                    x = rk4_stages(
+                        lambda y, d, k: state_derivative(y, d, coefficients, k), x, h,
+                        *zip(deltas, consts, strict=True))
             f_start = f_end
         out[:, s + 1] = x
     return out

@@ -32,6 +32,7 @@ from aeroid.model import _equations as eq
 from aeroid.model import _inputs as inputs
 from aeroid.model._coefficients import N_COEFFICIENTS
 from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, Constants
+from aeroid.model._integrate import rk4_stages
 
 # numpy functions on CasADi symbols return CasADi values (not the legacy behaviour, which
 # CasADi 3.8 announces with a FutureWarning); older CasADi versions lack the setting.
@@ -68,7 +69,7 @@ def rhs(x, delta, theta, const: Constants):
 
 
 def measurement(x, delta, theta, positions, const: Constants):
-    """Return the outputs ``[a1 (3), a2 (3), ..., p, q, r]`` (eq. 28 at each triad, gyros).
+    """Return the outputs ``[a1 (3), ..., p, q, r]`` (:func:`aeroid.model.equations.outputs`).
 
     Parameters
     ----------
@@ -79,21 +80,11 @@ def measurement(x, delta, theta, positions, const: Constants):
     """
     state = _state(x)
     loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
-    out = []
-    n_triads = (positions.shape[0] if hasattr(positions, "shape") else len(positions)) // 3
-    for j in range(n_triads):
-        out += eq.accelerometer(state, loads, const, positions[3 * j], positions[3 * j + 1],
-                                positions[3 * j + 2])
-    return ca.vertcat(*out, *eq.rate_gyros(state))
-
-
-def _rk4(x, theta, deltas, consts, h):
-    """One RK4 step of ``h`` with the deflection and constants at start, middle and end."""
-    k1 = rhs(x, deltas[0], theta, consts[0])[0]
-    k2 = rhs(x + 0.5 * h * k1, deltas[1], theta, consts[1])[0]
-    k3 = rhs(x + 0.5 * h * k2, deltas[1], theta, consts[1])[0]
-    k4 = rhs(x + h * k3, deltas[2], theta, consts[2])[0]
-    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    flat = positions if isinstance(positions, ca.SX | ca.MX) else ca.vertcat(*positions)
+    n_triads = flat.shape[0] // 3
+    symbol = type(x) if isinstance(x, ca.SX | ca.MX) else ca.SX
+    out = symbol.zeros(len(eq.output_names(n_triads)))
+    return eq.outputs(out, state, loads, const, ca.reshape(flat, 3, n_triads).T)
 
 
 def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Constants | None,
@@ -105,7 +96,8 @@ def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Const
     linearly from ``start[j]`` to ``stop[j]`` within it, and it gets ``substeps`` RK4
     steps; the constants are interpolated linearly from ``const_a`` (the interval's
     start) to ``const_b`` (its end; None: ``const_a`` throughout). A zero-length piece
-    is a step of length zero.
+    is a step of length zero. Each step is :func:`aeroid.model._integrate.rk4_stages`,
+    the RK4 step of the numpy backend.
     """
     f_start = 0.0
     for j in range(len(end) if not hasattr(end, "shape") else end.shape[0]):
@@ -117,7 +109,8 @@ def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Const
             deltas = [start[j] + d_span * ui for ui in u]
             consts = [const_a] * 3 if const_b is None else [
                 inputs.lerp(const_a, const_b, f_start + length * ui) for ui in u]
-            x = _rk4(x, theta, deltas, consts, h)
+            x = rk4_stages(lambda y, d, k: rhs(y, d, theta, k)[0], x, h,
+                           *zip(deltas, consts, strict=True))
         f_start = end[j]
     return x
 

@@ -94,3 +94,44 @@ def test_the_compiled_atan2_hook_is_atan2_in_every_quadrant(y, x) -> None:
 
     compiled = numba.njit(lambda a, b: eq.atan2(a, b))
     assert compiled(y, x) == pytest.approx(np.arctan2(y, x), rel=1e-15, abs=1e-15)
+
+
+def test_the_output_vector_three_ways_and_the_rigid_body_identity() -> None:
+    """eq.outputs (the output vector, written once) gives the same numbers from numpy,
+    numba (inside an njit function) and CasADi, in the order of eq.output_names; and the
+    difference of two triads' readings is the rigid-body lever arm
+    ``wdot x d + w x (w x d)`` computed with np.cross (an independent reference)."""
+    rng = np.random.default_rng(11)
+    x = eq.State(500.0, *rng.uniform(0.2, 1.0, len(eq.State._fields) - 1))
+    c = eq.Coefficients(*rng.uniform(0.2, 1.0, len(eq.Coefficients._fields)))
+    const = eq.Constants(*rng.uniform(0.2, 1.0, len(eq.Constants._fields)))
+    positions = rng.uniform(-0.5, 0.5, (3, 3))  # three triads: nothing assumes two
+    loads = eq.aerodynamic_loads(x, c, 0.3, const)
+    names = eq.output_names(len(positions))
+    assert names[:4] == ("ax1", "ay1", "az1", "ax2") and names[-3:] == ("p", "q", "r")
+    y = eq.outputs(np.empty(len(names)), x, loads, const, positions)
+    np.testing.assert_array_equal(y[-3:], [x.p, x.q, x.r])
+    w = np.array([x.p, x.q, x.r])
+    wdot = np.array(eq.angular_acceleration(x.p, x.q, x.r, loads, const))
+    for j in (1, 2):
+        d = positions[j] - positions[0]
+        lever = np.cross(wdot, d) + np.cross(w, np.cross(w, d))
+        assert_close_in_norm(y[3 * j:3 * j + 3] - y[0:3], lever, SAME_RTOL)
+    # CasADi: the state a symbol, positions numbers (as the filters' measurement model)
+    sx = ca.SX.sym("x", len(eq.State._fields))
+    state = eq.State(*(sx[i] for i in range(sx.shape[0])))
+    out = eq.outputs(ca.SX.zeros(len(names)), state, eq.aerodynamic_loads(state, c, 0.3, const),
+                     const, ca.DM(positions))
+    via_casadi = np.asarray(ca.Function("h", [sx], [out])(np.array(x))).ravel()
+    assert_close_in_norm(via_casadi, y, SAME_RTOL)
+    if HAVE_NUMBA:
+        import numba
+
+        from aeroid.model import _compiled  # noqa: F401 - registers the overloads
+
+        @numba.njit
+        def call(out, x, loads, const, positions):
+            return eq.outputs(out, x, loads, const, positions)
+
+        via_numba = call(np.empty(len(names)), x, loads, const, positions)
+        assert_close_in_norm(via_numba, y, SAME_RTOL)

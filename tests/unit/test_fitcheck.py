@@ -139,6 +139,15 @@ def test_standard_errors_below_the_floor_are_flagged(reference_scenario) -> None
         np.arange(aeroid.model.N_COEFFICIENTS) == 4, 0.3, 1))
     (warning,) = floor_warnings(boasting, flight)
     assert "below half the Cramér-Rao floor for Cl0" in warning and "Clp" not in warning
+    # the check reads the input and noise model the result carries as fields (set by
+    # Estimator.fit), not the options dict: the field says "signal" -> no per-channel
+    # yardstick, whatever info["options"] says
+    assert (fit.input, fit.noise_model) == (fit.info["input"], "channel")
+    assert fit.input in aeroid.flights.INPUTS and fit.input != "auto"  # resolved
+    assert floor_warnings(dataclasses.replace(boasting, noise_model="signal"), flight) == ()
+    no_options = dataclasses.replace(
+        boasting, info={k: v for k, v in boasting.info.items() if k != "options"})
+    assert floor_warnings(no_options, flight) == (warning,)
     clean = aeroid.simulate_scenario(reference_scenario, aeroid.NoNoise(), rng=0)
     assert data_floor(clean, fit.theta) is None  # noise-free: nothing to compare with
 

@@ -206,3 +206,27 @@ def test_propagate_rejects_bad_input(clean_flight, reference_scenario, kwargs, m
     args.update(kwargs)
     with pytest.raises(ValueError, match=message):
         propagate(**args)
+
+
+def test_the_one_rk4_step_is_simpson_on_a_quadrature_for_numpy_and_casadi():
+    """rk4_stages, the step shared by the numpy backend and CasADi: on dx/dt = u(t) with
+    u given at the step's start, middle and end it is Simpson's rule
+    x + h/6 (u0 + 4 um + u1), exactly (up to rounding), for numpy arrays and CasADi
+    symbols alike."""
+    import casadi as ca
+
+    from aeroid.model._integrate import rk4_stages
+
+    h, u = 0.3, (np.array([1.0, -2.0]), np.array([0.5, 4.0]), np.array([-3.0, 0.25]))
+    x0 = np.array([2.0, 1.0])
+    simpson = x0 + h / 6 * (u[0] + 4 * u[1] + u[2])
+    step = rk4_stages(lambda x, ui: ui + 0 * x, x0, h, (u[0],), (u[1],), (u[2],))
+    np.testing.assert_allclose(step, simpson, rtol=1e-15)
+    sx, su = ca.SX.sym("x", 2), [ca.SX.sym(f"u{i}", 2) for i in range(3)]
+    sym = rk4_stages(lambda x, ui: ui + 0 * x, sx, h, (su[0],), (su[1],), (su[2],))
+    via_casadi = np.asarray(ca.Function("s", [sx, *su], [sym])(x0, *u)).ravel()
+    np.testing.assert_allclose(via_casadi, simpson, rtol=1e-15)
+    # and a state-dependent right-hand side: dx/dt = -x gives the degree-4 polynomial
+    decay = rk4_stages(lambda x: -x, x0, h, (), (), ())
+    np.testing.assert_allclose(decay, x0 * (1 - h + h**2 / 2 - h**3 / 6 + h**4 / 24),
+                               rtol=RK4_LINEAR_RTOL)
