@@ -261,14 +261,12 @@ def _run(args: argparse.Namespace, quiet: bool) -> int:
     resume = ("; run the same command with --resume to complete only what is missing"
               if args.command == "study" else "")
     try:
-        if args.command in ("estimate", "simulate", "study") and not quiet:
-            from aeroid.model import kernels_cached
+        from aeroid.model import compile_clock
 
-            if not kernels_cached():
-                print("aeroid: compiling the numerical kernels once (about 20-60 s; "
-                      "cached for later runs)", file=sys.stderr)
         lines = WarningLines()
-        with warnings.catch_warnings():
+        # a numba compilation in this process is named as it starts and timed as it ends
+        # (the notice handler prints it; --quiet drops it); nothing when all is cached
+        with compile_clock(logging.getLogger("aeroid").info), warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
             warnings.showwarning = lines
             try:

@@ -77,6 +77,10 @@ def study(args: argparse.Namespace) -> int:
                              "command with --resume to write the report") from None
     print(f"{outcome.n_new} new fits in {outcome.wall_time_s:.1f} s; "
           f"{outcome.n_failed} of {len(outcome.records)} fits failed", file=sys.stderr)
+    compiled = sum(r.get("compile_time_s") or 0.0 for r in outcome.records)
+    if outcome.n_new and compiled > 0:
+        print(f"numba compiled kernels for {compiled:.1f} s during the fits: left out of "
+              "their runtimes (results.jsonl: compile_time_s)", file=sys.stderr)
     print(f"report: {report}")
     return 0
 

@@ -389,8 +389,9 @@ def kernels_cached() -> bool:
 
     Reads numba's cache index of each kernel (private numba attributes: on any surprise
     the answer is True, i.e. no notice); an index stamped with other sources counts as
-    missing. The first run after an install or an edit of the equations compiles them:
-    tens of seconds, announced by the command line.
+    missing. The first run after an install or an edit of the equations compiles them
+    (the command line names each compilation as it happens:
+    :func:`aeroid.model.compile_clock`).
     """
     if not HAVE_NUMBA:
         return True
