@@ -156,7 +156,10 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--report", type=Path, metavar="DIR",
                    help="write DIR/report.md with PNG figures (several methods: one folder "
-                        "per method and DIR/comparison.md)")
+                        "per method and DIR/comparison.md; HTML: --report-format html)")
+    p.add_argument("--report-format", choices=["md", "html"], default="md",
+                   help="md: markdown (default); html: the same report as one HTML page "
+                        "per report (report.html, comparison.html) beside its PNG figures")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no notices")
     p.add_argument("--airframe", type=Path, help="airframe TOML (a log without sidecar)")

@@ -489,6 +489,27 @@ def test_report_of_several_methods(flight_csv, tmp_path, capsys) -> None:
         assert (tmp_path / method / "q.png").is_file()
 
 
+def test_html_report_of_several_methods(flight_csv, tmp_path, capsys) -> None:
+    code = main(["estimate", str(flight_csv), "--method", "equation-error,ebm-pso",
+                 "--option", "n_iterations=3", "--report", str(tmp_path),
+                 "--report-format", "html"])
+    assert code == 0
+    assert f"aeroid: wrote {tmp_path / 'comparison.html'}" in capsys.readouterr().err
+    page = (tmp_path / "comparison.html").read_text()
+    assert page.startswith("<!DOCTYPE html>") and "<th>truth</th>" in page
+    for method in ("equation-error", "ebm-pso"):
+        assert f'<a href="{method}/report.html">{method}: report</a>' in page
+        report = (tmp_path / method / "report.html").read_text()
+        assert '<img src="q.png" alt="q [rad/s]: measured, model and residual"' in report
+        assert not (tmp_path / method / "report.md").exists()
+
+
+def test_report_format_without_report_exit_2(flight_csv, capsys) -> None:
+    err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", "equation-error",
+                                   "--report-format", "html"])
+    assert "--report-format is the format of --report DIR" in err
+
+
 def test_no_prior_is_said_after_the_fit(tmp_path, capsys, paper_flight) -> None:
     path = _write(tmp_path, paper_flight)
     assert paper_flight.airframe.prior is None
