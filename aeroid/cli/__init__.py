@@ -115,6 +115,8 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=_int_in(0), default=None,
                    help="random seed of the noise, an integer >= 0")
     p.add_argument("-o", "--output", type=Path, required=True, help="flight CSV to write")
+    p.add_argument("--quiet", action="store_true",
+                   help="no notices (simulate draws no progress bar)")
 
 
 def _methods_epilog() -> str:
@@ -205,6 +207,7 @@ def _add_study(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="move a previous study's results in --out into previous-N/ first")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no notices")
 
 
 def build_parser() -> argparse.ArgumentParser:
