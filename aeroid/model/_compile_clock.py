@@ -1,10 +1,12 @@
-"""What numba compiles while a block runs, and how long it takes.
+"""What compiles while a block runs, and how long it takes.
 
 numba announces every compilation it really does (not a load from its disk cache, not
-a specialisation already in memory) as a ``numba:compile`` event. :func:`compile_clock`
-listens to them for the duration of a block: the command line names each compilation
-as it starts and says its measured time when it ends (one line each, only when
-something compiles); a study leaves the compile time out of the fits' runtimes.
+a specialisation already in memory) as a ``numba:compile`` event; other one-time
+builds announce themselves with :func:`compiling` (an ``aeroid:compile`` event through
+numba's event bus). :func:`compile_clock` listens to both for the duration of a block:
+the command line names each compilation as it starts and says its measured time when it
+ends (one line each, only when something compiles); a study leaves the compile time out
+of the fits' runtimes.
 """
 
 from __future__ import annotations
@@ -24,7 +26,13 @@ else:  # pragma: no cover - exercised only where numba is missing
     _Listener = object
 
 
+#: The event kinds a :class:`CompileClock` counts.
+KINDS = ("numba:compile", "aeroid:compile")
+
+
 def _name(ev: Any) -> str:
+    if ev.kind == "aeroid:compile":
+        return str((ev.data or {}).get("name", "?"))
     dispatcher = (ev.data or {}).get("dispatcher")
     function = getattr(dispatcher, "py_func", None)
     return str(getattr(function, "__name__", dispatcher))
@@ -59,8 +67,9 @@ class CompileClock(_Listener):  # type: ignore[misc]
         if self._depth == 1:
             self._start = time.perf_counter()
             if self._say is not None:
-                self._say(f"compiling the numba kernel {_name(ev)} (once: cached on disk "
-                          "for later runs)")
+                what = "the numba kernel " if ev.kind == "numba:compile" else ""
+                self._say(f"compiling {what}{_name(ev)} (once: cached on disk for later "
+                          "runs)")
 
     def on_end(self, ev: Any) -> None:
         """A compilation ends (numba calls this, also when it fails)."""
@@ -83,8 +92,24 @@ def compile_clock(say: Callable[[str], None] | None = None) -> Iterator[CompileC
     if not HAVE_NUMBA:  # pragma: no cover - exercised only where numba is missing
         yield clock
         return
-    with event.install_listener("numba:compile", clock):
+    with contextlib.ExitStack() as stack:
+        for kind in KINDS:
+            stack.enter_context(event.install_listener(kind, clock))
         yield clock
 
 
-__all__ = ["CompileClock", "compile_clock"]
+@contextlib.contextmanager
+def compiling(name: str) -> Iterator[None]:
+    """Announce a one-time build other than numba's (a C library, say) as ``name``.
+
+    Inside the block the build runs; :func:`compile_clock` counts its time as compile
+    time (a study leaves it out of the fit's runtime) and the command line names it.
+    """
+    if not HAVE_NUMBA:  # pragma: no cover - exercised only where numba is missing
+        yield
+        return
+    with event.trigger_event("aeroid:compile", data={"name": name}):
+        yield
+
+
+__all__ = ["KINDS", "CompileClock", "compile_clock", "compiling"]

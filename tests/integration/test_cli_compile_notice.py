@@ -12,6 +12,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -86,3 +87,21 @@ def test_quiet_drops_the_notice(tmp_path, capsys, monkeypatch):
     assert cli_main(["estimate", str(flight), "--method", "equation-error", "--json",
                      "--quiet"]) in (0, 1)
     assert "compil" not in capsys.readouterr().err
+
+
+def test_a_build_announced_by_aeroid_is_named_and_timed(tmp_path, capsys, monkeypatch):
+    from aeroid.model import compiling
+
+    original = _simulate.simulate
+
+    def simulate(args):
+        with compiling("the C model"):
+            time.sleep(0.2)
+        return original(args)
+
+    monkeypatch.setattr(_simulate, "simulate", simulate)
+    assert cli_main(["simulate", "--seed", "1", "-o", str(tmp_path / "f.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "aeroid: compiling the C model (once: cached on disk for later runs)" in err
+    (seconds,) = re.findall(r"aeroid: compiled the C model in ([0-9.]+) s", err)
+    assert 0.2 <= float(seconds) < 5.0

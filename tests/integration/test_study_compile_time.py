@@ -44,14 +44,21 @@ method = "compiles"
 
 @dataclass(frozen=True, kw_only=True)
 class Compiles(Estimator):
-    """Announces a numba compilation of COMPILE_S (numba's own event), then works WORK_S."""
+    """A compilation of COMPILE_S (announced as numba does, or as a C build does with
+    :func:`aeroid.model.compiling`), then WORK_S of work."""
 
     name: ClassVar[str] = "compiles"
+    kind: str = "numba"
 
     def run(self, flight, rng):
         from numba.core import event
 
-        with event.trigger_event("numba:compile", data={"dispatcher": None, "args": ()}):
+        from aeroid.model import compiling
+
+        announce = (event.trigger_event("numba:compile", data={"dispatcher": None,
+                                                              "args": ()})
+                    if self.kind == "numba" else compiling("the C model"))
+        with announce:
             time.sleep(COMPILE_S)
         time.sleep(WORK_S)
         prior = flight.airframe.prior_vector()
@@ -92,8 +99,10 @@ class Echo(Estimator):
                                 n_evaluations=1, n_iterations=1)
 
 
-def test_the_recorded_runtime_leaves_out_a_known_compilation():
-    study = loads_study(STUDY, registry={"compiles": Compiles})
+@pytest.mark.parametrize("kind", ["numba", "c"])
+def test_the_recorded_runtime_leaves_out_a_known_compilation(kind):
+    study = loads_study(STUDY + f'options = {{ kind = "{kind}" }}\n',
+                        registry={"compiles": Compiles})
     record, _ = fit_task(study, (1, 0, 0))
     assert record["success"], record["message"]
     assert COMPILE_S <= record["compile_time_s"] < COMPILE_S + 0.5
