@@ -91,9 +91,13 @@ def report(rows: list[tuple[str, dict[str, object]]]) -> str:
         compiled = ", ".join(f"{n} {float(s):.1f}" for n, s in m["compiled"]) or "-"
         lines.append(f"| {kind} | {m['wall']:.1f} | {m['cpu']:.1f} | {m['load']:.2f} | "
                      f"{compiled} |")
-    cold = [m["wall"] for k, m in rows if k == "cold"]
-    lines += ["", f"- cold: worst {max(cold):.1f} s of {len(cold)} (target <= "
-              f"{TARGET_S:.0f} s: {'met' if max(cold) <= TARGET_S else 'MISSED'})"]
+    cold = [m for k, m in rows if k == "cold"]
+    wall = max(float(m["wall"]) for m in cold)
+    cpu = max(float(m["cpu"]) for m in cold)
+    lines += ["", f"- cold: worst wall {wall:.1f} s of {len(cold)} (target <= "
+              f"{TARGET_S:.0f} s: {'met' if wall <= TARGET_S else 'MISSED'} at this load); "
+              f"worst CPU time {cpu:.1f} s (the wall time on an idle machine is about "
+              "the CPU time: the run is one process, numba's threads aside)"]
     return "\n".join(lines) + "\n"
 
 

@@ -253,14 +253,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     stdout, sys.stdout = sys.stdout, NamedStream(sys.stdout, "standard output")
     sigterm = catch_sigterm()
     try:
-        return _run(args, quiet)
+        return _run(args)
     finally:
         sys.stdout = stdout
         restore_sigterm(sigterm)
         logging.getLogger("aeroid").removeHandler(notices)
 
 
-def _run(args: argparse.Namespace, quiet: bool) -> int:
+def _run(args: argparse.Namespace) -> int:
     """Dispatch the command; every way it can end is one line on stderr and a status."""
     from aeroid.errors import USER_ERRORS
 
