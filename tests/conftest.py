@@ -70,8 +70,8 @@ def compiled_kernels() -> None:
     """Compile the numba kernels once before any test (as on a warm install).
 
     On a fresh checkout or after an edit of the equations the first command compiles them
-    and says so in one line (``aeroid: compiling ...``, tested on its own in
-    ``test_cli_estimate.py``); without this, the CLI tests that assert a single line of
+    and says so (``aeroid: compiling the numba kernel ...``, tested on its own in
+    ``test_cli_compile_notice.py``); without this, the CLI tests that assert a single line of
     output passed or failed by the order the tests ran in (a fresh clone running only
     ``tests/integration`` failed 16 of them). The compilation happens once per test run
     either way; here it happens first.

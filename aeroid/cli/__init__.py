@@ -115,6 +115,8 @@ def _add_simulate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=_int_in(0), default=None,
                    help="random seed of the noise, an integer >= 0")
     p.add_argument("-o", "--output", type=Path, required=True, help="flight CSV to write")
+    p.add_argument("--quiet", action="store_true",
+                   help="no notices (simulate draws no progress bar)")
 
 
 def _methods_epilog() -> str:
@@ -156,7 +158,10 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--report", type=Path, metavar="DIR",
                    help="write DIR/report.md with PNG figures (several methods: one folder "
-                        "per method and DIR/comparison.md)")
+                        "per method and DIR/comparison.md; HTML: --report-format html)")
+    p.add_argument("--report-format", choices=["md", "html"], default="md",
+                   help="md: markdown (default); html: the same report as one HTML page "
+                        "per report (report.html, comparison.html) beside its PNG figures")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no notices")
     p.add_argument("--airframe", type=Path, help="airframe TOML (a log without sidecar)")
@@ -202,6 +207,7 @@ def _add_study(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="move a previous study's results in --out into previous-N/ first")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no notices")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -247,28 +253,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     stdout, sys.stdout = sys.stdout, NamedStream(sys.stdout, "standard output")
     sigterm = catch_sigterm()
     try:
-        return _run(args, quiet)
+        return _run(args)
     finally:
         sys.stdout = stdout
         restore_sigterm(sigterm)
         logging.getLogger("aeroid").removeHandler(notices)
 
 
-def _run(args: argparse.Namespace, quiet: bool) -> int:
+def _run(args: argparse.Namespace) -> int:
     """Dispatch the command; every way it can end is one line on stderr and a status."""
     from aeroid.errors import USER_ERRORS
 
     resume = ("; run the same command with --resume to complete only what is missing"
               if args.command == "study" else "")
     try:
-        if args.command in ("estimate", "simulate", "study") and not quiet:
-            from aeroid.model import kernels_cached
+        from aeroid.model import compile_clock
 
-            if not kernels_cached():
-                print("aeroid: compiling the numerical kernels once (about 20-60 s; "
-                      "cached for later runs)", file=sys.stderr)
         lines = WarningLines()
-        with warnings.catch_warnings():
+        # a numba compilation in this process is named as it starts and timed as it ends
+        # (the notice handler prints it; --quiet drops it); nothing when all is cached
+        with compile_clock(logging.getLogger("aeroid").info), warnings.catch_warnings():
             warnings.simplefilter("default", AeroidWarning)
             warnings.showwarning = lines
             try:

@@ -20,7 +20,7 @@ import sys
 import textwrap
 from typing import Any
 
-from aeroid.errors import EstimatorError
+from aeroid.errors import EstimatorError, UsageError
 from aeroid.estimation._progress import ProgressEvent
 from aeroid.estimation._registry import available, get_estimator, load_errors, make_estimator
 from aeroid.flights._files import read_column_map, read_flight
@@ -196,6 +196,9 @@ def estimate(args: argparse.Namespace) -> int:
         estimators = {n: make_estimator(n, shares[n]) for n in names}
     flight = _read(args)
     report = getattr(args, "report", None)
+    fmt = getattr(args, "report_format", "md")
+    if report is None and fmt != "md":
+        raise UsageError("--report-format is the format of --report DIR: give --report")
     if report is not None:  # before the fits: an unwritable folder is said at once
         from aeroid.report import make_directory
 
@@ -209,7 +212,8 @@ def estimate(args: argparse.Namespace) -> int:
         if report is not None:
             from aeroid.report import write_report
 
-            path = write_report(result, flight, report, notes=_report_notes(flight))
+            path = write_report(result, flight, report, notes=_report_notes(flight),
+                                fmt=fmt)
             print(f"aeroid: wrote {path}", file=sys.stderr)
         if json_output:
             print(json.dumps(result.to_json_dict(), indent=2, allow_nan=False))
@@ -227,15 +231,17 @@ def estimate(args: argparse.Namespace) -> int:
     notes = options_note(list(options), shares) + result_notes(results)
     table = compare_results(results, shares, flight.true_coefficients)
     if report is not None:
-        from aeroid.report import REPORT_NAME, write_report, write_text_atomic
+        from aeroid.report import html_page, report_name, write_report, write_text_atomic
 
         links = {}
         reading = _report_notes(flight)
         for name, result in results.items():
-            write_report(result, flight, report / name, notes=reading)
-            links[name] = f"{name}/{REPORT_NAME}"
-        path = write_text_atomic(report / "comparison.md",
-                                 comparison_markdown(table, notes, links))
+            write_report(result, flight, report / name, notes=reading, fmt=fmt)
+            links[name] = f"{name}/{report_name('report', fmt)}"
+        text = comparison_markdown(table, notes, links)
+        if fmt == "html":
+            text = html_page(text, "Methods side by side")
+        path = write_text_atomic(report / report_name("comparison", fmt), text)
         print(f"aeroid: wrote {path} and one report per method", file=sys.stderr)
     if json_output:
         print(json.dumps({"methods": [r.to_json_dict() for r in results.values()],

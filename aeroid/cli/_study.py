@@ -1,5 +1,5 @@
 """``aeroid study [STUDY.toml] [--runs N] [--jobs N] [--scheduler ADDR | --dask-local N]
-[--out DIR] [--resume | --overwrite] [--no-progress]``.
+[--out DIR] [--resume | --overwrite] [--no-progress] [--quiet]``.
 
 Without a file it runs the quick default study (``aeroid/data/quick_study.toml``);
 estimators of the quick study that are not installed are skipped with a warning line
@@ -14,6 +14,7 @@ report that cannot be written (a full disk) keeps the records and says so in one
 from __future__ import annotations
 
 import argparse
+import logging
 import re
 import shlex
 import sys
@@ -63,7 +64,8 @@ def study(args: argparse.Namespace) -> int:
         outcome = run_study(design, out, jobs=args.jobs, scheduler=args.scheduler,
                             dask_local=args.dask_local, resume=args.resume,
                             overwrite=args.overwrite,
-                            progress=False if args.no_progress else None)
+                            progress=False if args.no_progress or getattr(args, "quiet", False)
+                            else None)
         command = "aeroid " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
             if Path(sys.argv[0]).name == "aeroid" else ""
         try:
@@ -77,6 +79,11 @@ def study(args: argparse.Namespace) -> int:
                              "command with --resume to write the report") from None
     print(f"{outcome.n_new} new fits in {outcome.wall_time_s:.1f} s; "
           f"{outcome.n_failed} of {len(outcome.records)} fits failed", file=sys.stderr)
+    compiled = sum(r.get("compile_time_s") or 0.0 for r in outcome.records)
+    if outcome.n_new and compiled > 0:
+        logging.getLogger("aeroid").info(
+            "numba compiled kernels for %.1f s during the fits: left out of their runtimes "
+            "(results.jsonl: compile_time_s)", compiled)
     print(f"report: {report}")
     return 0
 

@@ -28,6 +28,7 @@ from aeroid.model._coefficients import (
     lateral_from_pitch,
     nominal,
 )
+from aeroid.model._compile_clock import CompileClock, compile_clock, compiling
 from aeroid.model._compiled import kernels_cached
 from aeroid.model._dynamics import (
     ACCEL_CHANNELS,
@@ -74,6 +75,7 @@ __all__ = [
     "Trig", "as_coefficients", "as_state", "equations", "Buffered", "ForwardModel",
     "symbolic", "symbolic_record", "EXOGENOUS", "Pieces", "Record", "Schedule",
     "exogenous_table", "with_exogenous", "kernels_cached",
+    "CompileClock", "compile_clock", "compiling",
     "FM_NAMES", "G0", "HAVE_NUMBA", "LABELS", "NAMES", "NOMINAL", "N_COEFFICIENTS", "N_STATE",
     "PHI", "PSI", "STATE_NAMES", "THETA", "Airframe", "Constants", "P", "Q", "R",
     "RelayActuator", "U", "V", "W", "accelerometers", "aero_forces_moments", "air_data",

@@ -23,6 +23,12 @@ approximate functions, signed zeros; NOT ``nnan``/``ninf``, so a diverging traje
 still yields inf/NaN (the estimators' costs rely on it). Agreement with the numpy path is
 tested to 1e-12 relative.
 
+Each kernel called from Python is compiled for one set of argument types
+(:class:`OneSignature`: read-only C float64 arrays, Python scalars), and
+:func:`rk4_substep` is compiled once and called from the four sites of
+:func:`integrate_set`: a fresh install compiles the serial RK4 kernel in ~12 s of CPU
+instead of three specialisations of ~41 s (``benchmarks/profile_compile.py``).
+
 numba's disk cache checks only the file that defines a kernel, not the functions it
 inlines, so the kernels here are cached by :func:`cached_kernel`: the cache's source stamp
 also holds the SHA-256 of every source the kernels inline (:data:`INLINED_SOURCES`). An
@@ -124,6 +130,53 @@ def sources_digest(paths: tuple[str, ...] = INLINED_SOURCES) -> str:
     return digest.hexdigest()
 
 
+def one_type(value: Any) -> Any:
+    """Return ``value`` as the one numba type its kernel argument is compiled for.
+
+    Arrays: read-only, C-contiguous float64 (a view when they already are C float64: no
+    copy); numpy scalars: Python ``bool``, ``int`` or ``float``; named tuples of numbers:
+    the same tuple of Python floats. numba compiles one specialisation per argument type,
+    and the readonly flag, the memory layout and the scalar kind are each part of the
+    type: the serial RK4 kernel was compiled three times (~40 s each) in the quick study,
+    for read-only and writable views of the same arrays.
+    """
+    if isinstance(value, np.ndarray):
+        value = np.ascontiguousarray(value, dtype=np.float64)
+        if value.flags.writeable:
+            value = value.view()
+            value.flags.writeable = False
+        return value
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        return float(value)
+    if isinstance(value, tuple) and hasattr(value, "_fields"):
+        return type(value)(*(float(v) for v in value))
+    return value
+
+
+class OneSignature:
+    """A numba kernel called from Python with its arguments in one type (:func:`one_type`).
+
+    Attributes other than the call (``stats``, ``py_func``, numba's cache) are the
+    kernel's. The kernel itself is :attr:`kernel`.
+    """
+
+    def __init__(self, kernel: Any) -> None:
+        self.kernel = kernel
+        self.__doc__ = kernel.__doc__
+        self.__name__ = kernel.__name__
+
+    def __call__(self, *args: Any) -> Any:
+        """Call the kernel with every argument in its one type."""
+        return self.kernel(*(one_type(a) for a in args))
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.kernel, name)
+
+
 if HAVE_NUMBA:
     try:
         _DIGEST: str | None = sources_digest()
@@ -144,17 +197,20 @@ if HAVE_NUMBA:
             # numba keeps the stamp on its index file object (numba/core/caching.py)
             self._cache_file._source_stamp = (self._cache_file._source_stamp, _DIGEST)
 
-    def cached_kernel(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    def cached_kernel(*, entry: bool = False, **options: Any
+                      ) -> Callable[[Callable[..., Any]], Any]:
         """Return ``numba.njit(**options)`` with the disk cache of :class:`_SourcesKeyedCache`.
 
         Used in place of ``cache=True`` (which would stamp the cache with this file only).
         Without readable sources the kernels are compiled in every process, never cached.
+        ``entry``: a kernel called from Python, wrapped in :class:`OneSignature` so every
+        caller reaches the same compiled specialisation.
         """
         def decorate(fn: Callable[..., Any]) -> Any:
             kernel = numba.njit(**options)(fn)
             if _DIGEST is not None:  # what numba's Dispatcher.enable_caching does, restamped
                 kernel._cache = _SourcesKeyedCache(kernel.py_func)
-            return kernel
+            return OneSignature(kernel) if entry else kernel
         return decorate
 
     for _fn in eq.ELEMENT_WISE:
@@ -191,7 +247,11 @@ if HAVE_NUMBA:
         sth, cth = sincos_shift(t.stheta, t.ctheta, dtheta)
         return eq.Trig(sphi, cphi, sth, cth)
 
-    @jit_inline
+    # one compiled function that integrate_set calls from its four call sites (LLVM may
+    # inline it): inlined by numba into each of them, the kernel took 41 s of CPU to
+    # compile instead of 12 s (benchmarks/profile_compile.py); the states differ by
+    # rounding only (1.4e-12 m/s at most on the reference flight, 40 sets)
+    @numba.njit(fastmath=FASTMATH_FLAGS)
     def rk4_substep(x, c, d0, d1, d2, k0, k1, k2, h):  # pragma: no cover - compiled
         """Return the state after one classical RK4 step of ``h``.
 
@@ -274,7 +334,7 @@ if HAVE_NUMBA:
             for j in range(len(x)):
                 out[s + 1, j] = x[j]
 
-    @cached_kernel(parallel=True)
+    @cached_kernel(entry=True, parallel=True)
     def propagate_parallel(state0, coefficients, end, start, stop, exo, varying, dt,
                            substeps, base):  # pragma: no cover - compiled
         """Integrate many sets, one thread per set (``prange``)."""
@@ -284,7 +344,7 @@ if HAVE_NUMBA:
                           substeps, base, out[i])
         return out
 
-    @cached_kernel()
+    @cached_kernel(entry=True)
     def propagate_serial(state0, coefficients, end, start, stop, exo, varying, dt,
                          substeps, base):  # pragma: no cover - compiled
         """Integrate many sets in one thread."""
@@ -294,7 +354,7 @@ if HAVE_NUMBA:
                           substeps, base, out[i])
         return out
 
-    @cached_kernel(parallel=True, fastmath=False)
+    @cached_kernel(entry=True, parallel=True, fastmath=False)
     def weighted_cost(states, delta, theta, base, exo, varying, positions, z,
                       w):  # pragma: no cover - compiled
         """Return ``(1/n) sum_k sum_c w_kc (z_kc - y_kc)^2`` for every set, shape (n_sets,).
@@ -329,8 +389,9 @@ def kernels_cached() -> bool:
 
     Reads numba's cache index of each kernel (private numba attributes: on any surprise
     the answer is True, i.e. no notice); an index stamped with other sources counts as
-    missing. The first run after an install or an edit of the equations compiles them:
-    tens of seconds, announced by the command line.
+    missing. The first run after an install or an edit of the equations compiles them
+    (the command line names each compilation as it happens:
+    :func:`aeroid.model.compile_clock`).
     """
     if not HAVE_NUMBA:
         return True

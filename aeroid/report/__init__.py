@@ -3,14 +3,14 @@
 This layer sits above estimation and flights (it uses their faces and the model's) and
 below the command line:
 
-- :func:`write_report`: ``report.md`` and PNG figures of one fit in a folder
-  (``aeroid estimate LOG --method M --report DIR``);
+- :func:`write_report`: ``report.md`` (or ``report.html``: :func:`html_page`) and PNG
+  figures of one fit in a folder (``aeroid estimate LOG --method M --report DIR``);
 - :func:`report_figures`: the same figures as matplotlib objects (notebooks, tests);
 - :func:`compare_results` / :func:`comparison_text`: every method on one log in one
   table (``aeroid estimate LOG --method all``).
 
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
-report), ``_compare`` (several methods).
+report), ``_compare`` (several methods), ``_html`` (a report as one HTML page).
 """
 
 from aeroid.report._compare import (
@@ -35,9 +35,11 @@ from aeroid.report._files import (
     write_text_atomic,
 )
 from aeroid.report._fit import REPORT_NAME, report_figures, report_markdown, write_report
+from aeroid.report._html import FORMATS, html_page, report_name
 
 __all__ = [
     "BAND_SD",
+    "FORMATS",
     "REPORT_NAME",
     "autocorrelation",
     "autocorrelation_figure",
@@ -47,10 +49,12 @@ __all__ = [
     "comparison_text",
     "correlation_figure",
     "deflection_figure",
+    "html_page",
     "make_directory",
     "options_note",
     "report_figures",
     "report_markdown",
+    "report_name",
     "result_notes",
     "write_bytes_atomic",
     "write_figure_atomic",

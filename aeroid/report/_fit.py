@@ -39,6 +39,7 @@ from aeroid.report._figures import (
     deflection_figure,
 )
 from aeroid.report._files import make_directory, write_figure_atomic, write_text_atomic
+from aeroid.report._html import html_page, report_name
 
 __all__ = ["REPORT_NAME", "report_figures", "report_markdown", "write_report"]
 
@@ -254,18 +255,22 @@ def _details(result: EstimationResult) -> list[str]:
 
 
 def write_report(result: EstimationResult, flight: Flight, directory: str | Path, *,
-                 notes: Sequence[str] = ()) -> Path:
-    """Write ``report.md`` and its PNG figures into ``directory``; return the markdown path.
+                 notes: Sequence[str] = (), fmt: str = "md") -> Path:
+    """Write ``report.md`` (or ``report.html``) and its PNG figures into ``directory``;
+    return the report's path.
 
     Every file is written atomically (a temporary file beside it, then ``os.replace``).
     ``notes``: one-line notes to list with the warnings (what reading the log did, the
-    flight's validation warnings).
+    flight's validation warnings). ``fmt``: ``md``, or ``html`` for the same markdown
+    rendered as one self-contained page (:func:`aeroid.report.html_page`) linking the
+    same PNG files.
 
     Raises
     ------
     UsageError
         One line naming the path when the folder or a file cannot be written.
     """
+    name = report_name(REPORT_NAME.rsplit(".", 1)[0], fmt)
     folder = make_directory(directory)
     finite = bool(np.all(np.isfinite(result.theta)))
     prediction = result.predict(flight) if finite else None
@@ -276,4 +281,7 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     for stem, fig in figures.items():
         write_figure_atomic(fig, folder / f"{stem}.png", DPI)
     text = report_markdown(result, flight, list(figures), notes, prediction, floor)
-    return write_text_atomic(folder / REPORT_NAME, text)
+    if fmt == "html":
+        source = flight.metadata.get("source", "flight")
+        text = html_page(text, f"{result.estimator} on {source}")
+    return write_text_atomic(folder / name, text)

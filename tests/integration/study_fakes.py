@@ -50,7 +50,7 @@ options = { scale = 0.02 }
 
 
 #: Record fields that differ between equal runs (timing, worker id).
-VOLATILE = ("wall_time_s", "worker")
+VOLATILE = ("wall_time_s", "compile_time_s", "worker")
 
 
 def stable(records):

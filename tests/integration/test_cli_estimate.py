@@ -402,16 +402,14 @@ def test_failed_fit_is_printed_and_exits_1(flight_csv, capsys, monkeypatch) -> N
 
 
 def test_first_compilations_are_announced(flight_csv, capsys, monkeypatch, tmp_path) -> None:
-    """A fresh install compiles numba kernels and the C model: each is said in one line."""
-    import aeroid.model
+    """A fresh install compiles the C model: it is said in one line (numba's kernels:
+    test_cli_compile_notice.py)."""
     from aeroid.model import _forward
 
-    monkeypatch.setattr(aeroid.model, "kernels_cached", lambda: False)
     monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "casadi"))
     _forward._symbolic_record.cache_clear()  # built models are cached per process
     assert main(["estimate", str(flight_csv), "--method", "output-error", "--json"]) in (0, 1)
     err = capsys.readouterr().err
-    assert "aeroid: compiling the numerical kernels once" in err
     assert f"aeroid: compiling the model to C once (a few seconds; cached in {tmp_path}" in err
     # quiet: nothing
     monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "again"))
@@ -489,6 +487,27 @@ def test_report_of_several_methods(flight_csv, tmp_path, capsys) -> None:
         assert f"[{method}: report]({method}/report.md)" in text
         assert (tmp_path / method / "report.md").is_file()
         assert (tmp_path / method / "q.png").is_file()
+
+
+def test_html_report_of_several_methods(flight_csv, tmp_path, capsys) -> None:
+    code = main(["estimate", str(flight_csv), "--method", "equation-error,ebm-pso",
+                 "--option", "n_iterations=3", "--report", str(tmp_path),
+                 "--report-format", "html"])
+    assert code == 0
+    assert f"aeroid: wrote {tmp_path / 'comparison.html'}" in capsys.readouterr().err
+    page = (tmp_path / "comparison.html").read_text()
+    assert page.startswith("<!DOCTYPE html>") and "<th>truth</th>" in page
+    for method in ("equation-error", "ebm-pso"):
+        assert f'<a href="{method}/report.html">{method}: report</a>' in page
+        report = (tmp_path / method / "report.html").read_text()
+        assert '<img src="q.png" alt="q [rad/s]: measured, model and residual"' in report
+        assert not (tmp_path / method / "report.md").exists()
+
+
+def test_report_format_without_report_exit_2(flight_csv, capsys) -> None:
+    err = _one_line_error(capsys, ["estimate", str(flight_csv), "--method", "equation-error",
+                                   "--report-format", "html"])
+    assert "--report-format is the format of --report DIR" in err
 
 
 def test_no_prior_is_said_after_the_fit(tmp_path, capsys, paper_flight) -> None:

@@ -14,7 +14,7 @@ from study_fakes import Echo
 from aeroid.errors import StudyError
 from aeroid.study import _fits, loads_study, read_results, run_study
 
-VOLATILE = ("wall_time_s", "worker")
+VOLATILE = ("wall_time_s", "compile_time_s", "worker")
 LO, HI = 0.10, 0.25
 REGISTRY = {"echo": Echo}
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from html.parser import HTMLParser
 
 import numpy as np
 import pytest
@@ -117,3 +118,71 @@ def test_autocorrelation_matches_its_definition() -> None:
     for k in range(1, ar.size):
         ar[k] = 0.8 * ar[k - 1] + e[k]
     assert autocorrelation(ar, 1)[1] == pytest.approx(0.8, abs=0.02)
+
+
+class _Page(HTMLParser):
+    """Collects what an HTML report shows: image sources and alt texts, table cells, text."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: dict[str, str] = {}
+        self.cells: list[str] = []
+        self.text: list[str] = []
+        self.open: list[str] = []
+        self._cell: list[str] | None = None
+
+    def handle_starttag(self, tag, attrs):
+        if tag not in ("img", "meta", "br", "hr"):
+            self.open.append(tag)
+        attrs = dict(attrs)
+        if tag == "img":
+            self.images[attrs["src"]] = attrs.get("alt", "")
+        if tag in ("td", "th"):
+            self._cell = []
+
+    def handle_startendtag(self, tag, attrs):  # <img ... />: nothing to close
+        self.handle_starttag(tag, attrs)
+
+    def handle_endtag(self, tag):
+        assert self.open and self.open[-1] == tag, f"</{tag}> closes {self.open[-1:]}"
+        self.open.pop()
+        if tag in ("td", "th") and self._cell is not None:
+            self.cells.append("".join(self._cell).strip())
+            self._cell = None
+
+    def handle_data(self, data):
+        self.text.append(data)
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def test_the_html_report_has_the_markdown_report_content(oe_result, paper_flight,
+                                                         tmp_path) -> None:
+    result = dataclasses.replace(oe_result, warnings=("a warning about | pipes <b>x</b>",))
+    md = write_report(result, paper_flight, tmp_path / "md")
+    page = write_report(result, paper_flight, tmp_path / "html", fmt="html")
+    assert page == tmp_path / "html" / "report.html"
+    parser = _Page()
+    parser.feed(page.read_text())
+    parser.close()
+    assert parser.open == []  # every element closed: the page parses
+    # every PNG written is shown, under the caption naming its channel and unit
+    pngs = sorted(p.name for p in (tmp_path / "html").glob("*.png"))
+    assert sorted(parser.images) == pngs and len(pngs) == len(OUTPUT_CHANNELS) + 3
+    for name in OUTPUT_CHANNELS:
+        assert parser.images[f"{name}.png"] == \
+            f"{name} [{UNITS[name]}]: measured, model and residual"
+    # the same tables: every markdown table cell is a cell of the page
+    md_cells = [c.strip().replace("\\|", "|") for line in md.read_text().splitlines()
+                if line.startswith("| ") for c in line.strip().strip("|").split(" | ")]
+    assert parser.cells == md_cells
+    text = "".join(parser.text)
+    assert "warning: a warning about | pipes <b>x</b>" in text  # shown, not interpreted
+    for name, value in zip(NAMES, result.theta, strict=True):
+        assert name in parser.cells and f"{value:.6g}" in parser.cells
+
+
+def test_an_unknown_report_format_is_one_line(oe_result, paper_flight, tmp_path) -> None:
+    with pytest.raises(UsageError, match="report format must be one of md, html, got 'pdf'"):
+        write_report(oe_result, paper_flight, tmp_path, fmt="pdf")
+    assert not list(tmp_path.iterdir())
