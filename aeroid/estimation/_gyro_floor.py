@@ -27,10 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
-from aeroid.flights._flight import Flight
-from aeroid.flights._record import flight_record, model_constants
-from aeroid.model._coefficients import NAMES
-from aeroid.model._forward import ForwardModel
+from aeroid.flights import Flight, flight_record, model_constants
+from aeroid.model import NAMES, ForwardModel
 
 __all__ = ["GYRO_FLOOR_NAMES", "gyro_only_floor"]
 

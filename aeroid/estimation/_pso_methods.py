@@ -25,8 +25,8 @@ from aeroid.estimation._polish import Polished, polish
 from aeroid.estimation._progress import pso_callback
 from aeroid.estimation._reconstruct import DERIVATIVE_POLYORDER, Reconstruction, reconstruct
 from aeroid.estimation._result import box_edge_warnings
-from aeroid.flights._flight import Flight
-from aeroid.model._coefficients import NAMES
+from aeroid.flights import Flight
+from aeroid.model import NAMES
 
 __all__ = [
     "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "check_common_options",
