@@ -8,12 +8,13 @@
 
 from aeroid.study._design import load_study, loads_study
 from aeroid.study._executors import check_scheduler
+from aeroid.study._folder import check_out_dir
 from aeroid.study._histories import load_history
 from aeroid.study._lock import study_lock
 from aeroid.study._provenance import code_identity
 from aeroid.study._runner import StudyOutcome, run_study
 from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study
-from aeroid.study._store import check_out_dir, read_design, read_results
+from aeroid.study._store import read_design, read_results
 
 __all__ = ["EstimatorSpec", "NoiseCondition", "Study", "StudyOutcome", "check_out_dir",
            "check_scheduler", "code_identity",
