@@ -4,18 +4,29 @@ The data flow, one layer per folder: :class:`Airframe` + coefficients +
 :class:`Manoeuvre` -> :func:`simulate` -> :class:`Flight` -> ``Estimator.fit`` ->
 :class:`EstimationResult` -> study -> report.
 
-This package holds the user-level names. The tiers below it:
+This package holds the user-level names. The layers below it, each importing only the
+ones under it (``[tool.importlinter]`` in ``pyproject.toml``, checked by
+``tests/contract/test_layers.py``):
 
-* :mod:`aeroid.model` (kernel level): the equations written once, the batched RK4, the
-  forward model, the model's inputs in time, CasADi evaluation;
+* :mod:`aeroid.cli`: ``aeroid simulate | estimate | methods | study``;
+* :mod:`aeroid.study` (study files, the runner and its store, reports) and
+  :mod:`aeroid.report` (one fit's report, methods side by side), which do not import
+  each other;
+* :mod:`aeroid.estimation` (plug-in level): the Estimator interface and registry,
+  objectives, reconstruction from the outputs, the PSO, the fit check, the Cramér-Rao
+  floor;
+* :mod:`aeroid.reconstruction`: a sensor-suite log to states and a flight;
 * :mod:`aeroid.flights`: flights, their files and checks, noise models, scenarios, the
   simulator;
-* :mod:`aeroid.estimation` (plug-in level): the Estimator interface and registry,
-  objectives, reconstruction, the PSO, the fit check, the Cramér-Rao floor;
-* :mod:`aeroid.study`: study files, the runner and its store, reports;
+* :mod:`aeroid.model` (kernel level): the equations written once, the batched RK4, the
+  forward model, the model's inputs in time, CasADi evaluation;
 * :mod:`aeroid.errors`: the error types.
 
-Modules with a leading underscore are implementation; their names may change.
+The ``baselines`` plug-ins use these public faces; aeroid never imports them (they
+register through the ``aeroid.estimators`` entry-point group).
+
+Modules with a leading underscore are implementation, imported only from inside their
+package; their names may change.
 """
 
 from aeroid._version import __version__ as __version__

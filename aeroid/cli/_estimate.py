@@ -21,10 +21,9 @@ import textwrap
 from typing import Any
 
 from aeroid.errors import EstimatorError, UsageError
-from aeroid.estimation._progress import ProgressEvent
-from aeroid.estimation._registry import available, get_estimator, load_errors, make_estimator
-from aeroid.flights._files import read_column_map, read_flight
-from aeroid.model._airframe import load_airframe
+from aeroid.estimation import ProgressEvent, available, get_estimator, load_errors, make_estimator
+from aeroid.flights import read_column_map, read_flight
+from aeroid.model import load_airframe
 
 __all__ = ["ProgressBar", "estimate", "method_names", "methods", "methods_table",
            "option_text", "parse_options", "progress_wanted", "read_column_map",

@@ -28,9 +28,9 @@ def _exists(folder: Path) -> bool:
 
 def simulate(args: argparse.Namespace) -> int:
     """Run ``aeroid simulate``: simulate, write the flight and its sidecar, say where."""
-    from aeroid.flights._scenario import load_scenario, noise_for, reference_scenario_data
-    from aeroid.flights._simulate import simulate as simulate_flight
-    from aeroid.model._airframe import read_toml
+    from aeroid.flights import load_scenario, noise_for
+    from aeroid.flights import simulate as simulate_flight
+    from aeroid.model import read_toml, reference_scenario_data
 
     if not _exists(args.output.parent):
         raise UsageError(f"{args.output}: folder {args.output.parent} does not exist")

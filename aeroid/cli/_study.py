@@ -33,9 +33,14 @@ def default_out(name: str) -> Path:
 
 def study(args: argparse.Namespace) -> int:
     """Run ``aeroid study``; return the exit status (0 also when some fits failed)."""
-    from aeroid.study import load_study, run_study, study_lock, write_report
-    from aeroid.study._executors import check_scheduler
-    from aeroid.study._store import check_out_dir
+    from aeroid.study import (
+        check_out_dir,
+        check_scheduler,
+        load_study,
+        run_study,
+        study_lock,
+        write_report,
+    )
 
     if args.scheduler is not None:
         check_scheduler(args.scheduler)

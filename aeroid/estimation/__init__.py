@@ -19,7 +19,15 @@ objective), ``_pso_methods`` (what the paper's methods share), and the methods `
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._fitcheck import data_floor
-from aeroid.estimation._floor import cramer_rao_sd
+from aeroid.estimation._floor import (
+    coefficient_information,
+    cramer_rao_sd,
+    information_from_sensitivities,
+    inputs_from_flight,
+    model_noise_sd,
+    model_outputs,
+    output_sensitivities,
+)
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
 from aeroid.estimation._identifiability import identifiability
 from aeroid.estimation._objectives import (
@@ -116,6 +124,12 @@ __all__ = [
     "json_safe_info",
     "predict",
     "cramer_rao_sd",
+    "coefficient_information",
+    "information_from_sensitivities",
+    "inputs_from_flight",
+    "model_noise_sd",
+    "model_outputs",
+    "output_sensitivities",
     "data_floor",
     "ebm_cost",
     "ebm_regression",

@@ -28,8 +28,8 @@ from aeroid.estimation._pso_methods import (
 )
 from aeroid.estimation._registry import register
 from aeroid.estimation._result import EstimationResult
-from aeroid.flights._flight import Flight
-from aeroid.model._dynamics import N_STATE
+from aeroid.flights import Flight
+from aeroid.model import N_STATE
 
 __all__ = ["EAMPSO", "MAX_SWARM_STATE_BYTES"]
 

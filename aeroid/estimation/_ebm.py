@@ -32,7 +32,7 @@ from aeroid.estimation._reconstruct import (
 )
 from aeroid.estimation._registry import register
 from aeroid.estimation._result import EstimationResult
-from aeroid.flights._flight import Flight
+from aeroid.flights import Flight
 
 __all__ = ["EBMPSO"]
 

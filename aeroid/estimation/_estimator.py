@@ -26,10 +26,8 @@ from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floo
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
-from aeroid.flights import InputChoice, check_input
-from aeroid.flights._flight import Flight
-from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import NAMES
+from aeroid.flights import Flight, InputChoice, check_input
+from aeroid.model import NAMES, Airframe
 
 __all__ = ["Estimator", "prior_bounds"]
 

@@ -28,11 +28,8 @@ import numpy as np
 
 from aeroid.estimation._information import fisher_information
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
-from aeroid.flights import STATE_CHANNELS
-from aeroid.flights._flight import Flight
-from aeroid.flights._record import flight_record, model_constants
-from aeroid.model._coefficients import NAMES
-from aeroid.model._forward import ForwardModel
+from aeroid.flights import STATE_CHANNELS, Flight, flight_record, model_constants
+from aeroid.model import NAMES, ForwardModel
 
 __all__ = ["GYRO_FLOOR_NAMES", "gyro_only_floor"]
 

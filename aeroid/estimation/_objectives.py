@@ -38,10 +38,8 @@ from scipy.signal import savgol_filter
 
 from aeroid.estimation._reconstruct import Reconstruction, ebm_regression
 from aeroid.estimation._signals import estimate_noise_sd, smooth
-from aeroid.flights._flight import Flight
-from aeroid.flights._record import flight_record, model_constants
-from aeroid.model._dynamics import PHI, THETA, P, Q, R
-from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
+from aeroid.flights import Flight, flight_record, model_constants
+from aeroid.model import DEFAULT_REL_STEP, PHI, THETA, ForwardModel, P, Q, R
 
 __all__ = [
     "EAM_OUTPUTS",

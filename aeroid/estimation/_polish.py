@@ -47,7 +47,7 @@ import numpy as np
 import scipy.optimize
 
 from aeroid.estimation._objectives import OutputErrorCost, QuadraticCost
-from aeroid.model._dynamics import STATE_NAMES
+from aeroid.model import STATE_NAMES
 
 __all__ = ["MAX_POLISH_EVALUATIONS", "POLISH_TOL", "Polished", "polish", "polish_info"]
 

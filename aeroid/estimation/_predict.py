@@ -26,7 +26,7 @@ What was used is recorded in the frame's ``attrs``.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import pandas as pd
@@ -35,11 +35,34 @@ from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_sa
 from aeroid.model import STATE_NAMES
 
 if TYPE_CHECKING:
-    from aeroid.estimation._result import EstimationResult
     from aeroid.flights import Flight
     from aeroid.model import ForwardModel
 
-__all__ = ["JSON_ARRAY_LIMIT", "PREDICT_SUBSTEPS", "START_WINDOW", "coefficient_frame",
+
+class FitResult(Protocol):
+    """What this module reads of a fit: :class:`aeroid.estimation.EstimationResult` is one.
+
+    Named here, not imported, so that this module does not import the one whose methods
+    call it (``EstimationResult.predict``, ``to_frame`` and ``to_json_dict``).
+    """
+
+    @property
+    def estimator(self) -> str: ...
+    @property
+    def names(self) -> tuple[str, ...]: ...
+    @property
+    def theta(self) -> np.ndarray: ...
+    @property
+    def stderr(self) -> np.ndarray | None: ...
+    @property
+    def covariance(self) -> np.ndarray | None: ...
+    @property
+    def info(self) -> dict[str, Any]: ...
+
+    def relative_error_pct(self, truth: np.ndarray) -> np.ndarray: ...
+
+
+__all__ = ["JSON_ARRAY_LIMIT", "FitResult", "PREDICT_SUBSTEPS", "START_WINDOW", "coefficient_frame",
            "correlation", "fitted_start", "json_safe", "json_safe_info", "predict", "start_state"]
 
 #: RK4 steps per sample interval for a method that has no ``substeps`` option (the
@@ -120,12 +143,12 @@ def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel) -> np.n
         residuals(x0[index]) ** 2) else x0
 
 
-def _options(result: EstimationResult) -> dict[str, Any]:
+def _options(result: FitResult) -> dict[str, Any]:
     options = result.info.get("options")
     return dict(options) if isinstance(options, dict) else {}
 
 
-def _initial_state(result: EstimationResult, flight: Flight,
+def _initial_state(result: FitResult, flight: Flight,
                    model: ForwardModel) -> tuple[np.ndarray, str]:
     for key in ("initial_state", "state0"):
         value = result.info.get(key)
@@ -139,13 +162,13 @@ def _initial_state(result: EstimationResult, flight: Flight,
             "first sample, p q r fitted to the outputs at the estimate")
 
 
-def predict(result: EstimationResult, flight: Flight, *, substeps: int | None = None,
+def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
             initial_state: np.ndarray | None = None) -> pd.DataFrame:
     """Return the model's outputs at the flight's samples (module docstring).
 
     Parameters
     ----------
-    result : EstimationResult
+    result : FitResult
     flight : Flight
         The log the result was fitted to (or another one of the same airframe).
     substeps : int, optional
@@ -200,7 +223,7 @@ def correlation(covariance: np.ndarray | None) -> np.ndarray | None:
         return cov / np.outer(sd, sd)
 
 
-def coefficient_frame(result: EstimationResult, flight: Flight | None = None,
+def coefficient_frame(result: FitResult, flight: Flight | None = None,
                       *, floor: np.ndarray | None = None) -> pd.DataFrame:
     """Return one row per coefficient: estimate, stderr, and what else is known.
 
@@ -261,7 +284,7 @@ def _drop_series(value: Any, path: str, omitted: list[str]) -> Any:
 _OMIT = object()
 
 
-def json_safe_info(result: EstimationResult) -> dict[str, Any]:
+def json_safe_info(result: FitResult) -> dict[str, Any]:
     """Return ``result.info`` as JSON types, per-sample series left out and named.
 
     Arrays of more than :data:`JSON_ARRAY_LIMIT` elements (states, measurements,

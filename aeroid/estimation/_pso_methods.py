@@ -35,8 +35,8 @@ from aeroid.estimation._reconstruct import (
     reconstruct,
 )
 from aeroid.estimation._result import box_edge_warnings
-from aeroid.flights._flight import Flight
-from aeroid.model._coefficients import NAMES
+from aeroid.flights import Flight
+from aeroid.model import NAMES
 
 __all__ = [
     "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "PSOMethodOptions", "StepOneOptions",

@@ -50,11 +50,9 @@ from aeroid.estimation._signals import (
     rate_derivatives,
     smooth,
 )
-from aeroid.flights._flight import Flight
-from aeroid.flights._record import sample_constants
-from aeroid.model import _equations as eq
-from aeroid.model._airframe import Airframe
-from aeroid.model._dynamics import FM_NAMES, OUTPUT_CHANNELS, Constants, constants, regressors
+from aeroid.flights import Flight, sample_constants
+from aeroid.model import FM_NAMES, OUTPUT_CHANNELS, Airframe, Constants, constants, regressors
+from aeroid.model import equations as eq
 
 __all__ = [
     "RATE_WEIGHT",

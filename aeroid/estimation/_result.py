@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aeroid.model._coefficients import NAMES
+from aeroid.model import NAMES
 
 if TYPE_CHECKING:
     import pandas as pd

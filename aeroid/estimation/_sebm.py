@@ -29,8 +29,8 @@ from aeroid.estimation._reconstruct import (
 )
 from aeroid.estimation._registry import register
 from aeroid.estimation._result import EstimationResult
-from aeroid.flights._flight import Flight
-from aeroid.model._coefficients import NAMES
+from aeroid.flights import Flight
+from aeroid.model import NAMES
 
 __all__ = ["SEBMPSO"]
 

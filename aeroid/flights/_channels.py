@@ -7,8 +7,8 @@ degrees and rates in deg/s is converted on reading (``--degrees``, the channels 
 
 from __future__ import annotations
 
-from aeroid.model._dynamics import ACCEL_CHANNELS as ACCELEROMETER_CHANNELS
-from aeroid.model._dynamics import STATE_NAMES
+from aeroid.model import ACCEL_CHANNELS as ACCELEROMETER_CHANNELS
+from aeroid.model import STATE_NAMES
 
 #: The measured state, in the model's order ``[u, v, w, p, q, r, phi, theta, psi]``.
 STATE_CHANNELS: tuple[str, ...] = STATE_NAMES

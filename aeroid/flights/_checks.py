@@ -39,8 +39,7 @@ from aeroid.flights._input_checks import (
     check_inputs,
     range_hint,
 )
-from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
-from aeroid.model._airframe import Airframe
+from aeroid.model import AIRFRAME_LIMITS, Airframe
 
 #: Relative spread of the sample interval accepted as a uniform time base.
 TIME_UNIFORMITY_RTOL = 1e-6

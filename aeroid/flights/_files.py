@@ -45,11 +45,9 @@ from aeroid.flights._columns import (
     check_targets,
     unwrap_angles,
 )
-from aeroid.flights._flight import Flight, air_angles
+from aeroid.flights._flight import Flight, air_angles, write_flight
 from aeroid.flights._sidecar import read_sidecar
-from aeroid.flights._write import write_flight
-from aeroid.model._airframe import Airframe, load_airframe
-from aeroid.model._fileform import read_toml, regular_file_size
+from aeroid.model import Airframe, fileform, load_airframe
 
 #: Logger of aeroid's one-line notices (the command line prints them on stderr).
 _NOTICES = logging.getLogger("aeroid")
@@ -80,7 +78,7 @@ def read_column_map(path: str | Path) -> ChannelMap:
         channel or unit, a unit of the wrong kind, or two columns sent to one channel.
     """
     try:
-        data: dict[str, Any] = read_toml(path)
+        data: dict[str, Any] = fileform.read_toml(path)
     except AirframeError as exc:
         raise FlightError(str(exc)) from None
     table: Mapping[str, Any] = data
@@ -159,7 +157,7 @@ def read_flight(
     elif columns is not None and not isinstance(columns, ChannelMap):
         columns = channel_map(columns, f"{path}: column map")
     units = dict(columns.units) if isinstance(columns, ChannelMap) else {}
-    size = regular_file_size(path, FlightError)
+    size = fileform.regular_file_size(path, FlightError)
     parquet = path.suffix == ".parquet"
     header = _parquet_header(path) if parquet else _csv_header(path)
     names = _mapped_names(header, columns, path)

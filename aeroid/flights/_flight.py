@@ -12,13 +12,14 @@ positions are the ones the estimator is given (with the paper's position error w
 the flight was simulated with it); the true positions, when known, stay in
 ``metadata["true_accel_positions_m"]``.
 
-Files (CSV or Parquet, with a JSON sidecar) are read and written by
-:mod:`aeroid.flights._files`; what :meth:`Flight.validate` checks is in
-:mod:`aeroid.flights._checks`.
+Files (CSV or Parquet, with a JSON sidecar) are read by :mod:`aeroid.flights._files`
+and written by :func:`write_flight` (:meth:`Flight.write`); what :meth:`Flight.validate`
+checks is in :mod:`aeroid.flights._checks`.
 """
 
 from __future__ import annotations
 
+import json
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -38,8 +39,8 @@ from aeroid.flights._channels import (
     STATE_CHANNELS,
 )
 from aeroid.flights._checks import check_flight
-from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import NAMES
+from aeroid.flights._sidecar import sidecar_path, sidecar_payload
+from aeroid.model import NAMES, Airframe
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,8 +157,6 @@ class Flight:
         CSV values are written with 17 significant digits, so a round trip is lossless.
         Returns the sidecar path (:func:`aeroid.flights.write_flight`).
         """
-        from aeroid.flights._write import write_flight
-
         return write_flight(self, path)
 
 
@@ -185,5 +184,38 @@ def air_angles(u: np.ndarray, v: np.ndarray, w: np.ndarray) -> tuple[np.ndarray,
         return np.arctan2(w, u), np.arcsin(v / np.sqrt(u * u + v * v + w * w))
 
 
+def write_flight(flight: Flight, path: str | Path) -> Path:
+    """Write ``flight`` as CSV (Parquet for a ``.parquet`` path) plus its JSON sidecar.
+
+    CSV values are written with 17 significant digits (a lossless round trip).
+
+    Returns
+    -------
+    Path
+        The sidecar written.
+
+    Raises
+    ------
+    FlightError
+        A ``.json`` data path (the sidecar's own name), or Parquet without pyarrow.
+    """
+    path = Path(path)
+    sidecar = sidecar_path(path)
+    if sidecar == path:
+        raise FlightError(f"{path}: a flight's data cannot be .json (that is its sidecar's "
+                          "name); use .csv or .parquet")
+    if path.suffix == ".parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            raise FlightError(f"{path}: writing Parquet needs pyarrow "
+                              "(pip install 'aeroid-toolkit[parquet]'); or write .csv") from None
+        flight.data.to_parquet(path, index=False, engine="pyarrow")
+    else:
+        flight.data.to_csv(path, index=False, float_format="%.17g")
+    sidecar.write_text(json.dumps(sidecar_payload(flight.airframe, flight.metadata), indent=2))
+    return sidecar
+
+
 __all__ = ["ANGLE_CHANNELS", "OPTIONAL_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS",
-           "Flight", "air_angles", "make_flight"]
+           "Flight", "air_angles", "make_flight", "write_flight"]

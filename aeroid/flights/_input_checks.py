@@ -23,8 +23,7 @@ import math
 import numpy as np
 
 from aeroid.flights._channels import UNITS
-from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
-from aeroid.model._airframe import Airframe
+from aeroid.model import AIRFRAME_LIMITS, Airframe
 
 #: Plausible per-sample values [SI]; outside: an error. Mass: a 1 g dart to a 10,000 t
 #: launch vehicle (Saturn V: 2,900 t); thrust: up to 100 MN (Saturn V: 35 MN, Starship:

@@ -24,8 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from aeroid.errors import AirframeError
-from aeroid.model._dynamics import ACCEL_CHANNELS, OUTPUT_CHANNELS, RATE_CHANNELS
-from aeroid.model._fileform import is_number
+from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS, RATE_CHANNELS, fileform
 
 
 def _check_options(model: Any) -> None:
@@ -38,7 +37,7 @@ def _check_options(model: Any) -> None:
         if f.name == "name":
             continue
         value = getattr(model, f.name)
-        if not (is_number(value) and math.isfinite(value) and value >= 0):
+        if not (fileform.is_number(value) and math.isfinite(value) and value >= 0):
             raise AirframeError(f"noise model {model.name!r}: {f.name} must be a finite "
                                 f"number >= 0, got {value!r}")
         object.__setattr__(model, f.name, float(value))

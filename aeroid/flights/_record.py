@@ -49,7 +49,7 @@ import numpy as np
 from aeroid.errors import FlightError
 from aeroid.flights._flight import Flight
 from aeroid.model import EXOGENOUS, Constants, Record, Schedule, constants, with_exogenous
-from aeroid.model._atmosphere import density as isa_density
+from aeroid.model import density as isa_density
 
 #: The estimator option ``input``: how the deflection between samples is modelled.
 INPUTS: tuple[str, ...] = ("auto", "hold", "midpoint", "events", "law")

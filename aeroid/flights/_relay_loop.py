@@ -32,10 +32,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from aeroid.model._actuator import FinLaw, Track
-from aeroid.model._dynamics import PHI, Constants
-from aeroid.model._inputs import Pieces, Schedule
-from aeroid.model._integrate import propagate
+from aeroid.model import PHI, Constants, FinLaw, Pieces, Schedule, Track, propagate
 
 #: Width [s] to which a continuous switch instant is located: far below what moves the
 #: states (a switch 1e-9 s off changes them by ~1e-9 x the fin's effect), and two or

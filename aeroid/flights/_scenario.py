@@ -39,16 +39,19 @@ import numpy as np
 
 from aeroid.errors import AirframeError
 from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
-from aeroid.model._actuator import FIN_LAW_KEYS, FinLaw, Profile, profile
-from aeroid.model._airframe import (
+from aeroid.model import (
+    FIN_LAW_KEYS,
+    NAMES,
     SCENARIO_TABLES,
+    STATE_NAMES,
     Airframe,
+    FinLaw,
+    Profile,
+    fileform,
+    profile,
     read_toml,
     reference_scenario_data,
 )
-from aeroid.model._coefficients import NAMES
-from aeroid.model._dynamics import STATE_NAMES
-from aeroid.model._fileform import check_keys, check_table, integer, number, numbers, text
 
 #: Most RK4 steps one simulated truth may take (window end x rate x substeps): 1e8 steps
 #: are minutes of integration and, at 500 Hz and 8 substeps, 7 hours of flight whose
@@ -128,22 +131,22 @@ class Manoeuvre:
             raise AirframeError("manoeuvre: control_rate_Hz goes with evaluation = "
                                 "\"control_rate\" and nothing else")
         if self.control_rate_hz is not None:
-            rate = number(self.control_rate_hz, "manoeuvre: control_rate_Hz")
+            rate = fileform.number(self.control_rate_hz, "manoeuvre: control_rate_Hz")
             if rate <= 0:
                 raise AirframeError(f"manoeuvre: control_rate_Hz must be positive, got {rate:g}")
             object.__setattr__(self, "control_rate_hz", rate)
-        state = numbers(self.initial_state, len(STATE_NAMES), "manoeuvre: initial_state")
+        state = fileform.numbers(self.initial_state, len(STATE_NAMES), "manoeuvre: initial_state")
         object.__setattr__(self, "initial_state", state)
-        t0, t1 = numbers(self.window_s, 2, "manoeuvre: window_s")
+        t0, t1 = fileform.numbers(self.window_s, 2, "manoeuvre: window_s")
         if not (0.0 <= t0 < t1):
             raise AirframeError(
                 f"manoeuvre: window_s must satisfy 0 <= start < end, got {t0, t1}")
         object.__setattr__(self, "window_s", (t0, t1))
-        rate = number(self.sample_rate_hz, "manoeuvre: sample_rate_hz")
+        rate = fileform.number(self.sample_rate_hz, "manoeuvre: sample_rate_hz")
         if not rate > 0:
             raise AirframeError("manoeuvre: sample_rate_hz must be positive")
         object.__setattr__(self, "sample_rate_hz", rate)
-        substeps = integer(self.truth_substeps, "manoeuvre: truth_substeps")
+        substeps = fileform.integer(self.truth_substeps, "manoeuvre: truth_substeps")
         if substeps < 1:
             raise AirframeError("manoeuvre: truth_substeps must be >= 1")
         steps = t1 * rate * substeps
@@ -208,32 +211,33 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
         One line naming ``source`` and the table or key that is wrong.
     """
     airframe = Airframe.from_dict(data, source=source, other_tables=SCENARIO_TABLES)
-    act = check_table(data.get("actuator", {}), f"{source}: [actuator]")
-    check_keys(act, ACTUATOR_KEYS, f"{source}: [actuator]")
-    init = check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
-    check_keys(init, _STATE_KEYS, f"{source}: [initial_state]", required=_STATE_KEYS)
-    state = [number(init[k], f"{source}: [initial_state] {k}") for k in _STATE_KEYS]
+    act = fileform.check_table(data.get("actuator", {}), f"{source}: [actuator]")
+    fileform.check_keys(act, ACTUATOR_KEYS, f"{source}: [actuator]")
+    init = fileform.check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
+    fileform.check_keys(init, _STATE_KEYS, f"{source}: [initial_state]", required=_STATE_KEYS)
+    state = [fileform.number(init[k], f"{source}: [initial_state] {k}") for k in _STATE_KEYS]
     state = [math.radians(x) if k.endswith("_deg") else x for k, x in zip(_STATE_KEYS, state,
                                                                            strict=True)]
-    rec = check_table(data.get("recording", {}), f"{source}: [recording]")
-    check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
+    rec = fileform.check_table(data.get("recording", {}), f"{source}: [recording]")
+    fileform.check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
     options = _actuator_options(act, f"{source}: [actuator]")
     if "sample_rate_Hz" in rec:
-        options["sample_rate_hz"] = number(rec["sample_rate_Hz"],
+        options["sample_rate_hz"] = fileform.number(rec["sample_rate_Hz"],
                                            f"{source}: [recording] sample_rate_Hz")
     if "window_s" in rec:
-        options["window_s"] = numbers(rec["window_s"], 2, f"{source}: [recording] window_s")
+        options["window_s"] = fileform.numbers(rec["window_s"], 2,
+                                               f"{source}: [recording] window_s")
     if "truth_rk4_substeps" in rec:
-        options["truth_substeps"] = integer(rec["truth_rk4_substeps"],
+        options["truth_substeps"] = fileform.integer(rec["truth_rk4_substeps"],
                                             f"{source}: [recording] truth_rk4_substeps")
     if "coefficients" not in data:
         raise AirframeError(f"{source}: no [coefficients] table (the true coefficients)")
-    table = check_table(data["coefficients"], f"{source}: [coefficients]")
-    check_keys(table, NAMES, f"{source}: [coefficients]", required=NAMES)
-    coefficients = tuple(number(table[n], f"{source}: [coefficients] {n}") for n in NAMES)
-    noise_tables = check_table(data.get("noise", {}), f"{source}: [noise]")
-    check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
-    noise_options = {name: check_table(table, f"{source}: [noise.{name}]")
+    table = fileform.check_table(data["coefficients"], f"{source}: [coefficients]")
+    fileform.check_keys(table, NAMES, f"{source}: [coefficients]", required=NAMES)
+    coefficients = tuple(fileform.number(table[n], f"{source}: [coefficients] {n}") for n in NAMES)
+    noise_tables = fileform.check_table(data.get("noise", {}), f"{source}: [noise]")
+    fileform.check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
+    noise_options = {name: fileform.check_table(table, f"{source}: [noise.{name}]")
                      for name, table in noise_tables.items()}
     try:
         manoeuvre = Manoeuvre(initial_state=tuple(state), **options)
@@ -254,9 +258,9 @@ def _actuator_options(act: Any, where: str) -> dict[str, Any]:
     for key, field in (("delay_s", "delay_s"), ("rate_limit_dps", "rate_limit_dps"),
                        ("control_rate_Hz", "control_rate_hz")):
         if key in act:
-            options[field] = number(act[key], f"{where} {key}")
+            options[field] = fileform.number(act[key], f"{where} {key}")
     if "evaluation" in act:
-        options["evaluation"] = text(act["evaluation"], f"{where} evaluation")
+        options["evaluation"] = fileform.text(act["evaluation"], f"{where} evaluation")
     elif "control_rate_Hz" in act:
         options["evaluation"] = "control_rate"
     return options

@@ -15,20 +15,15 @@ import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from aeroid.errors import AirframeError, FlightError
 from aeroid.flights._noise import noise_from_dict
-from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import NAMES
-from aeroid.model._fileform import check_keys, check_table, is_number, numbers, regular_file_size
+from aeroid.model import NAMES, Airframe, fileform
 
 #: The sidecar's format tag; a same-stem JSON file without it is not a sidecar.
-if TYPE_CHECKING:  # annotations only (Flight.write reaches this module)
-    from aeroid.flights._flight import Flight
-
 FORMAT = "aeroid-flight/1"
 #: The keys of a sidecar.
 SIDECAR_KEYS = ("format", "airframe", "metadata")
@@ -59,10 +54,11 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def sidecar_payload(flight: Flight) -> dict[str, Any]:
-    """Return the sidecar of ``flight`` as a JSON-ready dict (``source`` left out)."""
-    meta = {k: v for k, v in flight.metadata.items() if k != "source"}
-    return {"format": FORMAT, "airframe": flight.airframe.to_dict(), "metadata": _jsonable(meta)}
+def sidecar_payload(airframe: Airframe, metadata: Mapping[str, Any]) -> dict[str, Any]:
+    """Return the sidecar of a flight's ``airframe`` and ``metadata`` as a JSON-ready dict
+    (``source`` left out)."""
+    meta = {k: v for k, v in metadata.items() if k != "source"}
+    return {"format": FORMAT, "airframe": airframe.to_dict(), "metadata": _jsonable(meta)}
 
 
 def sidecar_limit(path: str | Path) -> int:
@@ -86,7 +82,7 @@ def read_sidecar(path: Path, *, need_airframe: bool
     if sidecar == path or not sidecar.exists():
         return {}, None, f"no sidecar {sidecar.name}"
     try:
-        size = regular_file_size(sidecar, FlightError)
+        size = fileform.regular_file_size(sidecar, FlightError)
     except FlightError as exc:
         return {}, None, f"{sidecar.name} is not an aeroid sidecar: {exc}"
     limit = sidecar_limit(path)
@@ -114,7 +110,7 @@ def read_sidecar(path: Path, *, need_airframe: bool
         raise FlightError(f"{sidecar}: sidecar format {tag!r} is not supported "
                           f"(this aeroid reads {FORMAT})")
     try:
-        check_keys(payload, SIDECAR_KEYS, f"{sidecar}", required=SIDECAR_KEYS)
+        fileform.check_keys(payload, SIDECAR_KEYS, f"{sidecar}", required=SIDECAR_KEYS)
         metadata = sidecar_metadata(payload["metadata"], str(sidecar))
         airframe = (Airframe.from_dict(payload["airframe"], source=f"{sidecar} airframe")
                     if need_airframe else None)
@@ -132,34 +128,34 @@ def sidecar_metadata(metadata: Any, source: str) -> dict[str, Any]:
         One line naming ``source`` and the key of the wrong type.
     """
     where = f"{source}: metadata"
-    metadata = dict(check_table(metadata, where))
+    metadata = dict(fileform.check_table(metadata, where))
     if "seed" in metadata and metadata["seed"] is not None and (
             isinstance(metadata["seed"], bool) or not isinstance(metadata["seed"], int)):
         raise AirframeError(f"{where} seed must be an integer or null, "
                             f"got {metadata['seed']!r}")
     if "noise" in metadata:
         try:
-            noise_from_dict(dict(check_table(metadata["noise"], f"{where} noise")))
+            noise_from_dict(dict(fileform.check_table(metadata["noise"], f"{where} noise")))
         except AirframeError as exc:
             message = str(exc)
             raise AirframeError(message if message.startswith(where)
                                 else f"{where} noise: {message}") from None
     if metadata.get("true_coefficients") is not None:
-        truth = check_table(metadata["true_coefficients"], f"{where} true_coefficients")
-        check_keys(truth, NAMES, f"{where} true_coefficients", required=NAMES)
-        numbers([truth[n] for n in NAMES], len(NAMES), f"{where} true_coefficients")
+        truth = fileform.check_table(metadata["true_coefficients"], f"{where} true_coefficients")
+        fileform.check_keys(truth, NAMES, f"{where} true_coefficients", required=NAMES)
+        fileform.numbers([truth[n] for n in NAMES], len(NAMES), f"{where} true_coefficients")
     if metadata.get("true_accel_positions_m") is not None:
         rows = metadata["true_accel_positions_m"]
         if not isinstance(rows, list) or len(rows) != 2:
             raise AirframeError(f"{where} true_accel_positions_m must be 2 x 3 numbers, "
                                 f"got {rows!r}")
         for row in rows:
-            numbers(row, 3, f"{where} true_accel_positions_m")
+            fileform.numbers(row, 3, f"{where} true_accel_positions_m")
     if "manoeuvre" in metadata:
-        table = check_table(metadata["manoeuvre"], f"{where} manoeuvre")
+        table = fileform.check_table(metadata["manoeuvre"], f"{where} manoeuvre")
         for key, value in table.items():
-            ok = (is_number(value) and math.isfinite(value)) or (
-                isinstance(value, list) and all(is_number(x) for x in value))
+            ok = (fileform.is_number(value) and math.isfinite(value)) or (
+                isinstance(value, list) and all(fileform.is_number(x) for x in value))
             if not ok:
                 raise AirframeError(f"{where} manoeuvre {key} must be a number, got {value!r}")
     return metadata

@@ -29,11 +29,15 @@ from aeroid.flights._flight import STATE_CHANNELS, Flight, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
-from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import as_dict, as_vector
-from aeroid.model._dynamics import accelerometers, constants
-from aeroid.model._inputs import Schedule
-from aeroid.model._integrate import propagate
+from aeroid.model import (
+    Airframe,
+    Schedule,
+    accelerometers,
+    as_dict,
+    as_vector,
+    constants,
+    propagate,
+)
 
 
 class Truth(NamedTuple):

@@ -3,12 +3,20 @@
 This is the kernel-level tier of aeroid: what estimators, simulators and floors evaluate.
 The equations of motion (paper eqs. 2-16) and the lever-arm accelerometers (eq. 28) are
 defined once, by name; numpy, numba and CasADi evaluate the same definitions.
+
+Namespaces: :mod:`equations <aeroid.model._equations>` (the equations by name),
+:mod:`symbolic <aeroid.model._symbolic>` (CasADi) and :mod:`fileform
+<aeroid.model._fileform>` (reading and checking aeroid's TOML and JSON files: one-line
+errors naming the file and key; the flights' readers use it).
 """
 
 from aeroid.model import _equations as equations
+from aeroid.model import _fileform as fileform
 from aeroid.model import _symbolic as symbolic
-from aeroid.model._actuator import FinLaw, RelayActuator
+from aeroid.model._actuator import FIN_LAW_KEYS, FinLaw, Profile, RelayActuator, Track, profile
+from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
 from aeroid.model._airframe import (
+    SCENARIO_TABLES,
     Airframe,
     dumps_toml,
     load_airframe,
@@ -17,7 +25,7 @@ from aeroid.model._airframe import (
     reference_scenario_data,
     save_airframe,
 )
-from aeroid.model._atmosphere import G0
+from aeroid.model._atmosphere import G0, density
 from aeroid.model._coefficients import (
     LABELS,
     N_COEFFICIENTS,
@@ -83,5 +91,7 @@ __all__ = [
     "lateral_from_pitch", "load_airframe", "nominal", "propagate",
     "read_toml", "reference_airframe", "reference_scenario_data", "regressors", "rk4",
     "rk4_step", "save_airframe", "state_derivative",
-    "FinLaw", "DEFAULT_REL_STEP", "SENSITIVITY_BLOCK_BYTES",
+    "FinLaw", "SENSITIVITY_BLOCK_BYTES",
+    "AIRFRAME_LIMITS", "DEFAULT_REL_STEP", "FIN_LAW_KEYS", "Profile", "SCENARIO_TABLES", "Track",
+    "density", "fileform", "profile",
 ]

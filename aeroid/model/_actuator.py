@@ -51,6 +51,7 @@ import numpy as np
 from aeroid.errors import AirframeError
 from aeroid.model._fileform import check_keys, check_table, is_number, number, text
 from aeroid.model._inputs import Schedule
+from aeroid.model._law_schedule import law_schedule, law_switches
 
 #: A law parameter: a constant, or ``(time_s, value)`` pairs with increasing times.
 Profile = float | tuple[tuple[float, float], ...]
@@ -246,8 +247,6 @@ class FinLaw:
         See :func:`aeroid.model._law_schedule.law_schedule` for the interpolation, the
         location of the switch instants and what is assumed before ``t[0] + delay_s``.
         """
-        from aeroid.model._law_schedule import law_schedule
-
         return law_schedule(self, t, phi, initial=initial, phi_rate=phi_rate,
                             subdivisions=subdivisions)
 
@@ -258,8 +257,6 @@ class FinLaw:
         See :func:`aeroid.model._law_schedule.locate_switches` (a law read at a clock:
         :func:`aeroid.model._law_schedule.clocked_switches`).
         """
-        from aeroid.model._law_schedule import law_switches
-
         times, values, _ = law_switches(self, t, phi, phi_rate=phi_rate,
                                         subdivisions=subdivisions)
         return times, values

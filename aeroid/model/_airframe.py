@@ -1,35 +1,7 @@
 """The airframe: geometry, mass, inertia, thrust, fin throw, sensor positions, atmosphere, prior.
 
-File format (TOML; the ``[airframe]``, ``[atmosphere]`` and ``[prior]`` tables of the
-reference scenario file ``aeroid/data/reference-scenario.toml``)::
-
-    [airframe]
-    diameter_m = 0.127                      # reference diameter D; S = pi D^2 / 4
-    length_m = 2.79                         # optional, informative (used in no equation)
-    mass_kg = 70.0
-    Ix_kgm2 = 0.18
-    Iy_kgm2 = 40.0
-    Iz_kgm2 = 40.0
-    thrust_N = 740.0                        # along body +x, >= 0
-    delta_max_deg = 8.0                     # ON-OFF fin deflection, > 0
-    accel1_position_m = [0.6, 0.0, 0.0]     # triad positions from the c.g., body axes
-    accel2_position_m = [-0.6, 0.01, 0.01]
-
-    [atmosphere]                            # required: exactly one of
-    altitude_m = 10000.0                    #   ISA density at this altitude, or
-    # density_kgm3 = 0.4127                 #   this density, or
-    # per_sample = "rho"                    #   a flight channel: "rho", "altitude" or "qbar"
-
-    [prior]                                 # optional: the nine coefficients to start from
-    Cx = -0.98                              # (all nine names; default: the nominal values)
-
-    [fin_law]                               # optional: the relay law (aeroid.model.FinLaw)
-    command_amplitude = 0.5                 # A, or [[t_s, A], ...] (piecewise linear)
-    command_phase_deg = 60.0                # phi0, or [[t_s, deg], ...]
-    delay_s = 0.0                           # optional actuator delay
-    rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
-    evaluation = "continuous"               # optional: or "latched" (at the log's samples),
-                                            # or control_rate_Hz = f (a clock of its own)
+The file's tables and their keys are read by :mod:`aeroid.model._airframe_form`
+(its docstring shows the file).
 
 There is no default atmosphere: leaving it out used to mean sea level, which made every
 coefficient of a flight at altitude 25-66 % low. ``per_sample`` names the flight channel
@@ -59,45 +31,22 @@ import numpy as np
 from aeroid.errors import AeroidWarning, AirframeError
 from aeroid.model import _atmosphere as atmosphere
 from aeroid.model._actuator import FinLaw
+from aeroid.model._airframe_form import (
+    AIRFRAME_KEYS,
+    AIRFRAME_TABLES,
+    ATMOSPHERE_CHANNELS,
+    ATMOSPHERE_KEYS,
+    SCENARIO_TABLES,
+    airframe_fields,
+    prior_tuple,
+)
 from aeroid.model._coefficients import NAMES, nominal
 from aeroid.model._fileform import (
-    check_keys,
-    check_table,
     dumps_toml,
     is_number,
-    number,
     numbers,
     read_toml,
-    text,
 )
-
-#: File key -> attribute of ``[airframe]``.
-AIRFRAME_KEYS = {
-    "diameter_m": "diameter_m",
-    "length_m": "length_m",
-    "mass_kg": "mass_kg",
-    "Ix_kgm2": "ix_kgm2",
-    "Iy_kgm2": "iy_kgm2",
-    "Iz_kgm2": "iz_kgm2",
-    "thrust_N": "thrust_n",
-    "delta_max_deg": "delta_max_deg",
-    "accel1_position_m": "accel1_position_m",
-    "accel2_position_m": "accel2_position_m",
-    "accel1_position_sd_m": "accel1_position_sd_m",
-    "accel2_position_sd_m": "accel2_position_sd_m",
-}
-#: ``length_m`` appears in no equation, so it may be left out; the positions' standard
-#: deviations default to 0 (known positions).
-OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
-#: File key -> attribute of ``[atmosphere]`` (exactly one is given).
-ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
-                   "per_sample": "atmosphere_channel"}
-#: Flight channels a per-sample atmosphere may name (:func:`aeroid.flights.exogenous`).
-ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
-#: The tables of an airframe file.
-AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
-#: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
-SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
 
 #: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
 LIMITS: dict[str, tuple[float, float]] = {
@@ -209,7 +158,7 @@ class Airframe:
         self._check_atmosphere()
         self._check_ranges()
         if self.prior is not None:
-            object.__setattr__(self, "prior", _prior_tuple(self.prior))
+            object.__setattr__(self, "prior", prior_tuple(self.prior))
         if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
@@ -345,7 +294,7 @@ class Airframe:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "airframe",
                   other_tables: tuple[str, ...] = ()) -> Airframe:
-        """Build an airframe from the file form (see :meth:`to_dict` and the module docstring).
+        """Build an airframe from the file form (:meth:`to_dict`; the file: :mod:`._airframe_form`).
 
         Parameters
         ----------
@@ -362,64 +311,16 @@ class Airframe:
         AirframeError
             One line naming ``source`` and the missing, unknown or invalid table or key.
         """
-        data = check_table(data, source)
-        known = (*AIRFRAME_TABLES, *other_tables)
-        unknown = sorted(str(t) for t in data if t not in known)
-        if unknown:
-            hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
-                    "[prior] and [fin_law] (starting values go in [prior])"
-                    if set(unknown) & set(SCENARIO_TABLES) else "")
-            raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
-                                f"(allowed: {', '.join(known)}){hint}")
-        for name in (t for t in AIRFRAME_TABLES if t in data):  # `airframe = 5` is no table
-            check_table(data[name], f"{source}: [{name}]")
-        for name in ("airframe", "atmosphere"):
-            if name not in data:
-                what = ("exactly one of altitude_m, density_kgm3 or per_sample; aeroid "
-                        "assumes no sea level" if name == "atmosphere" else "the airframe")
-                raise AirframeError(f"{source}: no [{name}] table ({what})")
-        table = check_table(data["airframe"], f"{source}: [airframe]")
-        required = [k for k in AIRFRAME_KEYS if k not in OPTIONAL_AIRFRAME_KEYS]
-        check_keys(table, AIRFRAME_KEYS, f"{source}: [airframe]", required)
-        kwargs: dict[str, Any] = {}
-        for key, attr in AIRFRAME_KEYS.items():
-            if key not in table:
-                continue
-            where = f"{source}: [airframe] {key}"
-            kwargs[attr] = (numbers(table[key], 3, where) if key.startswith("accel")
-                            else number(table[key], where))
-        atmos = check_table(data["atmosphere"], f"{source}: [atmosphere]")
-        check_keys(atmos, ATMOSPHERE_KEYS, f"{source}: [atmosphere]")
-        for key, attr in ATMOSPHERE_KEYS.items():
-            if key in atmos:
-                where = f"{source}: [atmosphere] {key}"
-                kwargs[attr] = (text(atmos[key], where) if key == "per_sample"
-                                else number(atmos[key], where))
-        if "prior" in data:
-            prior = check_table(data["prior"], f"{source}: [prior]")
-            check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
-            kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
+        kwargs, law_table = airframe_fields(data, source=source, other_tables=other_tables)
         try:
             airframe = cls(**kwargs)
         except AirframeError as exc:
             raise AirframeError(f"{source}: {exc}") from None
-        if "fin_law" not in data:
+        if law_table is None:
             return airframe
-        law = FinLaw.from_table(data["fin_law"], delta_max_rad=airframe.delta_max_rad,
+        law = FinLaw.from_table(law_table, delta_max_rad=airframe.delta_max_rad,
                                 where=f"{source}: [fin_law]")
         return airframe.replace(fin_law=law)
-
-
-def _prior_tuple(prior: Any) -> tuple[float, ...]:
-    """Return a prior (mapping of the names :data:`NAMES`, or one value per name) as floats."""
-    if isinstance(prior, Mapping):
-        check_keys(prior, NAMES, "airframe prior", required=NAMES)
-        prior = [prior[n] for n in NAMES]
-    try:
-        return numbers(prior, len(NAMES), "airframe prior")
-    except AirframeError:
-        raise AirframeError(f"airframe prior: expected {len(NAMES)} finite values, got {prior!r}"
-                            ) from None
 
 
 def load_airframe(path: str | Path) -> Airframe:

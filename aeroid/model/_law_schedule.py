@@ -28,15 +28,39 @@ roll angle alone, so the spline (the default) is as good on a noisy flight.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from aeroid.model._inputs import Schedule
 
-if TYPE_CHECKING:
-    from aeroid.model._actuator import FinLaw
+
+class RelayLaw(Protocol):
+    """What the schedule reads of a fin law: :class:`aeroid.model.FinLaw` is one.
+
+    Named here, not imported, so that this module does not import the one that calls it
+    (``FinLaw.schedule`` and ``FinLaw.switches`` are built on this module).
+    """
+
+    @property
+    def delta_max_rad(self) -> float: ...
+    @property
+    def delay_s(self) -> float: ...
+    @property
+    def evaluation(self) -> str: ...
+    @property
+    def control_rate_hz(self) -> float | None: ...
+
+    def switching_function(self, phi: np.ndarray | float,
+                           t: np.ndarray | float | None = None) -> np.ndarray: ...
+
+    def command(self, phi: np.ndarray | float,
+                t: np.ndarray | float | None = None) -> np.ndarray: ...
+
+    def actuate(self, t0: float, initial: float, times: np.ndarray,
+                values: np.ndarray) -> Schedule: ...
+
 
 #: Width [s] to which every bracketed switch instant is bisected: far below what the
 #: interpolated roll angle can tell (microseconds), far above float64's spacing at
@@ -72,14 +96,14 @@ def _check(t: np.ndarray, phi: np.ndarray, phi_rate: np.ndarray | None, subdivis
     return t, phi, phi_rate
 
 
-def locate_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
+def locate_switches(law: RelayLaw, t: np.ndarray, phi: np.ndarray, *,
                     phi_rate: np.ndarray | None = None, subdivisions: int = 8
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Return the instants in ``(t[0], t[-1]]`` where the law's command switches.
 
     Parameters
     ----------
-    law : FinLaw
+    law : RelayLaw
     t : ndarray, shape (n,)
         Sample times [s], increasing.
     phi : ndarray, shape (n,)
@@ -121,7 +145,7 @@ def locate_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
     return 0.5 * (lo + hi), values
 
 
-def clocked_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
+def clocked_switches(law: RelayLaw, t: np.ndarray, phi: np.ndarray, *,
                      phi_rate: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """Return the switches of a relay that reads its law at a clock, and the command at t[0].
 
@@ -131,7 +155,7 @@ def clocked_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
 
     Parameters
     ----------
-    law : FinLaw
+    law : RelayLaw
         With ``evaluation`` ``latched`` (the clock is the sample times ``t``, continued
         back at the same interval) or ``control_rate`` (instants ``m /
         law.control_rate_hz``).
@@ -174,7 +198,7 @@ def clocked_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
     return instants[change], command[change], float(command[max(acting, 0)])
 
 
-def law_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
+def law_switches(law: RelayLaw, t: np.ndarray, phi: np.ndarray, *,
                  phi_rate: np.ndarray | None = None, subdivisions: int = 8
                  ) -> tuple[np.ndarray, np.ndarray, float]:
     """Return the commanded switches and the command acting on the fin at ``t[0]``.
@@ -190,7 +214,7 @@ def law_switches(law: FinLaw, t: np.ndarray, phi: np.ndarray, *,
     return times, values, float(law.command(phi0, t0))
 
 
-def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float | None = None,
+def law_schedule(law: RelayLaw, t: np.ndarray, phi: np.ndarray, *, initial: float | None = None,
                  phi_rate: np.ndarray | None = None, subdivisions: int = 8) -> Schedule:
     """Return the fin deflection the law gives on a measured roll angle (open loop).
 
@@ -240,5 +264,5 @@ def law_schedule(law: FinLaw, t: np.ndarray, phi: np.ndarray, *, initial: float 
     return law.actuate(t0, initial, times, values)
 
 
-__all__ = ["CLOCK_SNAP", "STOP_RTOL", "SWITCH_TOL_S", "clocked_switches", "law_schedule",
-           "law_switches", "locate_switches"]
+__all__ = ["CLOCK_SNAP", "STOP_RTOL", "SWITCH_TOL_S", "RelayLaw", "clocked_switches",
+           "law_schedule", "law_switches", "locate_switches"]

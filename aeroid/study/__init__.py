@@ -7,6 +7,8 @@
 """
 
 from aeroid.study._design import load_study, loads_study
+from aeroid.study._executors import check_scheduler
+from aeroid.study._folder import check_out_dir
 from aeroid.study._histories import load_history
 from aeroid.study._lock import study_lock
 from aeroid.study._provenance import code_identity
@@ -14,7 +16,8 @@ from aeroid.study._runner import StudyOutcome, run_study
 from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study
 from aeroid.study._store import read_design, read_results
 
-__all__ = ["EstimatorSpec", "NoiseCondition", "Study", "StudyOutcome", "code_identity",
+__all__ = ["EstimatorSpec", "NoiseCondition", "Study", "StudyOutcome", "check_out_dir",
+           "check_scheduler", "code_identity",
            "load_history", "load_study", "loads_study", "read_design", "read_results",
            "run_study", "study_lock", "write_report"]
 

@@ -72,7 +72,7 @@ def position_sensitivities(airframe: Any, theta: np.ndarray, inputs: Any,
     ``components`` index ``[x1, y1, z1, x2, y2, z2]``; central differences of
     :func:`aeroid.estimation._floor.model_outputs` with a step of :data:`POSITION_STEP_M`.
     """
-    from aeroid.estimation._floor import model_outputs
+    from aeroid.estimation import model_outputs
 
     columns = []
     for c in components:
@@ -99,26 +99,33 @@ def floors_of(flight: Any, noise: Any) -> dict[str, Any]:
         prior sd of the six position components (2 x 3 [m], zeros when known);
         ``nuisance``: the other estimated parameters.
     """
-    from aeroid.estimation import _floor as fisher
+    from aeroid.estimation import (
+        coefficient_information,
+        information_from_sensitivities,
+        inputs_from_flight,
+        model_noise_sd,
+        model_outputs,
+        output_sensitivities,
+    )
 
     theta = np.asarray(flight.true_coefficients, dtype=float)
     positions = np.asarray(flight.metadata["true_accel_positions_m"], dtype=float)
-    inputs = fisher.inputs_from_flight(flight)
-    outputs = fisher.model_outputs(flight.airframe, theta, inputs, positions=positions)
+    inputs = inputs_from_flight(flight)
+    outputs = model_outputs(flight.airframe, theta, inputs, positions=positions)
     position_sd = np.asarray(noise.position_sd(positions), dtype=float).reshape(-1)
     uncertain = [int(c) for c in np.flatnonzero(position_sd > 0)]
-    jac = fisher.output_sensitivities(flight.airframe, theta, inputs, positions=positions,
+    jac = output_sensitivities(flight.airframe, theta, inputs, positions=positions,
                                       estimate_initial=FLOOR_NUISANCE_STATES)
     jac = np.concatenate([jac, position_sensitivities(flight.airframe, theta, inputs,
                                                       positions, uncertain)], axis=-1)
     out: dict[str, Any] = {"position_sd_m": position_sd.reshape(2, 3).tolist(),
                            "nuisance": [f"{s}0" for s in FLOOR_NUISANCE_STATES]}
     for key, form in FLOOR_FORMS.items():
-        sd = fisher.model_noise_sd(noise, outputs, noise_form=form)
-        info = fisher.information_from_sensitivities(jac, sd)
+        sd = model_noise_sd(noise, outputs, noise_form=form)
+        info = information_from_sensitivities(jac, sd)
         first = info.shape[0] - len(uncertain)
         info[first:, first:] += np.diag(1.0 / position_sd[uncertain] ** 2)  # the prior
-        cov = np.linalg.inv(fisher.coefficient_information(info))
+        cov = np.linalg.inv(coefficient_information(info))
         out[key] = np.sqrt(np.diag(cov)).tolist()
     return out
 

@@ -30,11 +30,12 @@ from aeroid.study._fits import (
     simulate_run,
 )
 from aeroid.study._floors import read_floors, study_floors, write_floors
+from aeroid.study._folder import open_store
 from aeroid.study._histories import history_name, load_history, save_history
 from aeroid.study._progress import Progress
 from aeroid.study._provenance import code_identity
 from aeroid.study._spec import Study
-from aeroid.study._store import RESULTS_FILE, RecordWriter, open_store, read_results
+from aeroid.study._store import RESULTS_FILE, RecordWriter, read_results
 
 
 @dataclass(frozen=True)

@@ -152,15 +152,15 @@ def test_simulate_help_has_a_description_and_examples(capsys):
 def test_simulate_prints_each_aeroid_warning_as_one_line(tmp_path, capsys, monkeypatch):
     import warnings
 
-    from aeroid.flights import _simulate
+    import aeroid.flights  # the command takes simulate from the package's face
 
-    original = _simulate.simulate
+    original = aeroid.flights.simulate
 
     def warn_then_simulate(*args, **kwargs):
         warnings.warn("scenario: thrust is negative\n(a brake?)", AeroidWarning, stacklevel=2)
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(_simulate, "simulate", warn_then_simulate)
+    monkeypatch.setattr(aeroid.flights, "simulate", warn_then_simulate)
     assert main(["simulate", "--noise", "none", "-o", str(tmp_path / "f.csv")]) == 0
     err = capsys.readouterr().err
     assert err == "aeroid: warning: scenario: thrust is negative (a brake?)\n"

@@ -1,0 +1,157 @@
+"""The airframe file's tables: their keys, and reading them into an airframe's fields.
+
+File format (TOML; the ``[airframe]``, ``[atmosphere]`` and ``[prior]`` tables of the
+reference scenario file ``aeroid/data/reference-scenario.toml``)::
+
+    [airframe]
+    diameter_m = 0.127                      # reference diameter D; S = pi D^2 / 4
+    length_m = 2.79                         # optional, informative (used in no equation)
+    mass_kg = 70.0
+    Ix_kgm2 = 0.18
+    Iy_kgm2 = 40.0
+    Iz_kgm2 = 40.0
+    thrust_N = 740.0                        # along body +x, >= 0
+    delta_max_deg = 8.0                     # ON-OFF fin deflection, > 0
+    accel1_position_m = [0.6, 0.0, 0.0]     # triad positions from the c.g., body axes
+    accel2_position_m = [-0.6, 0.01, 0.01]
+
+    [atmosphere]                            # required: exactly one of
+    altitude_m = 10000.0                    #   ISA density at this altitude, or
+    # density_kgm3 = 0.4127                 #   this density, or
+    # per_sample = "rho"                    #   a flight channel: "rho", "altitude" or "qbar"
+
+    [prior]                                 # optional: the nine coefficients to start from
+    Cx = -0.98                              # (all nine names; default: the nominal values)
+
+    [fin_law]                               # optional: the relay law (aeroid.model.FinLaw)
+    command_amplitude = 0.5                 # A, or [[t_s, A], ...] (piecewise linear)
+    command_phase_deg = 60.0                # phi0, or [[t_s, deg], ...]
+    delay_s = 0.0                           # optional actuator delay
+    rate_limit_dps = 8000.0                 # optional fin rate limit (default none)
+    evaluation = "continuous"               # optional: or "latched" (at the log's samples),
+                                            # or control_rate_Hz = f (a clock of its own)
+
+:meth:`aeroid.model.Airframe.from_dict` builds the airframe from what
+:func:`airframe_fields` reads here; the checks of the values themselves (ranges, the
+one atmosphere) are the airframe's own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from aeroid.errors import AirframeError
+from aeroid.model._coefficients import NAMES
+from aeroid.model._fileform import check_keys, check_table, number, numbers, text
+
+#: File key -> attribute of ``[airframe]``.
+AIRFRAME_KEYS = {
+    "diameter_m": "diameter_m",
+    "length_m": "length_m",
+    "mass_kg": "mass_kg",
+    "Ix_kgm2": "ix_kgm2",
+    "Iy_kgm2": "iy_kgm2",
+    "Iz_kgm2": "iz_kgm2",
+    "thrust_N": "thrust_n",
+    "delta_max_deg": "delta_max_deg",
+    "accel1_position_m": "accel1_position_m",
+    "accel2_position_m": "accel2_position_m",
+    "accel1_position_sd_m": "accel1_position_sd_m",
+    "accel2_position_sd_m": "accel2_position_sd_m",
+}
+#: ``length_m`` appears in no equation, so it may be left out; the positions' standard
+#: deviations default to 0 (known positions).
+OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
+#: File key -> attribute of ``[atmosphere]`` (exactly one is given).
+ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
+                   "per_sample": "atmosphere_channel"}
+#: Flight channels a per-sample atmosphere may name (:func:`aeroid.flights.exogenous`).
+ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
+#: The tables of an airframe file.
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
+#: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
+SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
+
+
+def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
+                    other_tables: tuple[str, ...] = ()) -> tuple[dict[str, Any], Any]:
+    """Read an airframe file's tables into the airframe's field values.
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed file.
+    source : str
+        The file (or other origin) named in error messages.
+    other_tables : tuple of str
+        Further tables the caller reads itself (a scenario file's); any other table is
+        an error.
+
+    Returns
+    -------
+    fields : dict
+        Keyword arguments of :class:`aeroid.model.Airframe` (without ``fin_law``).
+    fin_law : mapping or None
+        The ``[fin_law]`` table as written (read by ``FinLaw.from_table``, which needs the
+        airframe's fin throw), or None when the file has none.
+
+    Raises
+    ------
+    AirframeError
+        One line naming ``source`` and the missing, unknown or invalid table or key.
+    """
+    data = check_table(data, source)
+    known = (*AIRFRAME_TABLES, *other_tables)
+    unknown = sorted(str(t) for t in data if t not in known)
+    if unknown:
+        hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
+                "[prior] and [fin_law] (starting values go in [prior])"
+                if set(unknown) & set(SCENARIO_TABLES) else "")
+        raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
+                            f"(allowed: {', '.join(known)}){hint}")
+    for name in (t for t in AIRFRAME_TABLES if t in data):  # `airframe = 5` is no table
+        check_table(data[name], f"{source}: [{name}]")
+    for name in ("airframe", "atmosphere"):
+        if name not in data:
+            what = ("exactly one of altitude_m, density_kgm3 or per_sample; aeroid "
+                    "assumes no sea level" if name == "atmosphere" else "the airframe")
+            raise AirframeError(f"{source}: no [{name}] table ({what})")
+    table = check_table(data["airframe"], f"{source}: [airframe]")
+    required = [k for k in AIRFRAME_KEYS if k not in OPTIONAL_AIRFRAME_KEYS]
+    check_keys(table, AIRFRAME_KEYS, f"{source}: [airframe]", required)
+    kwargs: dict[str, Any] = {}
+    for key, attr in AIRFRAME_KEYS.items():
+        if key not in table:
+            continue
+        where = f"{source}: [airframe] {key}"
+        kwargs[attr] = (numbers(table[key], 3, where) if key.startswith("accel")
+                        else number(table[key], where))
+    atmos = check_table(data["atmosphere"], f"{source}: [atmosphere]")
+    check_keys(atmos, ATMOSPHERE_KEYS, f"{source}: [atmosphere]")
+    for key, attr in ATMOSPHERE_KEYS.items():
+        if key in atmos:
+            where = f"{source}: [atmosphere] {key}"
+            kwargs[attr] = (text(atmos[key], where) if key == "per_sample"
+                            else number(atmos[key], where))
+    if "prior" in data:
+        prior = check_table(data["prior"], f"{source}: [prior]")
+        check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
+        kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
+    return kwargs, data.get("fin_law")
+
+
+def prior_tuple(prior: Any) -> tuple[float, ...]:
+    """Return a prior (mapping of the names :data:`NAMES`, or one value per name) as floats."""
+    if isinstance(prior, Mapping):
+        check_keys(prior, NAMES, "airframe prior", required=NAMES)
+        prior = [prior[n] for n in NAMES]
+    try:
+        return numbers(prior, len(NAMES), "airframe prior")
+    except AirframeError:
+        raise AirframeError(f"airframe prior: expected {len(NAMES)} finite values, got {prior!r}"
+                            ) from None
+
+
+__all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
+           "OPTIONAL_AIRFRAME_KEYS", "SCENARIO_TABLES", "airframe_fields", "prior_tuple"]
