@@ -27,7 +27,7 @@ from typing import ClassVar, Literal
 import numpy as np
 
 import aeroid
-from aeroid.estimation import EstimationResult, Estimator
+from aeroid.estimation import EstimationResult, Estimator, nuisance_findings
 from aeroid.flights import INPUTS, Flight, model_constants
 from aeroid.model import OUTPUT_CHANNELS, ForwardModel
 from baselines import _common
@@ -39,7 +39,7 @@ from baselines._gauss_newton import (
     posterior_information,
     sandwich,
 )
-from baselines._oe_record import RecordModel
+from baselines._oe_record import IMU_ERRORS, RecordModel, imu_error_names
 from baselines._oe_starts import Start, best_end, equation_error_start, start_report
 
 #: Initial-state components that can be estimated: the rates p, q, r
@@ -62,6 +62,9 @@ MAX_DELAY_S = 0.1
 #: samples 7 s and +66 MB, 20 001 samples 19 s and +510 MB (model build and compile
 #: included); 50 000 samples would take ~1.5 GB. A longer log: fit windows of it.
 MAX_SAMPLES = 50_000
+#: Scaling of the IMU-error parameters (conditioning only, no prior): a bias over this
+#: fraction of its channel's RMS, a scale factor over this.
+IMU_ERROR_SCALE = 1e-3
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(Estimator):
@@ -146,6 +149,18 @@ class OutputErrorEstimator(Estimator):
         ``sum_j log mean_k e_kj^2`` within :func:`aeroid.prior_bounds` (default False).
     pso_particles, pso_iterations : int
         Budget of that warm start (defaults 30 and 40).
+    imu_errors : {"none", "bias", "bias+scale"}
+        Also estimate the IMU's errors as parameters (default ``"none"``: the channels are
+        taken as unbiased): a bias per output channel (both triads' three axes and the
+        three gyros), with ``"bias+scale"`` also a scale factor, in the sensor law
+        ``y_meas = (1 + s) y_model + b`` of :func:`aeroid.flights.simulate_suite`; no
+        prior (maximum likelihood), reported in ``info['imu_errors']`` with
+        ``info['imu_error_stderr']`` (names ``b`` / ``s`` + channel: ``bax1``, ``sp``).
+        For a log whose IMU is raw (:meth:`aeroid.reconstruction.Reconstruction.
+        to_flight` with ``imu="raw"``). An axial bias trades against Cx (the axial
+        force hardly changes over a window); the fit says so (a warning naming the pair
+        when their estimates correlate above
+        :data:`aeroid.estimation.CORRELATION_LIMIT`).
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -185,6 +200,7 @@ class OutputErrorEstimator(Estimator):
     pso_warm_start: bool = False
     pso_particles: int = 30
     pso_iterations: int = 40
+    imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:
@@ -197,6 +213,9 @@ class OutputErrorEstimator(Estimator):
             raise ValueError(f"tol must be > 0, got {self.tol}")
         if self.input not in INPUTS:
             raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
+        if self.imu_errors not in IMU_ERRORS:
+            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERRORS)}, got "
+                             f"{self.imu_errors!r}")
         if self.noise_model not in NOISE_MODELS:
             raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
                              f"got {self.noise_model!r}")
@@ -209,7 +228,8 @@ class OutputErrorEstimator(Estimator):
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free]
-        return tuple(names + (["delay_s"] if self.estimate_delay else []))
+        names += ["delay_s"] if self.estimate_delay else []
+        return tuple(names + list(imu_error_names(self.imu_errors)))
 
     def consider_term(self, flight: Flight, best: Fit, scale: np.ndarray) -> np.ndarray:
         """The uncertain positions' share of the covariance (Schmidt consider analysis).
@@ -227,6 +247,9 @@ class OutputErrorEstimator(Estimator):
         first = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         p = np.zeros(wide.scale.size)
         p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
+        n_rest = best.p.size - first - len(self.position_free(flight))  # delay, IMU errors
+        if n_rest:
+            p[-n_rest:] = best.p[-n_rest:]
         _, J = wide.outputs_jacobian(p)
         columns = [first + wide_free.index(c) for c in considered]
         w = 1.0 / np.sqrt(np.broadcast_to(best.r_diag, best.e.shape)).T  # (m, n)
@@ -269,6 +292,10 @@ class OutputErrorEstimator(Estimator):
                       for c in position_free])
         if self.estimate_delay:
             scale.append([flight.dt])
+        z = _common.measurements(flight)
+        rms = np.sqrt(np.mean(z * z, axis=0))
+        for prefix in IMU_ERRORS[self.imu_errors]:
+            scale.append(IMU_ERROR_SCALE * (rms if prefix == "b" else np.ones_like(rms)))
         scale = np.concatenate(scale)
         weight = np.zeros(scale.size)
         if self.positions == "estimate":
@@ -276,13 +303,13 @@ class OutputErrorEstimator(Estimator):
             for j, c in enumerate(position_free):
                 if pos_sd[c] > 0:
                     weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
-        z = _common.measurements(flight)
         x0 = flight.states()[0]
         x0[_common.RATES] = _common.smoothed_start(z[:, _common.GYROS])
         model = RecordModel(flight, input=self.input, substeps=self.substeps,
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
-                            delay_s=self.delay_s, estimate_delay=self.estimate_delay)
+                            delay_s=self.delay_s, estimate_delay=self.estimate_delay,
+                            imu_errors=self.imu_errors)
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -328,8 +355,9 @@ class OutputErrorEstimator(Estimator):
         n_c = aeroid.model.N_COEFFICIENTS
         first = np.zeros(n_p)
         first[:n_c] = prior / scale[:n_c]
+        i_delay = model.n_graph
         if self.estimate_delay:
-            first[-1] = self.delay_s / scale[-1]
+            first[i_delay] = self.delay_s / scale[i_delay]
         extra_evals = 0
         if self.pso_warm_start:
             theta_pso, extra_evals = self.warm_start(prob, flight, rng)
@@ -398,8 +426,16 @@ class OutputErrorEstimator(Estimator):
         for t in self.rx_free():
             info[f"rx{t + 1}_m"] = positions[3 * t]
         if self.estimate_delay:
-            info["delay_s"] = float(phys[-1])
-            info["delay_stderr_s"] = float(stderr_phys[-1])
+            info["delay_s"] = float(phys[i_delay])
+            info["delay_stderr_s"] = float(stderr_phys[i_delay])
+        if model.n_imu:
+            imu_names = imu_error_names(self.imu_errors)
+            info["imu_errors"] = dict(zip(imu_names, phys[-model.n_imu:].tolist(),
+                                          strict=True))
+            info["imu_error_stderr"] = dict(zip(imu_names, stderr_phys[-model.n_imu:].tolist(),
+                                                strict=True))
+            warnings += nuisance_findings(self.parameter_names(position_free), phys,
+                                          cov_phys, imu_names)
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,

@@ -21,7 +21,7 @@ from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._fitcheck import data_floor
 from aeroid.estimation._floor import cramer_rao_sd
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
-from aeroid.estimation._identifiability import identifiability
+from aeroid.estimation._identifiability import identifiability, nuisance_findings
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -122,6 +122,7 @@ __all__ = [
     "failed_result",
     "get_estimator",
     "identifiability",
+    "nuisance_findings",
     "gyro_only_floor",
     "load_errors",
     "make_estimator",

@@ -1,0 +1,148 @@
+"""Output-error with the IMU's errors as parameters (``imu_errors``), on sensor-suite flights.
+
+The reference: :func:`aeroid.flights.simulate_suite` draws each flight's biases and scale
+factors and applies ``(1 + s) truth + b`` to the true accelerations and rates; the fit
+must return those numbers (and the coefficients) from the raw readings.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import aeroid
+from aeroid.errors import EstimatorError
+from aeroid.flights import (
+    GaussianNoise,
+    SensorSuite,
+    make_flight,
+    reference_scenario,
+    simulate_scenario,
+    simulate_suite,
+)
+from aeroid.model import OUTPUT_CHANNELS, STATE_NAMES
+from baselines.output_error import OutputErrorEstimator
+
+#: Noise-free recovery of the coefficients: the model (2 RK4 substeps of 0.5 ms) against
+#: the 0.25 ms truth; measured largest relative error 5.1e-8 (seed 3).
+RECOVERY_RTOL = 1e-6
+#: Noise-free recovery of the IMU errors [m/s^2, rad/s, -]: measured largest errors 3.7e-7
+#: (accelerometer bias), 8.1e-7 (roll gyro bias: nearly confounded with its scale factor at
+#: a roll rate that hardly changes) and 3.4e-8 (scale factor), against drawn values of
+#: 0.02-0.2, 0.001-0.005 and 0.001-0.005.
+ACCEL_BIAS_ATOL = 1e-5
+GYRO_BIAS_ATOL = 1e-5
+SCALE_ATOL = 1e-6
+#: Central differences (relative step 1e-6) against the exact Jacobian.
+FD_RTOL = 1e-5
+
+
+def _truth_errors(sim):
+    e = sim.errors
+    return dict(zip([f"b{c}" for c in OUTPUT_CHANNELS] + [f"s{c}" for c in OUTPUT_CHANNELS],
+                    np.concatenate([e["accel_bias"].ravel(), e["gyro_bias"],
+                                    e["accel_scale"].ravel(), e["gyro_scale"]]), strict=True))
+
+
+@pytest.fixture(scope="module")
+def clean_suite():
+    """The reference window logged by the default suite without noise: raw IMU, true states."""
+    scenario = reference_scenario()
+    suite = SensorSuite(accel_noise_mps2=0.0, gyro_noise_radps=0.0)
+    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                         suite, rng=3)
+    imu = sim.log["imu"]
+    channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
+                **{c: sim.truth[c] for c in ("u", "v", "w", "phi", "theta", "psi")},
+                "delta": sim.truth["delta"]}
+    return sim, make_flight(channels, scenario.airframe, {})
+
+
+@pytest.fixture(scope="module")
+def clean_fit(clean_suite):
+    _, flight = clean_suite
+    return OutputErrorEstimator(imu_errors="bias+scale").fit(flight, rng=0)
+
+
+def test_noise_free_suite_recovers_coefficients_and_imu_errors(clean_suite, clean_fit):
+    sim, flight = clean_suite
+    res = clean_fit
+    assert res.success, res.message
+    np.testing.assert_allclose(res.theta, reference_scenario().coefficient_vector,
+                               rtol=RECOVERY_RTOL)
+    truth = _truth_errors(sim)
+    assert list(res.info["imu_errors"]) == list(truth)
+    for name, value in truth.items():
+        atol = (SCALE_ATOL if name[0] == "s" else
+                GYRO_BIAS_ATOL if name[1:] in ("p", "q", "r") else ACCEL_BIAS_ATOL)
+        assert res.info["imu_errors"][name] == pytest.approx(value, abs=atol), name
+        assert res.info["imu_error_stderr"][name] > 0.0
+    # the roll rate hardly changes over the window, so the roll gyro's bias and scale
+    # factor move its reading the same way: the fit names the pair
+    assert any("bp-sp" in w and "nearly confounded" in w for w in res.warnings)
+    assert res.info["parameter_names"][-2 * len(OUTPUT_CHANNELS):] == tuple(truth)
+    assert res.info["options"]["imu_errors"] == "bias+scale"
+
+
+def test_biased_imu_without_the_option_is_refused(clean_suite):
+    """A known-wrong input: the same raw readings taken as unbiased fail the fit check."""
+    _, flight = clean_suite
+    res = OutputErrorEstimator().fit(flight, rng=0)
+    assert not res.success
+    assert "does not fit the data" in res.message
+    assert "imu_errors" not in res.info
+    # and the coefficients it returns are off by far more than the noise-free fit's 5e-8
+    truth = reference_scenario().coefficient_vector
+    assert np.max(np.abs(res.theta / truth - 1.0)) > 0.01
+
+
+def test_summary_and_json_carry_the_imu_errors(clean_fit):
+    text = clean_fit.summary()
+    assert "bax1" in text and "sr" in text
+    info = clean_fit.to_json_dict()["info"]
+    assert set(info["imu_errors"]) == set(info["imu_error_stderr"])
+    assert info["imu_errors"]["bq"] == pytest.approx(clean_fit.info["imu_errors"]["bq"])
+
+
+@pytest.mark.parametrize("options", [{"imu_errors": "bias"},
+                                     {"imu_errors": "bias+scale", "estimate_delay": True}])
+def test_jacobian_with_imu_errors_equals_finite_differences(options):
+    noise = GaussianNoise(accel_sd_mps2=0.5, rate_sd_radps=0.02, position_sd_m=0.0)
+    flight = simulate_scenario(reference_scenario(), noise, rng=4)
+    est = OutputErrorEstimator(**options, compile_model=False)
+    prob = est.problem(flight)
+    rng = np.random.default_rng(2)
+    p = np.ones(prob.model.scale.size)
+    n_c = aeroid.model.N_COEFFICIENTS
+    p[:n_c] += 0.05 * rng.standard_normal(n_c)
+    p[n_c:] = 0.5 * rng.standard_normal(p.size - n_c)
+    _, J = prob.residuals_jacobian(p)
+    assert J.shape[-1] == len(est.parameter_names(prob.model.position_free))
+    for i in range(p.size):
+        h = 1e-6
+        dp = np.zeros_like(p)
+        dp[i] = h
+        fd = -(prob.residuals(p + dp) - prob.residuals(p - dp)).T / (2 * h)
+        np.testing.assert_allclose(J[:, :, i], fd, rtol=0, atol=FD_RTOL * np.abs(fd).max())
+
+
+def test_default_adds_no_parameters():
+    est = OutputErrorEstimator()
+    assert est.imu_errors == "none"
+    names = est.parameter_names()
+    assert names[:aeroid.model.N_COEFFICIENTS] == aeroid.NAMES
+    assert not any(n.startswith(("b", "s")) for n in names)
+    assert len(names) == aeroid.model.N_COEFFICIENTS + len(est.x0_free())
+    assert len(STATE_NAMES) > max(est.x0_free())
+
+
+def test_imu_errors_option_is_checked_and_listed(capsys):
+    with pytest.raises(ValueError, match="imu_errors must be one of none, bias, bias"):
+        OutputErrorEstimator(imu_errors="scale")
+    with pytest.raises(EstimatorError):
+        aeroid.make_estimator("output-error", {"imu_errors": "biases"})
+    from aeroid.cli import main
+
+    assert main(["methods", "--options", "output-error"]) == 0
+    out = capsys.readouterr().out
+    assert "imu_errors" in out and "bias+scale" in out
