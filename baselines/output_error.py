@@ -66,6 +66,22 @@ MAX_SAMPLES = 50_000
 #: fraction of its channel's RMS, a scale factor over this.
 IMU_ERROR_SCALE = 1e-3
 
+def initial_velocity_sd(flight: Flight) -> np.ndarray:
+    """The sd [m/s] of ``u, v, w`` at the first sample from ``metadata['initial_state_sd']``."""
+    given = flight.metadata.get("initial_state_sd")
+    names = [X0_NAMES[i][0] for i in X0_VELOCITIES]
+    try:
+        sd = np.array([float(given[n]) for n in names])  # type: ignore[index]
+    except (TypeError, KeyError, ValueError):
+        sd = np.array([np.nan])
+    if not np.all(np.isfinite(sd) & (sd > 0)):
+        raise aeroid.FlightError(
+            f"{flight.metadata.get('source', 'flight')}: initial_velocity_prior = flight "
+            "needs metadata initial_state_sd with positive u, v, w [m/s] (a reconstruction's "
+            f"flight has them); got {given!r}")
+    return sd
+
+
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(Estimator):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
@@ -118,6 +134,12 @@ class OutputErrorEstimator(Estimator):
         a free initial speed trades against all nine coefficients at once; on the
         reference flight it inflated the Cramér-Rao sd of Cx, Cza, Cma, Cmd from ~0.1 %
         to ~1.6 % (measured). The attitude is always taken as measured.
+    initial_velocity_prior : {"none", "flight"}
+        With ``estimate_initial_velocity``: ``"flight"`` puts a Gaussian prior on
+        ``u, v, w`` at the first sample, centred on the flight's values with the sd in
+        the flight's ``metadata['initial_state_sd']`` (written by :meth:`aeroid.
+        reconstruction.Reconstruction.to_flight`: the smoothed sd of the reconstruction);
+        default ``"none"`` (no prior). A flight without those sd is refused.
     estimate_rx1, estimate_rx2 : bool
         Also estimate the x position of triad 1 / triad 2 (default False); reported in
         ``info['rx1_m']`` / ``info['rx2_m']``. One position is identifiable when the
@@ -190,6 +212,7 @@ class OutputErrorEstimator(Estimator):
     covariance: Literal["fisher", "sandwich"] = "fisher"
     estimate_initial_state: bool = True
     estimate_initial_velocity: bool = False
+    initial_velocity_prior: Literal["none", "flight"] = "none"
     estimate_rx1: bool = False
     estimate_rx2: bool = False
     substeps: int = 2
@@ -216,6 +239,12 @@ class OutputErrorEstimator(Estimator):
         if self.imu_errors not in IMU_ERRORS:
             raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERRORS)}, got "
                              f"{self.imu_errors!r}")
+        if self.initial_velocity_prior not in ("none", "flight"):
+            raise ValueError("initial_velocity_prior must be none or flight, got "
+                             f"{self.initial_velocity_prior!r}")
+        if self.initial_velocity_prior == "flight" and not self.estimate_initial_velocity:
+            raise ValueError("initial_velocity_prior = flight needs "
+                             "estimate_initial_velocity = true")
         if self.noise_model not in NOISE_MODELS:
             raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
                              f"got {self.noise_model!r}")
@@ -303,6 +332,12 @@ class OutputErrorEstimator(Estimator):
             for j, c in enumerate(position_free):
                 if pos_sd[c] > 0:
                     weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
+        if self.initial_velocity_prior == "flight":
+            n_c = aeroid.model.N_COEFFICIENTS
+            sd = initial_velocity_sd(flight)
+            for j, i in enumerate(self.x0_free()):
+                if i in X0_VELOCITIES:
+                    weight[n_c + j] = (scale[n_c + j] / sd[X0_VELOCITIES.index(i)]) ** 2
         x0 = flight.states()[0]
         x0[_common.RATES] = _common.smoothed_start(z[:, _common.GYROS])
         model = RecordModel(flight, input=self.input, substeps=self.substeps,

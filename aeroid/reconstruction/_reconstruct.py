@@ -96,7 +96,9 @@ class Reconstruction:
 
         Channels: the IMU readings (corrected by default), ``u v w phi theta psi``
         reconstructed, ``delta`` the latest fin sample at or before each IMU time (the fin
-        is a relay: held, not interpolated).
+        is a relay: held, not interpolated). ``metadata['initial_state_sd']``: the
+        smoothed sd of ``u v w phi theta psi`` at the first sample [m/s, rad] (for
+        output-error's ``initial_velocity_prior``).
 
         Parameters
         ----------
@@ -140,7 +142,9 @@ class Reconstruction:
             airframe = airframe.replace(altitude_m=None, given_density_kgm3=None,
                                         atmosphere_channel="altitude")
             notes[-1] = "density: ISA at the reconstructed altitude, per sample"
-        return make_flight(channels, airframe, {**self.metadata, "notes": notes})
+        first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
+        return make_flight(channels, airframe, {**self.metadata, "notes": notes,
+                                                "initial_state_sd": first_sd})
 
 
 def _held(fin: tuple[np.ndarray, np.ndarray], t: np.ndarray, meta: dict[str, Any]

@@ -7,6 +7,8 @@ must return those numbers (and the coefficients) from the raw readings.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -146,3 +148,25 @@ def test_imu_errors_option_is_checked_and_listed(capsys):
     assert main(["methods", "--options", "output-error"]) == 0
     out = capsys.readouterr().out
     assert "imu_errors" in out and "bias+scale" in out
+
+
+def test_initial_velocity_prior_from_the_flight(clean_suite):
+    _, flight = clean_suite
+    with pytest.raises(ValueError, match="needs estimate_initial_velocity = true"):
+        OutputErrorEstimator(initial_velocity_prior="flight")
+    est = OutputErrorEstimator(imu_errors="bias", estimate_initial_velocity=True,
+                               initial_velocity_prior="flight", compile_model=False)
+    with pytest.raises(aeroid.FlightError, match="needs metadata initial_state_sd") as info:
+        est.problem(flight)  # a flight without the sd is refused, in one line
+    assert "\n" not in str(info.value)
+    sd = {"u": 0.04, "v": 0.1, "w": 0.16}
+    given = dataclasses.replace(flight, metadata={**flight.metadata, "initial_state_sd": sd})
+    prob = est.problem(given)
+    n_c = aeroid.model.N_COEFFICIENTS
+    names = est.parameter_names(prob.model.position_free)
+    # the prior's information on each velocity offset [m/s] is 1 / sd^2, nothing else
+    for j, name in enumerate(names):
+        expected = 1.0 / sd[name[0]] ** 2 if name in ("u0", "v0", "w0") else 0.0
+        weight = prob.prior_weight[j] / prob.model.scale[j] ** 2
+        assert weight == pytest.approx(expected, rel=1e-12), name
+    assert names[n_c:n_c + 3] == ("u0", "v0", "w0")

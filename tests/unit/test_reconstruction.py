@@ -274,6 +274,9 @@ def test_to_flight_raw_imu(reference):
         expected = (1.0 + rec.table[f"s{c}"]) * corrected[c] + rec.table[f"b{c}"]
         np.testing.assert_allclose(raw[c], expected, rtol=1e-12, atol=1e-12)
     assert any(n.startswith("IMU: raw readings") for n in raw.metadata["notes"])
+    first_sd = raw.metadata["initial_state_sd"]  # output-error's initial_velocity_prior
+    assert list(first_sd) == ["u", "v", "w", "phi", "theta", "psi"]
+    assert first_sd["v"] == rec.table["sd_v"].iloc[0] > 0
     with pytest.raises(FlightError, match="imu must be 'corrected' or 'raw'"):
         rec.to_flight(imu="moon")
     with pytest.raises(FlightError, match="holds no raw IMU readings"):
@@ -299,7 +302,8 @@ def test_cli_raw_imu_flight_then_output_error(tmp_path, capsys):
         np.testing.assert_array_equal(written[c], sim.log["imu"].channels[c])
     status = main(["estimate", str(flight), "--method", "output-error", "--json",
                    "--option", "imu_errors=bias+scale",
-                   "--option", "estimate_initial_velocity=true"])
+                   "--option", "estimate_initial_velocity=true",
+                   "--option", "initial_velocity_prior=flight"])  # its sd from the sidecar
     result = json.loads(capsys.readouterr().out)
     assert status == 0, result["message"]
     truth = dict(zip([f"b{c}" for c in IMU_CHANNELS], np.concatenate(
