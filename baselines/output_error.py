@@ -447,6 +447,13 @@ class OutputErrorEstimator(Estimator):
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
                                             failures)
         info.update(start_info)
+        if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
+            warnings.append(
+                "output-error: the initial u v w are taken as the flight's, which carries "
+                "their sd (a reconstruction's): an error of that size biases the "
+                "coefficients beyond their standard errors (up to 39 sd on the reference "
+                "suite, benchmarks/bench_suite_estimation.py); estimate them: "
+                "estimate_initial_velocity = true, initial_velocity_prior = flight")
         first_pos = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         positions = model.pos.copy()
         position_sd = np.zeros(6)

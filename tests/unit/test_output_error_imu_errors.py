@@ -170,3 +170,23 @@ def test_initial_velocity_prior_from_the_flight(clean_suite):
         weight = prob.prior_weight[j] / prob.model.scale[j] ** 2
         assert weight == pytest.approx(expected, rel=1e-12), name
     assert names[n_c:n_c + 3] == ("u0", "v0", "w0")
+
+
+def test_a_reconstructed_velocity_taken_as_exact_is_a_warning(clean_suite):
+    """A flight that states the sd of its initial velocity (a reconstruction's), fitted
+    with the velocity held: the fit says what that costs and what to do."""
+    _, flight = clean_suite
+    sd = {"u": 0.04, "v": 0.1, "w": 0.16}
+    given = dataclasses.replace(flight, metadata={**flight.metadata, "initial_state_sd": sd})
+    held = OutputErrorEstimator(imu_errors="bias+scale").fit(given, rng=0)
+    assert any("initial_velocity_prior = flight" in w for w in held.warnings)
+    # a free initial speed trades against every coefficient (V^2): on noise-free data
+    # Gauss-Newton creeps, 82 iterations measured (9 on the noisy suite flights)
+    fitted = OutputErrorEstimator(imu_errors="bias+scale", estimate_initial_velocity=True,
+                                  initial_velocity_prior="flight",
+                                  max_iterations=200).fit(given, rng=0)
+    assert fitted.success, fitted.message
+    assert not any("initial_velocity_prior" in w for w in fitted.warnings)
+    # noise-free, the flight's velocity is the truth: measured 1.2e-7 relative
+    np.testing.assert_allclose(fitted.theta, reference_scenario().coefficient_vector,
+                               rtol=RECOVERY_RTOL)
