@@ -19,7 +19,10 @@ truth, the same IMU noise sd, no instrument errors, the true states). Fits:
 - ``suite, velocity as reconstructed``: the same with the initial velocity held at the
   reconstruction's;
 - ``suite, option off``: the raw readings taken as unbiased (a known-wrong input: how often
-  the fit check refuses it).
+  the fit check refuses it);
+- with ``--ekf``, ``ekf suite``: the EKF on the same raw flight with ``imu_errors =
+  "bias+scale"`` and ``initial_velocity_sd_mps`` the largest of the reconstruction's sd of
+  u, v, w at the first sample (its ratio to ``suite``: target <= 1.2).
 
 Figures: mean |relative error| of the nine coefficients per fit and the ratio suite /
 ideal (target <= 1.5), the largest |error| / standard error over the coefficients and
@@ -68,8 +71,10 @@ def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
     return dict(zip(names, values.tolist(), strict=True))
 
 
-def one_seed(seed: int) -> dict[str, dict[str, float]]:
+def one_seed(seed: int, ekf: bool = False) -> dict[str, dict[str, float]]:
     """All fits of one seed: their figures by fit label."""
+    from baselines.ekf import ExtendedKalmanEstimator
+
     scenario = reference_scenario()
     truth = scenario.coefficient_vector
     suite = SensorSuite()
@@ -82,10 +87,15 @@ def one_seed(seed: int) -> dict[str, dict[str, float]]:
     rec_s = time.perf_counter() - start
     out = {}
     flights = {"ideal": (ideal, {}), **{k: (raw, v) for k, v in FITS.items()}}
+    if ekf:
+        sd = raw.metadata["initial_state_sd"]
+        flights["ekf suite"] = (raw, {"imu_errors": "bias+scale", "initial_velocity_sd_mps":
+                                      max(sd["u"], sd["v"], sd["w"])})
     errors = _errors_truth(sim.errors)
     for label, (flight, options) in flights.items():
         start = time.perf_counter()
-        res = OutputErrorEstimator(**options).fit(flight, rng=seed)
+        cls = ExtendedKalmanEstimator if label.startswith("ekf") else OutputErrorEstimator
+        res = cls(**options).fit(flight, rng=seed)
         row = {"success": float(res.success), "wall_s": time.perf_counter() - start,
                "mean_rel": float(np.mean(np.abs(res.theta / truth - 1.0))),
                "max_z": float(np.max(np.abs(res.theta - truth) / res.stderr)),
@@ -95,7 +105,7 @@ def one_seed(seed: int) -> dict[str, dict[str, float]]:
                  for n, v in res.info["imu_errors"].items()}
             row["bias_z"] = max(v for n, v in z.items() if n[0] == "b")
             row["scale_z"] = max(v for n, v in z.items() if n[0] == "s")
-        if label.startswith("suite"):
+        if "suite" in label:
             row["wall_s"] += rec_s
         out[label] = row
     return out
@@ -105,10 +115,11 @@ def main() -> None:
     """Run the seeds, print and write the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1")
+    parser.add_argument("--ekf", action="store_true", help="also the EKF with IMU-error states")
     args = parser.parse_args()
     runs = []
     for seed in range(args.seeds):
-        runs.append(one_seed(seed))
+        runs.append(one_seed(seed, args.ekf))
         r = runs[-1]
         fixed = r["suite, velocity as reconstructed"]
         print(f"seed {seed}: ideal {100 * r['ideal']['mean_rel']:.3f} %, suite "
@@ -121,7 +132,8 @@ def main() -> None:
               f"success {bool(r['suite, option off']['success'])}", flush=True)
     labels = list(runs[0])
     lines = ["# Output-error on a sensor-suite log against the ideal log of the same flight", "",
-             f"`python benchmarks/bench_suite_estimation.py --seeds {args.seeds}` on "
+             f"`python benchmarks/bench_suite_estimation.py --seeds {args.seeds}"
+             f"{' --ekf' if args.ekf else ''}` on "
              f"{platform.processor() or platform.machine()}, Python "
              f"{platform.python_version()}, numpy {np.__version__}; reference window 5-6 s, "
              f"seeds 0-{args.seeds - 1}.", "",
@@ -157,8 +169,15 @@ def main() -> None:
                / np.mean([r["ideal"]["mean_rel"] for r in runs]))
     lines += ["", f"Ratio suite / ideal of the mean relative error: {overall:.2f} over the "
               f"seeds (target <= 1.5); per seed median {np.median(ratios):.2f}, worst "
-              f"{max(ratios):.2f}.", "",
-              "The suite fit's wall time includes the reconstruction."]
+              f"{max(ratios):.2f}.", ""]
+    if args.ekf:
+        ekf_ratio = (np.mean([r["ekf suite"]["mean_rel"] for r in runs])
+                     / np.mean([r["suite"]["mean_rel"] for r in runs]))
+        per_seed = [r["ekf suite"]["mean_rel"] / r["suite"]["mean_rel"] for r in runs]
+        lines += [f"Ratio EKF / output-error on the suite: {ekf_ratio:.2f} over the seeds "
+                  f"(target <= 1.2); per seed median {np.median(per_seed):.2f}, worst "
+                  f"{max(per_seed):.2f}.", ""]
+    lines.append("The suite fits' wall time includes the reconstruction.")
     print("\n".join(lines))
     out = ROOT / "benchmarks" / "results" / "suite_estimation.md"
     out.write_text("\n".join(lines) + "\n")

@@ -35,6 +35,9 @@ RECOVERY_RTOL = 1e-6
 ACCEL_BIAS_ATOL = 1e-5
 GYRO_BIAS_ATOL = 1e-5
 SCALE_ATOL = 1e-6
+#: The EKF's noise-free recovery with the IMU errors as states: measured largest relative
+#: error 8.9e-6 (Clp; the filter's measurement sd is floored at 1e-4 of each channel's RMS).
+EKF_RTOL = 1e-4
 #: Central differences (relative step 1e-6) against the exact Jacobian.
 FD_RTOL = 1e-5
 
@@ -190,3 +193,50 @@ def test_a_reconstructed_velocity_taken_as_exact_is_a_warning(clean_suite):
     # noise-free, the flight's velocity is the truth: measured 1.2e-7 relative
     np.testing.assert_allclose(fitted.theta, reference_scenario().coefficient_vector,
                                rtol=RECOVERY_RTOL)
+
+
+# The EKF with the IMU's errors as states (baselines.ekf, imu_errors) ---------------------
+def test_sensor_error_states_jacobians_equal_finite_differences(clean_suite):
+    from baselines import _common, _kalman
+
+    _, flight = clean_suite
+    base = _common.augmented_model(flight, 1)
+    m = base.dim_z
+    model = _kalman.with_sensor_errors(base, 2 * m)
+    rng = np.random.default_rng(5)
+    z = np.concatenate([flight.states()[200], aeroid.nominal(),
+                        0.05 * rng.standard_normal(m), 0.005 * rng.standard_normal(m)])
+    y, H = model.observe(z, 200)
+    z_next, F = model.transition(z, 200)
+    y0, _ = base.observe(z[:base.dim_x], 200)
+    np.testing.assert_allclose(y, (1 + z[-m:]) * y0 + z[-2 * m:-m], rtol=1e-14)  # the law
+    np.testing.assert_array_equal(z_next[base.dim_x:], z[base.dim_x:])  # constant
+    H_fd, F_fd = np.empty_like(H), np.empty_like(F)
+    for j in range(z.size):
+        step = 1e-6 * max(abs(z[j]), 1e-2)
+        zp, zm = z.copy(), z.copy()
+        zp[j] += step
+        zm[j] -= step
+        H_fd[:, j] = (model.observe(zp, 200)[0] - model.observe(zm, 200)[0]) / (2 * step)
+        F_fd[:, j] = (model.transition(zp, 200)[0] - model.transition(zm, 200)[0]) / (2 * step)
+    np.testing.assert_allclose(H, H_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(H).max())
+    np.testing.assert_allclose(F, F_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(F).max())
+    with pytest.raises(ValueError, match="sensor errors: 5 for 9"):
+        _kalman.with_sensor_errors(base, 5)
+
+
+def test_ekf_recovers_imu_errors_on_noise_free_suite(clean_suite):
+    from baselines.ekf import ExtendedKalmanEstimator
+
+    sim, flight = clean_suite
+    res = ExtendedKalmanEstimator(imu_errors="bias+scale").fit(flight, rng=0)
+    assert res.success, res.message
+    truth = reference_scenario().coefficient_vector
+    np.testing.assert_allclose(res.theta, truth, rtol=EKF_RTOL)
+    assert np.all(np.abs(res.theta - truth) < 3 * res.stderr)
+    errors = _truth_errors(sim)
+    z = {n: (v - errors[n]) / res.info["imu_error_stderr"][n]
+         for n, v in res.info["imu_errors"].items()}
+    assert list(z) == list(errors)
+    assert max(abs(v) for v in z.values()) < 3.0, z
+    assert any("nearly confounded" in w and "b" in w for w in res.warnings)
