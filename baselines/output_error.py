@@ -27,7 +27,7 @@ from typing import ClassVar, Literal
 import numpy as np
 
 import aeroid
-from aeroid.estimation import EstimationResult, Estimator, nuisance_findings
+from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import INPUTS, Flight, model_constants
 from aeroid.model import OUTPUT_CHANNELS, ForwardModel
 from baselines import _common
@@ -40,6 +40,12 @@ from baselines._gauss_newton import (
     sandwich,
 )
 from baselines._oe_record import IMU_ERRORS, RecordModel, imu_error_names
+from baselines._oe_sensors import (
+    HELD_VELOCITY_WARNING,
+    imu_error_report,
+    imu_error_scales,
+    initial_velocity_sd,
+)
 from baselines._oe_starts import Start, best_end, equation_error_start, start_report
 
 #: Initial-state components that can be estimated: the rates p, q, r
@@ -62,25 +68,6 @@ MAX_DELAY_S = 0.1
 #: samples 7 s and +66 MB, 20 001 samples 19 s and +510 MB (model build and compile
 #: included); 50 000 samples would take ~1.5 GB. A longer log: fit windows of it.
 MAX_SAMPLES = 50_000
-#: Scaling of the IMU-error parameters (conditioning only, no prior): a bias over this
-#: fraction of its channel's RMS, a scale factor over this.
-IMU_ERROR_SCALE = 1e-3
-
-def initial_velocity_sd(flight: Flight) -> np.ndarray:
-    """The sd [m/s] of ``u, v, w`` at the first sample from ``metadata['initial_state_sd']``."""
-    given = flight.metadata.get("initial_state_sd")
-    names = [X0_NAMES[i][0] for i in X0_VELOCITIES]
-    try:
-        sd = np.array([float(given[n]) for n in names])  # type: ignore[index]
-    except (TypeError, KeyError, ValueError):
-        sd = np.array([np.nan])
-    if not np.all(np.isfinite(sd) & (sd > 0)):
-        raise aeroid.FlightError(
-            f"{flight.metadata.get('source', 'flight')}: initial_velocity_prior = flight "
-            "needs metadata initial_state_sd with positive u, v, w [m/s] (a reconstruction's "
-            f"flight has them); got {given!r}")
-    return sd
-
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(Estimator):
@@ -180,9 +167,9 @@ class OutputErrorEstimator(Estimator):
         ``info['imu_error_stderr']`` (names ``b`` / ``s`` + channel: ``bax1``, ``sp``).
         For a log whose IMU is raw (:meth:`aeroid.reconstruction.Reconstruction.
         to_flight` with ``imu="raw"``). An axial bias trades against Cx (the axial
-        force hardly changes over a window); the fit says so (a warning naming the pair
-        when their estimates correlate above
-        :data:`aeroid.estimation.CORRELATION_LIMIT`).
+        force hardly changes over a window); the fit says so (a warning naming each
+        pair whose estimates correlate above 0.98: :func:`aeroid.estimation.
+        nuisance_findings`).
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -322,9 +309,7 @@ class OutputErrorEstimator(Estimator):
         if self.estimate_delay:
             scale.append([flight.dt])
         z = _common.measurements(flight)
-        rms = np.sqrt(np.mean(z * z, axis=0))
-        for prefix in IMU_ERRORS[self.imu_errors]:
-            scale.append(IMU_ERROR_SCALE * (rms if prefix == "b" else np.ones_like(rms)))
+        scale += imu_error_scales(z, self.imu_errors)
         scale = np.concatenate(scale)
         weight = np.zeros(scale.size)
         if self.positions == "estimate":
@@ -448,12 +433,7 @@ class OutputErrorEstimator(Estimator):
                                             failures)
         info.update(start_info)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
-            warnings.append(
-                "output-error: the initial u v w are taken as the flight's, which carries "
-                "their sd (a reconstruction's): an error of that size biases the "
-                "coefficients beyond their standard errors (up to 39 sd on the reference "
-                "suite, benchmarks/bench_suite_estimation.py); estimate them: "
-                "estimate_initial_velocity = true, initial_velocity_prior = flight")
+            warnings.append(HELD_VELOCITY_WARNING)
         first_pos = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         positions = model.pos.copy()
         position_sd = np.zeros(6)
@@ -471,13 +451,11 @@ class OutputErrorEstimator(Estimator):
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         if model.n_imu:
-            imu_names = imu_error_names(self.imu_errors)
-            info["imu_errors"] = dict(zip(imu_names, phys[-model.n_imu:].tolist(),
-                                          strict=True))
-            info["imu_error_stderr"] = dict(zip(imu_names, stderr_phys[-model.n_imu:].tolist(),
-                                                strict=True))
-            warnings += nuisance_findings(self.parameter_names(position_free), phys,
-                                          cov_phys, imu_names)
+            imu_info, found = imu_error_report(self.parameter_names(position_free),
+                                               imu_error_names(self.imu_errors), phys,
+                                               stderr_phys, cov_phys)
+            info.update(imu_info)
+            warnings += found
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,
