@@ -240,3 +240,15 @@ def test_ekf_recovers_imu_errors_on_noise_free_suite(clean_suite):
     assert list(z) == list(errors)
     assert max(abs(v) for v in z.values()) < 3.0, z
     assert any("nearly confounded" in w and "b" in w for w in res.warnings)
+
+
+@pytest.mark.parametrize("imu_errors", ["none", "bias"])
+def test_ekf_refuses_the_suite_without_its_scale_factors(clean_suite, imu_errors):
+    """Known-wrong inputs: the raw IMU taken as unbiased, or its scale factors left out
+    (measured: az1 residual 7.8e3x its noise level, q 241x)."""
+    from baselines.ekf import ExtendedKalmanEstimator
+
+    _, flight = clean_suite
+    res = ExtendedKalmanEstimator(imu_errors=imu_errors).fit(flight, rng=0)
+    assert not res.success
+    assert "does not fit the data" in res.message
