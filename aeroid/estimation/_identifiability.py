@@ -147,14 +147,14 @@ def nuisance_findings(names: Sequence[str], theta: np.ndarray, covariance: np.nd
     coefficient), and nuisance parameters without information. One line each, empty
     when there is nothing to say.
     """
-    nuisance = set(nuisance)
+    extra = set(nuisance)
     none, _, pairs = identifiability(names, theta, covariance=covariance)
     out: tuple[str, ...] = ()
-    lost = [n for n in none if n in nuisance]
+    lost = [n for n in none if n in extra]
     if lost:
         out += (f"no information on {', '.join(lost)}: the data cannot determine it "
                 "(its estimate is where the search stopped)",)
-    mine = [(a, b, r) for a, b, r in pairs if a in nuisance or b in nuisance]
+    mine = [(a, b, r) for a, b, r in pairs if a in extra or b in extra]
     if mine:
         text = ", ".join(f"{a}-{b} ({r:+.5f})" for a, b, r in mine)
         out += (f"nearly confounded (|correlation| > {CORRELATION_LIMIT:g}): {text}; the "

@@ -252,3 +252,20 @@ def test_ekf_refuses_the_suite_without_its_scale_factors(clean_suite, imu_errors
     res = ExtendedKalmanEstimator(imu_errors=imu_errors).fit(flight, rng=0)
     assert not res.success
     assert "does not fit the data" in res.message
+
+
+def test_nuisance_findings_name_the_pairs_with_a_nuisance_parameter():
+    from aeroid.estimation import nuisance_findings
+
+    names = ("Cx", "Cza", "bax1")
+    theta = np.array([-1.0, -11.8, 0.1])
+    sd = np.array([0.01, 0.1, 0.05])
+    corr = np.array([[1.0, 0.99, -0.995], [0.99, 1.0, 0.5], [-0.995, 0.5, 1.0]])
+    found = nuisance_findings(names, theta, corr * np.outer(sd, sd), ("bax1",))
+    # Cx-bax1 named with its correlation; Cx-Cza (no nuisance in it) left to the fit check
+    assert len(found) == 1 and "Cx-bax1 (-0.99500)" in found[0] and "Cza" not in found[0]
+    corr[0, 2] = corr[2, 0] = -0.9
+    assert nuisance_findings(names, theta, corr * np.outer(sd, sd), ("bax1",)) == ()
+    cov = corr * np.outer(sd, sd)
+    cov[2, 2] = np.inf
+    assert "no information on bax1" in nuisance_findings(names, theta, cov, ("bax1",))[0]
