@@ -60,6 +60,41 @@ class DiscreteModel:
     observe_batch: Callable[[np.ndarray, int], np.ndarray] | None = None
 
 
+def with_sensor_errors(model: DiscreteModel, n_errors: int) -> DiscreteModel:
+    """Return ``model`` with constant sensor errors appended to its state.
+
+    ``n_errors`` is ``dim_z`` (a bias per measurement) or ``2 dim_z`` (bias, then scale
+    factor): the measurement becomes ``(1 + s) h(x) + b``, the errors constant in the
+    transition (Jacobian identity), exact Jacobians ``(1 + s) dh/dx``, ``I``, ``diag h``.
+    """
+    m, n = model.dim_z, model.dim_x
+    if n_errors not in (m, 2 * m):
+        raise ValueError(f"sensor errors: {n_errors} for {m} measurements (bias, or bias "
+                         "and scale factor, per measurement)")
+
+    def split(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        b = z[..., n:n + m]
+        s = z[..., n + m:] if n_errors == 2 * m else np.zeros_like(b)
+        return z[..., :n], b, s
+
+    def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        x, _, _ = split(z)
+        x_next, F = model.transition(x, k)
+        out = np.eye(n + n_errors)
+        out[:n, :n] = F
+        return np.concatenate([x_next, z[n:]]), out
+
+    def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        x, b, s = split(z)
+        y, H = model.observe(x, k)
+        blocks = [(1.0 + s)[:, None] * H, np.eye(m)]
+        if n_errors == 2 * m:
+            blocks.append(np.diag(y))
+        return (1.0 + s) * y + b, np.hstack(blocks)
+
+    return DiscreteModel(n + n_errors, m, transition, observe)
+
+
 @dataclass(frozen=True)
 class FilterOutput:
     """What a filter pass returns.

@@ -7,6 +7,12 @@ per-sample channels. An estimated actuator delay ``tau`` moves every knot of the
 its sensitivity is a central difference of the record with the deflection at the sample
 instants held at its value for the current ``tau`` (a knot crossing a sample would
 otherwise make the accelerometers' deflection jump inside the difference).
+
+IMU errors (``imu_errors``): the model's outputs pass through the sensor law of
+:func:`aeroid.flights.simulate_suite`, ``y_meas = (1 + s) y_model + b`` per output
+channel, with the biases ``b`` (and, with ``"bias+scale"``, the scale factors ``s``) as
+parameters after the graph's (and the delay): exact sensitivities ``(1 + s) dy_model/dp``,
+``dy/db = 1``, ``dy/ds = y_model``.
 """
 
 from __future__ import annotations
@@ -15,6 +21,17 @@ import numpy as np
 
 from aeroid.flights import Flight, exogenous, model_constants, schedule
 from aeroid.model import NAMES, OUTPUT_CHANNELS, Buffered, Record, symbolic_record
+
+#: What ``imu_errors`` adds per output channel: nothing, a bias, a bias and a scale factor.
+IMU_ERRORS: dict[str, tuple[str, ...]] = {"none": (), "bias": ("b",),
+                                         "bias+scale": ("b", "s")}
+
+
+def imu_error_names(imu_errors: str) -> tuple[str, ...]:
+    """Names of the IMU-error parameters: ``b`` + channel, then ``s`` + channel."""
+    return tuple(prefix + channel for prefix in IMU_ERRORS[imu_errors]
+                 for channel in OUTPUT_CHANNELS)
+
 
 #: Central-difference step of the delay sensitivity [s]: 1 us, 5e-4 of a 2 ms sample; the
 #: outputs are smooth in the delay while no knot crosses a sample within +-1 us.
@@ -26,13 +43,14 @@ class RecordModel:
 
     Parameters ``p``: the graph's parameters (coefficients, free initial-state and
     position components; :func:`aeroid.model.symbolic_record`), then, with
-    ``estimate_delay``, ``tau / delay_scale``.
+    ``estimate_delay``, ``tau / delay_scale``, then the IMU errors
+    (:func:`imu_error_names`), each over its entry of ``scale``.
     """
 
     def __init__(self, flight: Flight, *, input: str, substeps: int,  # noqa: A002
                  x0_free: tuple[int, ...], position_free: tuple[int, ...], compiled: bool,
                  x0: np.ndarray, scale: np.ndarray, delay_s: float,
-                 estimate_delay: bool) -> None:
+                 estimate_delay: bool, imu_errors: str = "none") -> None:
         self.const = model_constants(flight)
         self.schedule = schedule(flight, input)
         self.t = flight.t
@@ -46,7 +64,13 @@ class RecordModel:
         self.delay_s = float(delay_s)
         self.delay_scale = flight.dt
         self.n_graph = len(NAMES) + len(x0_free) + len(position_free)
+        self.imu_errors = imu_errors
+        self.n_imu = len(imu_error_names(imu_errors))
         self.scale = np.asarray(scale, dtype=float)
+        expected = self.n_graph + int(estimate_delay) + self.n_imu
+        if self.scale.size != expected:
+            raise ValueError(f"record model: {self.scale.size} parameter scales for "
+                             f"{expected} parameters")
         self._graphs: dict[int, tuple[Buffered, Buffered]] = {}
         self._last: tuple[float, Record] | None = None
         self.compiled = False
@@ -64,7 +88,17 @@ class RecordModel:
 
     def tau(self, p: np.ndarray) -> float:
         """The delay [s] at parameters ``p`` (the fixed ``delay_s`` when not estimated)."""
-        return float(p[-1] * self.delay_scale) if self.estimate_delay else self.delay_s
+        return (float(p[self.n_graph] * self.delay_scale) if self.estimate_delay
+                else self.delay_s)
+
+    def sensor(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return the biases ``b`` and scale factors ``s`` at ``p``, shape (m,) each."""
+        m = len(OUTPUT_CHANNELS)
+        first = p.size - self.n_imu
+        values = p[first:] * self.scale[first:]
+        b = values[:m] if self.n_imu >= m else np.zeros(m)
+        s = values[m:2 * m] if self.n_imu >= 2 * m else np.zeros(m)
+        return b, s
 
     def _buffers(self, record: Record, delta: np.ndarray | None = None
                  ) -> tuple[Buffered, Buffered]:
@@ -96,7 +130,11 @@ class RecordModel:
         """Return ``y(p)``, shape (n, m)."""
         sim, _ = self._buffers(self.record(self.tau(p)))
         (y,) = sim(p[:self.n_graph])
-        return y.reshape(len(OUTPUT_CHANNELS), -1).T.copy()
+        y = y.reshape(len(OUTPUT_CHANNELS), -1).T.copy()
+        if not self.n_imu:
+            return y
+        b, s = self.sensor(p)
+        return (1.0 + s) * y + b
 
     def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Return ``y(p)`` (n, m) and ``dy/dp`` (m, n, n_p)."""
@@ -108,8 +146,29 @@ class RecordModel:
         y = y.reshape(len(OUTPUT_CHANNELS), n).T.copy()
         # dY (m, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) m + j
         J = dy.reshape(n, -1, len(OUTPUT_CHANNELS)).transpose(2, 0, 1).copy()
-        if not self.estimate_delay:
+        if self.estimate_delay:
+            J = np.concatenate([J, self._delay_column(p, tau, record)], axis=2)
+        if not self.n_imu:
             return y, J
+        return self._sensor_layer(p, y, J)
+
+    def _sensor_layer(self, p: np.ndarray, y: np.ndarray, J: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """``(1 + s) y + b`` and its Jacobian, the IMU-error columns appended."""
+        m, n = len(OUTPUT_CHANNELS), self.t.size
+        b, s = self.sensor(p)
+        first = p.size - self.n_imu
+        extra = np.zeros((m, n, self.n_imu))
+        for c in range(m):
+            extra[c, :, c] = self.scale[first + c]  # dy_c / db_c
+            if self.n_imu >= 2 * m:
+                extra[c, :, m + c] = y[:, c] * self.scale[first + m + c]  # dy_c / ds_c
+        J = np.concatenate([J * (1.0 + s)[:, None, None], extra], axis=2)
+        return (1.0 + s) * y + b, J
+
+    def _delay_column(self, p: np.ndarray, tau: float, record: Record) -> np.ndarray:
+        """The outputs' sensitivity to the scaled delay, shape (m, n, 1)."""
+        n = self.t.size
         columns = []
         for sign in (1.0, -1.0):
             sim, _ = self._buffers(self.record(tau + sign * DELAY_STEP_S), record.delta)
@@ -117,7 +176,7 @@ class RecordModel:
             columns.append(ys.reshape(len(OUTPUT_CHANNELS), n).T.copy())  # buffer is reused
         self._buffers(record)  # restore the inputs of the current delay
         d_tau = (columns[0] - columns[1]) / (2.0 * DELAY_STEP_S) * self.delay_scale
-        return y, np.concatenate([J, d_tau.T[:, :, None]], axis=2)
+        return d_tau.T[:, :, None]
 
 
 def _padded(record: Record, n_pieces: int) -> Record:

@@ -39,7 +39,13 @@ from baselines._gauss_newton import (
     posterior_information,
     sandwich,
 )
-from baselines._oe_record import RecordModel
+from baselines._oe_record import IMU_ERRORS, RecordModel, imu_error_names
+from baselines._oe_sensors import (
+    HELD_VELOCITY_WARNING,
+    imu_error_report,
+    imu_error_scales,
+    initial_velocity_sd,
+)
 from baselines._oe_starts import Start, best_end, equation_error_start, start_report
 
 #: Initial-state components that can be estimated: the rates p, q, r
@@ -115,6 +121,12 @@ class OutputErrorEstimator(Estimator):
         a free initial speed trades against all nine coefficients at once; on the
         reference flight it inflated the Cramér-Rao sd of Cx, Cza, Cma, Cmd from ~0.1 %
         to ~1.6 % (measured). The attitude is always taken as measured.
+    initial_velocity_prior : {"none", "flight"}
+        With ``estimate_initial_velocity``: ``"flight"`` puts a Gaussian prior on
+        ``u, v, w`` at the first sample, centred on the flight's values with the sd in
+        the flight's ``metadata['initial_state_sd']`` (written by :meth:`aeroid.
+        reconstruction.Reconstruction.to_flight`: the smoothed sd of the reconstruction);
+        default ``"none"`` (no prior). A flight without those sd is refused.
     estimate_rx1, estimate_rx2 : bool
         Also estimate the x position of triad 1 / triad 2 (default False); reported in
         ``info['rx1_m']`` / ``info['rx2_m']``. One position is identifiable when the
@@ -146,6 +158,18 @@ class OutputErrorEstimator(Estimator):
         ``sum_j log mean_k e_kj^2`` within :func:`aeroid.prior_bounds` (default False).
     pso_particles, pso_iterations : int
         Budget of that warm start (defaults 30 and 40).
+    imu_errors : {"none", "bias", "bias+scale"}
+        Also estimate the IMU's errors as parameters (default ``"none"``: the channels are
+        taken as unbiased): a bias per output channel (both triads' three axes and the
+        three gyros), with ``"bias+scale"`` also a scale factor, in the sensor law
+        ``y_meas = (1 + s) y_model + b`` of :func:`aeroid.flights.simulate_suite`; no
+        prior (maximum likelihood), reported in ``info['imu_errors']`` with
+        ``info['imu_error_stderr']`` (names ``b`` / ``s`` + channel: ``bax1``, ``sp``).
+        For a log whose IMU is raw (:meth:`aeroid.reconstruction.Reconstruction.
+        to_flight` with ``imu="raw"``). An axial bias trades against Cx (the axial
+        force hardly changes over a window); the fit says so (a warning naming each
+        pair whose estimates correlate above 0.98: :func:`aeroid.estimation.
+        nuisance_findings`).
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -175,6 +199,7 @@ class OutputErrorEstimator(Estimator):
     covariance: Literal["fisher", "sandwich"] = "fisher"
     estimate_initial_state: bool = True
     estimate_initial_velocity: bool = False
+    initial_velocity_prior: Literal["none", "flight"] = "none"
     estimate_rx1: bool = False
     estimate_rx2: bool = False
     substeps: int = 2
@@ -185,6 +210,7 @@ class OutputErrorEstimator(Estimator):
     pso_warm_start: bool = False
     pso_particles: int = 30
     pso_iterations: int = 40
+    imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:
@@ -197,6 +223,15 @@ class OutputErrorEstimator(Estimator):
             raise ValueError(f"tol must be > 0, got {self.tol}")
         if self.input not in INPUTS:
             raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
+        if self.imu_errors not in IMU_ERRORS:
+            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERRORS)}, got "
+                             f"{self.imu_errors!r}")
+        if self.initial_velocity_prior not in ("none", "flight"):
+            raise ValueError("initial_velocity_prior must be none or flight, got "
+                             f"{self.initial_velocity_prior!r}")
+        if self.initial_velocity_prior == "flight" and not self.estimate_initial_velocity:
+            raise ValueError("initial_velocity_prior = flight needs "
+                             "estimate_initial_velocity = true")
         if self.noise_model not in NOISE_MODELS:
             raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
                              f"got {self.noise_model!r}")
@@ -209,7 +244,8 @@ class OutputErrorEstimator(Estimator):
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free]
-        return tuple(names + (["delay_s"] if self.estimate_delay else []))
+        names += ["delay_s"] if self.estimate_delay else []
+        return tuple(names + list(imu_error_names(self.imu_errors)))
 
     def consider_term(self, flight: Flight, best: Fit, scale: np.ndarray) -> np.ndarray:
         """The uncertain positions' share of the covariance (Schmidt consider analysis).
@@ -227,6 +263,9 @@ class OutputErrorEstimator(Estimator):
         first = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         p = np.zeros(wide.scale.size)
         p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
+        n_rest = best.p.size - first - len(self.position_free(flight))  # delay, IMU errors
+        if n_rest:
+            p[-n_rest:] = best.p[-n_rest:]
         _, J = wide.outputs_jacobian(p)
         columns = [first + wide_free.index(c) for c in considered]
         w = 1.0 / np.sqrt(np.broadcast_to(best.r_diag, best.e.shape)).T  # (m, n)
@@ -269,6 +308,8 @@ class OutputErrorEstimator(Estimator):
                       for c in position_free])
         if self.estimate_delay:
             scale.append([flight.dt])
+        z = _common.measurements(flight)
+        scale += imu_error_scales(z, self.imu_errors)
         scale = np.concatenate(scale)
         weight = np.zeros(scale.size)
         if self.positions == "estimate":
@@ -276,13 +317,19 @@ class OutputErrorEstimator(Estimator):
             for j, c in enumerate(position_free):
                 if pos_sd[c] > 0:
                     weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
-        z = _common.measurements(flight)
+        if self.initial_velocity_prior == "flight":
+            n_c = aeroid.model.N_COEFFICIENTS
+            sd = initial_velocity_sd(flight)
+            for j, i in enumerate(self.x0_free()):
+                if i in X0_VELOCITIES:
+                    weight[n_c + j] = (scale[n_c + j] / sd[X0_VELOCITIES.index(i)]) ** 2
         x0 = flight.states()[0]
         x0[_common.RATES] = _common.smoothed_start(z[:, _common.GYROS])
         model = RecordModel(flight, input=self.input, substeps=self.substeps,
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
-                            delay_s=self.delay_s, estimate_delay=self.estimate_delay)
+                            delay_s=self.delay_s, estimate_delay=self.estimate_delay,
+                            imu_errors=self.imu_errors)
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -328,8 +375,9 @@ class OutputErrorEstimator(Estimator):
         n_c = aeroid.model.N_COEFFICIENTS
         first = np.zeros(n_p)
         first[:n_c] = prior / scale[:n_c]
+        i_delay = model.n_graph
         if self.estimate_delay:
-            first[-1] = self.delay_s / scale[-1]
+            first[i_delay] = self.delay_s / scale[i_delay]
         extra_evals = 0
         if self.pso_warm_start:
             theta_pso, extra_evals = self.warm_start(prob, flight, rng)
@@ -384,6 +432,8 @@ class OutputErrorEstimator(Estimator):
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
                                             failures)
         info.update(start_info)
+        if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
+            warnings.append(HELD_VELOCITY_WARNING)
         first_pos = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
         positions = model.pos.copy()
         position_sd = np.zeros(6)
@@ -398,8 +448,14 @@ class OutputErrorEstimator(Estimator):
         for t in self.rx_free():
             info[f"rx{t + 1}_m"] = positions[3 * t]
         if self.estimate_delay:
-            info["delay_s"] = float(phys[-1])
-            info["delay_stderr_s"] = float(stderr_phys[-1])
+            info["delay_s"] = float(phys[i_delay])
+            info["delay_stderr_s"] = float(stderr_phys[i_delay])
+        if model.n_imu:
+            imu_info, found = imu_error_report(self.parameter_names(position_free),
+                                               imu_error_names(self.imu_errors), phys,
+                                               stderr_phys, cov_phys)
+            info.update(imu_info)
+            warnings += found
         return EstimationResult(
             estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,

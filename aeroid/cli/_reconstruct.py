@@ -25,7 +25,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      "factors, with their sd, at the IMU's rate."),
         epilog="examples:\n"
                "  aeroid reconstruct suite.toml -o states.csv\n"
-               "  aeroid reconstruct suite.toml -o states.csv --flight flight.csv\n",
+               "  aeroid reconstruct suite.toml -o states.csv --flight flight.csv\n"
+               "  aeroid reconstruct suite.toml -o states.csv --flight raw.csv --raw-imu\n"
+               "  aeroid estimate raw.csv --method output-error --option "
+               "imu_errors=bias+scale\n",
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("log", type=Path, help="suite log TOML (its CSV files beside it)")
     p.add_argument("-o", "--output", type=Path, required=True,
@@ -36,6 +39,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--per-sample-density", action="store_true",
                    help="the flight's density: ISA at the reconstructed altitude at each "
                         "sample (default: the airframe's atmosphere)")
+    p.add_argument("--raw-imu", action="store_true",
+                   help="the flight's IMU channels as logged, not corrected (for an "
+                        "estimator that fits the IMU's errors: output-error's imu_errors)")
 
 
 def reconstruct(args: argparse.Namespace) -> int:
@@ -47,6 +53,8 @@ def reconstruct(args: argparse.Namespace) -> int:
     for out in (args.output, args.flight):
         if out is not None and not out.parent.exists():
             raise UsageError(f"{out}: folder {out.parent} does not exist")
+    if args.raw_imu and args.flight is None:
+        raise UsageError("--raw-imu: it sets the IMU of --flight's file; give --flight")
     log = read_suite_log(args.log)
     airframe = load_airframe(args.airframe) if args.airframe else None
     result = run(log, airframe=airframe)
@@ -62,8 +70,9 @@ def reconstruct(args: argparse.Namespace) -> int:
     print(f"wrote {args.output} ({len(result.table)} samples)")
     if args.flight is not None:
         atmosphere = "altitude" if args.per_sample_density else "airframe"
-        sidecar = result.to_flight(atmosphere=atmosphere).write(args.flight)
+        imu = "raw" if args.raw_imu else "corrected"
+        sidecar = result.to_flight(atmosphere=atmosphere, imu=imu).write(args.flight)
         density = ("ISA at the reconstructed altitude" if args.per_sample_density
                    else "the airframe's atmosphere")
-        print(f"wrote {args.flight} and {sidecar} (density: {density})")
+        print(f"wrote {args.flight} and {sidecar} (density: {density}; IMU: {imu})")
     return 0

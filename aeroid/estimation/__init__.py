@@ -29,7 +29,7 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
-from aeroid.estimation._identifiability import identifiability
+from aeroid.estimation._identifiability import identifiability, nuisance_findings
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -138,6 +138,7 @@ __all__ = [
     "failed_result",
     "get_estimator",
     "identifiability",
+    "nuisance_findings",
     "gyro_only_floor",
     "load_errors",
     "make_estimator",

@@ -137,5 +137,31 @@ def identifiability_findings(names: Sequence[str], theta: np.ndarray,
     return failure, warnings
 
 
+def nuisance_findings(names: Sequence[str], theta: np.ndarray, covariance: np.ndarray,
+                      nuisance: Sequence[str]) -> tuple[str, ...]:
+    """Return warnings on the ``nuisance`` parameters of a fit (e.g. sensor biases).
+
+    :func:`identifiability` over all of a method's parameters (``names``, ``theta`` and
+    their ``covariance``), keeping what involves a nuisance parameter: the pairs above
+    :data:`CORRELATION_LIMIT` with one of them (which bias trades against which
+    coefficient), and nuisance parameters without information. One line each, empty
+    when there is nothing to say.
+    """
+    extra = set(nuisance)
+    none, _, pairs = identifiability(names, theta, covariance=covariance)
+    out: tuple[str, ...] = ()
+    lost = [n for n in none if n in extra]
+    if lost:
+        out += (f"no information on {', '.join(lost)}: the data cannot determine it "
+                "(its estimate is where the search stopped)",)
+    mine = [(a, b, r) for a, b, r in pairs if a in extra or b in extra]
+    if mine:
+        text = ", ".join(f"{a}-{b} ({r:+.5f})" for a, b, r in mine)
+        out += (f"nearly confounded (|correlation| > {CORRELATION_LIMIT:g}): {text}; the "
+                "data determine a combination of each pair better than either",)
+    return out
+
+
 __all__ = ["CORRELATION_LIMIT", "LITTLE_INFORMATION_SD", "NO_INFORMATION_SD",
-           "ZERO_INFORMATION", "identifiability", "identifiability_findings"]
+           "ZERO_INFORMATION", "identifiability", "identifiability_findings",
+           "nuisance_findings"]

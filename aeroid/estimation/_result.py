@@ -211,6 +211,12 @@ class EstimationResult:
             if truth is not None and errors is not None:
                 row += f" {truth[j]:>12.6g} {errors[j]:>9.3f}"
             lines.append(row)
+        imu = self.info.get("imu_errors") if isinstance(self.info, dict) else None
+        if imu:  # a method that fitted the IMU's errors (output-error's imu_errors)
+            sd = self.info.get("imu_error_stderr") or {}
+            lines.append("IMU errors, reading = (1 + s) model + b [m/s^2, rad/s, -]:")
+            lines += [f"{name:>5} {value:>14.6g} {sd.get(name, math.nan):>12.4g}"
+                      for name, value in imu.items()]
         return "\n".join(lines)
 
     def to_row(self) -> dict[str, Any]:

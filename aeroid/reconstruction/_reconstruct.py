@@ -5,7 +5,8 @@
 position, barometric altitude and INS attitude it holds (each channel used needs its
 ``noise_sd`` in the log: nothing is assumed). The result's table is at the IMU's rate;
 :meth:`Reconstruction.to_flight` makes aeroid's single-rate :class:`~aeroid.flights.Flight`
-of it (corrected IMU channels, reconstructed states, the fin held from its own clock).
+of it (corrected or raw IMU channels, reconstructed states, the fin held from its own
+clock).
 """
 
 from __future__ import annotations
@@ -72,6 +73,12 @@ class Reconstruction:
         Filter innovations over their predicted sd, per source.
     notes : tuple of str
         One line per interpretation made.
+    airframe : Airframe
+    fin : (t, delta), optional
+        The fin group's times [s] and deflection [rad].
+    metadata : dict
+    raw_imu : ndarray, shape (n, 9), optional
+        The IMU's readings as logged (:data:`IMU_CHANNELS`, SI), at the table's times.
     """
 
     table: pd.DataFrame
@@ -82,13 +89,16 @@ class Reconstruction:
     airframe: Airframe
     fin: tuple[np.ndarray, np.ndarray] | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
+    raw_imu: np.ndarray | None = None
 
-    def to_flight(self, *, atmosphere: str = "airframe") -> Flight:
+    def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected") -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
 
-        Channels: the corrected IMU readings, ``u v w phi theta psi`` reconstructed,
-        ``delta`` the latest fin sample at or before each IMU time (the fin is a relay:
-        held, not interpolated).
+        Channels: the IMU readings (corrected by default), ``u v w phi theta psi``
+        reconstructed, ``delta`` the latest fin sample at or before each IMU time (the fin
+        is a relay: held, not interpolated). ``metadata['initial_state_sd']``: the
+        smoothed sd of ``u v w phi theta psi`` at the first sample [m/s, rad] (for
+        output-error's ``initial_velocity_prior``).
 
         Parameters
         ----------
@@ -97,19 +107,34 @@ class Reconstruction:
             holds the density of one altitude); ``"altitude"``: the reconstructed
             altitude becomes a channel and the atmosphere ``per_sample = "altitude"``
             (ISA density at each sample; needs a barometer).
+        imu : {"corrected", "raw"}
+            ``"corrected"``: the readings less the reconstruction's biases and scale
+            factors; ``"raw"``: the readings as logged, for an estimator that fits the
+            IMU's errors itself (output-error's ``imu_errors``); the reconstructed
+            states then serve as its initial state.
         """
         where = self.metadata.get("source", "suite log")
         if atmosphere not in ("airframe", "altitude"):
             raise FlightError(f"{where}: atmosphere must be 'airframe' or 'altitude', got "
                               f"{atmosphere!r}")
+        if imu not in ("corrected", "raw"):
+            raise FlightError(f"{where}: imu must be 'corrected' or 'raw', got {imu!r}")
+        if imu == "raw" and self.raw_imu is None:
+            raise FlightError(f"{where}: this reconstruction holds no raw IMU readings")
         if self.fin is None:
             raise FlightError(f"{where}: no fin group: a Flight needs the fin deflection")
         tab = self.table
         channels = {c: tab[c].to_numpy() for c in ("t", *IMU_CHANNELS, "u", "v", "w", "phi",
                                                    "theta", "psi")}
         channels["delta"] = _held(self.fin, tab["t"].to_numpy(), self.metadata)
+        imu_note = "IMU: corrected by the reconstruction's biases and scale factors"
+        if imu == "raw":
+            assert self.raw_imu is not None  # checked above
+            channels.update({c: self.raw_imu[:, j] for j, c in enumerate(IMU_CHANNELS)})
+            imu_note = ("IMU: raw readings, biases and scale factors not removed (fit them: "
+                        "output-error imu_errors)")
         airframe = self.airframe
-        notes = [*self.notes, "density: the airframe's atmosphere"]
+        notes = [*self.notes, imu_note, "density: the airframe's atmosphere"]
         if atmosphere == "altitude":
             if "altitude" not in tab:
                 raise FlightError(f"{where}: atmosphere 'altitude' needs a barometer group")
@@ -117,7 +142,9 @@ class Reconstruction:
             airframe = airframe.replace(altitude_m=None, given_density_kgm3=None,
                                         atmosphere_channel="altitude")
             notes[-1] = "density: ISA at the reconstructed altitude, per sample"
-        return make_flight(channels, airframe, {**self.metadata, "notes": notes})
+        first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
+        return make_flight(channels, airframe, {**self.metadata, "notes": notes,
+                                                "initial_state_sd": first_sd})
 
 
 def _held(fin: tuple[np.ndarray, np.ndarray], t: np.ndarray, meta: dict[str, Any]
@@ -223,7 +250,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     else:
         notes.append("no barometer: no altitude or density in the output")
     return Reconstruction(table, passes.covariance, passes.nis, passes.innovations,
-                          tuple(notes), airframe, fin, meta)
+                          tuple(notes), airframe, fin, meta, imu.copy())
 
 
 def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int]

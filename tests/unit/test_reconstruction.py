@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -16,6 +17,7 @@ from aeroid.flights import (
     SensorSuite,
     SuiteLog,
     exogenous,
+    read_flight,
     read_suite_log,
     reference_scenario,
     simulate_suite,
@@ -23,7 +25,7 @@ from aeroid.flights import (
     write_suite_log,
 )
 from aeroid.model import EXOGENOUS, G0
-from aeroid.reconstruction import STATES, reconstruct
+from aeroid.reconstruction import IMU_CHANNELS, STATES, reconstruct
 
 #: Fraction of samples whose error must lie within 3 sd (a Gaussian gives 99.7%; the
 #: errors are correlated in time, so a few runs of samples may leave; seeds 1-2 on the
@@ -257,3 +259,55 @@ def test_refuses_uneven_imu_sampling():
     gap = dataclasses.replace(log, groups={**log.groups, "imu": dataclasses.replace(imu, t=t)})
     with pytest.raises(FlightError, match="IMU sampling not uniform: 0.005 s after t = 0.499"):
         reconstruct(gap, initial_velocity=(SPEED, 0, 0))
+
+
+def test_to_flight_raw_imu(reference):
+    """``imu="raw"``: the log's readings as they are, the reconstructed states beside them."""
+    sim, rec = reference
+    raw, corrected = rec.to_flight(imu="raw"), rec.to_flight()
+    for c in IMU_CHANNELS:
+        np.testing.assert_array_equal(raw[c], sim.log["imu"].channels[c])
+    for c in ("u", "v", "w", "phi", "theta", "psi", "delta"):
+        np.testing.assert_array_equal(raw[c], corrected[c])
+    # the identity that ties them: raw = (1 + s) corrected + b with the table's s and b
+    for c in IMU_CHANNELS:
+        expected = (1.0 + rec.table[f"s{c}"]) * corrected[c] + rec.table[f"b{c}"]
+        np.testing.assert_allclose(raw[c], expected, rtol=1e-12, atol=1e-12)
+    assert any(n.startswith("IMU: raw readings") for n in raw.metadata["notes"])
+    first_sd = raw.metadata["initial_state_sd"]  # output-error's initial_velocity_prior
+    assert list(first_sd) == ["u", "v", "w", "phi", "theta", "psi"]
+    assert first_sd["v"] == rec.table["sd_v"].iloc[0] > 0
+    with pytest.raises(FlightError, match="imu must be 'corrected' or 'raw'"):
+        rec.to_flight(imu="moon")
+    with pytest.raises(FlightError, match="holds no raw IMU readings"):
+        dataclasses.replace(rec, raw_imu=None).to_flight(imu="raw")
+
+
+def test_cli_raw_imu_flight_then_output_error(tmp_path, capsys):
+    """``--raw-imu`` writes the log's readings; output-error then fits their errors."""
+    scenario = reference_scenario()
+    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(5.0, 5.5))
+    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, manoeuvre, rng=4)
+    write_suite_log(sim.log, tmp_path / "suite.toml")
+    out, flight = tmp_path / "states.csv", tmp_path / "raw.csv"
+    assert main(["reconstruct", str(tmp_path / "suite.toml"), "-o", str(out),
+                 "--raw-imu"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--raw-imu" in err and "--flight" in err
+    assert main(["reconstruct", str(tmp_path / "suite.toml"), "-o", str(out),
+                 "--flight", str(flight), "--raw-imu"]) == 0
+    assert "IMU: raw" in capsys.readouterr().out
+    written = read_flight(flight)
+    for c in IMU_CHANNELS:
+        np.testing.assert_array_equal(written[c], sim.log["imu"].channels[c])
+    status = main(["estimate", str(flight), "--method", "output-error", "--json",
+                   "--option", "imu_errors=bias+scale",
+                   "--option", "estimate_initial_velocity=true",
+                   "--option", "initial_velocity_prior=flight"])  # its sd from the sidecar
+    result = json.loads(capsys.readouterr().out)
+    assert status == 0, result["message"]
+    truth = dict(zip([f"b{c}" for c in IMU_CHANNELS], np.concatenate(
+        [sim.errors["accel_bias"].ravel(), sim.errors["gyro_bias"]]), strict=True))
+    fitted, sd = result["info"]["imu_errors"], result["info"]["imu_error_stderr"]
+    for name, value in truth.items():
+        assert abs(fitted[name] - value) < 3.0 * sd[name], name
