@@ -78,7 +78,7 @@ __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
     "resolve_input", "AGREE_RTOL", "REFUSE_PER_SWITCH", "THROW_RTOL", "WARN_PER_SWITCH",
     "Agreement", "InputChoice", "check_input", "input_agreement",
-    "ACCEL_CHANNELS", "ANGLE_CHANNELS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
+    "ACCEL_CHANNELS", "ANGLE_CHANNELS", "NOISE_FORMS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
     "RATE_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS", "UNITS", "Flight", "GaussianNoise",
     "Manoeuvre", "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario",
     "make_flight", "make_noise", "noise_for", "noise_from_dict", "read_column_map",
