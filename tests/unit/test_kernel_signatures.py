@@ -43,7 +43,9 @@ def test_every_caller_reaches_one_specialisation(clean_flight):
                               exogenous=table, parallel=parallel))
     for kernel in (_compiled.propagate_serial, _compiled.propagate_parallel):
         assert len(kernel.signatures) == 1, kernel.signatures
-    assert len(_compiled.integrate_set.signatures) == 1, _compiled.integrate_set.signatures
+    # the callee: compiled once with its callers, or not at all when they came from the
+    # disk cache (a cached kernel carries the code it calls)
+    assert len(_compiled.integrate_set.signatures) <= 1, _compiled.integrate_set.signatures
     # the same numbers whatever the caller passed; the table takes the kernel's other
     # branch (interpolating equal values): equal to rounding
     for k, out in enumerate(outs):
