@@ -17,14 +17,7 @@ and the Cramér-Rao standard deviations are ``sqrt(diag(F^-1))``.
 
 Decisions (the notes leave these open):
 
-* Sensitivities ``J`` are central finite differences of the compiled integrator with a
-  relative step of 1e-5 per coefficient. Measured against a 4-point stencil (steps 1e-4
-  and 3e-4 agree to 6e-8) on the reference flight, the error is at most 4e-7 of each
-  column's largest entry (Czq's column; 1e-8 or less for the others); relative steps of
-  1e-6 and 1e-7 are worse (rounding: 2e-6, 1e-5), 1e-4 and 1e-3 too (truncation on Cl0,
-  Clp, Cma). The resulting standard deviations change by < 1e-6 relative between steps
-  1e-6 and 1e-4. Tests compare J with a closed form at k = 0 and with a second stencil
-  computed on the numpy backend.
+* Sensitivities ``J``: central differences, relative step 1e-5 (:mod:`aeroid.model._sensitivity`).
 * The model integrates with ``substeps = 8`` RK4 steps per sample (0.25 ms, the truth's
   step), so with the true coefficients the model outputs equal the simulated clean flight.
 * Paper noise (eq. 43) is multiplicative uniform: ``s_m = s (1 + xi (2U - 1))`` has
@@ -88,17 +81,26 @@ from aeroid.estimation._information import (
     information_from_sensitivities,
     model_noise_sd,
 )
-from aeroid.flights import check_input
-from aeroid.flights._flight import Flight
-from aeroid.flights._noise import NoiseModel, NoNoise
-from aeroid.flights._record import flight_record
-from aeroid.flights._scenario import Scenario
-from aeroid.flights._simulate import simulate
-from aeroid.model._airframe import Airframe
-from aeroid.model._coefficients import NAMES, as_vector
-from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, constants
-from aeroid.model._forward import DEFAULT_REL_STEP, ForwardModel
-from aeroid.model._inputs import Record
+from aeroid.flights import (
+    Flight,
+    NoiseModel,
+    NoNoise,
+    Scenario,
+    check_input,
+    flight_record,
+    simulate,
+)
+from aeroid.model import (
+    DEFAULT_REL_STEP,
+    N_STATE,
+    NAMES,
+    OUTPUT_CHANNELS,
+    Airframe,
+    ForwardModel,
+    Record,
+    as_vector,
+    constants,
+)
 
 __all__ = [  # the information and its weights live in _information, written once
     "CHANNEL_SETS", "DEFAULT_SUBSTEPS", "PROTOTYPE_FLOOR", "OutputErrorInputs",

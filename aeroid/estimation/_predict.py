@@ -189,7 +189,7 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
     from aeroid.model import ForwardModel
 
     options = _options(result)
-    input_mode = str(result.info.get("input", options.get("input", "hold")))
+    input_mode = str(result.input or result.info.get("input", options.get("input", "hold")))
     delay = result.info.get("delay_s", options.get("delay_s", 0.0))
     delay = float(delay) if delay is not None and math.isfinite(float(delay)) else 0.0
     steps = int(substeps if substeps is not None else options.get("substeps",

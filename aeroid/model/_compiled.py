@@ -5,11 +5,9 @@ Every element-wise equation is registered as a numba overload of itself
 Python functions numpy and CasADi evaluate, and numba inlines them. Two hooks take faster
 paths that give the same values:
 
-* :func:`aeroid.model._equations.atan2` is compiled as ``atan(y / x)`` for ``x > 0`` (about
-  10 % of the RK4 pass, measured) and ``atan2`` otherwise;
-* the RK4 stages get sin/cos of phi and theta from the step's start values by the
-  addition theorem (:func:`sincos_shift`): one libm sin/cos pair per angle and step
-  instead of four.
+* ``atan2`` is compiled as ``atan(y / x)`` for ``x > 0`` (~10 % of the RK4 pass, measured);
+* the RK4 stages get sin/cos of phi and theta from the step's start by the addition
+  theorem (:func:`sincos_shift`): one sin/cos pair per angle and step instead of four.
 
 Kernels (each coefficient set is integrated by one thread with its state in registers,
 no per-set allocation): :func:`propagate_serial` / :func:`propagate_parallel` (RK4 over a
@@ -29,11 +27,10 @@ Each kernel called from Python is compiled for one set of argument types
 :func:`integrate_set`: a fresh install compiles the serial RK4 kernel in ~12 s of CPU
 instead of three specialisations of ~41 s (``benchmarks/profile_compile.py``).
 
-numba's disk cache checks only the file that defines a kernel, not the functions it
-inlines, so the kernels here are cached by :func:`cached_kernel`: the cache's source stamp
-also holds the SHA-256 of every source the kernels inline (:data:`INLINED_SOURCES`). An
-edit of the equations invalidates the cached kernels, which are recompiled and overwrite
-their old cache files (no stale copies accumulate).
+numba's disk cache checks only the file that defines a kernel, not what it inlines, so
+:func:`cached_kernel` adds the SHA-256 of every inlined source (:data:`INLINED_SOURCES`) to
+the cache's stamp: an edit of the equations recompiles the kernels, overwriting their old
+cache files.
 """
 
 from __future__ import annotations

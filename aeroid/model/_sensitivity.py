@@ -11,6 +11,14 @@ and memory is that of one block whatever the record's length. The methods
 :meth:`aeroid.model.ForwardModel.sensitivities` (the whole matrix) and
 :meth:`~aeroid.model.ForwardModel.sensitivity_blocks` (the blocks, for a sum over the
 samples such as the Fisher information) are the faces of this module.
+
+The relative step (:data:`DEFAULT_REL_STEP`, 1e-5, the Cramér-Rao floor's decision):
+Measured against a 4-point stencil (steps 1e-4 and 3e-4 agree to 6e-8) on the reference
+flight, the error is at most 4e-7 of each column's largest entry (Czq's column; 1e-8 or
+less for the others); relative steps of 1e-6 and 1e-7 are worse (rounding: 2e-6, 1e-5),
+1e-4 and 1e-3 too (truncation on Cl0, Clp, Cma). The resulting standard deviations
+change by < 1e-6 relative between steps 1e-6 and 1e-4. Tests compare J with a closed
+form at k = 0 and with a second stencil computed on the numpy backend.
 """
 
 from __future__ import annotations

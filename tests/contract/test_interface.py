@@ -1,12 +1,10 @@
 """The estimator interface itself: result, warnings, fit's failure handling, options, progress,
-registry, and the import layering of the package."""
+registry (the import layering is tests/contract/test_layers.py)."""
 
 from __future__ import annotations
 
-import ast
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import ClassVar, Literal
 
 import numpy as np
@@ -25,8 +23,6 @@ from aeroid.estimation import (
 )
 from aeroid.estimation._options import parse_value, type_name
 from aeroid.model._coefficients import NAMES
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _result(**fields) -> EstimationResult:
@@ -222,74 +218,3 @@ def test_failed_result_has_nan_estimates() -> None:
     result = failed_result("m", "why")
     assert not result.success and result.message == "why" and result.names == NAMES
     assert np.all(np.isnan(result.theta))
-
-
-# ---------------------------------------------------------------- layering
-
-
-def _type_checking_blocks(tree: ast.AST) -> set[int]:
-    """Ids of the nodes inside ``if TYPE_CHECKING:`` blocks (no import at run time)."""
-    inside = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING":
-            inside |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
-    return inside
-
-
-def _imports(path: Path, modules: set[str]) -> set[str]:
-    """Return the aeroid/baselines modules ``path`` imports at run time (at any depth of
-    the file, but not in ``if TYPE_CHECKING:`` blocks)."""
-    found = set()
-    tree = ast.parse(path.read_text())
-    skip = _type_checking_blocks(tree)
-    for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
-        if isinstance(node, ast.Import):
-            found |= {a.name for a in node.names if a.name in modules}
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            for alias in node.names:
-                sub = f"{node.module}.{alias.name}"
-                if sub in modules:
-                    found.add(sub)
-                elif node.module in modules:
-                    found.add(node.module)
-    return found
-
-
-def _module_graph() -> dict[str, set[str]]:
-    files = {}
-    for package in ("aeroid", "baselines"):
-        for path in (ROOT / package).rglob("*.py"):
-            parts = list(path.relative_to(ROOT).with_suffix("").parts)
-            files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
-    names = set(files)
-    return {name: _imports(path, names) - {name} for name, path in files.items()}
-
-
-def test_no_import_circles() -> None:
-    """Explicit imports (module level or inside functions) form no cycle; the implicit
-    import of a parent package is not counted."""
-    graph = _module_graph()
-    state: dict[str, int] = {}
-
-    def visit(node: str, path: list[str]) -> None:
-        state[node] = 1
-        for nxt in sorted(graph[node]):
-            if state.get(nxt) == 1:
-                cycle = path[path.index(nxt):] + [node, nxt] if nxt in path else [node, nxt]
-                raise AssertionError("import circle: " + " -> ".join(cycle))
-            if nxt not in state:
-                visit(nxt, [*path, node])
-        state[node] = 2
-
-    for name in sorted(graph):
-        if name not in state:
-            visit(name, [])
-
-
-def test_the_papers_methods_do_not_import_one_another() -> None:
-    graph = _module_graph()
-    methods = {f"aeroid.estimation.{m}" for m in ("_eam", "_ebm", "_sebm")}
-    for method in methods:
-        assert not graph[method] & methods, method

@@ -29,8 +29,11 @@ from aeroid.model import ForwardModel, Record, nominal
 INFORMATION_RTOL = 1e-12
 #: Blocked vs one-pass floors (relative): the information of the nine coefficients and
 #: three initial rates has a condition number of ~3e14 on the reference flight, so the
-#: rounding of the sums above moves its inverse by up to ~2e-10 (measured 1.8e-10).
-FLOOR_RTOL = 1e-9
+#: rounding of the sums above moves its inverse: measured 1.8e-10 on one build of the
+#: kernels and 2.0e-9 after the RK4 substep became one compiled function (the sensitivities'
+#: last bits moved, so the amplified rounding did too). The bound is set 50x above the
+#: larger figure: it depends on last-bit rounding, which differs between CPUs and kernels.
+FLOOR_RTOL = 1e-7
 RATES = ("p", "q", "r")
 
 
