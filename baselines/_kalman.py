@@ -92,7 +92,19 @@ def with_sensor_errors(model: DiscreteModel, n_errors: int) -> DiscreteModel:
             blocks.append(np.diag(y))
         return (1.0 + s) * y + b, np.hstack(blocks)
 
-    return DiscreteModel(n + n_errors, m, transition, observe)
+    transition_batch = observe_batch = None
+    if model.transition_batch is not None and model.observe_batch is not None:
+        base_f, base_h = model.transition_batch, model.observe_batch
+
+        def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
+            return np.concatenate([base_f(Z[:, :n], k), Z[:, n:]], axis=1)
+
+        def observe_batch(Z: np.ndarray, k: int) -> np.ndarray:
+            X, b, s = split(Z)
+            return (1.0 + s) * base_h(X, k) + b
+
+    return DiscreteModel(n + n_errors, m, transition, observe, transition_batch,
+                         observe_batch)
 
 
 @dataclass(frozen=True)

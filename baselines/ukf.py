@@ -21,14 +21,16 @@ import numpy as np
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight
 from baselines import _common, _kalman
+from baselines._imu_states import ImuFilterOptions
 
 
 @dataclass(frozen=True, kw_only=True)
-class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
+class UnscentedKalmanEstimator(ImuFilterOptions):
     """Augmented-state UKF (filterpy, Merwe scaled sigma points, batched propagation).
 
     Options are those of :class:`baselines._common.AugmentedFilterOptions` plus the
-    sigma-point parameters below. Result and failure handling as for the EKF.
+    sigma-point parameters below. Result and failure handling as for the EKF, and its
+    IMU-error states (``imu_errors``, :class:`baselines._imu_states.ImuFilterOptions`).
 
     Attributes
     ----------
@@ -64,5 +66,5 @@ class UnscentedKalmanEstimator(_common.AugmentedFilterOptions):
                                    alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                    R_of=setup.R_of)
 
-        return self.run_passes(
+        return self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)

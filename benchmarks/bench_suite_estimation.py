@@ -20,9 +20,10 @@ truth, the same IMU noise sd, no instrument errors, the true states). Fits:
   reconstruction's;
 - ``suite, option off``: the raw readings taken as unbiased (a known-wrong input: how often
   the fit check refuses it);
-- with ``--ekf``, ``ekf suite``: the EKF on the same raw flight with ``imu_errors =
-  "bias+scale"`` and ``initial_velocity_sd_mps`` the largest of the reconstruction's sd of
-  u, v, w at the first sample (its ratio to ``suite``: target <= 1.2).
+- with ``--filters``, ``ekf suite`` and ``ukf suite``: the EKF and the UKF on the same
+  raw flight with ``imu_errors = "bias+scale"`` and ``initial_velocity_sd_mps`` the
+  largest of the reconstruction's sd of u, v, w at the first sample (their ratio to
+  ``suite``: target <= 1.2).
 
 Figures: mean |relative error| of the nine coefficients per fit and the ratio suite /
 ideal (target <= 1.5), the largest |error| / standard error over the coefficients and
@@ -71,9 +72,9 @@ def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
     return dict(zip(names, values.tolist(), strict=True))
 
 
-def one_seed(seed: int, ekf: bool = False) -> dict[str, dict[str, float]]:
+def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
     """All fits of one seed: their figures by fit label."""
-    from baselines.ekf import ExtendedKalmanEstimator
+    from aeroid.estimation import make_estimator
 
     scenario = reference_scenario()
     truth = scenario.coefficient_vector
@@ -87,15 +88,19 @@ def one_seed(seed: int, ekf: bool = False) -> dict[str, dict[str, float]]:
     rec_s = time.perf_counter() - start
     out = {}
     flights = {"ideal": (ideal, {}), **{k: (raw, v) for k, v in FITS.items()}}
-    if ekf:
+    if filters:
         sd = raw.metadata["initial_state_sd"]
-        flights["ekf suite"] = (raw, {"imu_errors": "bias+scale", "initial_velocity_sd_mps":
-                                      max(sd["u"], sd["v"], sd["w"])})
+        for name in ("ekf", "ukf"):
+            flights[f"{name} suite"] = (raw, {"imu_errors": "bias+scale",
+                                              "initial_velocity_sd_mps":
+                                              max(sd["u"], sd["v"], sd["w"])})
     errors = _errors_truth(sim.errors)
     for label, (flight, options) in flights.items():
         start = time.perf_counter()
-        cls = ExtendedKalmanEstimator if label.startswith("ekf") else OutputErrorEstimator
-        res = cls(**options).fit(flight, rng=seed)
+        if label[1:].startswith("kf"):
+            res = make_estimator(label.split()[0], options).fit(flight, rng=seed)
+        else:
+            res = OutputErrorEstimator(**options).fit(flight, rng=seed)
         row = {"success": float(res.success), "wall_s": time.perf_counter() - start,
                "mean_rel": float(np.mean(np.abs(res.theta / truth - 1.0))),
                "max_z": float(np.max(np.abs(res.theta - truth) / res.stderr)),
@@ -115,11 +120,12 @@ def main() -> None:
     """Run the seeds, print and write the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1")
-    parser.add_argument("--ekf", action="store_true", help="also the EKF with IMU-error states")
+    parser.add_argument("--filters", action="store_true",
+                        help="also the EKF and the UKF with IMU-error states")
     args = parser.parse_args()
     runs = []
     for seed in range(args.seeds):
-        runs.append(one_seed(seed, args.ekf))
+        runs.append(one_seed(seed, args.filters))
         r = runs[-1]
         fixed = r["suite, velocity as reconstructed"]
         print(f"seed {seed}: ideal {100 * r['ideal']['mean_rel']:.3f} %, suite "
@@ -133,7 +139,7 @@ def main() -> None:
     labels = list(runs[0])
     lines = ["# Output-error on a sensor-suite log against the ideal log of the same flight", "",
              f"`python benchmarks/bench_suite_estimation.py --seeds {args.seeds}"
-             f"{' --ekf' if args.ekf else ''}` on "
+             f"{' --filters' if args.filters else ''}` on "
              f"{platform.processor() or platform.machine()}, Python "
              f"{platform.python_version()}, numpy {np.__version__}; reference window 5-6 s, "
              f"seeds 0-{args.seeds - 1}.", "",
@@ -170,12 +176,12 @@ def main() -> None:
     lines += ["", f"Ratio suite / ideal of the mean relative error: {overall:.2f} over the "
               f"seeds (target <= 1.5); per seed median {np.median(ratios):.2f}, worst "
               f"{max(ratios):.2f}.", ""]
-    if args.ekf:
-        ekf_ratio = (np.mean([r["ekf suite"]["mean_rel"] for r in runs])
-                     / np.mean([r["suite"]["mean_rel"] for r in runs]))
-        per_seed = [r["ekf suite"]["mean_rel"] / r["suite"]["mean_rel"] for r in runs]
-        lines += [f"Ratio EKF / output-error on the suite: {ekf_ratio:.2f} over the seeds "
-                  f"(target <= 1.2); per seed median {np.median(per_seed):.2f}, worst "
+    for name in ("ekf", "ukf") if args.filters else ():
+        ratio = (np.mean([r[f"{name} suite"]["mean_rel"] for r in runs])
+                 / np.mean([r["suite"]["mean_rel"] for r in runs]))
+        per_seed = [r[f"{name} suite"]["mean_rel"] / r["suite"]["mean_rel"] for r in runs]
+        lines += [f"Ratio {name.upper()} / output-error on the suite: {ratio:.2f} over the "
+                  f"seeds (target <= 1.2); per seed median {np.median(per_seed):.2f}, worst "
                   f"{max(per_seed):.2f}.", ""]
     lines.append("The suite fits' wall time includes the reconstruction.")
     print("\n".join(lines))

@@ -35,8 +35,9 @@ RECOVERY_RTOL = 1e-6
 ACCEL_BIAS_ATOL = 1e-5
 GYRO_BIAS_ATOL = 1e-5
 SCALE_ATOL = 1e-6
-#: The EKF's noise-free recovery with the IMU errors as states: measured largest relative
-#: error 8.9e-6 (Clp; the filter's measurement sd is floored at 1e-4 of each channel's RMS).
+#: The filters' noise-free recovery with the IMU errors as states: measured largest
+#: relative error 8.9e-6 (EKF, Clp; the filter's measurement sd is floored at 1e-4 of
+#: each channel's RMS), 6.4e-6 (UKF).
 EKF_RTOL = 1e-4
 #: Central differences (relative step 1e-6) against the exact Jacobian.
 FD_RTOL = 1e-5
@@ -221,15 +222,21 @@ def test_sensor_error_states_jacobians_equal_finite_differences(clean_suite):
         F_fd[:, j] = (model.transition(zp, 200)[0] - model.transition(zm, 200)[0]) / (2 * step)
     np.testing.assert_allclose(H, H_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(H).max())
     np.testing.assert_allclose(F, F_fd, rtol=FD_RTOL, atol=FD_RTOL * np.abs(F).max())
+    # the UKF's batched versions: the same numbers for many states at once
+    Z = np.stack([z, z * (1 + 1e-3 * rng.standard_normal(z.size))])
+    for i in range(len(Z)):
+        np.testing.assert_allclose(model.observe_batch(Z, 200)[i], model.observe(Z[i], 200)[0],
+                                   rtol=1e-10)
+        np.testing.assert_allclose(model.transition_batch(Z, 200)[i],
+                                   model.transition(Z[i], 200)[0], rtol=1e-10)
     with pytest.raises(ValueError, match="sensor errors: 5 for 9"):
         _kalman.with_sensor_errors(base, 5)
 
 
-def test_ekf_recovers_imu_errors_on_noise_free_suite(clean_suite):
-    from baselines.ekf import ExtendedKalmanEstimator
-
+@pytest.mark.parametrize("method", ["ekf", "ukf"])
+def test_filter_recovers_imu_errors_on_noise_free_suite(clean_suite, method):
     sim, flight = clean_suite
-    res = ExtendedKalmanEstimator(imu_errors="bias+scale").fit(flight, rng=0)
+    res = aeroid.make_estimator(method, {"imu_errors": "bias+scale"}).fit(flight, rng=0)
     assert res.success, res.message
     truth = reference_scenario().coefficient_vector
     np.testing.assert_allclose(res.theta, truth, rtol=EKF_RTOL)

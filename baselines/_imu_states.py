@@ -1,0 +1,120 @@
+"""The IMU's errors as states of the augmented-state filters (EKF, UKF; private).
+
+:class:`ImuFilterOptions` adds to :class:`baselines._common.AugmentedFilterOptions` the
+option ``imu_errors``: a bias per output channel and, with ``"bias+scale"``, a scale
+factor, constant states in the sensor law ``y_meas = (1 + s) y_model + b`` of
+:func:`aeroid.flights.simulate_suite` (as output-error's ``imu_errors``), the model
+wrapped by :func:`baselines._kalman.with_sensor_errors`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from aeroid.estimation import EstimationResult, nuisance_findings
+from aeroid.flights import Flight
+from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
+from baselines import _common, _kalman
+
+#: IMU-error states per option: a bias per output channel, then a scale factor.
+IMU_ERRORS: dict[str, tuple[str, ...]] = {"none": (), "bias": ("b",), "bias+scale": ("b", "s")}
+
+PassRunner = Callable[[_kalman.DiscreteModel, _common.FilterSetup], _kalman.FilterOutput]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImuFilterOptions(_common.AugmentedFilterOptions):
+    """The augmented filters' options with the IMU's errors as states (not registered).
+
+    Attributes
+    ----------
+    imu_errors : {"none", "bias", "bias+scale"}
+        Also carry the IMU's errors as constant states (default ``"none"``): a bias per
+        output channel and, with ``"bias+scale"``, a scale factor, in the sensor law
+        ``y_meas = (1 + s) y_model + b`` (as output-error's ``imu_errors``), started at 0
+        with the sd below, each pass afresh (started where the last pass ended, with
+        ``PASS_INFLATION`` times its sd as the coefficients are, the EKF's passes did not
+        settle: measured on one suite seed); reported in ``info['imu_errors']`` with
+        ``info['imu_error_stderr']`` (the final filtered sd).
+    imu_accel_bias_sd_mps2, imu_gyro_bias_sd_radps, imu_scale_sd : float
+        Initial sd of those states [m/s^2, rad/s, -] (defaults 0.2, 0.005, 0.005: the
+        reconstruction's priors, :func:`aeroid.reconstruction.reconstruct`). The initial
+        rates' variance grows by what those errors do to the first gyro reading.
+    """
+
+    imu_errors: Literal["none", "bias", "bias+scale"] = "none"
+    imu_accel_bias_sd_mps2: float = 0.2
+    imu_gyro_bias_sd_radps: float = 0.005
+    imu_scale_sd: float = 0.005
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.imu_errors not in IMU_ERRORS:
+            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERRORS)}, got "
+                             f"{self.imu_errors!r}")
+        for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+
+    def imu_error_names(self) -> tuple[str, ...]:
+        """Names of the IMU-error states: ``b`` + channel, then ``s`` + channel."""
+        return tuple(p + c for p in IMU_ERRORS[self.imu_errors] for c in OUTPUT_CHANNELS)
+
+    def setup(self, flight: Flight) -> _common.FilterSetup:
+        """The shared start, with the IMU-error states appended (``imu_errors``)."""
+        setup = super().setup(flight)
+        names = self.imu_error_names()
+        if not names:
+            return setup
+        n_accel = len(ACCEL_CHANNELS)
+        sd = np.array([self.imu_scale_sd if n[0] == "s" else self.imu_accel_bias_sd_mps2
+                       if OUTPUT_CHANNELS.index(n[1:]) < n_accel else self.imu_gyro_bias_sd_radps
+                       for n in names])
+        n, k = setup.x0.size, len(names)
+        P0, Q = np.zeros((n + k, n + k)), np.zeros((n + k, n + k))
+        P0[:n, :n], P0[n:, n:], Q[:n, :n] = setup.P0, np.diag(sd ** 2), setup.Q
+        # the initial rates are the first gyro readings: as uncertain as their errors
+        rates = np.arange(_common.RATES.start, _common.RATES.stop)
+        spread = self.imu_gyro_bias_sd_radps ** 2 + (
+            (self.imu_scale_sd * setup.x0[rates]) ** 2 if "s" in IMU_ERRORS[self.imu_errors]
+            else 0.0)
+        P0[rates, rates] += spread
+        return setup._replace(x0=np.concatenate([setup.x0, np.zeros(k)]), P0=P0, Q=Q)
+
+    def run_imu_passes(self, flight: Flight, run_filter: PassRunner,
+                       evaluations_per_pass: Callable[[_kalman.DiscreteModel], int]
+                       ) -> EstimationResult:
+        """:meth:`run_passes` on the model with the IMU-error states, and their report."""
+        names = self.imu_error_names()
+        passes: list[_kalman.FilterOutput] = []
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            if names:
+                model = _kalman.with_sensor_errors(model, len(names))
+            out = run_filter(model, setup)
+            passes.append(out)
+            return out
+
+        result = self.run_passes(flight, one_pass, evaluations_per_pass)
+        good = [out for out in passes if out.failed_at is None]
+        if not names or not good or not np.all(np.isfinite(result.theta)):
+            return result
+        last = good[-1]  # the pass the result is (run_passes keeps the last good one)
+        k = len(names)
+        x, P = last.x[-1], last.P
+        info = dict(result.info)
+        info["imu_errors"] = dict(zip(names, x[-k:].tolist(), strict=True))
+        info["imu_error_stderr"] = dict(zip(names, np.sqrt(np.diag(P)[-k:]).tolist(),
+                                            strict=True))
+        keep = list(range(_common.COEFFICIENTS.start, _common.COEFFICIENTS.stop)) + list(
+            range(x.size - k, x.size))
+        warnings = nuisance_findings((*result.names, *names), x[keep], P[np.ix_(keep, keep)],
+                                     names)
+        return dataclasses.replace(result, info=info,
+                                   warnings=(*result.warnings, *warnings))
