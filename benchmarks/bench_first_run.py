@@ -17,8 +17,8 @@ environment's install):
 2. warm: the same command again with the same folders.
 
 Wall time, CPU time of the child process, and the compile notices the command printed
-(``aeroid: compiled NAME in S s``) are recorded. The machine may be shared: the load
-average before each run is recorded beside it.
+(``aeroid: compiled NAME in S s``: numba's kernels and the C model) are recorded. The
+machine may be shared: the load average before and after each run is recorded beside it.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "first_run.md"
 COMMAND = ["-c", "import sys; from aeroid.cli import main; sys.exit(main())", "study"]
-COMPILED = re.compile(r"aeroid: compiled (\S+) in ([0-9.]+) s")
+COMPILED = re.compile(r"^aeroid: compiled (.+) in ([0-9.]+) s$", re.MULTILINE)
 #: The target of issue 19: the README main job's first run on a fresh clone.
 TARGET_S = 60.0
 
@@ -53,10 +53,11 @@ def _run(clone: Path, caches: Path, out: Path) -> dict[str, object]:
                           capture_output=True, text=True, check=False)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    load_after = os.getloadavg()[0]
     if done.returncode != 0:
         raise SystemExit(f"the main job failed ({done.returncode}): {done.stderr[-2000:]}")
     return {"wall": wall, "cpu": (after.ru_utime - before.ru_utime)
-            + (after.ru_stime - before.ru_stime), "load": load,
+            + (after.ru_stime - before.ru_stime), "load": load, "load_after": load_after,
             "compiled": COMPILED.findall(done.stderr)}
 
 
@@ -80,16 +81,17 @@ def report(rows: list[tuple[str, dict[str, object]]]) -> str:
     lines = ["# First run of the README main job (benchmarks/bench_first_run.py)", "",
              f"- date: {dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC; commit {head}; "
              f"machine: {platform.machine()}, {os.cpu_count()} CPU cores, Python "
-             f"{platform.python_version()}; shared with other work (load average at the "
-             "start of each run in the table)",
+             f"{platform.python_version()}; shared with other work (1-minute load average "
+             "before and after each run in the table)",
              "- command: `python benchmarks/bench_first_run.py`: a fresh `git clone`, then "
              "`aeroid study` with empty NUMBA_CACHE_DIR and AEROID_CASADI_CACHE (cold) "
              "and again (warm)", "",
-             "| run | wall [s] | CPU [s] | load | compiled (numba, s) |",
+             "| run | wall [s] | CPU [s] | load before / after | compiled (s) |",
              "|:---|---:|---:|---:|:---|"]
     for kind, m in rows:
         compiled = ", ".join(f"{n} {float(s):.1f}" for n, s in m["compiled"]) or "-"
-        lines.append(f"| {kind} | {m['wall']:.1f} | {m['cpu']:.1f} | {m['load']:.2f} | "
+        lines.append(f"| {kind} | {m['wall']:.1f} | {m['cpu']:.1f} | {m['load']:.2f} / "
+                     f"{m['load_after']:.2f} | "
                      f"{compiled} |")
     cold = [m for k, m in rows if k == "cold"]
     wall = max(float(m["wall"]) for m in cold)

@@ -17,7 +17,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
-import logging
 import os
 import shutil
 import subprocess
@@ -31,6 +30,7 @@ import casadi as ca
 from aeroid.model import _equations as eq
 from aeroid.model import _inputs as inputs
 from aeroid.model._coefficients import N_COEFFICIENTS
+from aeroid.model._compile_clock import compiling
 from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, Constants
 from aeroid.model._integrate import rk4_stages
 
@@ -254,15 +254,15 @@ def compile_functions(functions: Sequence[ca.Function], name: str
         cache = cache_dir()
         library = cache / f"{name}_{digest.hexdigest()[:20]}.so"
         if not library.exists():
-            logging.getLogger("aeroid").info(
-                "compiling the model to C once (a few seconds; cached in %s)", cache)
             cache.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=cache) as tmp:
                 src = Path(tmp, f"{name}.c")
                 src.write_bytes(source)
                 out = Path(tmp, library.name)
-                subprocess.run([compiler, *C_FLAGS, str(src), "-o", str(out)], check=True,
-                               capture_output=True, timeout=300)
+                # named and timed by the command line; a study leaves it out of the runtime
+                with compiling("the C model"):
+                    subprocess.run([compiler, *C_FLAGS, str(src), "-o", str(out)],
+                                   check=True, capture_output=True, timeout=300)
                 os.replace(out, library)
         return [ca.external(fun.name(), str(library)) for fun in functions]
     except (OSError, subprocess.SubprocessError, RuntimeError):

@@ -1,4 +1,4 @@
-"""Figures of a study (matplotlib, Agg backend; PNG files).
+"""Figures of a study (matplotlib ``Figure`` objects on an Agg canvas, no pyplot; PNG files).
 
 - :func:`plot_convergence` — best cost vs iteration of the PSO-type methods (paper Fig. 4)
 - :func:`plot_coefficient_history` — each coefficient vs iteration (PSO) or vs time
@@ -10,6 +10,12 @@
 - :func:`plot_runtime` — wall time per fit and estimator
 
 Every function takes plain arrays/tables, writes one PNG and returns its path.
+
+Layout: margins and gaps are fixed in inches from what each figure holds (its title,
+tick labels, notes), not found by matplotlib's constrained layout, which measured every
+text twice and drew each figure twice: it was half of a warm quick study's time
+(benchmarks/results/first_run.md). ``tests/integration/test_study_figures.py`` checks
+that no panel's labels run into another's or off the figure.
 """
 
 from __future__ import annotations
@@ -20,22 +26,24 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
 import matplotlib.ticker
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from aeroid.model import NAMES  # noqa: E402
+from aeroid.model import NAMES
+from aeroid.study._layout import TICK_CHAR_IN
+from aeroid.study._layout import grid as _grid
+from aeroid.study._layout import note as _note
+from aeroid.study._layout import place as _place
+from aeroid.study._layout import tick_label_height as _tick_label_height
 
 FM_NAMES = ("F_AX [N]", "F_AY [N]", "F_AZ [N]", "M_X [N m]", "M_Y [N m]", "M_Z [N m]")
 DPI = 110
 _PLAIN = matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}")
 
 
-def _save(fig: Any, path: str | Path) -> Path:
+def _save(fig: Figure, path: str | Path) -> Path:
     """Write ``fig`` as PNG through ``path.tmp`` and a rename: never a truncated PNG."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
@@ -47,8 +55,6 @@ def _save(fig: Any, path: str | Path) -> Path:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
-    finally:
-        plt.close(fig)
     return path
 
 
@@ -74,8 +80,7 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
     n = max(len(histories), 1)
     cols = min(n, 3)
     rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows + 0.4), squeeze=False,
-                             layout="constrained")
+    fig, axes = _grid(rows, cols, (4.2 * cols, 3.2 * rows + 0.4))
     for ax, (label, h) in zip(axes.flat, histories.items(), strict=False):
         cost = np.asarray(h["cost"], dtype=float).reshape(-1)
         step = np.asarray(h["step"], dtype=float).reshape(-1)
@@ -94,10 +99,14 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
     for ax in list(axes.flat)[len(histories):]:
         ax.set_visible(False)
     axes[0, 0].set_ylabel("best cost (own objective)")
+    note = 0.0
     if left_out:
         text = "; ".join(f"{k}: {v}" for k, v in left_out.items())
-        fig.supxlabel("Not shown — " + text, fontsize=8, wrap=True)
+        note = _note(fig, "Not shown — " + text)
     fig.suptitle(title or "Convergence of the cost (run 0)")
+    # panel titles: up to three lines at 8 pt (the note on a cost known up to a constant)
+    _place(fig, rows, cols, left=1.0, right=0.2, top=1.0, bottom=0.6 + note, wgap=0.8,
+           hgap=1.2)
     return _save(fig, path)
 
 
@@ -106,10 +115,10 @@ def plot_convergence(histories: Mapping[str, Mapping[str, np.ndarray]], path: st
 ZOOM_RATIO = 10.0
 
 
-def _coefficient_grid(**kwargs: Any) -> tuple[Any, list[Any]]:
+def _coefficient_grid(figsize: tuple[float, float], **kwargs: Any) -> tuple[Figure, list[Any]]:
     """Return a figure with one panel per coefficient (three columns) and those panels."""
     rows = -(-len(NAMES) // 3)
-    fig, axes = plt.subplots(rows, 3, layout="constrained", **kwargs)
+    fig, axes = _grid(rows, 3, figsize, **kwargs)
     panels = list(axes.flat)
     for ax in panels[len(NAMES):]:
         ax.set_visible(False)
@@ -165,7 +174,8 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
     theta = np.asarray(history["theta"], dtype=float).reshape(len(step), -1)
     sd = history.get("theta_sd")
     axis = str(history.get("axis", "iteration"))
-    fig, panels = _coefficient_grid(figsize=(10, 2.5 * -(-len(NAMES) // 3)), sharex=True)
+    rows = -(-len(NAMES) // 3)
+    fig, panels = _coefficient_grid((10, 2.5 * rows), sharex=True)
     clipped = False
     for j, ax in enumerate(panels):
         ax.plot(step, theta[:, j], lw=1.4, color="C0", label="estimate")
@@ -180,11 +190,14 @@ def plot_coefficient_history(history: Mapping[str, Any], truth: Sequence[float],
         if j >= len(panels) - 3:
             ax.set_xlabel("time [s]" if axis == "time" else "iteration")
     panels[0].legend(fontsize=7)
+    note = 0.0
     if clipped:
-        fig.supxlabel("▲ ▼ mark estimates beyond the axis (early iterations far from the "
-                      "truth); the axis keeps the truth and the converged part in view",
-                      fontsize=8)
+        note = _note(fig, "▲ ▼ mark estimates beyond the axis (early iterations far from "
+                     "the truth); the axis keeps the truth and the converged part in view")
     fig.suptitle(title or "Coefficient estimates (run 0)")
+    # shared x: only the bottom row has tick labels; a gap holds a title and an offset
+    _place(fig, rows, 3, left=0.85, right=0.2, top=0.6, bottom=0.55 + note, wgap=0.8,
+           hgap=0.5)
     return _save(fig, path)
 
 
@@ -200,7 +213,7 @@ def plot_forces(t: np.ndarray, fm_raw: np.ndarray, fm_smooth: np.ndarray | None,
         ``[F_AX, F_AY, F_AZ, M_X, M_Y, M_Z]`` [N, N m]; ``fm_smooth`` and ``fm_true`` optional.
     """
     t = np.asarray(t, dtype=float)
-    fig, axes = plt.subplots(2, 3, figsize=(11, 6), sharex=True, layout="constrained")
+    fig, axes = _grid(2, 3, (11, 6), sharex=True)
     for j, ax in enumerate(axes.flat):
         ax.plot(t, np.asarray(fm_raw)[:, j], color="0.6", lw=0.7, label="reconstructed")
         if fm_smooth is not None:
@@ -213,6 +226,7 @@ def plot_forces(t: np.ndarray, fm_raw: np.ndarray, fm_smooth: np.ndarray | None,
             ax.set_xlabel("time [s]")
     axes.flat[0].legend(fontsize=7)
     fig.suptitle(title or "Reconstructed forces and moments (run 0)")
+    _place(fig, 2, 3, left=0.85, right=0.2, top=0.6, bottom=0.55, wgap=0.8, hgap=0.5)
     return _save(fig, path)
 
 
@@ -282,7 +296,8 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
     failed = {lab: int((~fits.loc[fits["estimator"] == lab, "success"]).sum())
               for lab in labels}
     ticks = [lab + (f"\n({failed[lab]} failed)" if failed[lab] else "") for lab in labels]
-    fig, panels = _coefficient_grid(figsize=(12, 3 * -(-len(NAMES) // 3)))
+    n_rows = -(-len(NAMES) // 3)
+    fig, panels = _coefficient_grid((12, 3 * n_rows))
     rng = np.random.default_rng(0)  # horizontal jitter of the strip only
     n_clipped = 0
     for j, ax in enumerate(panels):
@@ -332,10 +347,14 @@ def plot_errors(tidy: pd.DataFrame, path: str | Path,
     handles, texts = panels[0].get_legend_handles_labels()
     if handles:
         panels[0].legend(handles, texts, fontsize=7, loc="upper left")
+    note = 0.0
     if n_clipped:
-        fig.supxlabel(f"▲ ▼ {n_clipped} error(s) beyond ±{_tick_label(CLIP_PCT)} % drawn on "
-                      "the edge", fontsize=8)
+        note = _note(fig, f"▲ ▼ {n_clipped} error(s) beyond ±{_tick_label(CLIP_PCT)} % drawn "
+                     "on the edge")
     fig.suptitle(title or "Relative error per coefficient (successful fits)")
+    below = _tick_label_height(ticks, 35.0, TICK_CHAR_IN * 7 / 8)  # 7 pt labels
+    _place(fig, n_rows, 3, left=1.0, right=0.2, top=0.6, bottom=below + 0.1 + note, wgap=0.8,
+           hgap=below + 0.35)
     return _save(fig, path)
 
 
@@ -351,7 +370,8 @@ def plot_runtime(tidy: pd.DataFrame, path: str | Path, title: str = "") -> Path:
     labels = list(dict.fromkeys(fits["estimator"]))
     data = [fits.loc[fits["estimator"] == lab, "wall_time_s"].dropna().to_numpy()
             for lab in labels]
-    fig, ax = plt.subplots(figsize=(max(5.0, 1.1 * len(labels) + 2), 4), layout="constrained")
+    fig, axes = _grid(1, 1, (max(5.0, 1.1 * len(labels) + 2), 4.0))
+    ax = axes[0, 0]
     positions = np.arange(1, len(labels) + 1)
     keep = [k for k, d in enumerate(data) if len(d)]
     if keep:
@@ -366,6 +386,8 @@ def plot_runtime(tidy: pd.DataFrame, path: str | Path, title: str = "") -> Path:
     ax.set_ylabel("wall time per fit [s]")
     ax.grid(True, axis="y", which="both", alpha=0.3)
     ax.set_title(title or "Run time per fit")
+    _place(fig, 1, 1, left=0.85, right=0.2, top=0.4,
+           bottom=_tick_label_height(labels, 30.0, TICK_CHAR_IN) + 0.1, wgap=0.0, hgap=0.0)
     return _save(fig, path)
 
 

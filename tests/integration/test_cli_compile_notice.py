@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -105,3 +106,31 @@ def test_a_build_announced_by_aeroid_is_named_and_timed(tmp_path, capsys, monkey
     assert "aeroid: compiling the C model (once: cached on disk for later runs)" in err
     (seconds,) = re.findall(r"aeroid: compiled the C model in ([0-9.]+) s", err)
     assert 0.2 <= float(seconds) < 5.0
+
+
+def test_the_c_model_build_is_named_timed_and_left_out_once_cached(tmp_path, monkeypatch):
+    """Output-error's one-time C compile announces itself (:func:`compiling`): the
+    compile clock a study runs each fit under counts it as compile time, not fit time."""
+    import casadi as ca
+    import numpy as np
+
+    from aeroid.model import compile_clock, symbolic
+
+    if not (os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")):
+        pytest.skip("no C compiler: CasADi's virtual machine is used")
+    monkeypatch.setenv("AEROID_CASADI_CACHE", str(tmp_path / "casadi"))
+    x = ca.SX.sym("x", 3)
+    function = ca.Function("probe_c", [x], [ca.sin(x) * ca.sumsqr(x)])
+    lines = []
+    with compile_clock(lines.append) as clock:
+        (built,) = symbolic.compile_functions([function], "aeroid_probe")
+    ((name, seconds),) = clock.compiled
+    assert name == "the C model" and seconds > 0.0
+    assert lines == ["compiling the C model (once: cached on disk for later runs)",
+                     f"compiled the C model in {seconds:.1f} s"]
+    point = np.array([0.3, -1.2, 2.0])  # the library computes what CasADi's VM computes
+    np.testing.assert_allclose(np.asarray(built(point)).ravel(),
+                               np.sin(point) * np.sum(point**2), rtol=1e-14)
+    with compile_clock() as again:  # from the disk cache: nothing compiles
+        assert symbolic.compile_functions([function], "aeroid_probe") is not None
+    assert again.compiled == []
