@@ -65,3 +65,78 @@ def imu_error_report(names: tuple[str, ...], imu_names: tuple[str, ...], phys: n
     info = {"imu_errors": dict(zip(imu_names, phys[-k:].tolist(), strict=True)),
             "imu_error_stderr": dict(zip(imu_names, stderr[-k:].tolist(), strict=True))}
     return info, nuisance_findings(names, phys, cov, imu_names)
+
+
+def consider_covariance(est: Any, flight: Flight, best: Any, scale: np.ndarray) -> np.ndarray:
+    """Output-error's uncertain positions' share of the covariance (Schmidt consider analysis).
+
+    ``S C S^T`` with ``S = -M^-1 M_pc`` the sensitivity of the estimate to the
+    considered components (``M_pc = J_p^T R^-1 J_c`` at the optimum) and ``C`` their
+    prior covariance; in physical units, shape (n_p, n_p).
+    """
+    sd = flight.airframe.accel_position_sd.ravel()
+    considered = [int(c) for c in np.flatnonzero(sd > 0)]
+    if not considered:
+        return np.zeros((scale.size, scale.size))
+    wide_free = tuple(sorted(set(considered) | {3 * t for t in est.rx_free()}))
+    wide = est.problem(flight, position_free=wide_free).model
+    first = aeroid.model.N_COEFFICIENTS + len(est.x0_free())
+    p = np.zeros(wide.scale.size)
+    p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
+    n_rest = best.p.size - first - len(est.position_free(flight))  # delay, IMU errors
+    if n_rest:
+        p[-n_rest:] = best.p[-n_rest:]
+    _, J = wide.outputs_jacobian(p)
+    columns = [first + wide_free.index(c) for c in considered]
+    w = 1.0 / np.sqrt(np.broadcast_to(best.r_diag, best.e.shape)).T  # (m, n)
+    Jc = (J[:, :, columns] * (sd[considered] / wide.scale[columns]) * w[:, :, None])
+    Jp = best.J * w[:, :, None]
+    Jp_flat, Jc_flat = Jp.reshape(-1, Jp.shape[-1]), Jc.reshape(-1, len(considered))
+    S = -np.linalg.solve(Jp_flat.T @ Jp_flat, Jp_flat.T @ Jc_flat)  # per unit sd
+    return (S @ S.T) * np.outer(scale, scale)
+
+
+def position_report(est: Any, model: Any, phys: np.ndarray, stderr: np.ndarray
+                    ) -> dict[str, np.ndarray]:
+    """Return the fitted accelerometer positions and initial state of an output-error fit.
+
+    ``accel_positions_m`` and ``accel_position_stderr_m`` (2, 3) and ``initial_state`` (the
+    record model's start with the estimated components added; used by
+    :meth:`aeroid.estimation.EstimationResult.predict`).
+    """
+    n_c = aeroid.model.N_COEFFICIENTS
+    first_pos = n_c + len(est.x0_free())
+    positions = model.pos.copy()
+    position_sd = np.zeros(6)
+    for j, c in enumerate(model.position_free):
+        positions[c] += phys[first_pos + j]
+        position_sd[c] = stderr[first_pos + j]
+    start = model.x0.copy()
+    start[list(est.x0_free())] += phys[n_c:first_pos]
+    return {"accel_positions_m": positions.reshape(2, 3),
+            "accel_position_stderr_m": position_sd.reshape(2, 3), "initial_state": start}
+
+
+def prior_weights(est: Any, flight: Flight, scale: np.ndarray,
+                  position_free: tuple[int, ...]) -> np.ndarray:
+    """Return the weights of output-error's Gaussian priors on its scaled parameters.
+
+    Uncertain position components estimated under ``positions="estimate"`` (their sd
+    from the airframe) and, with ``initial_velocity_prior="flight"``, the initial
+    ``u, v, w`` (their sd from the flight's metadata); zero elsewhere (no prior).
+    """
+    weight = np.zeros(scale.size)
+    n_c = aeroid.model.N_COEFFICIENTS
+    pos_sd = flight.airframe.accel_position_sd.ravel()
+    if est.positions == "estimate":
+        first = n_c + len(est.x0_free())
+        for j, c in enumerate(position_free):
+            if pos_sd[c] > 0:
+                weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
+    if est.initial_velocity_prior == "flight":
+        sd = initial_velocity_sd(flight)
+        states = [aeroid.model.STATE_NAMES.index(name) for name in VELOCITY_NAMES]
+        for j, i in enumerate(est.x0_free()):
+            if i in states:
+                weight[n_c + j] = (scale[n_c + j] / sd[states.index(i)]) ** 2
+    return weight

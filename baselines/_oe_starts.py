@@ -24,7 +24,9 @@ from typing import Any
 import numpy as np
 
 import aeroid
-from aeroid.flights import Flight
+from aeroid.estimation import minimize
+from aeroid.flights import Flight, model_constants
+from aeroid.model import ForwardModel
 
 #: Two ends lie at the same optimum when no coefficient differs by more than this many of
 #: the best end's standard errors: 50x the fit's convergence tolerance (1e-3 sd); the two
@@ -137,3 +139,26 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
             f"higher by {excess[k]:.3g}; the result is the likeliest end (start "
             f"{labels[best]!r}), more starts (n_starts) may find a likelier one")
     return info, warnings
+
+
+def warm_start_point(est: Any, prob: Any, flight: Flight, rng: np.random.Generator
+                   ) -> tuple[np.ndarray, int]:
+    """Return the best coefficients of output-error's short PSO run and its evaluation count.
+
+    The PSO minimises the concentrated likelihood ``sum_j log mean_k e_kj^2`` within
+    :func:`aeroid.prior_bounds` (the option ``pso_warm_start``).
+    """
+    record_model = prob.model
+    model = ForwardModel(model_constants(flight), record_model.record(est.delay_s),
+                         flight.airframe.accel_positions, substeps=est.substeps)
+
+    def cost(thetas: np.ndarray) -> np.ndarray:
+        ms = np.mean((prob.z[None] - model.outputs(record_model.x0, thetas)) ** 2, axis=1)
+        with np.errstate(all="ignore"):
+            out = np.sum(np.log(np.maximum(ms, prob.r_floor)), axis=1)
+        return np.where(np.isfinite(out), out, np.inf)
+
+    res = minimize(cost, aeroid.prior_bounds(flight.airframe),
+                   n_particles=est.pso_particles, n_iterations=est.pso_iterations,
+                   rng=rng, x0=flight.airframe.prior_vector()[None, :])
+    return np.asarray(res.x), int(res.n_evaluations)

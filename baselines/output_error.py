@@ -28,8 +28,8 @@ import numpy as np
 
 import aeroid
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import INPUTS, Flight, model_constants
-from aeroid.model import OUTPUT_CHANNELS, ForwardModel
+from aeroid.flights import INPUTS, Flight
+from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common
 from baselines._gauss_newton import (
     NOISE_MODELS,
@@ -42,11 +42,19 @@ from baselines._gauss_newton import (
 from baselines._oe_record import IMU_ERRORS, RecordModel, imu_error_names
 from baselines._oe_sensors import (
     HELD_VELOCITY_WARNING,
+    consider_covariance,
     imu_error_report,
     imu_error_scales,
-    initial_velocity_sd,
+    position_report,
+    prior_weights,
 )
-from baselines._oe_starts import Start, best_end, equation_error_start, start_report
+from baselines._oe_starts import (
+    Start,
+    best_end,
+    equation_error_start,
+    start_report,
+    warm_start_point,
+)
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -159,17 +167,13 @@ class OutputErrorEstimator(Estimator):
     pso_particles, pso_iterations : int
         Budget of that warm start (defaults 30 and 40).
     imu_errors : {"none", "bias", "bias+scale"}
-        Also estimate the IMU's errors as parameters (default ``"none"``: the channels are
-        taken as unbiased): a bias per output channel (both triads' three axes and the
-        three gyros), with ``"bias+scale"`` also a scale factor, in the sensor law
-        ``y_meas = (1 + s) y_model + b`` of :func:`aeroid.flights.simulate_suite`; no
-        prior (maximum likelihood), reported in ``info['imu_errors']`` with
-        ``info['imu_error_stderr']`` (names ``b`` / ``s`` + channel: ``bax1``, ``sp``).
-        For a log whose IMU is raw (:meth:`aeroid.reconstruction.Reconstruction.
-        to_flight` with ``imu="raw"``). An axial bias trades against Cx (the axial
-        force hardly changes over a window); the fit says so (a warning naming each
-        pair whose estimates correlate above 0.98: :func:`aeroid.estimation.
-        nuisance_findings`).
+        Also estimate the IMU's errors (default ``"none"``: unbiased channels): a bias per
+        output channel, with ``"bias+scale"`` also a scale factor, in the sensor law
+        ``y_meas = (1 + s) y_model + b`` of :func:`aeroid.flights.simulate_suite`; no prior;
+        ``info['imu_errors']`` and ``info['imu_error_stderr']`` (``bax1``, ``sp``, ...).
+        For a raw IMU (``Reconstruction.to_flight(imu="raw")``). An axial bias trades
+        against Cx; a warning names each pair correlated above 0.98
+        (:func:`aeroid.estimation.nuisance_findings`).
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -247,34 +251,6 @@ class OutputErrorEstimator(Estimator):
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors)))
 
-    def consider_term(self, flight: Flight, best: Fit, scale: np.ndarray) -> np.ndarray:
-        """The uncertain positions' share of the covariance (Schmidt consider analysis).
-
-        ``S C S^T`` with ``S = -M^-1 M_pc`` the sensitivity of the estimate to the
-        considered components (``M_pc = J_p^T R^-1 J_c`` at the optimum) and ``C`` their
-        prior covariance; in physical units, shape (n_p, n_p).
-        """
-        sd = flight.airframe.accel_position_sd.ravel()
-        considered = [int(c) for c in np.flatnonzero(sd > 0)]
-        if not considered:
-            return np.zeros((scale.size, scale.size))
-        wide_free = tuple(sorted(set(considered) | {3 * t for t in self.rx_free()}))
-        wide: RecordModel = self.problem(flight, position_free=wide_free).model  # type: ignore
-        first = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
-        p = np.zeros(wide.scale.size)
-        p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
-        n_rest = best.p.size - first - len(self.position_free(flight))  # delay, IMU errors
-        if n_rest:
-            p[-n_rest:] = best.p[-n_rest:]
-        _, J = wide.outputs_jacobian(p)
-        columns = [first + wide_free.index(c) for c in considered]
-        w = 1.0 / np.sqrt(np.broadcast_to(best.r_diag, best.e.shape)).T  # (m, n)
-        Jc = (J[:, :, columns] * (sd[considered] / wide.scale[columns]) * w[:, :, None])
-        Jp = best.J * w[:, :, None]
-        Jp_flat, Jc_flat = Jp.reshape(-1, Jp.shape[-1]), Jc.reshape(-1, len(considered))
-        S = -np.linalg.solve(Jp_flat.T @ Jp_flat, Jp_flat.T @ Jc_flat)  # per unit sd
-        return (S @ S.T) * np.outer(scale, scale)
-
     def rx_free(self) -> tuple[int, ...]:
         """Triads (0, 1) whose x position is estimated."""
         return tuple(t for t, on in enumerate((self.estimate_rx1, self.estimate_rx2)) if on)
@@ -311,18 +287,7 @@ class OutputErrorEstimator(Estimator):
         z = _common.measurements(flight)
         scale += imu_error_scales(z, self.imu_errors)
         scale = np.concatenate(scale)
-        weight = np.zeros(scale.size)
-        if self.positions == "estimate":
-            first = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
-            for j, c in enumerate(position_free):
-                if pos_sd[c] > 0:
-                    weight[first + j] = (scale[first + j] / pos_sd[c]) ** 2  # = 1
-        if self.initial_velocity_prior == "flight":
-            n_c = aeroid.model.N_COEFFICIENTS
-            sd = initial_velocity_sd(flight)
-            for j, i in enumerate(self.x0_free()):
-                if i in X0_VELOCITIES:
-                    weight[n_c + j] = (scale[n_c + j] / sd[X0_VELOCITIES.index(i)]) ** 2
+        weight = prior_weights(self, flight, scale, position_free)
         x0 = flight.states()[0]
         x0[_common.RATES] = _common.smoothed_start(z[:, _common.GYROS])
         model = RecordModel(flight, input=self.input, substeps=self.substeps,
@@ -339,26 +304,6 @@ class OutputErrorEstimator(Estimator):
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
         return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol)
-
-    def warm_start(self, prob: Problem, flight: Flight, rng: np.random.Generator
-                   ) -> tuple[np.ndarray, int]:
-        """Return the best coefficients of a short PSO run and its evaluation count."""
-        from aeroid.estimation import minimize
-
-        record_model: RecordModel = prob.model  # type: ignore[assignment]
-        model = ForwardModel(model_constants(flight), record_model.record(self.delay_s),
-                             flight.airframe.accel_positions, substeps=self.substeps)
-
-        def cost(thetas: np.ndarray) -> np.ndarray:
-            ms = np.mean((prob.z[None] - model.outputs(record_model.x0, thetas)) ** 2, axis=1)
-            with np.errstate(all="ignore"):
-                out = np.sum(np.log(np.maximum(ms, prob.r_floor)), axis=1)
-            return np.where(np.isfinite(out), out, np.inf)
-
-        res = minimize(cost, aeroid.prior_bounds(flight.airframe),
-                       n_particles=self.pso_particles, n_iterations=self.pso_iterations,
-                       rng=rng, x0=flight.airframe.prior_vector()[None, :])
-        return np.asarray(res.x), int(res.n_evaluations)
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
@@ -380,7 +325,7 @@ class OutputErrorEstimator(Estimator):
             first[i_delay] = self.delay_s / scale[i_delay]
         extra_evals = 0
         if self.pso_warm_start:
-            theta_pso, extra_evals = self.warm_start(prob, flight, rng)
+            theta_pso, extra_evals = warm_start_point(self, prob, flight, rng)
             first[:n_c] = theta_pso / scale[:n_c]
         starts = [Start("pso" if self.pso_warm_start else "prior", first)]
         if self.equation_error_start:
@@ -412,7 +357,7 @@ class OutputErrorEstimator(Estimator):
             cov_p = sandwich(cov_p, best.J, best.e, best.r_diag)
         cov_phys = cov_p * np.outer(scale, scale)
         if self.positions == "consider":
-            cov_phys = cov_phys + self.consider_term(flight, best, scale)
+            cov_phys = cov_phys + consider_covariance(self, flight, best, scale)
         phys = best.p * scale
         theta = phys[:n_c]
         cov = cov_phys[:n_c, :n_c]
@@ -434,19 +379,9 @@ class OutputErrorEstimator(Estimator):
         info.update(start_info)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)
-        first_pos = aeroid.model.N_COEFFICIENTS + len(self.x0_free())
-        positions = model.pos.copy()
-        position_sd = np.zeros(6)
-        for j, c in enumerate(position_free):
-            positions[c] += phys[first_pos + j]
-            position_sd[c] = stderr_phys[first_pos + j]
-        info["accel_positions_m"] = positions.reshape(2, 3)
-        info["accel_position_stderr_m"] = position_sd.reshape(2, 3)
-        start = model.x0.copy()  # the fitted initial state (EstimationResult.predict)
-        start[list(self.x0_free())] += phys[n_c:first_pos]
-        info["initial_state"] = start
+        info.update(position_report(self, model, phys, stderr_phys))
         for t in self.rx_free():
-            info[f"rx{t + 1}_m"] = positions[3 * t]
+            info[f"rx{t + 1}_m"] = info["accel_positions_m"].ravel()[3 * t]
         if self.estimate_delay:
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
