@@ -177,10 +177,89 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
     specific = accelerometers(states, delta, coefficients, constants(airframe),
                               airframe.accel_positions).reshape(-1, 2, 3)
-    altitude = (airframe.altitude_m or 0.0) - position[k0:, 2]
+    imu_sampling = (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
+                    f"{sampled.truth_substeps} RK4 substeps, relay {sampled.evaluation}"
+                    + (f" at {sampled.control_rate_hz:g} Hz" if sampled.control_rate_hz
+                       else ""))
+    return log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
+                          position=position[k0:], source="simulated suite log",
+                          metadata={"imu_sampling": imu_sampling})
+
+
+def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
+                   specific_force: np.ndarray, airframe: Airframe,
+                   suite: SensorSuite | None = None, *,
+                   rng: np.random.Generator | int | None = None,
+                   position: np.ndarray | None = None, source: str = "suite log",
+                   metadata: dict[str, Any] | None = None) -> SuiteSimulation:
+    """Log a given truth trajectory through a sensor suite (module docstring).
+
+    The sensor layer alone, shared by :func:`simulate_suite` and any other source of a
+    truth (another simulator): the errors and noise are drawn and the groups sampled
+    exactly as there.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        The truth's times [s], uniform at ``suite.imu_rate_hz``.
+    states : ndarray, shape (n, N_STATES)
+        The model's states at ``t`` [m/s, rad/s, rad] (``STATE_NAMES``).
+    delta : ndarray, shape (n,)
+        Fin deflection at ``t`` [rad].
+    specific_force : ndarray, shape (n, 2, 3)
+        True specific force at each accelerometer triad's position [m/s^2].
+    airframe : Airframe
+        Accelerometer positions; ``altitude_m`` is the barometer's altitude at the NED
+        origin (needed with a barometer).
+    suite : SensorSuite, optional
+        Default :class:`SensorSuite()`.
+    rng : numpy.random.Generator or int, optional
+        Source of every draw (sensor errors first, then the noise, group by group).
+    position : ndarray, shape (n, 3), optional
+        NED position [m]; default the NED velocity integrated by the trapezoid rule from
+        the origin at ``t[0]``.
+    source : str
+        The log's name in messages.
+    metadata : dict, optional
+        Kept in the log's metadata beside the drawn ``truth`` errors.
+
+    Raises
+    ------
+    AirframeError
+        One line: shapes that do not match, a time axis that is not the IMU's rate, a
+        barometer without the airframe's altitude.
+    """
+    suite = suite or SensorSuite()
+    rng = np.random.default_rng(rng)
+    t = np.asarray(t, dtype=float)
+    states = np.asarray(states, dtype=float)
+    delta = np.asarray(delta, dtype=float)
+    specific = np.asarray(specific_force, dtype=float)
+    n = len(t)
+    shapes = {"states": (states.shape, (n, len(STATE_NAMES))), "delta": (delta.shape, (n,)),
+              "specific_force": (specific.shape, (n, *airframe.accel_positions.shape))}
+    if position is not None:
+        position = np.asarray(position, dtype=float)
+        shapes["position"] = (position.shape, (n, 3))
+    for name, (got, want) in shapes.items():
+        if got != want:
+            raise AirframeError(f"{source}: {name} has shape {got}, expected {want} "
+                                f"(t has {n} samples)")
+    step = np.diff(t)
+    if n < 2 or np.max(np.abs(step * suite.imu_rate_hz - 1.0)) > 1e-6:
+        raise AirframeError(f"{source}: the truth's times must be uniform at the IMU's "
+                            f"{suite.imu_rate_hz:g} Hz")
+    if suite.baro_rate_hz > 0 and airframe.altitude_m is None:
+        raise AirframeError("sensor suite: the barometer needs the airframe's [atmosphere] "
+                            "altitude_m (its altitude at t = 0)")
+    ned_velocity = np.einsum("kij,kj->ki", body_to_ned(*states[:, [PHI, THETA, PSI]].T),
+                             states[:, :3])
+    if position is None:
+        position = cumulative_trapezoid(ned_velocity, t, axis=0, initial=0.0)
+    altitude = (airframe.altitude_m or 0.0) - position[:, 2]
     table = {"t": t, **{name: states[:, j] for j, name in enumerate(STATE_NAMES)},
-             **{c: position[k0:, j] for j, c in enumerate(("pn", "pe", "pd"))},
-             **{c: ned_velocity[k0:, j] for j, c in enumerate(("vn", "ve", "vd"))},
+             **{c: position[:, j] for j, c in enumerate(("pn", "pe", "pd"))},
+             **{c: ned_velocity[:, j] for j, c in enumerate(("vn", "ve", "vd"))},
              "altitude": altitude, "delta": delta}
 
     def draw(range_: tuple[float, float], shape: tuple[int, ...]) -> np.ndarray:
@@ -217,14 +296,8 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
             noisy = {c: wrap_angle(v) if c != "theta" else v for c, v in noisy.items()}
         groups[name] = _group(name, t[::every], noisy, {c: s for c, s in sd.items() if s > 0},
                               suite)
-    metadata = {"truth": {k: v.tolist() for k, v in errors.items()},
-                "imu_sampling": (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
-                                 f"{sampled.truth_substeps} RK4 substeps, relay "
-                                 f"{sampled.evaluation}"
-                                 + (f" at {sampled.control_rate_hz:g} Hz"
-                                    if sampled.control_rate_hz else ""))}
-    return SuiteSimulation(SuiteLog(groups, airframe, metadata, "simulated suite log"),
-                           table, errors)
+    metadata = {"truth": {k: v.tolist() for k, v in errors.items()}, **(metadata or {})}
+    return SuiteSimulation(SuiteLog(groups, airframe, metadata, source), table, errors)
 
 
 def _group(name: str, t: np.ndarray, channels: dict[str, np.ndarray],
