@@ -6,7 +6,8 @@ east, down) in metres from the airframe's position at t = 0, integrated here fro
 truth (the model has no position states): the NED velocity ``C_nb(phi, theta, psi) [u v
 w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
 The barometer reads pressure altitude ``h0 - down`` with ``h0`` the airframe's
-``[atmosphere] altitude_m``; note that the model's dynamics hold the density of ``h0``
+``[atmosphere] altitude_m`` (or, ``baro_channels``, the ISA pressure and temperature of
+it); note that the model's dynamics hold the density of ``h0``
 constant, so an ISA density of the logged altitude differs from the truth's by the climb.
 
 Sampling. Each group samples the truth at its own rate, every ``imu_rate / rate``-th IMU
@@ -47,6 +48,8 @@ from aeroid.model import (
     accelerometers,
     as_vector,
     constants,
+    isa_pressure,
+    isa_temperature,
 )
 
 
@@ -71,6 +74,9 @@ class SensorSuite:
     gnss_velocity_sd_mps: float = 0.1
     gnss_position_sd_m: float = 1.5
     baro_altitude_sd_m: float = 1.0
+    baro_channels: tuple[str, ...] = ("altitude",)
+    baro_pressure_sd_pa: float = 10.0
+    baro_temperature_sd_k: float = 0.2
     ins_attitude_sd_rad: float = 0.003
     fin_sd_rad: float = 0.0
     offsets_s: tuple[tuple[str, float], ...] = ()
@@ -91,9 +97,19 @@ class SensorSuite:
             if len(range_) != 2 or not 0 <= range_[0] <= range_[1]:
                 raise AirframeError(f"sensor suite: {name} must be (low, high) with "
                                     f"0 <= low <= high, got {range_}")
+        if tuple(self.baro_channels) not in BARO_CHANNELS:
+            raise AirframeError(f"sensor suite: baro_channels must be one of "
+                                f"{', '.join(map(str, BARO_CHANNELS))}, got "
+                                f"{self.baro_channels}")
         unknown = sorted({g for g, _ in self.offsets_s} - set(GROUPS))
         if unknown:
             raise AirframeError(f"sensor suite: offsets_s names unknown group(s) {unknown}")
+
+
+#: What a suite's barometer may log: a pressure altitude, or the static pressure with or
+#: without the air temperature (ISA of the true altitude).
+BARO_CHANNELS: tuple[tuple[str, ...], ...] = (("altitude",), ("pressure",),
+                                               ("pressure", "temperature"))
 
 
 class SuiteSimulation(NamedTuple):
@@ -105,7 +121,8 @@ class SuiteSimulation(NamedTuple):
         The groups at their own rates (SI, true time axis).
     truth : dict of str to ndarray, shape (n,)
         At the IMU instants: ``t``, the nine states, ``pn pe pd`` [m], ``vn ve vd`` [m/s],
-        ``altitude`` [m], ``delta`` [rad].
+        ``altitude`` [m], ISA ``pressure`` [Pa] and ``temperature`` [K] of it, ``delta``
+        [rad].
     errors : dict of str to ndarray
         ``accel_bias`` and ``accel_scale`` (2, 3) (triad, axis), ``gyro_bias`` and
         ``gyro_scale`` (3,).
@@ -260,7 +277,8 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     table = {"t": t, **{name: states[:, j] for j, name in enumerate(STATE_NAMES)},
              **{c: position[:, j] for j, c in enumerate(("pn", "pe", "pd"))},
              **{c: ned_velocity[:, j] for j, c in enumerate(("vn", "ve", "vd"))},
-             "altitude": altitude, "delta": delta}
+             "altitude": altitude, "pressure": isa_pressure(altitude),
+             "temperature": isa_temperature(altitude), "delta": delta}
 
     def draw(range_: tuple[float, float], shape: tuple[int, ...]) -> np.ndarray:
         return rng.uniform(*range_, size=shape) * rng.choice([-1.0, 1.0], size=shape)
@@ -281,7 +299,10 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     aiding = {"gnss": ({c: table[c] for c in GROUPS["gnss"]},
                        {**{c: suite.gnss_velocity_sd_mps for c in ("vn", "ve", "vd")},
                         **{c: suite.gnss_position_sd_m for c in ("pn", "pe", "pd")}}),
-              "baro": ({"altitude": altitude}, {"altitude": suite.baro_altitude_sd_m}),
+              "baro": ({c: table[c] for c in suite.baro_channels},
+                       {"altitude": suite.baro_altitude_sd_m,
+                        "pressure": suite.baro_pressure_sd_pa,
+                        "temperature": suite.baro_temperature_sd_k}),
               "ins": ({c: table[c] for c in ("phi", "theta", "psi")},
                       dict.fromkeys(("phi", "theta", "psi"), suite.ins_attitude_sd_rad)),
               "fin": ({"delta": delta}, {"delta": suite.fin_sd_rad})}
@@ -294,7 +315,8 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
                  for c, v in values.items()}
         if name == "ins":
             noisy = {c: wrap_angle(v) if c != "theta" else v for c, v in noisy.items()}
-        groups[name] = _group(name, t[::every], noisy, {c: s for c, s in sd.items() if s > 0},
+        groups[name] = _group(name, t[::every], noisy,
+                              {c: s for c, s in sd.items() if s > 0 and c in noisy},
                               suite)
     metadata = {"truth": {k: v.tolist() for k, v in errors.items()}, **(metadata or {})}
     return SuiteSimulation(SuiteLog(groups, airframe, metadata, source), table, errors)

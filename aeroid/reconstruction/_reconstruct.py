@@ -22,6 +22,12 @@ from scipy.signal import savgol_filter
 from aeroid.errors import FlightError
 from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
+from aeroid.reconstruction._barometer import (
+    baro_altitude,
+    baro_channel,
+    baro_density,
+    baro_model,
+)
 from aeroid.reconstruction._filter import Aiding, run
 from aeroid.reconstruction._kinematics import (
     ACCEL_BIAS,
@@ -247,6 +253,9 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
         ex = exogenous(probe)
         assert ex is not None  # the altitude channel is there
         table["rho"] = ex[:, EXOGENOUS.index("rho")]
+        rho = baro_density(log, t, table["altitude"].to_numpy(), notes)
+        if rho is not None:
+            table["rho"] = rho
     else:
         notes.append("no barometer: no altitude or density in the output")
     return Reconstruction(table, passes.covariance, passes.nis, passes.innovations,
@@ -258,12 +267,13 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int
     """Return the aiding sources, leaving out each sample that set the initial state."""
     dt = float(np.median(np.diff(t)))
     out = []
+    baro = baro_channel(log) or "altitude"
     models: dict[str, Model] = {
         "gnss": lambda x: np.vstack([ned_velocity(x), x[POS]]),
-        "baro": lambda x: (x[IX["alt0"]] - x[IX["pd"]])[None],
+        "baro": baro_model(baro, lambda x: (x[IX["alt0"]] - x[IX["pd"]])[None]),
         "ins": lambda x: x[ATT],
     }
-    order = {"gnss": ("vn", "ve", "vd", "pn", "pe", "pd"), "baro": ("altitude",),
+    order = {"gnss": ("vn", "ve", "vd", "pn", "pe", "pd"), "baro": (baro,),
              "ins": ("phi", "theta", "psi")}
     for name, channels in order.items():
         if name not in log:
@@ -319,6 +329,10 @@ def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
         if name not in log or not all(c in log[name].channels for c in channels):
             return None
         group = log[name]
+        no_sd = [c for c in channels if c not in group.noise_sd]
+        if no_sd:
+            raise FlightError(f"{group.source}: no noise_sd for {', '.join(no_sd)} (each "
+                              "aiding channel needs one)")
         k = int(np.argmin(np.abs(group.t - t[0])))
         used[name] = k
         return (np.array([group.channels[c][k] for c in channels]), float(group.t[k] - t[0]),
@@ -347,9 +361,11 @@ def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
         sd[POS] = PRIOR_INFLATION * gnss_p[2] + abs(gnss_p[1]) * sd[IX["u"]]
     else:
         notes.append("no GNSS position: NED position from the first IMU sample")
-    baro = first("baro", ("altitude",))
-    if baro is not None:
-        x0[IX["alt0"]] = baro[0][0] + x0[IX["pd"]]
-        sd[IX["alt0"]] = (PRIOR_INFLATION * baro[2] + sd[IX["pd"]]
+    channel = baro_channel(log)
+    baro = first("baro", (channel,)) if channel else None
+    if channel and baro is not None:
+        altitude, baro_sd = baro_altitude(channel, float(baro[0][0]), baro[2])
+        x0[IX["alt0"]] = altitude + x0[IX["pd"]]
+        sd[IX["alt0"]] = (PRIOR_INFLATION * baro_sd + sd[IX["pd"]]
                           + np.linalg.norm(x0[VEL]) * abs(baro[1]))
     return x0, np.diag(sd ** 2)
