@@ -23,18 +23,18 @@ _EXPONENT = G0 / (R_AIR * LAPSE)
 P_TROPOPAUSE = P0 * (T_TROPOPAUSE / T0) ** _EXPONENT
 
 
-def _altitude(altitude_m: float | np.ndarray) -> np.ndarray:
+def _altitude(altitude_m: float | complex | np.ndarray) -> np.ndarray:
     h = np.asarray(altitude_m)
     return h if np.iscomplexobj(h) else h.astype(float)
 
 
-def temperature(altitude_m: float | np.ndarray) -> np.ndarray:
+def temperature(altitude_m: float | complex | np.ndarray) -> np.ndarray:
     """Return ISA temperature [K] at geopotential altitude [m], valid 0-20 km."""
     h = _altitude(altitude_m)
     return np.where(h.real < H_TROPOPAUSE, T0 - LAPSE * h, T_TROPOPAUSE + 0.0 * h)
 
 
-def pressure(altitude_m: float | np.ndarray) -> np.ndarray:
+def pressure(altitude_m: float | complex | np.ndarray) -> np.ndarray:
     """Return ISA pressure [Pa] at geopotential altitude [m], valid 0-20 km."""
     h = _altitude(altitude_m)
     below = h.real < H_TROPOPAUSE

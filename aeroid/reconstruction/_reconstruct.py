@@ -85,6 +85,9 @@ class Reconstruction:
     metadata : dict
     raw_imu : ndarray, shape (n, 9), optional
         The IMU's readings as logged (:data:`IMU_CHANNELS`, SI), at the table's times.
+    innovation_tables : dict of str to pandas.DataFrame
+        Per aiding source: ``t`` (the measurement's time), each channel's innovation
+        (measured - predicted, SI) and its predicted sd ``sd_CHANNEL`` (for the report).
     """
 
     table: pd.DataFrame
@@ -96,6 +99,7 @@ class Reconstruction:
     fin: tuple[np.ndarray, np.ndarray] | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
     raw_imu: np.ndarray | None = None
+    innovation_tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected") -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
@@ -258,8 +262,15 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
             table["rho"] = rho
     else:
         notes.append("no barometer: no altitude or density in the output")
+    innovation_tables = {
+        aid.name: pd.DataFrame({"t": passes.innovation_detail[aid.name]["t"],
+                                **{c: passes.innovation_detail[aid.name]["innovation"][:, j]
+                                   for j, c in enumerate(aid.channels)},
+                                **{f"sd_{c}": passes.innovation_detail[aid.name]["sd"][:, j]
+                                   for j, c in enumerate(aid.channels)}})
+        for aid in aidings}
     return Reconstruction(table, passes.covariance, passes.nis, passes.innovations,
-                          tuple(notes), airframe, fin, meta, imu.copy())
+                          tuple(notes), airframe, fin, meta, imu.copy(), innovation_tables)
 
 
 def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int]
@@ -303,7 +314,7 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int
                           np.column_stack([group.channels[c] for c in present])[inside],
                           np.array([group.noise_sd[c] for c in present]),
                           np.array([c in ("phi", "psi") for c in present]),
-                          _subset(full, rows)))
+                          _subset(full, rows), tuple(present)))
     return out
 
 
