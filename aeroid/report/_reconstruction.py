@@ -60,8 +60,7 @@ def innovation_figure(source: str, table: pd.DataFrame) -> Figure:
         ``sd_CHANNEL`` (SI).
     """
     channels = [c for c in table.columns if c != "t" and not c.startswith("sd_")]
-    fig = Figure(figsize=(8.0, 1.2 + 1.8 * len(channels)))
-    fig.subplots_adjust(left=0.14, right=0.97, top=0.94, bottom=0.08, hspace=0.55)
+    fig = Figure(figsize=(8.0, 1.2 + 1.8 * len(channels)), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(channels), 1, sharex=True))
     t = table["t"].to_numpy()
     for ax, channel in zip(axes, channels, strict=True):
@@ -82,8 +81,7 @@ def state_figure(rec: Reconstruction, names: Sequence[str]) -> Figure:
     """The states ``names`` with their +- BAND_SD sd band (left) and their sd (right)."""
     table = rec.table
     t = table["t"].to_numpy()
-    fig = Figure(figsize=(10.0, 1.2 + 2.0 * len(names)))
-    fig.subplots_adjust(left=0.1, right=0.97, top=0.95, bottom=0.07, hspace=0.5, wspace=0.3)
+    fig = Figure(figsize=(10.0, 1.2 + 2.0 * len(names)), layout="constrained")
     axes = np.atleast_2d(fig.subplots(len(names), 2, sharex=True))
     for (left, right), name in zip(axes, names, strict=True):
         unit = STATE_UNITS[name]
@@ -103,8 +101,7 @@ def state_figure(rec: Reconstruction, names: Sequence[str]) -> Figure:
 def instrument_figure(rec: Reconstruction) -> Figure:
     """The biases and scale factors (constant states: the first sample's smoothed value)."""
     first = rec.table.iloc[0]
-    fig = Figure(figsize=(8.0, 8.0))
-    fig.subplots_adjust(left=0.14, right=0.97, top=0.95, bottom=0.06, hspace=0.45)
+    fig = Figure(figsize=(8.0, 8.0), layout="constrained")
     axes = fig.subplots(len(INSTRUMENT_PANELS), 1)
     for ax, (title, (names, unit)) in zip(axes, INSTRUMENT_PANELS.items(), strict=True):
         values = np.array([first[n] for n in names])
