@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from aeroid.flights import ACCEL_CHANNELS, SensorSuite, log_trajectory, wrap_angle
-from aeroid.model import STATE_NAMES
+from aeroid.model import STATE_NAMES, density, isa_pressure, isa_temperature
 from aeroid.reconstruction import reconstruct
 
 from .jsbsim_flight import FlightConfig, make_flight
@@ -42,6 +42,13 @@ WITHIN_3SD = 0.97
 ALTITUDE_TOLERANCE_M = 1e-3
 #: An INS 2 ms late that the log does not declare: at the 30 rad/s roll, 0.06 rad of roll.
 INS_LATE_S = 0.002
+#: JSBSim's standard atmosphere against aeroid's ISA at the same geopotential altitude
+#: (measured on the window: pressure 4.5e-6, density 7.3e-6, temperature 9e-11 relative;
+#: JSBSim states its constants in English units, e.g. R = 1716.56 ft lbf / (slug R)).
+ISA_RTOL = 1e-5
+ISA_TEMPERATURE_RTOL = 1e-9
+#: The U.S. Standard Atmosphere's Earth radius for the geopotential altitude [m].
+EARTH_RADIUS_M = 6356766.0
 SEED = 1
 COMPARED = ("u", "v", "w", "phi", "theta", "psi")
 
@@ -117,3 +124,16 @@ def test_an_undeclared_ins_delay_fails_the_comparison(jsbsim_suite):
     log = dataclasses.replace(sim.log, groups={**sim.log.groups, "ins": late})
     fractions = within_3sd(reconstruct(log), data)
     assert fractions["phi"] < 0.5, fractions
+
+
+def test_isa_equals_jsbsims_atmosphere(jsbsim_suite):
+    """A second library: JSBSim's pressure, temperature and density along the climb."""
+    _, data, _ = jsbsim_suite
+    h = data["altitude"].to_numpy()  # geometric
+    geopotential = EARTH_RADIUS_M * h / (EARTH_RADIUS_M + h)
+    np.testing.assert_allclose(isa_pressure(geopotential), data["pressure"], rtol=ISA_RTOL)
+    np.testing.assert_allclose(density(geopotential), data["rho"], rtol=ISA_RTOL)
+    np.testing.assert_allclose(isa_temperature(geopotential), data["temperature"],
+                               rtol=ISA_TEMPERATURE_RTOL)
+    # the geometric altitude would be off by about 1 m: 1.4e-4 in density
+    assert np.max(np.abs(density(h) / data["rho"] - 1.0)) > 10 * ISA_RTOL
