@@ -207,7 +207,9 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
                    specific_force: np.ndarray, airframe: Airframe,
                    suite: SensorSuite | None = None, *,
                    rng: np.random.Generator | int | None = None,
-                   position: np.ndarray | None = None, source: str = "suite log",
+                   position: np.ndarray | None = None,
+                   atmosphere: dict[str, np.ndarray] | None = None,
+                   source: str = "suite log",
                    metadata: dict[str, Any] | None = None) -> SuiteSimulation:
     """Log a given truth trajectory through a sensor suite (module docstring).
 
@@ -235,6 +237,9 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     position : ndarray, shape (n, 3), optional
         NED position [m]; default the NED velocity integrated by the trapezoid rule from
         the origin at ``t[0]``.
+    atmosphere : dict with ``pressure`` [Pa] and ``temperature`` [K], shape (n,), optional
+        The truth's own air at ``t`` (another simulator's atmosphere); default the ISA of
+        the altitude ``altitude_m - pd``.
     source : str
         The log's name in messages.
     metadata : dict, optional
@@ -258,6 +263,12 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     if position is not None:
         position = np.asarray(position, dtype=float)
         shapes["position"] = (position.shape, (n, 3))
+    if atmosphere is not None:
+        if sorted(atmosphere) != ["pressure", "temperature"]:
+            raise AirframeError(f"{source}: atmosphere must give pressure and temperature, "
+                                f"got {sorted(atmosphere)}")
+        atmosphere = {k: np.asarray(v, dtype=float) for k, v in atmosphere.items()}
+        shapes.update({k: (v.shape, (n,)) for k, v in atmosphere.items()})
     for name, (got, want) in shapes.items():
         if got != want:
             raise AirframeError(f"{source}: {name} has shape {got}, expected {want} "
@@ -278,7 +289,7 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
              **{c: position[:, j] for j, c in enumerate(("pn", "pe", "pd"))},
              **{c: ned_velocity[:, j] for j, c in enumerate(("vn", "ve", "vd"))},
              "altitude": altitude, "pressure": isa_pressure(altitude),
-             "temperature": isa_temperature(altitude), "delta": delta}
+             "temperature": isa_temperature(altitude), **(atmosphere or {}), "delta": delta}
 
     def draw(range_: tuple[float, float], shape: tuple[int, ...]) -> np.ndarray:
         return rng.uniform(*range_, size=shape) * rng.choice([-1.0, 1.0], size=shape)

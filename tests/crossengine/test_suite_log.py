@@ -23,7 +23,13 @@ import numpy as np
 import pytest
 
 from aeroid.flights import ACCEL_CHANNELS, SensorSuite, log_trajectory, wrap_angle
-from aeroid.model import STATE_NAMES, density, isa_pressure, isa_temperature
+from aeroid.model import (
+    STATE_NAMES,
+    density,
+    isa_pressure,
+    isa_temperature,
+    pressure_altitude,
+)
 from aeroid.reconstruction import reconstruct
 
 from .jsbsim_flight import FlightConfig, make_flight
@@ -49,6 +55,9 @@ ISA_RTOL = 1e-5
 ISA_TEMPERATURE_RTOL = 1e-9
 #: The U.S. Standard Atmosphere's Earth radius for the geopotential altitude [m].
 EARTH_RADIUS_M = 6356766.0
+#: The density p / (R T) from one temperature sample against JSBSim's: within this many
+#: of the temperature's relative sd (measured on seeds 1-3: 3.7, 2.1 and 2.1).
+DENSITY_TEMPERATURE_SD = 5.0
 SEED = 1
 COMPARED = ("u", "v", "w", "phi", "theta", "psi")
 
@@ -58,12 +67,14 @@ def jsbsim_suite_log(seed, suite=None):
     config = dataclasses.replace(FlightConfig(), name="xe_suite", sample_rate_hz=IMU_RATE_HZ)
     _, truth = make_flight(config)
     data = truth.data
-    # the barometer's origin: JSBSim's altitude at the window's first sample
+    # the barometer's origin: JSBSim's altitude at the window's first sample; a barometer
+    # logging pressure and temperature reads JSBSim's own atmosphere
     airframe = truth.airframe.replace(altitude_m=float(data["altitude"].iloc[0]))
     sim = log_trajectory(data["t"].to_numpy(), data[list(STATE_NAMES)].to_numpy(),
                          data["delta"].to_numpy(),
                          data[list(ACCEL_CHANNELS)].to_numpy().reshape(-1, 2, 3), airframe,
-                         suite or SensorSuite(), rng=seed, source="jsbsim suite log")
+                         suite or SensorSuite(), rng=seed, source="jsbsim suite log",
+                         atmosphere={c: data[c].to_numpy() for c in ("pressure", "temperature")})
     return sim, data
 
 
@@ -137,3 +148,21 @@ def test_isa_equals_jsbsims_atmosphere(jsbsim_suite):
                                rtol=ISA_TEMPERATURE_RTOL)
     # the geometric altitude would be off by about 1 m: 1.4e-4 in density
     assert np.max(np.abs(density(h) / data["rho"] - 1.0)) > 10 * ISA_RTOL
+
+
+def test_reconstruction_from_jsbsims_pressure_and_temperature():
+    """The barometer logs JSBSim's own pressure and temperature (not aeroid's ISA)."""
+    suite = SensorSuite(baro_channels=("pressure", "temperature"))
+    sim, data = jsbsim_suite_log(SEED, suite)
+    assert set(sim.log["baro"].channels) == {"pressure", "temperature"}
+    rec = reconstruct(sim.log)
+    assert min(within_3sd(rec, data).values()) >= WITHIN_3SD
+    assert rec.nis["baro"]["consistent"], rec.nis["baro"]
+    # the pressure altitude of JSBSim's pressure, within 3 sd
+    altitude = pressure_altitude(data["pressure"].to_numpy())
+    z = (rec.table["altitude"].to_numpy() - altitude) / rec.table["sd_altitude"].to_numpy()
+    assert np.mean(np.abs(z) < 3.0) >= WITHIN_3SD
+    # rho = p / (R T) against JSBSim's density
+    rel = rec.table["rho"].to_numpy() / data["rho"].to_numpy() - 1.0
+    bound = DENSITY_TEMPERATURE_SD * suite.baro_temperature_sd_k / data["temperature"].min()
+    assert np.max(np.abs(rel)) < bound + ISA_RTOL
