@@ -11,6 +11,12 @@ repository root::
 
     python examples/make_sensor_suite_log.py [FOLDER]      # default examples/suite-log
     aeroid reconstruct examples/suite-log/suite.toml -o states.csv --flight flight.csv
+
+``--pressure`` logs the barometer's static pressure [Pa] and air temperature [K] (ISA of
+the true altitude) instead of its pressure altitude::
+
+    python examples/make_sensor_suite_log.py /tmp/suite-p --pressure
+    aeroid reconstruct /tmp/suite-p/suite.toml -o states.csv --report report/
 """
 
 from __future__ import annotations
@@ -24,15 +30,18 @@ from aeroid.flights import SensorSuite, reference_scenario, simulate_suite, writ
 SEED = 2026
 
 
-def main(folder: Path) -> None:
+def main(folder: Path, pressure: bool = False) -> None:
     """Simulate the reference flight with the default suite and write its log."""
     folder.mkdir(parents=True, exist_ok=True)
     scenario = reference_scenario()
+    suite = SensorSuite(baro_channels=("pressure", "temperature")) if pressure else SensorSuite()
     sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                         SensorSuite(), rng=SEED)
+                         suite, rng=SEED)
     for path in write_suite_log(sim.log, folder / "suite.toml"):
         print(f"wrote {path}")
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parent / "suite-log")
+    args = [a for a in sys.argv[1:] if a != "--pressure"]
+    main(Path(args[0]) if args else Path(__file__).parent / "suite-log",
+         pressure="--pressure" in sys.argv[1:])

@@ -26,6 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         epilog="examples:\n"
                "  aeroid reconstruct suite.toml -o states.csv\n"
                "  aeroid reconstruct suite.toml -o states.csv --flight flight.csv\n"
+               "  aeroid reconstruct suite.toml -o states.csv --report report/\n"
                "  aeroid reconstruct suite.toml -o states.csv --flight raw.csv --raw-imu\n"
                "  aeroid estimate raw.csv --method output-error --option "
                "imu_errors=bias+scale\n",
@@ -39,6 +40,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--per-sample-density", action="store_true",
                    help="the flight's density: ISA at the reconstructed altitude at each "
                         "sample (default: the airframe's atmosphere)")
+    p.add_argument("--report", type=Path, metavar="DIR",
+                   help="write DIR/reconstruction.md and PNG figures: each aiding source's "
+                        "innovations against their sd band, the states with their sd band, "
+                        "the instrument errors with their sd")
     p.add_argument("--raw-imu", action="store_true",
                    help="the flight's IMU channels as logged, not corrected (for an "
                         "estimator that fits the IMU's errors: output-error's imu_errors)")
@@ -55,6 +60,10 @@ def reconstruct(args: argparse.Namespace) -> int:
             raise UsageError(f"{out}: folder {out.parent} does not exist")
     if args.raw_imu and args.flight is None:
         raise UsageError("--raw-imu: it sets the IMU of --flight's file; give --flight")
+    if args.report is not None:  # before the filter: an unwritable folder is said at once
+        from aeroid.report import make_directory
+
+        make_directory(args.report)
     log = read_suite_log(args.log)
     airframe = load_airframe(args.airframe) if args.airframe else None
     result = run(log, airframe=airframe)
@@ -68,6 +77,10 @@ def reconstruct(args: argparse.Namespace) -> int:
               f"{stats['n_updates']} updates, {verdict} with the stated noise sd "
               f"(chi-square interval {low:.2f}-{high:.2f})")
     print(f"wrote {args.output} ({len(result.table)} samples)")
+    if args.report is not None:
+        from aeroid.report import write_reconstruction_report
+
+        print(f"wrote {write_reconstruction_report(result, args.report)} and its figures")
     if args.flight is not None:
         atmosphere = "altitude" if args.per_sample_density else "airframe"
         imu = "raw" if args.raw_imu else "corrected"

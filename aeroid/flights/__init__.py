@@ -62,6 +62,7 @@ from aeroid.flights._suite import (
     SuiteSimulation,
     body_to_ned,
     imu_manoeuvre,
+    log_trajectory,
     simulate_suite,
     wrap_angle,
 )
@@ -86,6 +87,6 @@ __all__ = [
     "simulate", "simulate_scenario", "simulate_truth", "write_flight",
     "EVALUATIONS", "Truth", "NOISE_FORMS",
     "GROUPS", "SI_UNITS", "SensorGroup", "SensorSuite", "SuiteLog", "SuiteSimulation",
-    "body_to_ned", "imu_manoeuvre", "read_suite_log", "simulate_suite", "wrap_angle",
-    "write_suite_log",
+    "body_to_ned", "imu_manoeuvre", "log_trajectory", "read_suite_log", "simulate_suite",
+    "wrap_angle", "write_suite_log",
 ]

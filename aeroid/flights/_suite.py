@@ -6,7 +6,8 @@ east, down) in metres from the airframe's position at t = 0, integrated here fro
 truth (the model has no position states): the NED velocity ``C_nb(phi, theta, psi) [u v
 w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
 The barometer reads pressure altitude ``h0 - down`` with ``h0`` the airframe's
-``[atmosphere] altitude_m``; note that the model's dynamics hold the density of ``h0``
+``[atmosphere] altitude_m`` (or, ``baro_channels``, the ISA pressure and temperature of
+it); note that the model's dynamics hold the density of ``h0``
 constant, so an ISA density of the logged altitude differs from the truth's by the climb.
 
 Sampling. Each group samples the truth at its own rate, every ``imu_rate / rate``-th IMU
@@ -47,6 +48,8 @@ from aeroid.model import (
     accelerometers,
     as_vector,
     constants,
+    isa_pressure,
+    isa_temperature,
 )
 
 
@@ -71,6 +74,9 @@ class SensorSuite:
     gnss_velocity_sd_mps: float = 0.1
     gnss_position_sd_m: float = 1.5
     baro_altitude_sd_m: float = 1.0
+    baro_channels: tuple[str, ...] = ("altitude",)
+    baro_pressure_sd_pa: float = 10.0
+    baro_temperature_sd_k: float = 0.2
     ins_attitude_sd_rad: float = 0.003
     fin_sd_rad: float = 0.0
     offsets_s: tuple[tuple[str, float], ...] = ()
@@ -91,9 +97,19 @@ class SensorSuite:
             if len(range_) != 2 or not 0 <= range_[0] <= range_[1]:
                 raise AirframeError(f"sensor suite: {name} must be (low, high) with "
                                     f"0 <= low <= high, got {range_}")
+        if tuple(self.baro_channels) not in BARO_CHANNELS:
+            raise AirframeError(f"sensor suite: baro_channels must be one of "
+                                f"{', '.join(map(str, BARO_CHANNELS))}, got "
+                                f"{self.baro_channels}")
         unknown = sorted({g for g, _ in self.offsets_s} - set(GROUPS))
         if unknown:
             raise AirframeError(f"sensor suite: offsets_s names unknown group(s) {unknown}")
+
+
+#: What a suite's barometer may log: a pressure altitude, or the static pressure with or
+#: without the air temperature (ISA of the true altitude).
+BARO_CHANNELS: tuple[tuple[str, ...], ...] = (("altitude",), ("pressure",),
+                                               ("pressure", "temperature"))
 
 
 class SuiteSimulation(NamedTuple):
@@ -105,7 +121,8 @@ class SuiteSimulation(NamedTuple):
         The groups at their own rates (SI, true time axis).
     truth : dict of str to ndarray, shape (n,)
         At the IMU instants: ``t``, the nine states, ``pn pe pd`` [m], ``vn ve vd`` [m/s],
-        ``altitude`` [m], ``delta`` [rad].
+        ``altitude`` [m], ISA ``pressure`` [Pa] and ``temperature`` [K] of it, ``delta``
+        [rad].
     errors : dict of str to ndarray
         ``accel_bias`` and ``accel_scale`` (2, 3) (triad, axis), ``gyro_bias`` and
         ``gyro_scale`` (3,).
@@ -177,11 +194,102 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
     specific = accelerometers(states, delta, coefficients, constants(airframe),
                               airframe.accel_positions).reshape(-1, 2, 3)
-    altitude = (airframe.altitude_m or 0.0) - position[k0:, 2]
+    imu_sampling = (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
+                    f"{sampled.truth_substeps} RK4 substeps, relay {sampled.evaluation}"
+                    + (f" at {sampled.control_rate_hz:g} Hz" if sampled.control_rate_hz
+                       else ""))
+    return log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
+                          position=position[k0:], source="simulated suite log",
+                          metadata={"imu_sampling": imu_sampling})
+
+
+def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
+                   specific_force: np.ndarray, airframe: Airframe,
+                   suite: SensorSuite | None = None, *,
+                   rng: np.random.Generator | int | None = None,
+                   position: np.ndarray | None = None,
+                   atmosphere: dict[str, np.ndarray] | None = None,
+                   source: str = "suite log",
+                   metadata: dict[str, Any] | None = None) -> SuiteSimulation:
+    """Log a given truth trajectory through a sensor suite (module docstring).
+
+    The sensor layer alone, shared by :func:`simulate_suite` and any other source of a
+    truth (another simulator): the errors and noise are drawn and the groups sampled
+    exactly as there.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        The truth's times [s], uniform at ``suite.imu_rate_hz``.
+    states : ndarray, shape (n, N_STATES)
+        The model's states at ``t`` [m/s, rad/s, rad] (``STATE_NAMES``).
+    delta : ndarray, shape (n,)
+        Fin deflection at ``t`` [rad].
+    specific_force : ndarray, shape (n, 2, 3)
+        True specific force at each accelerometer triad's position [m/s^2].
+    airframe : Airframe
+        Accelerometer positions; ``altitude_m`` is the barometer's altitude at the NED
+        origin (needed with a barometer).
+    suite : SensorSuite, optional
+        Default :class:`SensorSuite()`.
+    rng : numpy.random.Generator or int, optional
+        Source of every draw (sensor errors first, then the noise, group by group).
+    position : ndarray, shape (n, 3), optional
+        NED position [m]; default the NED velocity integrated by the trapezoid rule from
+        the origin at ``t[0]``.
+    atmosphere : dict with ``pressure`` [Pa] and ``temperature`` [K], shape (n,), optional
+        The truth's own air at ``t`` (another simulator's atmosphere); default the ISA of
+        the altitude ``altitude_m - pd``.
+    source : str
+        The log's name in messages.
+    metadata : dict, optional
+        Kept in the log's metadata beside the drawn ``truth`` errors.
+
+    Raises
+    ------
+    AirframeError
+        One line: shapes that do not match, a time axis that is not the IMU's rate, a
+        barometer without the airframe's altitude.
+    """
+    suite = suite or SensorSuite()
+    rng = np.random.default_rng(rng)
+    t = np.asarray(t, dtype=float)
+    states = np.asarray(states, dtype=float)
+    delta = np.asarray(delta, dtype=float)
+    specific = np.asarray(specific_force, dtype=float)
+    n = len(t)
+    shapes = {"states": (states.shape, (n, len(STATE_NAMES))), "delta": (delta.shape, (n,)),
+              "specific_force": (specific.shape, (n, *airframe.accel_positions.shape))}
+    if position is not None:
+        position = np.asarray(position, dtype=float)
+        shapes["position"] = (position.shape, (n, 3))
+    if atmosphere is not None:
+        if sorted(atmosphere) != ["pressure", "temperature"]:
+            raise AirframeError(f"{source}: atmosphere must give pressure and temperature, "
+                                f"got {sorted(atmosphere)}")
+        atmosphere = {k: np.asarray(v, dtype=float) for k, v in atmosphere.items()}
+        shapes.update({k: (v.shape, (n,)) for k, v in atmosphere.items()})
+    for name, (got, want) in shapes.items():
+        if got != want:
+            raise AirframeError(f"{source}: {name} has shape {got}, expected {want} "
+                                f"(t has {n} samples)")
+    step = np.diff(t)
+    if n < 2 or np.max(np.abs(step * suite.imu_rate_hz - 1.0)) > 1e-6:
+        raise AirframeError(f"{source}: the truth's times must be uniform at the IMU's "
+                            f"{suite.imu_rate_hz:g} Hz")
+    if suite.baro_rate_hz > 0 and airframe.altitude_m is None:
+        raise AirframeError("sensor suite: the barometer needs the airframe's [atmosphere] "
+                            "altitude_m (its altitude at t = 0)")
+    ned_velocity = np.einsum("kij,kj->ki", body_to_ned(*states[:, [PHI, THETA, PSI]].T),
+                             states[:, :3])
+    if position is None:
+        position = cumulative_trapezoid(ned_velocity, t, axis=0, initial=0.0)
+    altitude = (airframe.altitude_m or 0.0) - position[:, 2]
     table = {"t": t, **{name: states[:, j] for j, name in enumerate(STATE_NAMES)},
-             **{c: position[k0:, j] for j, c in enumerate(("pn", "pe", "pd"))},
-             **{c: ned_velocity[k0:, j] for j, c in enumerate(("vn", "ve", "vd"))},
-             "altitude": altitude, "delta": delta}
+             **{c: position[:, j] for j, c in enumerate(("pn", "pe", "pd"))},
+             **{c: ned_velocity[:, j] for j, c in enumerate(("vn", "ve", "vd"))},
+             "altitude": altitude, "pressure": isa_pressure(altitude),
+             "temperature": isa_temperature(altitude), **(atmosphere or {}), "delta": delta}
 
     def draw(range_: tuple[float, float], shape: tuple[int, ...]) -> np.ndarray:
         return rng.uniform(*range_, size=shape) * rng.choice([-1.0, 1.0], size=shape)
@@ -202,7 +310,10 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     aiding = {"gnss": ({c: table[c] for c in GROUPS["gnss"]},
                        {**{c: suite.gnss_velocity_sd_mps for c in ("vn", "ve", "vd")},
                         **{c: suite.gnss_position_sd_m for c in ("pn", "pe", "pd")}}),
-              "baro": ({"altitude": altitude}, {"altitude": suite.baro_altitude_sd_m}),
+              "baro": ({c: table[c] for c in suite.baro_channels},
+                       {"altitude": suite.baro_altitude_sd_m,
+                        "pressure": suite.baro_pressure_sd_pa,
+                        "temperature": suite.baro_temperature_sd_k}),
               "ins": ({c: table[c] for c in ("phi", "theta", "psi")},
                       dict.fromkeys(("phi", "theta", "psi"), suite.ins_attitude_sd_rad)),
               "fin": ({"delta": delta}, {"delta": suite.fin_sd_rad})}
@@ -215,16 +326,11 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
                  for c, v in values.items()}
         if name == "ins":
             noisy = {c: wrap_angle(v) if c != "theta" else v for c, v in noisy.items()}
-        groups[name] = _group(name, t[::every], noisy, {c: s for c, s in sd.items() if s > 0},
+        groups[name] = _group(name, t[::every], noisy,
+                              {c: s for c, s in sd.items() if s > 0 and c in noisy},
                               suite)
-    metadata = {"truth": {k: v.tolist() for k, v in errors.items()},
-                "imu_sampling": (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
-                                 f"{sampled.truth_substeps} RK4 substeps, relay "
-                                 f"{sampled.evaluation}"
-                                 + (f" at {sampled.control_rate_hz:g} Hz"
-                                    if sampled.control_rate_hz else ""))}
-    return SuiteSimulation(SuiteLog(groups, airframe, metadata, "simulated suite log"),
-                           table, errors)
+    metadata = {"truth": {k: v.tolist() for k, v in errors.items()}, **(metadata or {})}
+    return SuiteSimulation(SuiteLog(groups, airframe, metadata, source), table, errors)
 
 
 def _group(name: str, t: np.ndarray, channels: dict[str, np.ndarray],

@@ -19,7 +19,8 @@ its CSV file, its time column and unit, a time offset, and a column map with uni
 
 The groups and their channels are :data:`GROUPS` (``imu``: two accelerometer triads and
 three gyros, body axes; ``gnss``: NED velocity and position from the origin, flat
-Earth; ``baro``: pressure altitude; ``ins``: Euler attitude, possibly wrapped; ``fin``:
+Earth; ``baro``: pressure altitude, or static pressure (Pa, hPa, mbar, psi) and air
+temperature (K, degC); ``ins``: Euler attitude, possibly wrapped; ``fin``:
 fin deflection). Units are converted to SI (radians) on reading (:data:`UNITS`). An
 optional ``[truth]`` table of numbers and lists (a simulator's sensor errors) is kept as
 metadata. Every bad input is a one-line :class:`~aeroid.errors.FlightError` naming the
@@ -46,7 +47,7 @@ from aeroid.model import Airframe, load_airframe, read_toml, save_airframe
 GROUPS: dict[str, tuple[str, ...]] = {
     "imu": ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "p", "q", "r"),
     "gnss": ("vn", "ve", "vd", "pn", "pe", "pd"),
-    "baro": ("altitude",),
+    "baro": ("altitude", "pressure", "temperature"),
     "ins": ("phi", "theta", "psi"),
     "fin": ("delta",),
 }
@@ -54,17 +55,25 @@ GROUPS: dict[str, tuple[str, ...]] = {
 SI_UNITS: dict[str, str] = {
     **{c: "m/s^2" for c in GROUPS["imu"][:6]}, "p": "rad/s", "q": "rad/s", "r": "rad/s",
     "vn": "m/s", "ve": "m/s", "vd": "m/s", "pn": "m", "pe": "m", "pd": "m", "altitude": "m",
+    "pressure": "Pa", "temperature": "K",
     "phi": "rad", "theta": "rad", "psi": "rad", "delta": "rad",
 }
 #: The SI unit of each kind of quantity a suite log carries.
 _SI_OF_KIND = {"acceleration": "m/s^2", "rate": "rad/s", "speed": "m/s", "length": "m",
-               "angle": "rad", "time": "s"}
+               "angle": "rad", "time": "s", "pressure": "Pa", "temperature": "K"}
+#: Units of a barometer beyond the column maps' (1 psi = 1 lbf / in^2).
+_BARO_UNITS = {"hPa": (100.0, "pressure"), "mbar": (100.0, "pressure"),
+               "psi": (4.4482216152605 / 0.0254**2, "pressure"),
+               "K": (1.0, "temperature"), "degC": (1.0, "temperature")}
 #: Units a file may use: {unit: (SI unit, factor to SI)}: the column maps' units of those
-#: kinds (one table, :data:`aeroid.flights._columns.UNIT_FACTORS`), and microseconds.
+#: kinds (one table, :data:`aeroid.flights._columns.UNIT_FACTORS`), microseconds and the
+#: barometer's units.
 UNITS: dict[str, tuple[str, float]] = {
     unit: (_SI_OF_KIND[kind], factor)
-    for unit, (factor, kind) in {**UNIT_FACTORS, "us": (1e-6, "time")}.items()
+    for unit, (factor, kind) in {**UNIT_FACTORS, "us": (1e-6, "time"), **_BARO_UNITS}.items()
     if kind in _SI_OF_KIND}
+#: Units with an offset: SI = value * factor + offset.
+UNIT_OFFSETS: dict[str, float] = {"degC": 273.15}
 _GROUP_KEYS = ("file", "time", "offset_s", "columns", "noise_sd")
 
 
@@ -200,7 +209,7 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
     channels = {}
     for channel, (column, unit) in specs.items():
         factor = _factor(unit, SI_UNITS[channel], f"{file}: column {column!r}")
-        channels[channel] = _numbers(frame, file, column) * factor
+        channels[channel] = _numbers(frame, file, column) * factor + UNIT_OFFSETS.get(unit, 0.0)
     noise = table.get("noise_sd", {})
     if not isinstance(noise, Mapping):
         raise FlightError(f"{where}.noise_sd must be a table of channel = sd")

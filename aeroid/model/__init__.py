@@ -25,7 +25,19 @@ from aeroid.model._airframe import (
     reference_scenario_data,
     save_airframe,
 )
-from aeroid.model._atmosphere import G0, density
+from aeroid.model._atmosphere import (
+    G0,
+    GAMMA,
+    H_TROPOPAUSE,
+    LAPSE,
+    P0,
+    R_AIR,
+    T0,
+    density,
+    pressure_altitude,
+)
+from aeroid.model._atmosphere import pressure as isa_pressure
+from aeroid.model._atmosphere import temperature as isa_temperature
 from aeroid.model._coefficients import (
     LABELS,
     N_COEFFICIENTS,
@@ -94,4 +106,6 @@ __all__ = [
     "FinLaw", "SENSITIVITY_BLOCK_BYTES",
     "AIRFRAME_LIMITS", "DEFAULT_REL_STEP", "FIN_LAW_KEYS", "Profile", "SCENARIO_TABLES", "Track",
     "density", "fileform", "profile",
+    "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
+    "pressure_altitude",
 ]

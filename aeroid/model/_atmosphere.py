@@ -1,4 +1,10 @@
-"""International Standard Atmosphere (troposphere and lower stratosphere, 0-20 km)."""
+"""International Standard Atmosphere (troposphere and lower stratosphere, 0-20 km).
+
+:func:`pressure` and :func:`temperature` take real or complex altitudes (the branch is
+chosen on the real part), so a complex-step derivative goes through them (the
+reconstruction's barometer model). :func:`pressure_altitude` is the inverse of
+:func:`pressure`.
+"""
 
 from __future__ import annotations
 
@@ -11,22 +17,40 @@ T0 = 288.15  # K, sea-level temperature
 P0 = 101325.0  # Pa, sea-level pressure
 LAPSE = 0.0065  # K/m, tropospheric lapse rate
 H_TROPOPAUSE = 11000.0  # m
+#: ISA temperature [K] and pressure [Pa] at the tropopause.
+T_TROPOPAUSE = T0 - LAPSE * H_TROPOPAUSE
+_EXPONENT = G0 / (R_AIR * LAPSE)
+P_TROPOPAUSE = P0 * (T_TROPOPAUSE / T0) ** _EXPONENT
 
 
-def temperature(altitude_m: float | np.ndarray) -> np.ndarray:
+def _altitude(altitude_m: float | complex | np.ndarray) -> np.ndarray:
+    h = np.asarray(altitude_m)
+    return h if np.iscomplexobj(h) else h.astype(float)
+
+
+def temperature(altitude_m: float | complex | np.ndarray) -> np.ndarray:
     """Return ISA temperature [K] at geopotential altitude [m], valid 0-20 km."""
-    h = np.asarray(altitude_m, dtype=float)
-    return np.where(h < H_TROPOPAUSE, T0 - LAPSE * h, T0 - LAPSE * H_TROPOPAUSE)
+    h = _altitude(altitude_m)
+    return np.where(h.real < H_TROPOPAUSE, T0 - LAPSE * h, T_TROPOPAUSE + 0.0 * h)
 
 
-def pressure(altitude_m: float | np.ndarray) -> np.ndarray:
+def pressure(altitude_m: float | complex | np.ndarray) -> np.ndarray:
     """Return ISA pressure [Pa] at geopotential altitude [m], valid 0-20 km."""
-    h = np.asarray(altitude_m, dtype=float)
-    exponent = G0 / (R_AIR * LAPSE)
-    p_trop = P0 * (temperature(np.minimum(h, H_TROPOPAUSE)) / T0) ** exponent
-    t11 = T0 - LAPSE * H_TROPOPAUSE
-    above = np.exp(-G0 * np.maximum(h - H_TROPOPAUSE, 0.0) / (R_AIR * t11))
-    return p_trop * above
+    h = _altitude(altitude_m)
+    below = h.real < H_TROPOPAUSE
+    h_trop = np.where(below, h, H_TROPOPAUSE)
+    h_strat = np.where(below, H_TROPOPAUSE, h)
+    p_trop = P0 * ((T0 - LAPSE * h_trop) / T0) ** _EXPONENT
+    above = np.exp(-G0 * (h_strat - H_TROPOPAUSE) / (R_AIR * T_TROPOPAUSE))
+    return np.where(below, p_trop, P_TROPOPAUSE * above)
+
+
+def pressure_altitude(pressure_pa: float | np.ndarray) -> np.ndarray:
+    """Return the ISA pressure altitude [m] of a static pressure [Pa] (inverse of pressure)."""
+    p = np.asarray(pressure_pa, dtype=float)
+    trop = T0 / LAPSE * (1.0 - (p / P0) ** (1.0 / _EXPONENT))
+    strat = H_TROPOPAUSE - R_AIR * T_TROPOPAUSE / G0 * np.log(p / P_TROPOPAUSE)
+    return np.where(p > P_TROPOPAUSE, trop, strat)
 
 
 def density(altitude_m: float | np.ndarray) -> np.ndarray:

@@ -45,6 +45,8 @@ class Aiding:
         Channels whose innovation is wrapped to (-pi, pi].
     model : callable
         ``h(x)``, x of shape (N_STATES, c) -> (d, c), element-wise over the columns.
+    channels : tuple of str
+        The channels' names (for reports), ``d`` of them.
     """
 
     name: str
@@ -54,6 +56,7 @@ class Aiding:
     sd: np.ndarray
     wrapped: np.ndarray
     model: Callable[[np.ndarray], np.ndarray]
+    channels: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -62,7 +65,10 @@ class Passes:
 
     ``nis[source]``: ``mean_nis_per_dof`` (1 for a consistent source), ``n_updates``,
     ``n_values``, ``interval`` (the chi-square interval of the mean at two-sided level
-    :data:`NIS_LEVEL`) and ``consistent`` (the mean inside it).
+    :data:`NIS_LEVEL`) and ``consistent`` (the mean inside it). ``innovations``: each
+    source's innovations over their predicted sd (m, d); ``innovation_detail``: per source
+    ``t`` (m,) the measurement times [s], ``innovation`` and ``sd`` (m, d) in the
+    channels' units (NaN where a measurement was not used).
     """
 
     states: np.ndarray
@@ -70,6 +76,7 @@ class Passes:
     filtered: np.ndarray
     nis: dict[str, dict[str, object]]
     innovations: dict[str, np.ndarray]
+    innovation_detail: dict[str, dict[str, np.ndarray]]
 
 
 #: Two-sided level of the residual check: a consistent source's mean NIS per dof falls
@@ -128,6 +135,9 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
             events.setdefault(int(k), []).append((aid, j))
     sums: dict[str, list] = {aid.name: [0.0, 0, 0] for aid in aidings}
     innovations = {aid.name: np.full(aid.values.shape, np.nan) for aid in aidings}
+    detail = {aid.name: {"t": t[aid.index] + aid.lead,
+                         "innovation": np.full(aid.values.shape, np.nan),
+                         "sd": np.full(aid.values.shape, np.nan)} for aid in aidings}
     lever = lever[:, None]
     x, p = x0.astype(float).copy(), p0.astype(float).copy()
     q_imu = np.diag(imu_sd ** 2)
@@ -151,6 +161,8 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
             stats[1] += len(nu)
             stats[2] += 1
             innovations[aid.name][j] = nu / np.sqrt(np.diag(s))
+            detail[aid.name]["innovation"][j] = nu
+            detail[aid.name]["sd"][j] = np.sqrt(np.diag(s))
         if k in events:
             f, a, b = jacobians(x, imu[k], od, lever)
         xf[k], pf[k] = x, p
@@ -178,4 +190,4 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
         ps[k] = pf[k] + gain @ (ps[k + 1] - pp[k + 1]) @ gain.T
         ps[k] = 0.5 * (ps[k] + ps[k].T)
     nis = {name: _nis_check(*s) for name, s in sums.items()}
-    return Passes(xs, ps, xf, nis, innovations)
+    return Passes(xs, ps, xf, nis, innovations, detail)

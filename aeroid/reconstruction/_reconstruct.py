@@ -22,6 +22,12 @@ from scipy.signal import savgol_filter
 from aeroid.errors import FlightError
 from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
+from aeroid.reconstruction._barometer import (
+    baro_altitude,
+    baro_channel,
+    baro_density,
+    baro_model,
+)
 from aeroid.reconstruction._filter import Aiding, run
 from aeroid.reconstruction._kinematics import (
     ACCEL_BIAS,
@@ -79,6 +85,9 @@ class Reconstruction:
     metadata : dict
     raw_imu : ndarray, shape (n, 9), optional
         The IMU's readings as logged (:data:`IMU_CHANNELS`, SI), at the table's times.
+    innovation_tables : dict of str to pandas.DataFrame
+        Per aiding source: ``t`` (the measurement's time), each channel's innovation
+        (measured - predicted, SI) and its predicted sd ``sd_CHANNEL`` (for the report).
     """
 
     table: pd.DataFrame
@@ -90,6 +99,7 @@ class Reconstruction:
     fin: tuple[np.ndarray, np.ndarray] | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
     raw_imu: np.ndarray | None = None
+    innovation_tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected") -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
@@ -247,10 +257,20 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
         ex = exogenous(probe)
         assert ex is not None  # the altitude channel is there
         table["rho"] = ex[:, EXOGENOUS.index("rho")]
+        rho = baro_density(log, t, table["altitude"].to_numpy(), notes)
+        if rho is not None:
+            table["rho"] = rho
     else:
         notes.append("no barometer: no altitude or density in the output")
+    innovation_tables = {
+        aid.name: pd.DataFrame({"t": passes.innovation_detail[aid.name]["t"],
+                                **{c: passes.innovation_detail[aid.name]["innovation"][:, j]
+                                   for j, c in enumerate(aid.channels)},
+                                **{f"sd_{c}": passes.innovation_detail[aid.name]["sd"][:, j]
+                                   for j, c in enumerate(aid.channels)}})
+        for aid in aidings}
     return Reconstruction(table, passes.covariance, passes.nis, passes.innovations,
-                          tuple(notes), airframe, fin, meta, imu.copy())
+                          tuple(notes), airframe, fin, meta, imu.copy(), innovation_tables)
 
 
 def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int]
@@ -258,12 +278,13 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int
     """Return the aiding sources, leaving out each sample that set the initial state."""
     dt = float(np.median(np.diff(t)))
     out = []
+    baro = baro_channel(log) or "altitude"
     models: dict[str, Model] = {
         "gnss": lambda x: np.vstack([ned_velocity(x), x[POS]]),
-        "baro": lambda x: (x[IX["alt0"]] - x[IX["pd"]])[None],
+        "baro": baro_model(baro, lambda x: (x[IX["alt0"]] - x[IX["pd"]])[None]),
         "ins": lambda x: x[ATT],
     }
-    order = {"gnss": ("vn", "ve", "vd", "pn", "pe", "pd"), "baro": ("altitude",),
+    order = {"gnss": ("vn", "ve", "vd", "pn", "pe", "pd"), "baro": (baro,),
              "ins": ("phi", "theta", "psi")}
     for name, channels in order.items():
         if name not in log:
@@ -293,7 +314,7 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int
                           np.column_stack([group.channels[c] for c in present])[inside],
                           np.array([group.noise_sd[c] for c in present]),
                           np.array([c in ("phi", "psi") for c in present]),
-                          _subset(full, rows)))
+                          _subset(full, rows), tuple(present)))
     return out
 
 
@@ -319,6 +340,10 @@ def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
         if name not in log or not all(c in log[name].channels for c in channels):
             return None
         group = log[name]
+        no_sd = [c for c in channels if c not in group.noise_sd]
+        if no_sd:
+            raise FlightError(f"{group.source}: no noise_sd for {', '.join(no_sd)} (each "
+                              "aiding channel needs one)")
         k = int(np.argmin(np.abs(group.t - t[0])))
         used[name] = k
         return (np.array([group.channels[c][k] for c in channels]), float(group.t[k] - t[0]),
@@ -347,9 +372,11 @@ def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
         sd[POS] = PRIOR_INFLATION * gnss_p[2] + abs(gnss_p[1]) * sd[IX["u"]]
     else:
         notes.append("no GNSS position: NED position from the first IMU sample")
-    baro = first("baro", ("altitude",))
-    if baro is not None:
-        x0[IX["alt0"]] = baro[0][0] + x0[IX["pd"]]
-        sd[IX["alt0"]] = (PRIOR_INFLATION * baro[2] + sd[IX["pd"]]
+    channel = baro_channel(log)
+    baro = first("baro", (channel,)) if channel else None
+    if channel and baro is not None:
+        altitude, baro_sd = baro_altitude(channel, float(baro[0][0]), baro[2])
+        x0[IX["alt0"]] = altitude + x0[IX["pd"]]
+        sd[IX["alt0"]] = (PRIOR_INFLATION * baro_sd + sd[IX["pd"]]
                           + np.linalg.norm(x0[VEL]) * abs(baro[1]))
     return x0, np.diag(sd ** 2)

@@ -7,10 +7,14 @@ below the command line:
   figures of one fit in a folder (``aeroid estimate LOG --method M --report DIR``);
 - :func:`report_figures`: the same figures as matplotlib objects (notebooks, tests);
 - :func:`compare_results` / :func:`comparison_text`: every method on one log in one
-  table (``aeroid estimate LOG --method all``).
+  table (``aeroid estimate LOG --method all``);
+- :func:`write_reconstruction_report` / :func:`reconstruction_figures`: a flight-path
+  reconstruction's innovations, states and instrument errors (``aeroid reconstruct LOG
+  -o OUT --report DIR``).
 
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
-report), ``_compare`` (several methods), ``_html`` (a report as one HTML page).
+report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
+``_reconstruction`` (a reconstruction's report).
 """
 
 from aeroid.report._compare import (
@@ -36,10 +40,16 @@ from aeroid.report._files import (
 )
 from aeroid.report._fit import REPORT_NAME, report_figures, report_markdown, write_report
 from aeroid.report._html import FORMATS, html_page, report_name
+from aeroid.report._reconstruction import (
+    RECONSTRUCTION_REPORT,
+    reconstruction_figures,
+    write_reconstruction_report,
+)
 
 __all__ = [
     "BAND_SD",
     "FORMATS",
+    "RECONSTRUCTION_REPORT",
     "REPORT_NAME",
     "autocorrelation",
     "autocorrelation_figure",
@@ -52,12 +62,14 @@ __all__ = [
     "html_page",
     "make_directory",
     "options_note",
+    "reconstruction_figures",
     "report_figures",
     "report_markdown",
     "report_name",
     "result_notes",
     "write_bytes_atomic",
     "write_figure_atomic",
+    "write_reconstruction_report",
     "write_report",
     "write_text_atomic",
 ]

@@ -51,6 +51,7 @@ PROPS: dict[str, tuple[str, float]] = {
     "udot": ("accelerations/udot-ft_sec2", FT), "vdot": ("accelerations/vdot-ft_sec2", FT),
     "wdot": ("accelerations/wdot-ft_sec2", FT),
     "rho": ("atmosphere/rho-slugs_ft3", SLUG_FT3),
+    "pressure": ("atmosphere/P-psf", LBF / FT**2), "temperature": ("atmosphere/T-R", 5.0 / 9.0),
     "gravity": ("accelerations/gravity-ft_sec2", FT),
     "alpha_jsbsim": ("aero/alpha-rad", 1.0), "beta_jsbsim": ("aero/beta-rad", 1.0),
     "qbar": ("aero/qbar-psf", LBF / FT**2),

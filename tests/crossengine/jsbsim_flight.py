@@ -33,7 +33,7 @@ from scipy.optimize import brentq
 from aeroid.flights import ACCEL_CHANNELS, Flight, NoiseModel, NoNoise
 from aeroid.flights import make_flight as aeroid_make_flight
 from aeroid.model import Airframe, as_dict, save_airframe
-from aeroid.model._atmosphere import density as isa_density
+from aeroid.model import density as isa_density
 
 from ._aircraft import FlightConfig
 from ._engine import run_jsbsim

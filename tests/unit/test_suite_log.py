@@ -16,6 +16,7 @@ from aeroid.flights import (
     NoNoise,
     SensorSuite,
     body_to_ned,
+    log_trajectory,
     read_suite_log,
     reference_scenario,
     simulate,
@@ -23,6 +24,7 @@ from aeroid.flights import (
     wrap_angle,
     write_suite_log,
 )
+from aeroid.model import STATE_NAMES, accelerometers, constants
 
 #: A noise-free, error-free suite: its IMU must equal the simulator's own record.
 IDEAL = SensorSuite(accel_bias_mps2=(0.0, 0.0), gyro_bias_radps=(0.0, 0.0),
@@ -46,8 +48,9 @@ def test_groups_at_their_rates(suite_sim):
     log = suite_sim.log
     expected = {"imu": 1001, "gnss": 11, "baro": 51, "ins": 101, "fin": 1001}
     assert {name: len(g.t) for name, g in log.groups.items()} == expected
+    channels = {**GROUPS, "baro": SensorSuite().baro_channels}  # altitude by default
     for name, group in log.groups.items():
-        assert set(group.channels) == set(GROUPS[name])
+        assert set(group.channels) == set(channels[name])
         assert np.all(np.diff(group.t) > 0)
     ins = log["ins"].channels
     for angle in ("phi", "psi"):  # wrapped to (-pi, pi]
@@ -173,3 +176,41 @@ def test_reader_refuses_unknown_channel(tmp_path):
     path.write_text(path.read_text().replace("p = ", "airspeed = "))
     with pytest.raises(FlightError, match="unknown channel 'airspeed' for group 'imu'"):
         read_suite_log(path)
+
+
+def _trajectory(n=20, rate=1000.0):
+    t = np.arange(n) / rate
+    states = np.zeros((n, len(STATE_NAMES)))
+    states[:, 0] = 500.0
+    return t, states, np.zeros(n), np.zeros((n, 2, 3))
+
+
+def test_log_trajectory_matches_simulate_suite(scenario, suite_sim):
+    """The sensor layer alone, given simulate_suite's truth, draws the same log."""
+    truth = suite_sim.truth
+    states = np.column_stack([truth[c] for c in STATE_NAMES])
+    specific = accelerometers(states, truth["delta"], scenario.coefficient_vector,
+                              constants(scenario.airframe),
+                              scenario.airframe.accel_positions).reshape(-1, 2, 3)
+    position = np.column_stack([truth[c] for c in ("pn", "pe", "pd")])
+    again = log_trajectory(truth["t"], states, truth["delta"], specific, scenario.airframe,
+                           rng=np.random.default_rng(5), position=position)
+    for name, group in suite_sim.log.groups.items():
+        for channel, values in group.channels.items():
+            np.testing.assert_array_equal(again.log[name].channels[channel], values)
+
+
+@pytest.mark.parametrize(("change", "needle"), [
+    ({"delta": np.zeros(19)}, "delta has shape (19,), expected (20,)"),
+    ({"t": np.arange(20) / 500.0}, "uniform at the IMU's 1000 Hz"),
+    ({"atmosphere": {"pressure": np.ones(20)}}, "atmosphere must give pressure and temperature"),
+    ({"atmosphere": {"pressure": np.ones(20), "temperature": np.ones(3)}},
+     "temperature has shape (3,)"),
+])
+def test_log_trajectory_refuses_bad_input(scenario, change, needle):
+    t, states, delta, specific = _trajectory()
+    args = {"t": t, "states": states, "delta": delta, "specific_force": specific,
+            "airframe": scenario.airframe, **change}
+    with pytest.raises(AirframeError) as info:
+        log_trajectory(**args, rng=1)
+    assert needle in str(info.value) and "\n" not in str(info.value)
