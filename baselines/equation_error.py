@@ -98,6 +98,10 @@ LAPACK_DRIVER = "gelss"
 #: their one definition, :data:`aeroid.estimation.SEBM_PROBLEMS`.
 SUBPROBLEMS: tuple[tuple[str, int, tuple[int, ...]], ...] = tuple(
     (p.label, p.row, p.coefficients) for p in rc.SEBM_PROBLEMS)
+#: Time samples per block of the two-step regressors
+#: (:data:`aeroid.estimation.REGRESSION_BLOCK`): the ``n x 6 x 9`` array is never held,
+#: only each sub-problem's own columns (benchmarks/results/memory_stages.md).
+BLOCK_SAMPLES = rc.REGRESSION_BLOCK
 #: Lateral rows joined with ``lateral_rows``: (target problem, FM row).
 LATERAL = {"FAZ": 1, "MY": 5}
 
@@ -175,14 +179,42 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
     return c, A
 
 
-def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
+def _subproblem_arrays(X, y: np.ndarray, sd: np.ndarray, lateral_rows: bool) -> list:
+    """Return ``[(label, cols, A, b)]`` of the sub-problems, rows weighted by ``1 / sd``.
+
+    ``A`` (n k, len(cols)) and ``b`` (n k,) are time-major (the k rows of one sample
+    consecutive, for the HAC covariance); ``X`` is the (n, 6, 9) array or the blocks of
+    :func:`aeroid.estimation.regressor_blocks`, whose entries are copied into ``A`` block by
+    block (the full ``X`` is never held).
+    """
+    n = y.shape[0]
+    problems = []
+    for label, row, cols in SUBPROBLEMS:
+        rows = [row] + ([LATERAL[label]] if lateral_rows and label in LATERAL else [])
+        b = np.stack([y[:, r] / sd[r] for r in rows], axis=1).reshape(-1)
+        # column-major, as numpy's fancy indexing of X gives it: the least-squares
+        # solution's last bits depend on the layout, and they stay those of the one-shot X
+        # (column, sample, row) in C order is A, (n k, len(cols)), in Fortran order
+        problems.append((label, list(cols), rows, np.empty((len(cols), n, len(rows))), b))
+    blocks = [(0, n, X)] if isinstance(X, np.ndarray) else X
+    for start, stop, part in blocks:
+        for _, cols, rows, columns, _ in problems:
+            for i, r in enumerate(rows):
+                columns[:, start:stop, i] = (part[:, r, cols] / sd[r]).T
+    return [(label, cols, columns.reshape(len(cols), -1).T, b)
+            for label, cols, _, columns, b in problems]
+
+
+def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
                       lateral_rows: bool = False, covariance: str = "hac") -> tuple:
     """Solve the four SEBM least-squares sub-problems of the EBM regression.
 
     Parameters
     ----------
-    X : ndarray, shape (n, 6, 9)
-        Regressors (:func:`aeroid.estimation.ebm_regression`).
+    X : ndarray, shape (n, 6, 9), or iterable of (start, stop, ndarray)
+        Regressors (:func:`aeroid.estimation.ebm_regression`), or their time blocks
+        (:func:`aeroid.estimation.regressor_blocks`: the same numbers, the memory of one
+        block plus the sub-problems' own columns, 9 per sample instead of 54).
     y : ndarray, shape (n, 6) [N, N m]
         Reconstructed forces and moments.
     sd : ndarray, shape (6,)
@@ -212,18 +244,16 @@ def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
     cov = np.zeros((n_c, n_c))
     corr = np.full((n_c, n_c), np.nan)
     sigma2, bandwidth, cost = {}, {}, 0.0
-    for label, row, cols in SUBPROBLEMS:
-        cols = list(cols)
-        rows = [row] + ([LATERAL[label]] if lateral_rows and label in LATERAL else [])
-        # time-major rows (the k rows of one sample consecutive), for the HAC covariance
-        A = np.stack([X[:, r, cols] / sd[r] for r in rows], axis=1).reshape(-1, len(cols))
-        b = np.stack([y[:, r] / sd[r] for r in rows], axis=1).reshape(-1)
-        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=X.shape[0], covariance=covariance)
+    problems = _subproblem_arrays(X, y, sd, lateral_rows)
+    while problems:  # each problem's columns are freed once it is solved
+        label, cols, A, b = problems.pop(0)
+        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
         theta[cols] = th
         cov[np.ix_(cols, cols)] = cv
         corr[np.ix_(cols, cols)] = _correlation(A)
         sigma2[label] = s2
         cost += s2 * max(A.shape[0] - len(cols), 1)
+        del A, b
     return theta, cov, corr, sigma2, cost, bandwidth
 
 
@@ -330,9 +360,14 @@ class EquationErrorEstimator(Estimator):
         if self.one_step:
             return self._one_step(flight, covariance, theta_only)
         rec = rc.reconstruct(flight)
-        X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
+        y = rc.regression_target(rec, smoothing=self.smoothing)
+
+        def blocks():  # the regressors a time block at a time (rc.ebm_regression's X)
+            return rc.regressor_blocks(flight, smoothing=self.smoothing,
+                                       window=rec.smoothing_window, block=BLOCK_SAMPLES)
+
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
-            X, y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
+            blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
             covariance=covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
@@ -340,7 +375,7 @@ class EquationErrorEstimator(Estimator):
         if self.lateral_rows:
             rows = tuple(sorted(rows + tuple(LATERAL.values())))
         if not theta_only:
-            info.update(rc.regression_fit(rec, X, y, theta, rows))
+            info.update(rc.regression_fit(rec, blocks(), y, theta, rows))
         return self._result(flight, theta, cov, corr, cost, info, floor=not theta_only)
 
     def _one_step(self, flight: Flight, covariance: str, theta_only: bool) -> EstimationResult:

@@ -55,12 +55,15 @@ from aeroid.estimation._progress import ProgressEvent, report_progress
 from aeroid.estimation._pso import PSOResult, minimize
 from aeroid.estimation._pso_methods import MAX_ITERATIONS, MAX_PARTICLES
 from aeroid.estimation._reconstruct import (
+    REGRESSION_BLOCK,
     SMOOTHING_CHOICES,
     Reconstruction,
     accel_only_matrix,
     ebm_regression,
     reconstruct,
     regression_fit,
+    regression_target,
+    regressor_blocks,
 )
 from aeroid.estimation._registry import (
     ENTRY_POINT_GROUP,
@@ -112,6 +115,7 @@ __all__ = [
     "Reconstruction",
     "SEBM_PROBLEMS",
     "SebmProblem",
+    "REGRESSION_BLOCK",
     "SMOOTHING_CHOICES",
     "accel_only_matrix",
     "available",
@@ -150,6 +154,8 @@ __all__ = [
     "reconstruct",
     "register",
     "regression_fit",
+    "regression_target",
+    "regressor_blocks",
     "report_progress",
     "sebm_costs",
     "smooth",

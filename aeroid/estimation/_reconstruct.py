@@ -33,6 +33,7 @@ per-channel constant is the approximation made here.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,11 +47,12 @@ from aeroid.estimation._signals import (
     ROLL_POLYORDER,
     SMOOTHING_POLYORDER,
     SMOOTHING_WINDOW,
+    _check_window,
     estimate_noise_sd,
     rate_derivatives,
     smooth,
 )
-from aeroid.flights import Flight, sample_constants
+from aeroid.flights import STATE_CHANNELS, Flight, sample_constants
 from aeroid.model import FM_NAMES, OUTPUT_CHANNELS, Airframe, Constants, constants, regressors
 from aeroid.model import equations as eq
 
@@ -59,8 +61,11 @@ __all__ = [
     "SMOOTHING_CHOICES",
     "Reconstruction",
     "accel_only_matrix",
+    "REGRESSION_BLOCK",
     "ebm_regression",
     "regression_fit",
+    "regression_target",
+    "regressor_blocks",
     "reconstruct",
     "sensor_matrix",
     "sensor_offset",
@@ -74,6 +79,11 @@ __all__ = [
 #: the result no longer changes (83/49 %): the rates then only complete the direction
 #: the accelerometers cannot see (rank 5 -> 6). 1e-3 sits on that plateau.
 RATE_WEIGHT = 1e-3
+#: Time samples per block of :func:`regressor_blocks`: the regressors of one block and
+#: their temporaries take ~1 kB per sample (8192 samples: ~8 MB), whatever the log's
+#: length; a block also pays one pass of Python over the model (~0.1 ms), so much smaller
+#: blocks cost time on long logs.
+REGRESSION_BLOCK = 8192
 #: Names of the nine rows of the step-1 system.
 ROW_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "pdot", "qdot", "rdot")
 
@@ -241,17 +251,17 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
         raise ValueError(f"rate_weight must be a positive number, got {rate_weight!r}")
     const = sample_constants(flight)
     n = flight.n_samples
-    accel = flight.accelerations().reshape(n, 6)
     omega = np.column_stack([flight["p"], flight["q"], flight["r"]])
     positions = flight.airframe.accel_positions
-    # eqs. 5-7: wdot = J^-1 M + g(w); the rate rows see J^-1 M = wdot - g(w)
-    none = eq.Loads(*np.zeros(len(FM_NAMES)))
-    gyro = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2], none,
-                                            const))
     matrix = sensor_matrix(const, positions)
-    z = accel - sensor_offset(const, positions, omega)
+    n_accel = matrix.shape[-2]
+    # the right-hand sides, filled in place (no full-size temporaries beyond one channel
+    # group): accelerometers minus B(w), then the rate rows
+    z = np.empty((n, n_accel + (omega.shape[1] if rate_rows else 0)))
+    z[:, :n_accel] = flight.accelerations().reshape(n, n_accel)
     row_sd = np.full(len(OUTPUT_CHANNELS), np.nan)  # the accelerometer rows, then p, q, r
-    row_sd[:6] = estimate_noise_sd(accel)
+    row_sd[:n_accel] = estimate_noise_sd(z[:, :n_accel])
+    z[:, :n_accel] -= sensor_offset(const, positions, omega)
     wdot_sg = None
     if rate_rows:
         roll_window = min(roll_derivative_window, n - 1 + n % 2)
@@ -261,16 +271,20 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
                  for w, o in ((roll_window, ROLL_POLYORDER),
                               (derivative_window, derivative_polyorder),
                               (derivative_window, derivative_polyorder))]
-        row_sd[6:] = estimate_noise_sd(omega) * np.asarray(gains)
+        row_sd[n_accel:] = estimate_noise_sd(omega) * np.asarray(gains)
         rows = inertia_rows(const)
         if rows.ndim != matrix.ndim:  # one of them per sample
             matrix, rows = (np.broadcast_to(a, (n, *a.shape[-2:])) for a in (matrix, rows))
         matrix = np.concatenate([matrix, rows], axis=-2)
-        z = np.hstack([z, wdot_sg - gyro])
+        # eqs. 5-7: wdot = J^-1 M + g(w); the rate rows see J^-1 M = wdot - g(w)
+        none = eq.Loads(*np.zeros(len(FM_NAMES)))
+        z[:, n_accel:] = wdot_sg
+        z[:, n_accel:] -= _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1],
+                                                           omega[:, 2], none, const))
     n_rows = matrix.shape[-2]
     weights = 1.0 / row_sd[:n_rows]
     if rate_rows:
-        weights[6:] *= rate_weight
+        weights[n_accel:] *= rate_weight
     weighted = weights[:, None] * matrix
     gain = np.linalg.pinv(weighted) * weights  # fm = gain z, per sample or shared
     if matrix.ndim == 2:  # one matrix for the whole flight: one pseudo-inverse
@@ -279,12 +293,18 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     else:  # per-sample mass or inertia
         fm = np.einsum("kij,kj->ki", gain, z)
         model = np.einsum("kij,kj->ki", matrix, fm)
+    model -= z  # now the residual, model - measurement
+    del z
     # the sensors' noise propagated into the loads: sqrt(diag(G diag(row_sd^2) G^T))
     fm_sd = np.sqrt(np.median(np.sum((gain * row_sd[:n_rows]) ** 2, axis=-1).reshape(
         -1, len(FM_NAMES)), axis=0))
     rank = int(np.min(np.linalg.matrix_rank(weighted)))
-    residual = np.full((n, len(OUTPUT_CHANNELS)), np.nan)
-    residual[:, :n_rows] = model - z
+    if n_rows == len(OUTPUT_CHANNELS):
+        residual = model
+    else:
+        residual = np.full((n, len(OUTPUT_CHANNELS)), np.nan)
+        residual[:, :n_rows] = model
+    del model
     omega_dot = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2],
                                                  eq.Loads(*fm.T), const))
     fm_smooth = smooth(fm, smoothing_window, min(SMOOTHING_POLYORDER, smoothing_window - 1))
@@ -346,6 +366,63 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
     return X, y
 
 
+def regression_target(rec: Reconstruction, *, smoothing: str = "both",
+                      window: int | None = None) -> np.ndarray:
+    """Return the ``y`` of :func:`ebm_regression` (n, 6) [N, N m], read-only and without a
+    copy when it is ``rec.fm`` or ``rec.fm_smooth`` (the regressors' companion of
+    :func:`regressor_blocks`)."""
+    if smoothing not in SMOOTHING_CHOICES:
+        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_CHOICES)}, "
+                         f"got {smoothing!r}")
+    window = rec.smoothing_window if window is None else int(window)
+    if smoothing == "none" or window == 1:
+        y = rec.fm.view()
+    elif window == rec.smoothing_window:
+        y = rec.fm_smooth.view()
+    else:
+        y = smooth(rec.fm, window, min(SMOOTHING_POLYORDER, window - 1))
+    y.flags.writeable = False
+    return y
+
+
+def regressor_blocks(flight: Flight, *, smoothing: str = "both", window: int = SMOOTHING_WINDOW,
+                     block: int | None = None) -> Iterator[tuple[int, int, np.ndarray]]:
+    """Yield the ``X`` of :func:`ebm_regression` a block of time samples at a time.
+
+    Yields ``(start, stop, X[start:stop])``, ``X`` of shape (stop - start, 6, 9), blocks of
+    ``block`` samples (default :data:`REGRESSION_BLOCK`) in time order; their
+    concatenation is :func:`ebm_regression`'s ``X`` (same ``smoothing`` and ``window``,
+    the reconstruction's ``smoothing_window`` there). Memory is that of one block, not of
+    the ``n x 6 x 9`` array. With ``smoothing="both"`` each block is computed with
+    ``window // 2`` samples of its neighbours on both sides and smoothed, so every kept
+    sample has the same SG window (interior) or the same end fit as the one-shot smoother.
+    """
+    if smoothing not in SMOOTHING_CHOICES:
+        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_CHOICES)}, "
+                         f"got {smoothing!r}")
+    block = REGRESSION_BLOCK if block is None else int(block)
+    if block < 1:
+        raise ValueError(f"block must be a positive number of samples, got {block}")
+    n = flight.n_samples
+    window = int(window)
+    smoothed = smoothing == "both" and window > 1
+    if smoothed:
+        _check_window(window, min(SMOOTHING_POLYORDER, window - 1), n)
+    halo = window // 2 if smoothed else 0
+    const = sample_constants(flight)
+    delta = flight.data["delta"].to_numpy(dtype=float)
+    for start in range(0, n, block):
+        stop = min(start + block, n)
+        lo = max(0, min(start - halo, n - window)) if smoothed else start
+        hi = min(n, max(stop + halo, lo + window)) if smoothed else stop
+        states = flight.data.iloc[lo:hi][list(STATE_CHANNELS)].to_numpy(dtype=float)
+        part = Constants(*(v[lo:hi] if np.ndim(v) else v for v in const))
+        X = regressors(states, delta[lo:hi], part)
+        if smoothed:
+            X = smooth(X, window, min(SMOOTHING_POLYORDER, window - 1), axis=0)
+        yield start, stop, X[start - lo:stop - lo]
+
+
 def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.ndarray,
                    rows: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
     """Return the fit-check entries of an EBM second step: residuals and yardsticks.
@@ -355,8 +432,16 @@ def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.
     load (``fit_noise_sd``, :attr:`Reconstruction.fm_sd`: the roll moment's comes from
     the wide roll-rate derivative, whose coloured noise a smoother's residual cannot
     see); see :mod:`aeroid.estimation._fitcheck`.
+
+    ``X`` is the (n, 6, 9) array, or an iterable of the ``(start, stop, X[start:stop])``
+    blocks of :func:`regressor_blocks` (the residuals are then computed a block at a time).
     """
     theta = np.asarray(theta, dtype=float)
-    return {"fit_residuals": {FM_NAMES[r]: y[:, r] - X[:, r] @ theta for r in rows},
+    blocks = [(0, y.shape[0], X)] if isinstance(X, np.ndarray) else X
+    residuals = {FM_NAMES[r]: np.empty(y.shape[0]) for r in rows}
+    for start, stop, part in blocks:
+        for r in rows:
+            residuals[FM_NAMES[r]][start:stop] = y[start:stop, r] - part[:, r] @ theta
+    return {"fit_residuals": residuals,
             "fit_noise_sd": {FM_NAMES[r]: float(rec.fm_sd[r]) for r in rows},
             "fit_signals": {FM_NAMES[r]: rec.fm[:, r] for r in rows}}
