@@ -361,10 +361,11 @@ class EquationErrorEstimator(Estimator):
             return self._one_step(flight, covariance, theta_only)
         rec = rc.reconstruct(flight)
         y = rc.regression_target(rec, smoothing=self.smoothing)
+        window = rec.smoothing_window
 
         def blocks():  # the regressors a time block at a time (rc.ebm_regression's X)
-            return rc.regressor_blocks(flight, smoothing=self.smoothing,
-                                       window=rec.smoothing_window, block=BLOCK_SAMPLES)
+            return rc.regressor_blocks(flight, smoothing=self.smoothing, window=window,
+                                       block=BLOCK_SAMPLES)
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
@@ -376,6 +377,7 @@ class EquationErrorEstimator(Estimator):
             rows = tuple(sorted(rows + tuple(LATERAL.values())))
         if not theta_only:
             info.update(rc.regression_fit(rec, blocks(), y, theta, rows))
+        del rec, y  # step 1's arrays (all but the loads in the fit check) before the floor
         return self._result(flight, theta, cov, corr, cost, info, floor=not theta_only)
 
     def _one_step(self, flight: Flight, covariance: str, theta_only: bool) -> EstimationResult:

@@ -103,6 +103,10 @@ WHITENESS_MIN_RATIO = 0.5
 NOISE_ORDER_AGREEMENT = 0.5
 
 
+#: Fewest channels per pass of :func:`data_noise_levels` (groups hold 3 to 5 of them).
+NOISE_LEVEL_GROUP = 3
+
+
 def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
     """A channel's noise level from the data alone: the RMS of its 4th differences over
     windows clear of relay switches (:func:`aeroid.estimation.difference_noise_sd`).
@@ -118,11 +122,20 @@ def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
 
 def data_noise_levels(flight: Flight, names: tuple[str, ...] = OUTPUT_CHANNELS,
                       ) -> dict[str, float]:
-    """Return :func:`data_noise_sd` of every channel of ``names`` present (one pass)."""
+    """Return :func:`data_noise_sd` of every channel of ``names`` present.
+
+    The channels go in groups of :data:`NOISE_LEVEL_GROUP` or more (the differences of
+    one group at a time: their memory is a few channels', not all of them). Never one
+    channel alone out of several: numpy sums a single column pairwise but the columns of
+    a 2-D block row by row, so the levels equal those of all channels at once to the bit.
+    """
     present = tuple(name for name in names if name in flight.channels)
     if not present:
         return {}
-    sd = np.atleast_1d(data_noise_sd(flight, flight._columns(present)))
+    groups = np.array_split(np.arange(len(present)), max(len(present) // NOISE_LEVEL_GROUP, 1))
+    sd = np.concatenate([
+        np.atleast_1d(data_noise_sd(flight, flight._columns(tuple(present[j] for j in group))))
+        for group in groups])
     return dict(zip(present, (float(v) for v in sd), strict=True))
 
 

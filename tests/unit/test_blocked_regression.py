@@ -7,7 +7,8 @@ import pytest
 
 import baselines.equation_error as ee
 from aeroid import estimation as rc
-from aeroid.model import FM_NAMES
+from aeroid.estimation._fitcheck import data_noise_levels, data_noise_sd
+from aeroid.model import FM_NAMES, OUTPUT_CHANNELS
 from baselines.equation_error import EquationErrorEstimator, solve_subproblems
 
 #: The blocked path copies the same numbers into the same layout: measured bit-identical
@@ -108,3 +109,16 @@ def test_blocked_subproblems_equal_the_one_shot_array(paper_flight, smoothing):
                                    atol=1e-12 * np.abs(y[:, row]).max())
         np.testing.assert_allclose(fit_blocked[name], e, rtol=0,
                                    atol=BLOCKED_RTOL * np.abs(y[:, row]).max())
+
+
+@pytest.mark.parametrize("which", ["paper_flight", "clean_flight"])
+def test_noise_levels_by_groups_equal_all_channels_at_once(request, which):
+    """data_noise_levels takes the channels a few at a time; every count of channels
+    gives the levels of one pass over all of them (data_noise_sd on the whole table)."""
+    flight = request.getfixturevalue(which)
+    names = tuple(OUTPUT_CHANNELS)
+    for k in range(1, len(names) + 1):
+        levels = data_noise_levels(flight, names[:k])
+        assert tuple(levels) == names[:k]
+        whole = np.atleast_1d(data_noise_sd(flight, flight._columns(names[:k])))
+        np.testing.assert_allclose(list(levels.values()), whole, rtol=BLOCKED_RTOL, atol=0)
