@@ -67,6 +67,13 @@ of the 95 % intervals 0.74 with the positions taken as known (Cx 0.05, Czd 0.55,
 ``python -m pytest -m slow -s tests/statistical/test_coverage.py -k paper``). The
 one-step form under that noise: 0.59 -> 0.78 (6 flights; its Cl0, Clp, Cmd are
 thousands of % off there, see above).
+
+Memory (two-step): the regressors are built a time block at a time
+(:func:`aeroid.estimation.regressor_blocks`, :data:`BLOCK_SAMPLES`), their entries copied
+into each sub-problem's own columns (9 numbers per sample, not the 54 of the ``n x 6 x 9``
+array), and the fit check's residuals ``y - X theta`` are computed block by block too;
+the numbers are those of the one-shot array to the bit (tests/unit/test_blocked_regression.py;
+``python benchmarks/bench_memory.py --stages``: benchmarks/results/memory_stages.md).
 """
 
 from __future__ import annotations
