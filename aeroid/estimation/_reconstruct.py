@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -424,7 +425,7 @@ def regressor_blocks(flight: Flight, *, smoothing: str = "both", window: int = S
 
 
 def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.ndarray,
-                   rows: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
+                   rows: tuple[int, ...]) -> dict[str, dict[str, Any]]:
     """Return the fit-check entries of an EBM second step: residuals and yardsticks.
 
     For each used row of ``F_AX .. M_Z``: the residual ``y - X theta`` of the regression
