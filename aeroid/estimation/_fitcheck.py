@@ -101,10 +101,7 @@ WHITENESS_MIN_RATIO = 0.5
 #: on the reference flight, seeds 0-2: 0.95-1.03 under Gaussian and paper noise, 0.045-0.082
 #: on its noise-free log).
 NOISE_ORDER_AGREEMENT = 0.5
-
-
-#: Fewest channels per pass of :func:`data_noise_levels` (groups hold 3 to 5 of them).
-NOISE_LEVEL_GROUP = 3
+NOISE_LEVEL_GROUP = 3  #: fewest channels per pass of :func:`data_noise_levels`
 
 
 def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
@@ -122,13 +119,10 @@ def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
 
 def data_noise_levels(flight: Flight, names: tuple[str, ...] = OUTPUT_CHANNELS,
                       ) -> dict[str, float]:
-    """Return :func:`data_noise_sd` of every channel of ``names`` present.
-
-    The channels go in groups of :data:`NOISE_LEVEL_GROUP` or more (the differences of
-    one group at a time: their memory is a few channels', not all of them). Never one
-    channel alone out of several: numpy sums a single column pairwise but the columns of
-    a 2-D block row by row, so the levels equal those of all channels at once to the bit.
-    """
+    """Return :func:`data_noise_sd` of every channel of ``names`` present, in groups of
+    :data:`NOISE_LEVEL_GROUP` or more (memory of a few channels; never one alone: numpy
+    sums one column pairwise, a 2-D block's row by row, so the levels are the bits of
+    all channels at once)."""
     present = tuple(name for name in names if name in flight.channels)
     if not present:
         return {}

@@ -33,7 +33,6 @@ per-channel constant is the approximation made here.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,12 +47,11 @@ from aeroid.estimation._signals import (
     ROLL_POLYORDER,
     SMOOTHING_POLYORDER,
     SMOOTHING_WINDOW,
-    _check_window,
     estimate_noise_sd,
     rate_derivatives,
     smooth,
 )
-from aeroid.flights import STATE_CHANNELS, Flight, sample_constants
+from aeroid.flights import Flight, sample_constants
 from aeroid.model import FM_NAMES, OUTPUT_CHANNELS, Airframe, Constants, constants, regressors
 from aeroid.model import equations as eq
 
@@ -62,11 +60,8 @@ __all__ = [
     "SMOOTHING_CHOICES",
     "Reconstruction",
     "accel_only_matrix",
-    "REGRESSION_BLOCK",
     "ebm_regression",
     "regression_fit",
-    "regression_target",
-    "regressor_blocks",
     "reconstruct",
     "sensor_matrix",
     "sensor_offset",
@@ -80,11 +75,6 @@ __all__ = [
 #: the result no longer changes (83/49 %): the rates then only complete the direction
 #: the accelerometers cannot see (rank 5 -> 6). 1e-3 sits on that plateau.
 RATE_WEIGHT = 1e-3
-#: Time samples per block of :func:`regressor_blocks`: the regressors of one block and
-#: their temporaries take ~1 kB per sample (8192 samples: ~8 MB), whatever the log's
-#: length; a block also pays one pass of Python over the model (~0.1 ms), so much smaller
-#: blocks cost time on long logs.
-REGRESSION_BLOCK = 8192
 #: Names of the nine rows of the step-1 system.
 ROW_NAMES: tuple[str, ...] = ("ax1", "ay1", "az1", "ax2", "ay2", "az2", "pdot", "qdot", "rdot")
 
@@ -367,63 +357,6 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
     return X, y
 
 
-def regression_target(rec: Reconstruction, *, smoothing: str = "both",
-                      window: int | None = None) -> np.ndarray:
-    """Return the ``y`` of :func:`ebm_regression` (n, 6) [N, N m], read-only and without a
-    copy when it is ``rec.fm`` or ``rec.fm_smooth`` (the regressors' companion of
-    :func:`regressor_blocks`)."""
-    if smoothing not in SMOOTHING_CHOICES:
-        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_CHOICES)}, "
-                         f"got {smoothing!r}")
-    window = rec.smoothing_window if window is None else int(window)
-    if smoothing == "none" or window == 1:
-        y = rec.fm.view()
-    elif window == rec.smoothing_window:
-        y = rec.fm_smooth.view()
-    else:
-        y = smooth(rec.fm, window, min(SMOOTHING_POLYORDER, window - 1))
-    y.flags.writeable = False
-    return y
-
-
-def regressor_blocks(flight: Flight, *, smoothing: str = "both", window: int = SMOOTHING_WINDOW,
-                     block: int | None = None) -> Iterator[tuple[int, int, np.ndarray]]:
-    """Yield the ``X`` of :func:`ebm_regression` a block of time samples at a time.
-
-    Yields ``(start, stop, X[start:stop])``, ``X`` of shape (stop - start, 6, 9), blocks of
-    ``block`` samples (default :data:`REGRESSION_BLOCK`) in time order; their
-    concatenation is :func:`ebm_regression`'s ``X`` (same ``smoothing`` and ``window``,
-    the reconstruction's ``smoothing_window`` there). Memory is that of one block, not of
-    the ``n x 6 x 9`` array. With ``smoothing="both"`` each block is computed with
-    ``window // 2`` samples of its neighbours on both sides and smoothed, so every kept
-    sample has the same SG window (interior) or the same end fit as the one-shot smoother.
-    """
-    if smoothing not in SMOOTHING_CHOICES:
-        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_CHOICES)}, "
-                         f"got {smoothing!r}")
-    block = REGRESSION_BLOCK if block is None else int(block)
-    if block < 1:
-        raise ValueError(f"block must be a positive number of samples, got {block}")
-    n = flight.n_samples
-    window = int(window)
-    smoothed = smoothing == "both" and window > 1
-    if smoothed:
-        _check_window(window, min(SMOOTHING_POLYORDER, window - 1), n)
-    halo = window // 2 if smoothed else 0
-    const = sample_constants(flight)
-    delta = flight.data["delta"].to_numpy(dtype=float)
-    for start in range(0, n, block):
-        stop = min(start + block, n)
-        lo = max(0, min(start - halo, n - window)) if smoothed else start
-        hi = min(n, max(stop + halo, lo + window)) if smoothed else stop
-        states = flight.data.iloc[lo:hi][list(STATE_CHANNELS)].to_numpy(dtype=float)
-        part = Constants(*(v[lo:hi] if np.ndim(v) else v for v in const))
-        X = regressors(states, delta[lo:hi], part)
-        if smoothed:
-            X = smooth(X, window, min(SMOOTHING_POLYORDER, window - 1), axis=0)
-        yield start, stop, X[start - lo:stop - lo]
-
-
 def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.ndarray,
                    rows: tuple[int, ...]) -> dict[str, dict[str, Any]]:
     """Return the fit-check entries of an EBM second step: residuals and yardsticks.
@@ -435,7 +368,7 @@ def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.
     see); see :mod:`aeroid.estimation._fitcheck`.
 
     ``X`` is the (n, 6, 9) array, or an iterable of the ``(start, stop, X[start:stop])``
-    blocks of :func:`regressor_blocks` (the residuals are then computed a block at a time).
+    blocks of :func:`aeroid.estimation.regressor_blocks` (residuals computed block by block).
     """
     theta = np.asarray(theta, dtype=float)
     blocks = [(0, y.shape[0], X)] if isinstance(X, np.ndarray) else X
