@@ -67,6 +67,13 @@ of the 95 % intervals 0.74 with the positions taken as known (Cx 0.05, Czd 0.55,
 ``python -m pytest -m slow -s tests/statistical/test_coverage.py -k paper``). The
 one-step form under that noise: 0.59 -> 0.78 (6 flights; its Cl0, Clp, Cmd are
 thousands of % off there, see above).
+
+Memory (two-step): the regressors are built a time block at a time
+(:func:`aeroid.estimation.regressor_blocks`, :data:`BLOCK_SAMPLES`), their entries copied
+into each sub-problem's own columns (9 numbers per sample, not the 54 of the ``n x 6 x 9``
+array), and the fit check's residuals ``y - X theta`` are computed block by block too;
+the numbers are those of the one-shot array to the bit (tests/unit/test_blocked_regression.py;
+``python benchmarks/bench_memory.py --stages``: benchmarks/results/memory_stages.md).
 """
 
 from __future__ import annotations
@@ -76,79 +83,29 @@ from dataclasses import dataclass
 from typing import ClassVar, Literal
 
 import numpy as np
-import scipy.linalg
 
 import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
-from baselines.newey_west import (
-    MAX_CORRELATION_LENGTH,
-    hac_covariance,
-    residual_correlation_length,
+from baselines._ee_least_squares import (  # the sub-problems' names are read from here
+    LATERAL,
+    SUBPROBLEMS,
+    _correlation,
+    _lstsq,
+    solve_subproblems,
 )
+
+__all__ = ["COLLINEAR_R", "LATERAL", "SUBPROBLEMS", "EquationErrorEstimator",
+           "affine_accelerations", "roll_floor", "solve_subproblems"]
 
 #: Regressor pairs with |correlation| above this are reported as collinear (Cl0/Clp on
 #: the reference flight: 0.9998).
 COLLINEAR_R = 0.99
-#: scipy.linalg.lstsq driver: SVD-based like the default gelsd (minimum-norm answer when
-#: rank deficient) but 2-4x faster on the one-step (4509 x 9) problem here (measured).
-LAPACK_DRIVER = "gelss"
-#: (label, FM row, coefficient indices) of the SEBM sub-problems (eqs. 39-42): read from
-#: their one definition, :data:`aeroid.estimation.SEBM_PROBLEMS`.
-SUBPROBLEMS: tuple[tuple[str, int, tuple[int, ...]], ...] = tuple(
-    (p.label, p.row, p.coefficients) for p in rc.SEBM_PROBLEMS)
-#: Lateral rows joined with ``lateral_rows``: (target problem, FM row).
-LATERAL = {"FAZ": 1, "MY": 5}
-
-
-def _correlation(A: np.ndarray) -> np.ndarray:
-    """Correlation matrix of the columns of ``A`` (uncentred: the regressions have no
-    intercept, so collinearity is about the angle between columns)."""
-    norms = np.sqrt(np.sum(A * A, axis=0))
-    norms[norms == 0] = 1.0
-    An = A / norms
-    return An.T @ An
-
-
-def _lstsq(A: np.ndarray, b: np.ndarray, *, n_time: int | None = None,
-           covariance: str = "hac") -> tuple[np.ndarray, np.ndarray, float, dict]:
-    """Least squares with column scaling.
-
-    ``covariance="ols"`` gives ``sigma^2 (A^T A)^-1`` (white residuals);
-    ``"hac"`` the Newey-West covariance over ``n_time`` time samples (rows time-major)
-    with the lag window set to twice the residuals' correlation length: Bartlett
-    weights halve the autocovariance at ``lags / 2``, so a window of the correlation
-    length itself would count only about half of it. The correlation length is capped
-    at ``min(n_time // 4, MAX_CORRELATION_LENGTH)``.
-
-    Returns
-    -------
-    theta, covariance, residual variance, and ``{"lags": bandwidth, "capped": bool}``
-    (``lags`` 0 with ``"ols"``; ``capped``: the correlation length reached its cap).
-    """
-    scale = np.sqrt(np.sum(A * A, axis=0))
-    scale[scale == 0] = 1.0
-    sol, _, rank, _ = scipy.linalg.lstsq(A / scale, b, lapack_driver=LAPACK_DRIVER)
-    theta = sol / scale
-    dof = max(A.shape[0] - A.shape[1], 1)
-    resid = b - A @ theta
-    sigma2 = float(resid @ resid) / dof
-    As = A / scale
-    if covariance == "hac":
-        n_time = A.shape[0] if n_time is None else n_time
-        cap = min(n_time // 4, MAX_CORRELATION_LENGTH)
-        length = residual_correlation_length(resid.reshape(n_time, -1), cap=cap)
-        lags = 2 * length
-        bandwidth = {"lags": lags, "capped": length >= cap}
-        cov = hac_covariance(As, resid, n_time, lags) * (A.shape[0] / dof)
-        cov = cov / np.outer(scale, scale)
-    else:
-        cov = sigma2 * np.linalg.pinv(As.T @ As) / np.outer(scale, scale)
-        bandwidth = {"lags": 0, "capped": False}
-    if rank < A.shape[1]:
-        cov[:] = np.nan
-    return theta, cov, sigma2, bandwidth
+#: Time samples per block of the two-step regressors
+#: (:data:`aeroid.estimation.REGRESSION_BLOCK`): the ``n x 6 x 9`` array is never held,
+#: only each sub-problem's own columns (benchmarks/results/memory_stages.md).
+BLOCK_SAMPLES = rc.REGRESSION_BLOCK
 
 
 def affine_accelerations(flight: Flight, states: np.ndarray | None = None
@@ -173,58 +130,6 @@ def affine_accelerations(flight: Flight, states: np.ndarray | None = None
     c = out[:, 0, :]
     A = np.swapaxes(out[:, 1:, :] - c[:, None, :], 1, 2)  # (n, 9 outputs, n_c coefs)
     return c, A
-
-
-def solve_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, *,
-                      lateral_rows: bool = False, covariance: str = "hac") -> tuple:
-    """Solve the four SEBM least-squares sub-problems of the EBM regression.
-
-    Parameters
-    ----------
-    X : ndarray, shape (n, 6, 9)
-        Regressors (:func:`aeroid.estimation.ebm_regression`).
-    y : ndarray, shape (n, 6) [N, N m]
-        Reconstructed forces and moments.
-    sd : ndarray, shape (6,)
-        Noise sd per force/moment channel (row weights; they matter only with
-        ``lateral_rows``, which stacks two channels in one problem).
-    lateral_rows : bool
-    covariance : {"hac", "ols"}
-        Newey-West or white-residual covariance (:func:`_lstsq`).
-
-    Returns
-    -------
-    theta : ndarray, shape (9,)
-    covariance : ndarray, shape (9, 9)
-        Block diagonal, per sub-problem (Newey-West, or ``sigma^2 (X^T X)^-1``).
-    correlation : ndarray, shape (9, 9)
-        Regressor correlation within each sub-problem, NaN across.
-    sigma2 : dict
-        Residual variance (weighted units) per sub-problem.
-    cost : float
-        Total weighted residual sum of squares.
-    bandwidth : dict
-        Per sub-problem, the Newey-West bandwidth ``{"lags": int, "capped": bool}``
-        (:func:`_lstsq`).
-    """
-    n_c = aeroid.model.N_COEFFICIENTS
-    theta = np.full(n_c, np.nan)
-    cov = np.zeros((n_c, n_c))
-    corr = np.full((n_c, n_c), np.nan)
-    sigma2, bandwidth, cost = {}, {}, 0.0
-    for label, row, cols in SUBPROBLEMS:
-        cols = list(cols)
-        rows = [row] + ([LATERAL[label]] if lateral_rows and label in LATERAL else [])
-        # time-major rows (the k rows of one sample consecutive), for the HAC covariance
-        A = np.stack([X[:, r, cols] / sd[r] for r in rows], axis=1).reshape(-1, len(cols))
-        b = np.stack([y[:, r] / sd[r] for r in rows], axis=1).reshape(-1)
-        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=X.shape[0], covariance=covariance)
-        theta[cols] = th
-        cov[np.ix_(cols, cols)] = cv
-        corr[np.ix_(cols, cols)] = _correlation(A)
-        sigma2[label] = s2
-        cost += s2 * max(A.shape[0] - len(cols), 1)
-    return theta, cov, corr, sigma2, cost, bandwidth
 
 
 def roll_floor(flight: Flight, theta: np.ndarray) -> dict[str, float]:
@@ -330,9 +235,15 @@ class EquationErrorEstimator(Estimator):
         if self.one_step:
             return self._one_step(flight, covariance, theta_only)
         rec = rc.reconstruct(flight)
-        X, y = rc.ebm_regression(flight, rec, smoothing=self.smoothing)
+        y = rc.regression_target(rec, smoothing=self.smoothing)
+        window = rec.smoothing_window
+
+        def blocks():  # the regressors a time block at a time (rc.ebm_regression's X)
+            return rc.regressor_blocks(flight, smoothing=self.smoothing, window=window,
+                                       block=BLOCK_SAMPLES)
+
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
-            X, y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
+            blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
             covariance=covariance)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
@@ -340,7 +251,8 @@ class EquationErrorEstimator(Estimator):
         if self.lateral_rows:
             rows = tuple(sorted(rows + tuple(LATERAL.values())))
         if not theta_only:
-            info.update(rc.regression_fit(rec, X, y, theta, rows))
+            info.update(rc.regression_fit(rec, blocks(), y, theta, rows))
+        del rec, y  # step 1's arrays (all but the loads in the fit check) before the floor
         return self._result(flight, theta, cov, corr, cost, info, floor=not theta_only)
 
     def _one_step(self, flight: Flight, covariance: str, theta_only: bool) -> EstimationResult:

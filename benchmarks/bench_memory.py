@@ -70,6 +70,11 @@ import functools, json, sys, tracemalloc, warnings
 import aeroid.estimation as rc
 import aeroid.estimation._estimator as est
 import aeroid.estimation._fitcheck as fc
+import aeroid.estimation._reconstruct as rcm
+try:  # the blocked regressors' module (this tree); the old tree calls them from rcm
+    import aeroid.estimation._regression as rgm
+except ImportError:
+    rgm = rcm
 import baselines.equation_error as ee
 from aeroid.estimation import make_estimator
 from aeroid.flights import Flight, read_flight
@@ -101,6 +106,7 @@ def wrap(owner, name, label):
 for owner, name, label in [
         (Flight, "validate", "validate"), (ee.EquationErrorEstimator, "run", "run (the fit)"),
         (rc, "reconstruct", "run: reconstruct"), (rc, "ebm_regression", "run: ebm_regression"),
+        (rgm, "regressors", "run: regressors (of one time block, or all: old tree)"),
         (ee, "solve_subproblems", "run: solve_subproblems"),
         (rc, "regression_fit", "run: regression_fit"),
         (ee, "roll_floor", "run: roll_floor (gyro-only floor)"),

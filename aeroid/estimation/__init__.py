@@ -9,11 +9,12 @@ type), ``_predict`` (what a result's model says of a flight, its table and JSON 
 ``_options`` (option values from text, option descriptions), ``_progress``
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
-``_reconstruct``, ``_objectives``, ``_floor``, ``_gyro_floor`` (what the p gyro alone
-tells of Cl0, Clp), ``_whiteness`` and ``_identifiability`` (what the fit check tests
-beyond the residuals' size), ``_polish`` (from a swarm's best point to the optimum of its
-objective), ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``,
-``_ebm``, ``_sebm``, which import none of one another.
+``_reconstruct``, ``_regression`` (its regressors in time blocks), ``_objectives``,
+``_floor``, ``_gyro_floor`` (what the p gyro alone tells of Cl0, Clp), ``_whiteness``
+and ``_identifiability`` (what the fit check tests beyond the residuals' size),
+``_polish`` (from a swarm's best point to the optimum of its objective),
+``_pso_methods`` (what the paper's methods share), and the methods ``_eam``, ``_ebm``,
+``_sebm``, which import none of one another.
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
@@ -70,6 +71,7 @@ from aeroid.estimation._registry import (
     make_estimator,
     register,
 )
+from aeroid.estimation._regression import REGRESSION_BLOCK, regression_target, regressor_blocks
 from aeroid.estimation._result import (
     EDGE_FRACTION,
     EstimationResult,
@@ -112,6 +114,7 @@ __all__ = [
     "Reconstruction",
     "SEBM_PROBLEMS",
     "SebmProblem",
+    "REGRESSION_BLOCK",
     "SMOOTHING_CHOICES",
     "accel_only_matrix",
     "available",
@@ -150,6 +153,8 @@ __all__ = [
     "reconstruct",
     "register",
     "regression_fit",
+    "regression_target",
+    "regressor_blocks",
     "report_progress",
     "sebm_costs",
     "smooth",

@@ -101,6 +101,7 @@ WHITENESS_MIN_RATIO = 0.5
 #: on the reference flight, seeds 0-2: 0.95-1.03 under Gaussian and paper noise, 0.045-0.082
 #: on its noise-free log).
 NOISE_ORDER_AGREEMENT = 0.5
+NOISE_LEVEL_GROUP = 3  #: fewest channels per pass of :func:`data_noise_levels`
 
 
 def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
@@ -118,11 +119,17 @@ def data_noise_sd(flight: Flight, signal: np.ndarray) -> float | np.ndarray:
 
 def data_noise_levels(flight: Flight, names: tuple[str, ...] = OUTPUT_CHANNELS,
                       ) -> dict[str, float]:
-    """Return :func:`data_noise_sd` of every channel of ``names`` present (one pass)."""
+    """Return :func:`data_noise_sd` of every channel of ``names`` present, in groups of
+    :data:`NOISE_LEVEL_GROUP` or more (memory of a few channels; never one alone: numpy
+    sums one column pairwise, a 2-D block's row by row, so the levels are the bits of
+    all channels at once)."""
     present = tuple(name for name in names if name in flight.channels)
     if not present:
         return {}
-    sd = np.atleast_1d(data_noise_sd(flight, flight._columns(present)))
+    groups = np.array_split(np.arange(len(present)), max(len(present) // NOISE_LEVEL_GROUP, 1))
+    sd = np.concatenate([
+        np.atleast_1d(data_noise_sd(flight, flight._columns(tuple(present[j] for j in group))))
+        for group in groups])
     return dict(zip(present, (float(v) for v in sd), strict=True))
 
 

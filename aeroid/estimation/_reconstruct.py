@@ -34,6 +34,7 @@ per-channel constant is the approximation made here.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -241,17 +242,17 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
         raise ValueError(f"rate_weight must be a positive number, got {rate_weight!r}")
     const = sample_constants(flight)
     n = flight.n_samples
-    accel = flight.accelerations().reshape(n, 6)
     omega = np.column_stack([flight["p"], flight["q"], flight["r"]])
     positions = flight.airframe.accel_positions
-    # eqs. 5-7: wdot = J^-1 M + g(w); the rate rows see J^-1 M = wdot - g(w)
-    none = eq.Loads(*np.zeros(len(FM_NAMES)))
-    gyro = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2], none,
-                                            const))
     matrix = sensor_matrix(const, positions)
-    z = accel - sensor_offset(const, positions, omega)
+    n_accel = matrix.shape[-2]
+    # the right-hand sides, filled in place (no full-size temporaries beyond one channel
+    # group): accelerometers minus B(w), then the rate rows
+    z = np.empty((n, n_accel + (omega.shape[1] if rate_rows else 0)))
+    z[:, :n_accel] = flight.accelerations().reshape(n, n_accel)
     row_sd = np.full(len(OUTPUT_CHANNELS), np.nan)  # the accelerometer rows, then p, q, r
-    row_sd[:6] = estimate_noise_sd(accel)
+    row_sd[:n_accel] = estimate_noise_sd(z[:, :n_accel])
+    z[:, :n_accel] -= sensor_offset(const, positions, omega)
     wdot_sg = None
     if rate_rows:
         roll_window = min(roll_derivative_window, n - 1 + n % 2)
@@ -261,16 +262,20 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
                  for w, o in ((roll_window, ROLL_POLYORDER),
                               (derivative_window, derivative_polyorder),
                               (derivative_window, derivative_polyorder))]
-        row_sd[6:] = estimate_noise_sd(omega) * np.asarray(gains)
+        row_sd[n_accel:] = estimate_noise_sd(omega) * np.asarray(gains)
         rows = inertia_rows(const)
         if rows.ndim != matrix.ndim:  # one of them per sample
             matrix, rows = (np.broadcast_to(a, (n, *a.shape[-2:])) for a in (matrix, rows))
         matrix = np.concatenate([matrix, rows], axis=-2)
-        z = np.hstack([z, wdot_sg - gyro])
+        # eqs. 5-7: wdot = J^-1 M + g(w); the rate rows see J^-1 M = wdot - g(w)
+        none = eq.Loads(*np.zeros(len(FM_NAMES)))
+        z[:, n_accel:] = wdot_sg
+        z[:, n_accel:] -= _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1],
+                                                           omega[:, 2], none, const))
     n_rows = matrix.shape[-2]
     weights = 1.0 / row_sd[:n_rows]
     if rate_rows:
-        weights[6:] *= rate_weight
+        weights[n_accel:] *= rate_weight
     weighted = weights[:, None] * matrix
     gain = np.linalg.pinv(weighted) * weights  # fm = gain z, per sample or shared
     if matrix.ndim == 2:  # one matrix for the whole flight: one pseudo-inverse
@@ -279,12 +284,18 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     else:  # per-sample mass or inertia
         fm = np.einsum("kij,kj->ki", gain, z)
         model = np.einsum("kij,kj->ki", matrix, fm)
+    model -= z  # now the residual, model - measurement
+    del z
     # the sensors' noise propagated into the loads: sqrt(diag(G diag(row_sd^2) G^T))
     fm_sd = np.sqrt(np.median(np.sum((gain * row_sd[:n_rows]) ** 2, axis=-1).reshape(
         -1, len(FM_NAMES)), axis=0))
     rank = int(np.min(np.linalg.matrix_rank(weighted)))
-    residual = np.full((n, len(OUTPUT_CHANNELS)), np.nan)
-    residual[:, :n_rows] = model - z
+    if n_rows == len(OUTPUT_CHANNELS):
+        residual = model
+    else:
+        residual = np.full((n, len(OUTPUT_CHANNELS)), np.nan)
+        residual[:, :n_rows] = model
+    del model
     omega_dot = _columns(eq.angular_acceleration(omega[:, 0], omega[:, 1], omega[:, 2],
                                                  eq.Loads(*fm.T), const))
     fm_smooth = smooth(fm, smoothing_window, min(SMOOTHING_POLYORDER, smoothing_window - 1))
@@ -347,7 +358,7 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
 
 
 def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.ndarray,
-                   rows: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
+                   rows: tuple[int, ...]) -> dict[str, dict[str, Any]]:
     """Return the fit-check entries of an EBM second step: residuals and yardsticks.
 
     For each used row of ``F_AX .. M_Z``: the residual ``y - X theta`` of the regression
@@ -355,8 +366,16 @@ def regression_fit(rec: Reconstruction, X: np.ndarray, y: np.ndarray, theta: np.
     load (``fit_noise_sd``, :attr:`Reconstruction.fm_sd`: the roll moment's comes from
     the wide roll-rate derivative, whose coloured noise a smoother's residual cannot
     see); see :mod:`aeroid.estimation._fitcheck`.
+
+    ``X`` is the (n, 6, 9) array, or an iterable of the ``(start, stop, X[start:stop])``
+    blocks of :func:`aeroid.estimation.regressor_blocks` (residuals computed block by block).
     """
     theta = np.asarray(theta, dtype=float)
-    return {"fit_residuals": {FM_NAMES[r]: y[:, r] - X[:, r] @ theta for r in rows},
+    blocks = [(0, y.shape[0], X)] if isinstance(X, np.ndarray) else X
+    residuals = {FM_NAMES[r]: np.empty(y.shape[0]) for r in rows}
+    for start, stop, part in blocks:
+        for r in rows:
+            residuals[FM_NAMES[r]][start:stop] = y[start:stop, r] - part[:, r] @ theta
+    return {"fit_residuals": residuals,
             "fit_noise_sd": {FM_NAMES[r]: float(rec.fm_sd[r]) for r in rows},
             "fit_signals": {FM_NAMES[r]: rec.fm[:, r] for r in rows}}
