@@ -11,6 +11,10 @@ own view of the flight wherever the result records it:
 * the accelerometer positions: the estimated ``info["accel_positions_m"]``, else the
   airframe's;
 * RK4 steps per sample: the fit's ``substeps`` option, else :data:`PREDICT_SUBSTEPS`;
+* the IMU's errors: a fit that estimated them (``info["imu_errors"]``: biases ``b`` and
+  scale factors ``s`` + channel, output-error's and the EKF/UKF's ``imu_errors`` option)
+  gets the sensor law ``reading = (1 + s) model + b`` on each channel it names, so the
+  prediction is what the fit compared with the raw readings (:func:`sensor_law`);
 * the initial state: ``info["initial_state"]`` (the fitted start, shape (9,)), else EAM's
   ``info["state0"]`` (the start its cost used); else (the filters, the equation-error
   and EBM methods, which fit no start) the first measured sample with p, q, r fitted to
@@ -31,6 +35,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 import pandas as pd
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
 from aeroid.model import STATE_NAMES
 
@@ -63,7 +68,8 @@ class FitResult(Protocol):
 
 
 __all__ = ["JSON_ARRAY_LIMIT", "FitResult", "PREDICT_SUBSTEPS", "START_WINDOW", "coefficient_frame",
-           "correlation", "fitted_start", "json_safe", "json_safe_info", "predict", "start_state"]
+           "correlation", "fitted_start", "json_safe", "json_safe_info", "predict", "sensor_law",
+           "start_state"]
 
 #: RK4 steps per sample interval for a method that has no ``substeps`` option (the
 #: equation-error and EBM methods): output-error's default; on the noise-free reference
@@ -85,6 +91,47 @@ START_EVALUATIONS = 50
 START_WEIGHT_FLOOR = 1e-3
 #: The initial-state components :func:`fitted_start` fits.
 RATE_NAMES = ("p", "q", "r")
+#: Prefixes of the IMU-error names in ``info["imu_errors"]``: bias, scale factor.
+SENSOR_PREFIXES = ("b", "s")
+
+
+def sensor_law(result: FitResult, channels: tuple[str, ...]
+               ) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
+    """The fit's IMU errors as the sensor law's ``b`` and ``s`` per channel, shape (m,) each.
+
+    ``info["imu_errors"]`` names each error ``b`` or ``s`` + channel (``bax1``, ``sr``); a
+    channel it does not name has ``b = 0`` and ``s = 0``. Also returns the errors applied
+    (``{}`` for a fit without them).
+
+    Raises
+    ------
+    EstimatorError
+        One line: a name that is not ``b`` or ``s`` + one of ``channels``, or a value that
+        is not a finite number (nothing is dropped unsaid).
+    """
+    m = len(channels)
+    bias, scale = np.zeros(m), np.zeros(m)
+    given = result.info.get("imu_errors") or {}
+    if not isinstance(given, dict):
+        raise EstimatorError(f"{result.estimator}: info['imu_errors'] must map names to "
+                             f"numbers, got {type(given).__name__}")
+    applied: dict[str, float] = {}
+    for name, value in given.items():
+        prefix, channel = str(name)[:1], str(name)[1:]
+        if prefix not in SENSOR_PREFIXES or channel not in channels:
+            raise EstimatorError(
+                f"{result.estimator}: info['imu_errors'] names {name!r}, not a bias (b) or "
+                f"scale factor (s) of an output channel ({', '.join(channels)})")
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            number = math.nan
+        if not math.isfinite(number):
+            raise EstimatorError(f"{result.estimator}: info['imu_errors'][{name!r}] must be "
+                                 f"a finite number, got {value!r}")
+        (bias if prefix == "b" else scale)[channels.index(channel)] = number
+        applied[str(name)] = number
+    return bias, scale, applied
 
 
 def start_state(flight: Flight) -> np.ndarray:
@@ -96,14 +143,18 @@ def start_state(flight: Flight) -> np.ndarray:
     return x0
 
 
-def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel) -> np.ndarray:
+def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel, *,
+                 bias: np.ndarray | None = None, scale: np.ndarray | None = None
+                 ) -> np.ndarray:
     """The first measured state with p, q, r fitted to every output at ``theta``.
 
     Least squares (``scipy.optimize.least_squares``, Levenberg-Marquardt) of the outputs
     of ``model`` weighted by each channel's noise level from the data (the fit check's:
     the RMS of the 7-point smoother's residual away from relay switches, floored at
     :data:`START_WEIGHT_FLOOR` of the channel's RMS), from :func:`start_state`; that
-    start when the fit does not lower the cost (a diverging trajectory).
+    start when the fit does not lower the cost (a diverging trajectory). ``bias`` and
+    ``scale`` (shape (m,), default 0): the sensor law ``(1 + scale) y + bias`` on the
+    model's outputs (a fit's IMU errors, :func:`sensor_law`).
     """
     from scipy.optimize import least_squares
 
@@ -114,6 +165,9 @@ def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel) -> np.n
                                use=switch_free_samples(flight["delta"]))
     sd = np.maximum(np.maximum(levels, START_WEIGHT_FLOOR * rms), np.finfo(float).tiny)
     theta = np.asarray(theta, dtype=float)
+    m = len(model.output_names)
+    bias = np.zeros(m) if bias is None else np.asarray(bias, dtype=float)
+    gain = 1.0 + (np.zeros(m) if scale is None else np.asarray(scale, dtype=float))
     rates = list(RATE_NAMES)
     index = [STATE_NAMES.index(name) for name in rates]
 
@@ -124,14 +178,14 @@ def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel) -> np.n
 
     def residuals(x: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
-            y = model.outputs(state(x), theta)[0]
+            y = gain * model.outputs(state(x), theta)[0] + bias
         r = ((measured - y) / sd).ravel()
         return np.where(np.isfinite(r), r, 1e150)
 
     def jacobian(x: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
             sens = model.sensitivities(state(x), theta, free_states=rates)[..., -len(rates):]
-        return np.nan_to_num(-(sens / sd[None, :, None]).reshape(-1, len(rates)))
+        return np.nan_to_num(-(sens * (gain / sd)[None, :, None]).reshape(-1, len(rates)))
 
     try:
         found = least_squares(residuals, x0[index], jac=jacobian, method="lm",
@@ -148,8 +202,8 @@ def _options(result: FitResult) -> dict[str, Any]:
     return dict(options) if isinstance(options, dict) else {}
 
 
-def _initial_state(result: FitResult, flight: Flight,
-                   model: ForwardModel) -> tuple[np.ndarray, str]:
+def _initial_state(result: FitResult, flight: Flight, model: ForwardModel,
+                   bias: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, str]:
     for key in ("initial_state", "state0"):
         value = result.info.get(key)
         if value is not None and not isinstance(value, str):
@@ -158,12 +212,13 @@ def _initial_state(result: FitResult, flight: Flight,
                 return x0, f"the fit's (info[{key!r}])"
     if not np.all(np.isfinite(result.theta)):
         return start_state(flight), f"first sample, rates from a {START_WINDOW}-point SG fit"
-    return (fitted_start(flight, result.theta, model),
+    return (fitted_start(flight, result.theta, model, bias=bias, scale=scale),
             "first sample, p q r fitted to the outputs at the estimate")
 
 
 def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
-            initial_state: np.ndarray | None = None) -> pd.DataFrame:
+            initial_state: np.ndarray | None = None, imu_errors: bool = True
+            ) -> pd.DataFrame:
     """Return the model's outputs at the flight's samples (module docstring).
 
     Parameters
@@ -175,6 +230,9 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
         RK4 steps per sample interval (default: the fit's, else :data:`PREDICT_SUBSTEPS`).
     initial_state : ndarray, shape (9,), optional
         The state at the first sample [m/s, rad/s, rad] (default: the fit's).
+    imu_errors : bool
+        Apply the fit's IMU errors, ``(1 + s) model + b`` (default; :func:`sensor_law`);
+        ``False``: the model's own accelerations and rates.
 
     Returns
     -------
@@ -182,7 +240,8 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
         Index ``t`` [s]; columns :data:`aeroid.model.OUTPUT_CHANNELS` (both triads'
         accelerations [m/s^2], then p, q, r [rad/s]); ``attrs``: ``input``, ``delay_s``,
         ``substeps``, ``accel_positions_m``, ``initial_state``, ``initial_state_from``,
-        ``estimator``.
+        ``estimator``, ``imu_errors`` (the biases and scale factors applied, ``{}`` for
+        none) and ``imu_errors_note`` (one line saying what was done).
         NaN where the simulation diverged (or every value, for NaN coefficients).
     """
     from aeroid.flights import flight_record, model_constants
@@ -199,17 +258,25 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
                  else np.asarray(positions, dtype=float).reshape(-1, 3))
     record = flight_record(flight, input_mode, delay)
     model = ForwardModel(model_constants(flight), record, positions, substeps=steps)
+    bias, scale, applied = sensor_law(result, tuple(model.output_names))
+    if not imu_errors:
+        bias, scale = np.zeros_like(bias), np.zeros_like(scale)
     if initial_state is None:
-        x0, source = _initial_state(result, flight, model)
+        x0, source = _initial_state(result, flight, model, bias, scale)
     else:
         x0, source = np.asarray(initial_state, dtype=float).reshape(-1), "given"
     with np.errstate(all="ignore"):
-        outputs = model.outputs(x0, result.theta)[0]
+        outputs = (1.0 + scale) * model.outputs(x0, result.theta)[0] + bias
+    note = (f"IMU errors of the fit applied: reading = (1 + s) model + b "
+            f"({len(applied)} values)" if applied and imu_errors else
+            "IMU errors of the fit not applied: the model's own outputs" if applied else
+            "no IMU errors in the fit: the model's own outputs")
     frame = pd.DataFrame(outputs, columns=list(model.output_names),
                          index=pd.Index(flight.t, name="t"))
     frame.attrs.update(input=input_mode, delay_s=delay, substeps=steps,
                        accel_positions_m=positions.tolist(), initial_state=x0.tolist(),
-                       initial_state_from=source, estimator=result.estimator)
+                       initial_state_from=source, estimator=result.estimator,
+                       imu_errors=applied if imu_errors else {}, imu_errors_note=note)
     return frame
 
 

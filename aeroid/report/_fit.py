@@ -7,7 +7,9 @@ for every output channel with the residual and its noise band; the residual
 autocorrelation; the deflection the model used; the correlation of the estimates.
 
 The model is :meth:`aeroid.estimation.EstimationResult.predict`: an open-loop simulation
-with the fit's input, delay, positions and start. For the filters that is not what they
+with the fit's input, delay, positions and start, and the fit's IMU errors (biases and
+scale factors: ``reading = (1 + s) model + b``) when it estimated them, so the residuals
+are the ones the fit had. For the filters that is not what they
 fitted (their residuals are one-step innovations) and for the equation-error and EBM
 methods neither (theirs are forces and moments): the fit check's numbers are the method's
 own, the figures the model's outputs; the report says so.
@@ -214,8 +216,9 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
                   f"`{attrs['input']}`, delay {attrs['delay_s']:g} s, "
                   f"{attrs['substeps']} RK4 step(s) per sample, accelerometer positions "
                   f"{_positions(attrs['accel_positions_m'])} m, initial state "
-                  f"{attrs['initial_state_from']}. Residual band: +-{BAND_SD:g} noise sd.",
-                  ""]
+                  f"{attrs['initial_state_from']}; "
+                  f"{attrs.get('imu_errors_note', 'no IMU errors applied')}. "
+                  f"Residual band: +-{BAND_SD:g} noise sd.", ""]
         if "fit_check" in result.info and not set(OUTPUT_CHANNELS) & set(
                 result.info["fit_check"].get("ratio", {})):
             lines += ["This method fits forces and moments, not these outputs: the fit "
