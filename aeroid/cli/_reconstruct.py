@@ -38,8 +38,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--flight", type=Path,
                    help="also write aeroid's single-rate flight CSV (for 'aeroid estimate')")
     p.add_argument("--per-sample-density", action="store_true",
-                   help="the flight's density: ISA at the reconstructed altitude at each "
-                        "sample (default: the airframe's atmosphere)")
+                   help="the flight's density per sample: rho = p / (R T) when the "
+                        "barometer logs pressure and temperature, else ISA at the "
+                        "reconstructed altitude (default: the airframe's atmosphere)")
     p.add_argument("--report", type=Path, metavar="DIR",
                    help="write DIR/reconstruction.md and PNG figures: each aiding source's "
                         "innovations against their sd band, the states with their sd band, "
@@ -82,10 +83,10 @@ def reconstruct(args: argparse.Namespace) -> int:
 
         print(f"wrote {write_reconstruction_report(result, args.report)} and its figures")
     if args.flight is not None:
-        atmosphere = "altitude" if args.per_sample_density else "airframe"
+        atmosphere = "per-sample" if args.per_sample_density else "airframe"
         imu = "raw" if args.raw_imu else "corrected"
-        sidecar = result.to_flight(atmosphere=atmosphere, imu=imu).write(args.flight)
-        density = ("ISA at the reconstructed altitude" if args.per_sample_density
-                   else "the airframe's atmosphere")
-        print(f"wrote {args.flight} and {sidecar} (density: {density}; IMU: {imu})")
+        flight = result.to_flight(atmosphere=atmosphere, imu=imu)
+        sidecar = flight.write(args.flight)
+        density = next(n for n in flight.metadata["notes"] if n.startswith("flight density"))
+        print(f"wrote {args.flight} and {sidecar} ({density}; IMU: {imu})")
     return 0

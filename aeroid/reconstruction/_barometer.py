@@ -7,20 +7,25 @@ residual check is in the sensor's own unit), and the prior's altitude is the ISA
 altitude of the first sample. The density is ``rho = p / (R T)``: ``p`` the ISA pressure
 of the reconstructed altitude at each IMU sample, ``T`` the logged temperature linear
 between its samples (held beyond them); without a temperature channel, the ISA density
-of the pressure altitude (a note says which).
+of the pressure altitude (a note says which). :func:`flight_atmosphere` passes the
+density on to a reconstruction's flight.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from aeroid.errors import FlightError
 from aeroid.flights import SuiteLog
-from aeroid.model import R_AIR, isa_pressure, pressure_altitude
+from aeroid.model import R_AIR, Airframe, isa_pressure, pressure_altitude
 
 Model = Callable[[np.ndarray], np.ndarray]
+#: The densities :meth:`aeroid.reconstruction.Reconstruction.to_flight` can give a flight.
+ATMOSPHERES = ("airframe", "per-sample", "altitude")
 
 
 def baro_channel(log: SuiteLog) -> str | None:
@@ -79,3 +84,39 @@ def baro_density(log: SuiteLog, t: np.ndarray, altitude: np.ndarray,
     notes.append("density: rho = p / (R T), p the ISA pressure of the reconstructed pressure "
                  "altitude, T the baro temperature linear between its samples")
     return isa_pressure(altitude) / (R_AIR * temperature)
+
+
+def flight_atmosphere(atmosphere: str, table: pd.DataFrame, airframe: Airframe,
+                      metadata: dict[str, Any], channels: dict[str, np.ndarray]
+                      ) -> tuple[Airframe, str]:
+    """Return a reconstruction's flight's airframe for ``atmosphere`` and its one-line note.
+
+    Adds the flight's atmosphere channel to ``channels``: ``rho`` (the table's
+    ``p / (R T)``, for ``"per-sample"`` when ``metadata['density']`` is ``"barometer"``)
+    or ``altitude`` (ISA density per sample); none for ``"airframe"``.
+
+    Raises
+    ------
+    FlightError
+        A per-sample density without a barometer (no altitude in the table).
+    """
+    if atmosphere == "airframe":
+        return airframe, "flight density: the airframe's atmosphere"
+    if "altitude" not in table:
+        raise FlightError(f"{metadata.get('source', 'suite log')}: atmosphere "
+                          f"{atmosphere!r} needs a barometer group")
+    from_baro = metadata.get("density") == "barometer"
+    per_sample = airframe.replace(altitude_m=None, given_density_kgm3=None,
+                                  atmosphere_channel="altitude")
+    if atmosphere == "per-sample" and from_baro:
+        channels["rho"] = table["rho"].to_numpy()
+        return (per_sample.replace(atmosphere_channel="rho"),
+                "flight density: rho = p / (R T) per sample from the barometer's pressure "
+                "and temperature (channel rho)")
+    channels["altitude"] = table["altitude"].to_numpy()
+    note = "flight density: ISA at the reconstructed altitude, per sample"
+    if from_baro:
+        note += " (the barometer's rho = p / (R T) not used: atmosphere 'per-sample' uses it)"
+    elif atmosphere == "per-sample":
+        note += " (no baro temperature for p / (R T))"
+    return per_sample, note

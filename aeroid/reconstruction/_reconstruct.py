@@ -23,10 +23,12 @@ from aeroid.errors import FlightError
 from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
 from aeroid.reconstruction._barometer import (
+    ATMOSPHERES,
     baro_altitude,
     baro_channel,
     baro_density,
     baro_model,
+    flight_atmosphere,
 )
 from aeroid.reconstruction._filter import Aiding, run
 from aeroid.reconstruction._kinematics import (
@@ -68,7 +70,9 @@ class Reconstruction:
     table : pandas.DataFrame
         At the IMU's times: ``t``, every state of :data:`STATES` and its sd (``sd_NAME``),
         the corrected IMU channels ``ax1 ... r``, ``altitude`` and ``rho`` (with a
-        barometer: ISA density of the reconstructed altitude).
+        barometer: ``p / (R T)`` when it logs pressure and temperature, else the ISA
+        density of the reconstructed altitude; ``metadata['density']`` says which,
+        ``"barometer"`` or ``"isa"``).
     covariance : ndarray, shape (n, N, N)
         Smoothed state covariance.
     nis : dict
@@ -112,11 +116,16 @@ class Reconstruction:
 
         Parameters
         ----------
-        atmosphere : {"airframe", "altitude"}
+        atmosphere : {"airframe", "per-sample", "altitude"}
             ``"airframe"``: the airframe's own atmosphere (as the model's simulator, which
-            holds the density of one altitude); ``"altitude"``: the reconstructed
-            altitude becomes a channel and the atmosphere ``per_sample = "altitude"``
-            (ISA density at each sample; needs a barometer).
+            holds the density of one altitude); ``"per-sample"``: the reconstruction's
+            density at each sample (needs a barometer): with a baro pressure and
+            temperature ``rho = p / (R T)`` becomes the channel ``rho`` and the atmosphere
+            ``per_sample = "rho"``, otherwise as ``"altitude"``; ``"altitude"``: the
+            reconstructed altitude becomes a channel and the atmosphere
+            ``per_sample = "altitude"`` (ISA density at each sample, even when the
+            barometer has a temperature: the notes say so). One note names the density
+            the flight got.
         imu : {"corrected", "raw"}
             ``"corrected"``: the readings less the reconstruction's biases and scale
             factors; ``"raw"``: the readings as logged, for an estimator that fits the
@@ -124,9 +133,9 @@ class Reconstruction:
             states then serve as its initial state.
         """
         where = self.metadata.get("source", "suite log")
-        if atmosphere not in ("airframe", "altitude"):
-            raise FlightError(f"{where}: atmosphere must be 'airframe' or 'altitude', got "
-                              f"{atmosphere!r}")
+        if atmosphere not in ATMOSPHERES:
+            raise FlightError(f"{where}: atmosphere must be one of "
+                              f"{', '.join(map(repr, ATMOSPHERES))}, got {atmosphere!r}")
         if imu not in ("corrected", "raw"):
             raise FlightError(f"{where}: imu must be 'corrected' or 'raw', got {imu!r}")
         if imu == "raw" and self.raw_imu is None:
@@ -143,15 +152,9 @@ class Reconstruction:
             channels.update({c: self.raw_imu[:, j] for j, c in enumerate(IMU_CHANNELS)})
             imu_note = ("IMU: raw readings, biases and scale factors not removed (fit them: "
                         "output-error imu_errors)")
-        airframe = self.airframe
-        notes = [*self.notes, imu_note, "density: the airframe's atmosphere"]
-        if atmosphere == "altitude":
-            if "altitude" not in tab:
-                raise FlightError(f"{where}: atmosphere 'altitude' needs a barometer group")
-            channels["altitude"] = tab["altitude"].to_numpy()
-            airframe = airframe.replace(altitude_m=None, given_density_kgm3=None,
-                                        atmosphere_channel="altitude")
-            notes[-1] = "density: ISA at the reconstructed altitude, per sample"
+        airframe, density_note = flight_atmosphere(atmosphere, self.table, self.airframe,
+                                                   self.metadata, channels)
+        notes = [*self.notes, imu_note, density_note]
         first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
         return make_flight(channels, airframe, {**self.metadata, "notes": notes,
                                                 "initial_state_sd": first_sd})
@@ -258,8 +261,10 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
         assert ex is not None  # the altitude channel is there
         table["rho"] = ex[:, EXOGENOUS.index("rho")]
         rho = baro_density(log, t, table["altitude"].to_numpy(), notes)
+        meta["density"] = "isa"
         if rho is not None:
             table["rho"] = rho
+            meta["density"] = "barometer"
     else:
         notes.append("no barometer: no altitude or density in the output")
     innovation_tables = {

@@ -5,17 +5,22 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from aeroid.cli import main
 from aeroid.errors import AirframeError, FlightError
 from aeroid.flights import (
     SensorSuite,
+    exogenous,
+    read_flight,
     read_suite_log,
     reference_scenario,
     simulate_suite,
     write_suite_log,
 )
 from aeroid.model import (
+    EXOGENOUS,
     G0,
     H_TROPOPAUSE,
     P0,
@@ -172,3 +177,80 @@ def test_reconstruction_refuses_pressure_without_sd(pressure_sim):
     log = dataclasses.replace(pressure_sim.log, groups={**pressure_sim.log.groups, "baro": odd})
     with pytest.raises(FlightError, match="no noise_sd for pressure"):
         reconstruct(log)
+
+
+# The barometer's density on the reconstruction's flight -----------------------------------
+#: rho = p / (R T) through the flight's per-sample atmosphere against the closed form from
+#: the log's temperature and the reconstructed altitude: the same arithmetic in another
+#: order (measured 0 to 1 ulp).
+CLOSED_FORM_RTOL = 1e-12
+
+
+def _flight_density(flight) -> np.ndarray:
+    return exogenous(flight)[:, EXOGENOUS.index("rho")]
+
+
+def _note(flight) -> str:
+    return next(n for n in flight.metadata["notes"] if n.startswith("flight density"))
+
+
+def test_flight_gets_the_barometers_density(pressure_sim):
+    rec = reconstruct(pressure_sim.log)
+    assert rec.metadata["density"] == "barometer"
+    baro, t = pressure_sim.log["baro"], rec.table["t"].to_numpy()
+    temperature = np.interp(t, baro.t, baro.channels["temperature"])
+    closed_form = isa_pressure(rec.table["altitude"].to_numpy()) / (R_AIR * temperature)
+
+    flight = rec.to_flight(atmosphere="per-sample")
+    assert flight.airframe.atmosphere_channel == "rho" and "altitude" not in flight.channels
+    rho = _flight_density(flight)
+    np.testing.assert_allclose(rho, closed_form, rtol=CLOSED_FORM_RTOL)
+    assert _note(flight).startswith("flight density: rho = p / (R T) per sample")
+    # and it is the truth's density within 5 temperature sd (as the table's, above)
+    truth = pressure_sim.truth
+    rel = rho / density(truth["altitude"]) - 1.0
+    assert np.max(np.abs(rel)) < 5 * SensorSuite().baro_temperature_sd_k / truth[
+        "temperature"].min()
+
+    # a known-wrong density: the ISA of the altitude differs from p / (R T) by more than
+    # the temperature's noise allows, and the note says p / (R T) was not used
+    isa = rec.to_flight(atmosphere="altitude")
+    assert isa.airframe.atmosphere_channel == "altitude"
+    np.testing.assert_allclose(_flight_density(isa), density(rec.table["altitude"]),
+                               rtol=CLOSED_FORM_RTOL)
+    assert "rho = p / (R T) not used" in _note(isa)
+    assert np.max(np.abs(_flight_density(isa) / rho - 1.0)) > 1e-4
+    assert _note(rec.to_flight()) == "flight density: the airframe's atmosphere"
+    with pytest.raises(FlightError, match="atmosphere must be one of 'airframe', "
+                                          "'per-sample', 'altitude', got 'rho'"):
+        rec.to_flight(atmosphere="rho")
+
+
+def test_per_sample_without_temperature_is_the_isa(pressure_sim):
+    baro = pressure_sim.log["baro"]
+    only_p = dataclasses.replace(baro, channels={"pressure": baro.channels["pressure"]},
+                                 noise_sd={"pressure": baro.noise_sd["pressure"]})
+    rec = reconstruct(dataclasses.replace(pressure_sim.log,
+                                          groups={**pressure_sim.log.groups, "baro": only_p}))
+    assert rec.metadata["density"] == "isa"
+    flight = rec.to_flight(atmosphere="per-sample")
+    assert flight.airframe.atmosphere_channel == "altitude"
+    np.testing.assert_allclose(_flight_density(flight), density(rec.table["altitude"]),
+                               rtol=CLOSED_FORM_RTOL)
+    assert "(no baro temperature for p / (R T))" in _note(flight)
+
+
+def test_cli_per_sample_density_from_the_barometer(tmp_path, capsys):
+    scenario = reference_scenario()
+    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(5.0, 5.3))
+    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, manoeuvre,
+                         SensorSuite(baro_channels=("pressure", "temperature")), rng=4)
+    write_suite_log(sim.log, tmp_path / "suite.toml")
+    out, path = tmp_path / "states.csv", tmp_path / "flight.csv"
+    assert main(["reconstruct", str(tmp_path / "suite.toml"), "-o", str(out),
+                 "--flight", str(path), "--per-sample-density"]) == 0
+    assert "flight density: rho = p / (R T) per sample" in capsys.readouterr().out
+    written = read_flight(path)
+    assert written.airframe.atmosphere_channel == "rho"
+    table = pd.read_csv(out)
+    np.testing.assert_allclose(written["rho"], table["rho"], rtol=1e-12)
