@@ -185,7 +185,8 @@ def fitted_start(flight: Flight, theta: np.ndarray, model: ForwardModel, *,
     def jacobian(x: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
             sens = model.sensitivities(state(x), theta, free_states=rates)[..., -len(rates):]
-        return np.nan_to_num(-(sens * (gain / sd)[None, :, None]).reshape(-1, len(rates)))
+            weighted = sens / sd[None, :, None] * gain[None, :, None]
+        return np.nan_to_num(-weighted.reshape(-1, len(rates)))
 
     try:
         found = least_squares(residuals, x0[index], jac=jacobian, method="lm",

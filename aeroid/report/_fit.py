@@ -194,6 +194,7 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
     frame = result.to_frame(flight, floor=floor)
     header, rows = _coefficient_rows(frame)
     lines += ["## Coefficients", ""] + _table(header, rows) + [""]
+    lines += _imu_error_lines(result.info)
     if "floor" not in frame.columns:
         lines += ["No Cramér-Rao floor: the data are noise-free (every channel's noise "
                   "level at the fit check's resolution) or the model diverges.", ""]
@@ -227,6 +228,19 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
         lines += [f"![{_caption(stem)}]({stem}.png)", ""]
     lines += _details(result)
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _imu_error_lines(info: Mapping[str, Any]) -> list[str]:
+    """The fit's IMU errors with their standard errors (none: no lines)."""
+    errors = info.get("imu_errors")
+    if not isinstance(errors, Mapping) or not errors:
+        return []
+    stderr = info.get("imu_error_stderr")
+    stderr = stderr if isinstance(stderr, Mapping) else {}
+    rows = [[name, value, stderr.get(name, float("nan"))] for name, value in errors.items()]
+    return (["## IMU errors", "", "Estimated with the coefficients: reading = (1 + s) model + "
+             "b per channel (b [m/s^2, rad/s], s [-]); the model's figures apply them.", ""]
+            + _table(["error", "estimate", "std err"], rows) + [""])
 
 
 def _positions(positions: Sequence[Sequence[float]]) -> str:

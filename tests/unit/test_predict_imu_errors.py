@@ -142,3 +142,11 @@ def test_report_says_the_imu_errors_were_applied(suite_fit):
     frame = fit.predict(flight)
     text = report_markdown(fit, flight, [], prediction=frame)
     assert "IMU errors of the fit applied: reading = (1 + s) model + b (18 values)" in text
+    # the errors' table: every estimate with its standard error, as the fit has them
+    rows = {line.split(" | ")[0].strip("| "): line for line in text.splitlines()
+            if line.startswith("| b") or line.startswith("| s")}
+    assert list(rows) == list(fit.info["imu_errors"])
+    for name, line in rows.items():
+        estimate, stderr = (float(v) for v in line.strip("| ").split(" | ")[1:])
+        assert estimate == pytest.approx(fit.info["imu_errors"][name], rel=1e-5)
+        assert stderr == pytest.approx(fit.info["imu_error_stderr"][name], rel=1e-5)
