@@ -127,3 +127,16 @@ def test_bad_suite_options_are_one_line_errors(extra, expected):
     message = str(info.value)
     assert "\n" not in message and expected in message
     assert message.startswith("s.toml: [[noise]] #1 (suite, raw IMU): ")
+
+
+def test_a_corrected_imu_is_not_scored_against_the_drawn_errors(study):
+    """The corrected IMU keeps only what the correction left: no drawn errors recorded."""
+    text = STUDY.format(extra="").replace('imu = "raw"', 'imu = "corrected"')
+    corrected = loads_study(text)
+    flight = study_runner.simulate_run(corrected, 1, 0)
+    assert "suite_errors" not in flight.metadata
+    raw = study_runner.simulate_run(study, 1, 0)
+    assert "suite_errors" in raw.metadata
+    # same run, same suite draws: the two flights share their reconstructed states
+    np.testing.assert_array_equal(flight.data["u"], raw.data["u"])
+    assert not np.array_equal(flight.data["ax1"], raw.data["ax1"])
