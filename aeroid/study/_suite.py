@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import AirframeError, StudyError
-from aeroid.flights import GaussianNoise, Scenario, SensorSuite
+from aeroid.flights import Scenario, SensorSuite, make_noise
 from aeroid.study._spec import NoiseCondition
 
 #: Keys of a suite ``[[noise]]`` entry besides the SensorSuite fields.
@@ -75,8 +75,8 @@ def suite_condition(entry: Mapping[str, Any], label: str, scenario: Scenario,
                              "wrong type")
     try:
         suite = SensorSuite(**options)
-        noise = GaussianNoise(accel_sd_mps2=suite.accel_noise_mps2,
-                              rate_sd_radps=suite.gyro_noise_radps, position_sd_m=0.0)
+        noise = make_noise("gaussian", accel_sd_mps2=suite.accel_noise_mps2,
+                           rate_sd_radps=suite.gyro_noise_radps, position_sd_m=0.0)
     except (AirframeError, TypeError, ValueError) as exc:
         raise StudyError(f"{where}: {' '.join(str(exc).split())}") from None
     if suite.baro_rate_hz > 0 and scenario.airframe.altitude_m is None:
