@@ -73,6 +73,14 @@ def suite_condition(entry: Mapping[str, Any], label: str, scenario: Scenario,
         if isinstance(value, bool | str | Mapping):  # a tuple for baro_channels
             raise StudyError(f"{where}: sensor-suite option {key} = {value!r} has the "
                              "wrong type")
+    for key, value in options.items():  # rates, ranges and sd: finite numbers >= 0
+        if key in ("baro_channels", "offsets_s"):
+            continue
+        numbers = value if isinstance(value, tuple) else (value,)
+        if not all(isinstance(v, int | float) and not isinstance(v, bool)
+                   and math.isfinite(v) and v >= 0 for v in numbers):
+            raise StudyError(f"{where}: sensor-suite option {key} must be finite numbers "
+                             f">= 0, got {value!r}")
     try:
         suite = SensorSuite(**options)
         noise = make_noise("gaussian", accel_sd_mps2=suite.accel_noise_mps2,

@@ -117,6 +117,8 @@ def test_ideal_conditions_keep_their_fingerprint():
     ('baro_channels = "pressure"', "baro_channels = 'pressure' has the wrong type"),
     ("imu_rate_hz = true", "imu_rate_hz = True has the wrong type"),
     ('gyro_noise_radps = "low"', "gyro_noise_radps = 'low' has the wrong type"),
+    ("accel_noise_mps2 = -0.1", "accel_noise_mps2 must be finite numbers >= 0, got -0.1"),
+    ("gnss_velocity_sd_mps = nan", "gnss_velocity_sd_mps must be finite numbers >= 0"),
 ])
 def test_bad_suite_options_are_one_line_errors(extra, expected):
     text = STUDY.format(extra=extra)
