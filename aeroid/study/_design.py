@@ -16,6 +16,8 @@ A study file is TOML with three parts::
     label = "paper xi=0.05"     # unique
     model = "paper"             # "paper" | "gaussian" | "none" (aeroid.make_noise)
     accelerations_xi = 0.05     # any further key is an option of that model
+                                # model = "suite": a SensorSuite log, reconstructed
+                                # (aeroid.study._suite: imu = "raw" | "corrected")
 
     [[estimators]]              # required, repeatable
     label = "SEBM-PSO"          # unique; the same method may appear under two labels
@@ -59,6 +61,7 @@ from aeroid.flights import (
 )
 from aeroid.model import read_toml, reference_scenario_data
 from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study, check_prior_offset
+from aeroid.study._suite import suite_condition
 
 #: Largest study or scenario file read [bytes] (the shipped ones are a few kB).
 MAX_FILE_BYTES = 1_000_000
@@ -253,6 +256,10 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
         if not isinstance(model, str):
             raise StudyError(f"{source}: {where} ({label}): model must be a string, "
                              f"got {model!r}")
+        if model == "suite":  # log through a SensorSuite, fit its reconstruction
+            noise.append(suite_condition(entry, label, scenario,
+                                         f"{source}: {where} ({label})"))
+            continue
         options = {**scenario_data.get("noise", {}).get(model, {}),
                    **{key: v for key, v in entry.items() if key not in NOISE_KEYS}}
         try:

@@ -40,6 +40,7 @@ from aeroid.errors import StudyError
 from aeroid.model import compile_clock
 from aeroid.study._provenance import code_id
 from aeroid.study._spec import Study
+from aeroid.study._suite import imu_error_fields, suite_flight
 
 HISTORY_RUN = 0
 #: ``EstimationResult.info`` arrays kept with the history (EBM reconstructions).
@@ -111,10 +112,15 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
     Equal to ``aeroid.simulate(airframe, coefficients, manoeuvre, noise,
     rng=default_rng(flight_seed(seed, run)))`` (a test checks it), but the truth is
     integrated once per process (:func:`aeroid.flights.record_flight` does the rest).
+    A sensor-suite condition's flight is the reconstruction of the run's suite log
+    (:func:`aeroid.study._suite.suite_flight`, from the same flight seed).
     """
     from aeroid.flights import record_flight
 
     scenario = study.scenario
+    if study.noise[noise_index].suite is not None:  # a sensor-suite log, reconstructed
+        return suite_flight(scenario, study.noise[noise_index],
+                            flight_seed(study.seed, run), scenario_key(scenario))
     noise = study.noise[noise_index].model
     rng = np.random.default_rng(flight_seed(study.seed, run))
     return record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
@@ -208,7 +214,8 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
                   success=bool(result.success), message=str(result.message),
                   cost=_clean(result.cost), n_evaluations=int(result.n_evaluations),
                   n_iterations=int(result.n_iterations),
-                  **fit_times(result.wall_time_s, clock.seconds))
+                  **fit_times(result.wall_time_s, clock.seconds),
+                  **imu_error_fields(flight, result.info))
     if run != HISTORY_RUN:
         return record, None
     history = {}

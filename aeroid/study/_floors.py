@@ -130,6 +130,10 @@ def floors_of(flight: Any, noise: Any) -> dict[str, Any]:
     return out
 
 
+#: Why a sensor-suite condition has no floor.
+SUITE_NO_FLOOR = ("a sensor-suite log: its IMU errors, its rate and the reconstruction's "
+                  "initial state are not in the floor's model")
+
 #: Floors computed in this process: (scenario key, noise settings) -> floors_of(...).
 _CACHE: dict[tuple[str, str], dict[str, Any]] = {}
 
@@ -149,6 +153,9 @@ def study_floors(study: Study) -> dict[str, Any]:
     flight = None
     conditions = []
     for cond in study.noise:
+        if cond.suite is not None:
+            conditions.append({"label": cond.label, "reason": SUITE_NO_FLOOR})
+            continue
         key = (scenario_key(study.scenario), json.dumps(cond.model.to_dict(), sort_keys=True))
         if key not in _CACHE:
             flight = noise_free_flight(study) if flight is None else flight

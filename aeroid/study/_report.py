@@ -46,6 +46,7 @@ from aeroid.study._store import (
     read_results,
     write_atomic,
 )
+from aeroid.study._suite import suite_lines
 
 #: Below this many runs the report is compact (no bias/spread/coverage table).
 COMPACT_RUNS = 10
@@ -129,11 +130,13 @@ def _prior_line(study: Study) -> str:
 
 def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, Mapping[str, Any]],
              figures: Sequence[Path], out_dir: Path, command: str = "",
-             floors_from: str = "floors.json") -> str:
+             floors_from: str = "floors.json",
+             records: Sequence[Mapping[str, Any]] = ()) -> str:
     """Return ``report.md``: design, overall table, per-noise Table-5-style tables.
 
     ``floors`` maps a noise label to its entry of :func:`aeroid.study._floors.study_floors`;
-    ``floors_from`` says where they come from.
+    ``floors_from`` says where they come from; ``records`` (the runner's) give the
+    sensor-suite conditions' fitted IMU errors (:func:`aeroid.study._suite.suite_lines`).
     """
     d = study.describe()
     lines = [f"# Study: {study.name}", ""]
@@ -171,6 +174,7 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, Mapping[s
                                "coverage", "success_rate", "median_wall_time_s",
                                "median_evaluations"]].itertuples(index=False)), counts=(7,))
     lines.append("")
+    lines += suite_lines(records)
 
     est_opts = {e["label"]: e["options"] for e in d["estimators"]}
     reach = reachable_floors(study)
@@ -379,7 +383,7 @@ def write_report(study: Study, out_dir: str | Path,
     paths = make_figures(study, tidy, summary, out_dir, records, floors) if figures else []
     report = out_dir / "report.md"
     write_atomic(report, markdown(study, summary, floors, paths, out_dir, command,
-                                  floors_from).encode())
+                                  floors_from, records).encode())
     return report
 
 

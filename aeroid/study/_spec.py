@@ -24,7 +24,7 @@ from typing import Any
 
 from aeroid.errors import StudyError
 from aeroid.estimation import Estimator
-from aeroid.flights import NoiseModel, Scenario
+from aeroid.flights import NoiseModel, Scenario, SensorSuite
 
 MAX_RUNS = 100_000
 MAX_FITS = 1_000_000
@@ -39,15 +39,30 @@ class NoiseCondition:
     label : str
         Unique name used in tables and file names.
     model : NoiseModel
-        The built noise model (:func:`aeroid.make_noise`).
+        The built noise model (:func:`aeroid.make_noise`). For a sensor-suite condition:
+        the suite's white IMU noise as Gaussian noise (what :attr:`suite` adds to every
+        reading besides its biases and scale factors); no flight is drawn from it.
+    suite : SensorSuite, optional
+        None (default): the run's flight is the scenario's single-rate log with
+        :attr:`model`'s noise. Given: the flight is logged through this suite
+        (:func:`aeroid.flights.simulate_suite`), reconstructed
+        (:func:`aeroid.reconstruction.reconstruct`) and fitted as the reconstruction's
+        ``to_flight(imu=...)``.
+    imu : {"raw", "corrected"}
+        The reconstruction's IMU channels the estimators see (suite conditions only).
     """
 
     label: str
     model: NoiseModel
+    suite: SensorSuite | None = None
+    imu: str = "raw"
 
     def describe(self) -> dict[str, Any]:
-        """Return the label and the model's full settings (JSON-ready)."""
-        return {"label": self.label, **self.model.to_dict()}
+        """Return the label and the model's (or the suite's) full settings (JSON-ready)."""
+        if self.suite is None:
+            return {"label": self.label, **self.model.to_dict()}
+        return {"label": self.label, "model": "suite", "imu": self.imu,
+                **_jsonable(dataclasses.asdict(self.suite))}
 
 
 @dataclass(frozen=True, kw_only=True)
