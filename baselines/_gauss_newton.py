@@ -13,12 +13,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
 from aeroid import estimation
 from aeroid.estimation import report_progress
+from baselines._noise_law import (  # noqa: F401 - re-exported: the solver's noise laws
+    A_FLOOR_REL,
+    LAW_MAX_ITERATIONS,
+    LAW_MIN_STEP,
+    LAW_NLL_TOL,
+    _law_nll,
+    most_likely_law,
+)
 
 #: A trial step is accepted when it does not raise the cost by more than this fraction
 #: (rounding: at a noise-free optimum the cost is flat to the last digits).
@@ -41,29 +49,28 @@ class OutputModel(Protocol):
     def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Return ``y(p)`` (n, m) and ``dy/dp`` (m, n, n_p)."""
         ...
+    # optional: ``smooth_region(p) -> SmoothRegion`` for a model whose outputs are
+    # piecewise smooth in some parameter, with ``edge_note`` (a phrase) saying what an
+    # edge is (:func:`gauss_newton`)
+
+
+class SmoothRegion(NamedTuple):
+    """Where the outputs are smooth in the parameters around an iterate (scaled units).
+
+    A parameter on which the outputs are piecewise smooth (an actuator delay: a relay's
+    switch crossing a sample instant changes the deflection the accelerometers see there,
+    so the outputs jump) is smooth in ``[lo, hi]``; ``below`` and ``above`` are values just
+    across each edge. ``-inf``/``inf`` for a parameter smooth everywhere.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    below: np.ndarray
+    above: np.ndarray
 
 
 #: Noise models of the measurement errors (:meth:`Problem.noise`).
 NOISE_MODELS: tuple[str, ...] = ("channel", "signal")
-#: Floor of the signal-independent part ``a_c`` of the ``signal`` noise model, as a
-#: fraction of the channel's mean squared residual: a sample whose modelled variance
-#: would be ~0 (a zero crossing under multiplicative noise) gets at most 1/A_FLOOR_REL
-#: times the channel's typical weight. The floor is a numerical guard, not a belief about
-#: the noise, and the Fisher covariance takes the floored variance as the true one: at
-#: 1e-4 (the former value) output-error's intervals were 1.1-1.4x its actual spread under
-#: the paper's noise, coverage 0.989 and 0.489 % mean error; at 1e-6 coverage 0.964 and
-#: 0.468 % (``aeroid study studies/paper_table5_prior.toml``, 50 runs, at commits
-#: b008e8f and 9d489cc; data with additive noise have a_c well above either floor).
-A_FLOOR_REL = 1e-6
-#: The noise law's likelihood maximisation (:func:`most_likely_law`) ends when no
-#: channel's negative log-likelihood falls by more than this in an iteration (a law
-#: that much less likely moves no coefficient visibly), or after LAW_MAX_ITERATIONS.
-LAW_NLL_TOL = 1e-6
-LAW_MAX_ITERATIONS = 100
-#: Smallest fraction of a scoring step tried before that channel's law stays put.
-LAW_MIN_STEP = 1e-9
-
-
 @dataclass(frozen=True)
 class Problem:
     """A fit for the Gauss-Newton loop: measurements, model, noise model and prior.
@@ -130,82 +137,6 @@ class Problem:
                 np.diag(self.prior_weight))
 
 
-def _law_nll(e2: np.ndarray, s2: np.ndarray, a: np.ndarray | float,
-             b: np.ndarray | float) -> np.ndarray:
-    """Negative log-likelihood per channel of the law ``a + b s2``, shape (m,)."""
-    var = a + b * s2
-    return 0.5 * np.sum(e2 / var + np.log(var), axis=0)
-
-
-def most_likely_law(e2: np.ndarray, s2: np.ndarray, a: np.ndarray, b: np.ndarray, *,
-                    floor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return the maximum-likelihood noise law ``var = a + b s2`` per channel from a start.
-
-    Newton's method on the Gaussian likelihood of the residuals where its curvature is
-    positive, else Fisher scoring (whose full step is the reweighted regression of
-    :func:`aeroid.estimation.fit_noise_law`), each step halved until the likelihood
-    does not fall, within ``a >= floor``, ``b >= 0``. The regression alone makes a fixed
-    number of unguarded steps and can oscillate: on the residuals of a poor iterate (a
-    paper-noise flight, ay1) it alternated between ``b = 0`` with a variance 50 times
-    below the residuals' and ``a`` at its floor, a likelihood 1.2e4 worse than one
-    variance per channel, and Gauss-Newton then fitted those weights into a poorer
-    optimum (issue 18: 2 of 200 paper-condition runs from a prior 10-25 % off).
-
-    Parameters
-    ----------
-    e2, s2 : ndarray, shape (n, m)
-        Squared residuals and squared model outputs.
-    a, b : ndarray, shape (m,)
-        The start.
-    floor : ndarray, shape (m,)
-        Lower bound of ``a``.
-    """
-    floor = np.broadcast_to(np.asarray(floor, dtype=float), np.shape(a))
-    a, b = np.maximum(a, floor), np.maximum(b, 0.0)
-    active = np.arange(a.size)  # channels still moving
-    for _ in range(LAW_MAX_ITERATIONS):
-        if active.size == 0:
-            break
-        ca, cb, fl, e2c, s2c = a[active], b[active], floor[active], e2[:, active], s2[:, active]
-        nll = _law_nll(e2c, s2c, ca, cb)
-        var = ca + cb * s2c
-        w = 1.0 / (var * var)
-        r = w * (e2c - var)
-        u0, u1 = np.sum(r, 0), np.sum(r * s2c, 0)
-        # Newton where the likelihood's curvature is positive, else Fisher scoring
-        h = w * (2.0 * e2c / var - 1.0)
-        i00, i01, i11 = np.sum(h, 0), np.sum(h * s2c, 0), np.sum(h * s2c * s2c, 0)
-        convex = (i00 > 0) & (i00 * i11 - i01 * i01 > 0)
-        i00 = np.where(convex, i00, np.sum(w, 0))
-        i01 = np.where(convex, i01, np.sum(w * s2c, 0))
-        i11 = np.where(convex, i11, np.sum(w * s2c * s2c, 0))
-        with np.errstate(all="ignore"):
-            det = i00 * i11 - i01 * i01
-            da, db = (i11 * u0 - i01 * u1) / det, (i00 * u1 - i01 * u0) / det
-            # a step out of a bound it sits on: along the other parameter alone
-            on_b = (cb <= 0.0) & (db < 0.0)
-            da, db = np.where(on_b, u0 / i00, da), np.where(on_b, 0.0, db)
-            on_a = (ca <= fl) & (da < 0.0) & ~on_b
-            da, db = np.where(on_a, 0.0, da), np.where(on_a, u1 / i11, db)
-        finite = np.isfinite(da) & np.isfinite(db)
-        da, db = np.where(finite, da, 0.0), np.where(finite, db, 0.0)
-        gain = np.zeros(active.size)
-        todo = finite.copy()
-        step = 1.0
-        while np.any(todo) and step > LAW_MIN_STEP:
-            ta, tb = np.maximum(ca + step * da, fl), np.maximum(cb + step * db, 0.0)
-            trial = _law_nll(e2c[:, todo], s2c[:, todo], ta[todo], tb[todo])
-            ok = np.zeros(active.size, dtype=bool)
-            ok[todo] = trial <= nll[todo]
-            idx = active[ok]
-            a[idx], b[idx] = ta[ok], tb[ok]
-            gain[ok] = nll[ok] - trial[ok[todo]]
-            todo &= ~ok
-            step *= 0.5
-        active = active[gain > LAW_NLL_TOL]
-    return a, b
-
-
 def _cost(e: np.ndarray, var: np.ndarray) -> float:
     value = 0.5 * float(np.sum(e * e / var))
     return value if math.isfinite(value) else math.inf
@@ -249,6 +180,39 @@ def sandwich(cov: np.ndarray, J: np.ndarray, e: np.ndarray, var: np.ndarray) -> 
     return cov @ (g.T @ g) @ cov
 
 
+def held_step(system: np.ndarray, g: np.ndarray, p: np.ndarray, step: np.ndarray,
+              region: SmoothRegion) -> tuple[np.ndarray, np.ndarray] | None:
+    """Return ``step`` with the parameters it takes out of their smooth region held there.
+
+    Each such parameter moves to the edge it would cross; the others take the minimum of
+    the quadratic model ``-g.s + 1/2 s.system.s`` given those (the Gauss-Newton step of the
+    problem confined to the region). Returns the step and the mask of held parameters, or
+    None when ``step`` stays inside.
+    """
+    above, below = p + step > region.hi, p + step < region.lo
+    out = above | below
+    if not np.any(out):
+        return None
+    held = np.zeros_like(p)
+    held[above] = region.hi[above] - p[above]
+    held[below] = region.lo[below] - p[below]
+    free = ~out
+    try:
+        held[free] = np.linalg.solve(system[np.ix_(free, free)],
+                                     g[free] - system[np.ix_(free, out)] @ held[out])
+    except np.linalg.LinAlgError:
+        return None
+    return (held, out) if np.all(np.isfinite(held)) else None
+
+
+def _across(p: np.ndarray, step: np.ndarray, region: SmoothRegion) -> np.ndarray:
+    """``p`` with every parameter that ``step`` takes out of its region just across the edge."""
+    across = p.copy()
+    above, below = p + step > region.hi, p + step < region.lo
+    across[above], across[below] = region.above[above], region.below[below]
+    return across
+
+
 @dataclass(frozen=True)
 class Fit:
     """One Gauss-Newton run: final parameters, residuals, Jacobian, R and its history."""
@@ -278,6 +242,18 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
     re-estimated from the new residuals (relaxation at every step: holding ``R``
     until Gauss-Newton converged, Klein & Morelli's textbook variant, took 2-3x more
     iterations on the reference flight).
+
+    A model with ``smooth_region`` (outputs piecewise smooth in a parameter: the fin
+    delay, whose cost jumps where a switch crosses a sample instant) gets two more moves.
+    A trial step that crosses an edge and raises the cost is retried, at the same damping,
+    with the crossing parameters held at the edge (:func:`held_step`) before the damping
+    rises. And when the undamped step crosses an edge, the fit has converged at that edge
+    once the held Gauss-Newton step is below ``tol`` standard deviations, ``R`` has settled
+    and the cost just across the edge (the other parameters unchanged) is higher: a local
+    minimum of the piecewise cost, where the smooth test alone is never met (the smooth
+    piece's minimum lies across the edge; measured on a suite log's raw-IMU flight whose
+    fin and IMU clocks share one grid: 150 iterations of steps of 1e-13 s, the undamped
+    step 1.7 sd in ``sp``).
     """
     p = np.array(p0, dtype=float)
     e, J = prob.residuals_jacobian(p)
@@ -289,17 +265,32 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
     history_p = [p.copy()]
     history_cost = [_nll(e, r_diag) + prob.prior_terms(p)[0]]
     converged, message, it = False, "", 0
+    smooth_region = getattr(prob.model, "smooth_region", None)
+    region = None
     for it in range(1, max_iterations + 1):
         cost = _cost(e, r_diag) + prob.prior_terms(p)[0]
         M, g = posterior_information(prob, J, e, r_diag, p)
         try:
             cov_now = np.linalg.inv(M)
             gauss_newton_step = cov_now @ g
-            ratio = np.abs(gauss_newton_step) / np.sqrt(np.abs(np.diag(cov_now)) + 1e-300)
+            sd = np.sqrt(np.abs(np.diag(cov_now)) + 1e-300)
+            ratio = np.abs(gauss_newton_step) / sd
             small = bool(np.all(np.isfinite(ratio)) and np.max(ratio) < tol)
         except np.linalg.LinAlgError:
             gauss_newton_step = ratio = np.full(p.size, np.inf)
             small = False
+        at_edge = False
+        if smooth_region is not None:
+            region = smooth_region(p)
+            if not small and np.all(np.isfinite(ratio)):
+                held = held_step(M, g, p, gauss_newton_step, region)
+                if held is not None and np.max(np.abs(held[0]) / sd) < tol:
+                    # the smooth piece's minimum lies across the edge: a minimum here
+                    # when the cost jumps up across it
+                    across = _across(p, gauss_newton_step, region)
+                    n_eval += 1
+                    at_edge = small = bool(_cost(prob.residuals(across), r_diag)
+                                           + prob.prior_terms(across)[0] > cost)
         if small:
             r_new = prob.noise(e)
             settled = bool(np.max(np.abs(r_new / r_diag - 1.0)) < R_SETTLED_RTOL)
@@ -307,7 +298,9 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
             history_cost[-1] = _nll(e, r_diag) + prob.prior_terms(p)[0]
             if settled:
                 converged = True
-                message = f"converged after {it} iterations"
+                message = f"converged after {it} iterations" + (
+                    f" ({getattr(prob.model, 'edge_note', 'at an edge of a smooth region')})"
+                    if at_edge else "")
                 break
             continue
         diag = np.diag(M).copy()
@@ -323,6 +316,15 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
                 new_cost = _cost(e_new, r_diag) + prob.prior_terms(p + step)[0]
                 if new_cost <= cost * (1.0 + COST_RTOL):
                     break
+                held = (None if region is None else
+                        held_step(M + damping * np.diag(diag), g, p, step, region))
+                if held is not None:  # the crossing raised the cost: stop at the edge
+                    e_new = prob.residuals(p + held[0])
+                    n_eval += 1
+                    new_cost = _cost(e_new, r_diag) + prob.prior_terms(p + held[0])[0]
+                    if new_cost <= cost * (1.0 + COST_RTOL):
+                        step = held[0]
+                        break
             damping *= 10.0
             if damping > MAX_DAMPING:
                 break
