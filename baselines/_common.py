@@ -10,7 +10,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from typing import ClassVar, Literal, NamedTuple
 
 import numpy as np
 from scipy.signal import savgol_filter
@@ -82,6 +82,17 @@ PASS_INFLATION = 10.0
 LAW_REFITS = 2
 
 
+def reconstruction_sd(flight: Flight) -> np.ndarray | None:
+    """Return the sd of u, v, w, phi, theta, psi at the first sample of a reconstruction's
+    flight (``metadata['initial_state_sd']``), or None for another flight."""
+    given = flight.metadata.get("initial_state_sd")
+    names = ("u", "v", "w", "phi", "theta", "psi")
+    if not isinstance(given, dict) or not all(k in given for k in names):
+        return None
+    sd = np.array([float(given[k]) for k in names])
+    return sd if np.all(np.isfinite(sd) & (sd > 0)) else None
+
+
 class FilterSetup(NamedTuple):
     """A filter's start: state and covariance, noise covariances, measurements.
 
@@ -129,7 +140,9 @@ class AugmentedFilterOptions(Estimator):
     initial_coefficient_sd_rel : float
         Initial sd of each coefficient as a fraction of ``|prior|`` (default 0.3).
     initial_velocity_sd_mps, initial_angle_sd_rad : float or None
-        Initial sd of u, v, w [m/s] and of phi, theta, psi [rad]; default (None): each
+        Initial sd of u, v, w [m/s] and of phi, theta, psi [rad]; default (None): on a
+        reconstruction's flight (``Reconstruction.to_flight``) the reconstruction's sd at
+        the first sample (``metadata['initial_state_sd']``), else each
         channel's noise level estimated from the data
         (:func:`aeroid.estimation.estimate_noise_sd`): the state starts at the first
         measured sample, as uncertain as that measurement. Clean channels (the velocities
@@ -176,6 +189,8 @@ class AugmentedFilterOptions(Estimator):
         0.36 %; a tactical Gaussian IMU: 0.727 % against 0.729 %.
         ``max_passes = 1`` is the single pass.
     """
+
+    uses_state_sd: ClassVar[bool] = True  # the initial covariance: reconstruction_sd
 
     input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     delay_s: float = 0.0
@@ -231,10 +246,13 @@ class AugmentedFilterOptions(Estimator):
         rms = np.sqrt(np.mean(states * states, axis=0))
         data_sd = np.maximum(estimation.estimate_noise_sd(states),
                              np.maximum(INITIAL_SD_FLOOR_REL * rms, INITIAL_SD_FLOOR))
-        velocity_sd = (data_sd[0:3] if self.initial_velocity_sd_mps is None
-                       else np.full(3, self.initial_velocity_sd_mps))
-        angle_sd = (data_sd[ANGLES] if self.initial_angle_sd_rad is None
-                    else np.full(3, self.initial_angle_sd_rad))
+        given = reconstruction_sd(flight)  # a reconstruction's sd of the first state
+        velocity_sd = (np.full(3, self.initial_velocity_sd_mps)
+                       if self.initial_velocity_sd_mps is not None
+                       else given[0:3] if given is not None else data_sd[0:3])
+        angle_sd = (np.full(3, self.initial_angle_sd_rad)
+                    if self.initial_angle_sd_rad is not None
+                    else given[3:6] if given is not None else data_sd[ANGLES])
         position_sd = flight.airframe.accel_position_sd.ravel()[list(free)]
         x0 = np.concatenate([states[0], prior, np.zeros(len(free))])
         sd0 = np.concatenate([velocity_sd, meas_sd[GYROS], angle_sd,

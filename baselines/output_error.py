@@ -192,6 +192,7 @@ class OutputErrorEstimator(Estimator):
     """
 
     name: ClassVar[str] = "output-error"
+    uses_state_sd: ClassVar[bool] = True  # initial_velocity_prior, or a warning
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 

@@ -54,6 +54,10 @@ class Estimator(abc.ABC):
 
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
+    #: True for a method that uses the sd of a reconstruction's states (a flight with
+    #: ``metadata['initial_state_sd']``, :meth:`aeroid.reconstruction.Reconstruction.
+    #: to_flight`); for the others :meth:`fit` warns that the states were taken as exact.
+    uses_state_sd: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -119,6 +123,10 @@ class Estimator(abc.ABC):
         result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
         extra = (choice.warnings if choice is not None else ()) + floor_warnings(
             result, flight, levels)
+        if "initial_state_sd" in flight.metadata and not self.uses_state_sd:
+            extra += (f"{self.name}: the flight's states are a reconstruction's, with sd "
+                      "(metadata initial_state_sd); this method takes them as exact, so "
+                      "its standard errors leave their uncertainty out",)
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
         return result
