@@ -11,16 +11,14 @@ import dataclasses
 
 import numpy as np
 import pytest
+from suite_flights import clean_suite_flight, truth_errors
 
 import aeroid
 from aeroid.errors import EstimatorError
 from aeroid.flights import (
     GaussianNoise,
-    SensorSuite,
-    make_flight,
     reference_scenario,
     simulate_scenario,
-    simulate_suite,
 )
 from aeroid.model import OUTPUT_CHANNELS, STATE_NAMES
 from baselines.output_error import OutputErrorEstimator
@@ -43,25 +41,10 @@ EKF_RTOL = 1e-4
 FD_RTOL = 1e-5
 
 
-def _truth_errors(sim):
-    e = sim.errors
-    return dict(zip([f"b{c}" for c in OUTPUT_CHANNELS] + [f"s{c}" for c in OUTPUT_CHANNELS],
-                    np.concatenate([e["accel_bias"].ravel(), e["gyro_bias"],
-                                    e["accel_scale"].ravel(), e["gyro_scale"]]), strict=True))
-
-
 @pytest.fixture(scope="module")
 def clean_suite():
     """The reference window logged by the default suite without noise: raw IMU, true states."""
-    scenario = reference_scenario()
-    suite = SensorSuite(accel_noise_mps2=0.0, gyro_noise_radps=0.0)
-    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                         suite, rng=3)
-    imu = sim.log["imu"]
-    channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
-                **{c: sim.truth[c] for c in ("u", "v", "w", "phi", "theta", "psi")},
-                "delta": sim.truth["delta"]}
-    return sim, make_flight(channels, scenario.airframe, {})
+    return clean_suite_flight(seed=3)
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +59,7 @@ def test_noise_free_suite_recovers_coefficients_and_imu_errors(clean_suite, clea
     assert res.success, res.message
     np.testing.assert_allclose(res.theta, reference_scenario().coefficient_vector,
                                rtol=RECOVERY_RTOL)
-    truth = _truth_errors(sim)
+    truth = truth_errors(sim)
     assert list(res.info["imu_errors"]) == list(truth)
     for name, value in truth.items():
         atol = (SCALE_ATOL if name[0] == "s" else
@@ -241,7 +224,7 @@ def test_filter_recovers_imu_errors_on_noise_free_suite(clean_suite, method):
     truth = reference_scenario().coefficient_vector
     np.testing.assert_allclose(res.theta, truth, rtol=EKF_RTOL)
     assert np.all(np.abs(res.theta - truth) < 3 * res.stderr)
-    errors = _truth_errors(sim)
+    errors = truth_errors(sim)
     z = {n: (v - errors[n]) / res.info["imu_error_stderr"][n]
          for n, v in res.info["imu_errors"].items()}
     assert list(z) == list(errors)

@@ -13,10 +13,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from suite_flights import clean_suite_flight, truth_errors
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation import make_estimator, predict
-from aeroid.flights import SensorSuite, make_flight, reference_scenario, simulate_suite
+from aeroid.flights import reference_scenario
 from aeroid.model import OUTPUT_CHANNELS
 from aeroid.report import report_markdown
 from baselines.output_error import OutputErrorEstimator
@@ -41,26 +42,10 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x * x)))
 
 
-def _truth_errors(sim) -> dict[str, float]:
-    e = sim.errors
-    names = [f"b{c}" for c in OUTPUT_CHANNELS] + [f"s{c}" for c in OUTPUT_CHANNELS]
-    values = np.concatenate([e["accel_bias"].ravel(), e["gyro_bias"],
-                             e["accel_scale"].ravel(), e["gyro_scale"]])
-    return dict(zip(names, values.tolist(), strict=True))
-
-
 @pytest.fixture(scope="module")
 def suite_fit():
     """Noise-free default suite (seed 3): raw IMU, true states; output-error's fit."""
-    scenario = reference_scenario()
-    suite = SensorSuite(accel_noise_mps2=0.0, gyro_noise_radps=0.0)
-    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                         suite, rng=3)
-    imu = sim.log["imu"]
-    channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
-                **{c: sim.truth[c] for c in ("u", "v", "w", "phi", "theta", "psi")},
-                "delta": sim.truth["delta"]}
-    flight = make_flight(channels, scenario.airframe, {})
+    sim, flight = clean_suite_flight(seed=3)
     fit = OutputErrorEstimator(imu_errors="bias+scale").fit(flight, rng=0)
     assert fit.success, fit.message
     return sim, flight, fit
@@ -82,7 +67,7 @@ def test_without_the_imu_errors_the_prediction_misses_by_the_sensor_law(suite_fi
     bare = predict(fit, flight, imu_errors=False)
     assert bare.attrs["imu_errors"] == {}
     assert "not applied" in bare.attrs["imu_errors_note"]
-    truth = _truth_errors(sim)
+    truth = truth_errors(sim)
     for c in OUTPUT_CHANNELS:
         b, s = truth[f"b{c}"], truth[f"s{c}"]
         model = bare[c].to_numpy()
@@ -99,7 +84,7 @@ def test_fitted_start_uses_the_sensor_law(suite_fit):
     sim, flight, fit = suite_fit
     info = {k: v for k, v in fit.info.items() if k != "initial_state"}
     result = dataclasses.replace(fit, theta=reference_scenario().coefficient_vector,
-                                 info={**info, "imu_errors": _truth_errors(sim)})
+                                 info={**info, "imu_errors": truth_errors(sim)})
     frame = result.predict(flight)
     assert frame.attrs["initial_state_from"].startswith("first sample, p q r fitted")
     for c in OUTPUT_CHANNELS:

@@ -1,0 +1,40 @@
+"""Noise-free sensor-suite flights for the tests of the IMU errors (shared helpers).
+
+:func:`clean_suite_flight`: the reference window logged by the default suite without
+white noise; the flight holds the raw IMU readings (each axis ``(1 + s) truth + b`` with the
+drawn biases and scale factors) and the true states, so a fit with ``imu_errors`` must
+return the drawn errors, which :func:`truth_errors` names as the fits do.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from aeroid.flights import Flight, SensorSuite, make_flight, reference_scenario, simulate_suite
+from aeroid.model import OUTPUT_CHANNELS
+
+#: The state channels a suite flight takes from the truth.
+TRUE_STATES = ("u", "v", "w", "phi", "theta", "psi")
+
+
+def clean_suite_flight(seed: int = 3) -> tuple[Any, Flight]:
+    """Return the noise-free suite simulation and its flight (raw IMU, true states)."""
+    scenario = reference_scenario()
+    suite = SensorSuite(accel_noise_mps2=0.0, gyro_noise_radps=0.0)
+    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                         suite, rng=seed)
+    imu = sim.log["imu"]
+    channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
+                **{c: sim.truth[c] for c in TRUE_STATES}, "delta": sim.truth["delta"]}
+    return sim, make_flight(channels, scenario.airframe, {})
+
+
+def truth_errors(sim: Any) -> dict[str, float]:
+    """The simulation's drawn IMU errors by the fits' names (``bax1`` ... ``sr``)."""
+    e = sim.errors
+    names = [f"b{c}" for c in OUTPUT_CHANNELS] + [f"s{c}" for c in OUTPUT_CHANNELS]
+    values = np.concatenate([e["accel_bias"].ravel(), e["gyro_bias"],
+                             e["accel_scale"].ravel(), e["gyro_scale"]])
+    return dict(zip(names, values.tolist(), strict=True))
