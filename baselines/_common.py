@@ -82,14 +82,16 @@ PASS_INFLATION = 10.0
 LAW_REFITS = 2
 
 
-def reconstruction_sd(flight: Flight) -> np.ndarray | None:
-    """Return the sd of u, v, w, phi, theta, psi at the first sample of a reconstruction's
-    flight (``metadata['initial_state_sd']``), or None for another flight."""
+def reconstruction_sd(flight: Flight, names: tuple[str, ...] = ("u", "v", "w", "phi", "theta",
+                                                                 "psi")) -> np.ndarray | None:
+    """Return the sd of the states ``names`` at the first sample of a reconstruction's
+    flight (``metadata['initial_state_sd']``), or None for another flight (or sd that are
+    missing, not numbers or not positive)."""
     given = flight.metadata.get("initial_state_sd")
-    names = ("u", "v", "w", "phi", "theta", "psi")
-    if not isinstance(given, dict) or not all(k in given for k in names):
+    try:
+        sd = np.array([float(given[k]) for k in names])  # type: ignore[index]
+    except (TypeError, KeyError, ValueError):
         return None
-    sd = np.array([float(given[k]) for k in names])
     return sd if np.all(np.isfinite(sd) & (sd > 0)) else None
 
 

@@ -15,6 +15,7 @@ import numpy as np
 import aeroid
 from aeroid.estimation import nuisance_findings
 from aeroid.flights import Flight
+from baselines._common import reconstruction_sd
 from baselines._oe_record import IMU_ERRORS
 
 #: Scaling of the IMU-error parameters (conditioning only, no prior): a bias over this
@@ -42,16 +43,12 @@ def imu_error_scales(z: np.ndarray, imu_errors: str) -> list[np.ndarray]:
 
 def initial_velocity_sd(flight: Flight) -> np.ndarray:
     """The sd [m/s] of ``u, v, w`` at the first sample from ``metadata['initial_state_sd']``."""
-    given = flight.metadata.get("initial_state_sd")
-    try:
-        sd = np.array([float(given[n]) for n in VELOCITY_NAMES])  # type: ignore[index]
-    except (TypeError, KeyError, ValueError):
-        sd = np.array([np.nan])
-    if not np.all(np.isfinite(sd) & (sd > 0)):
+    sd = reconstruction_sd(flight, VELOCITY_NAMES)
+    if sd is None:
         raise aeroid.FlightError(
             f"{flight.metadata.get('source', 'flight')}: initial_velocity_prior = flight "
             "needs metadata initial_state_sd with positive u, v, w [m/s] (a reconstruction's "
-            f"flight has them); got {given!r}")
+            f"flight has them); got {flight.metadata.get('initial_state_sd')!r}")
     return sd
 
 
