@@ -17,12 +17,9 @@ from typing import Literal
 import numpy as np
 
 from aeroid.estimation import EstimationResult, nuisance_findings
-from aeroid.flights import Flight
+from aeroid.flights import IMU_ERROR_KINDS, Flight, imu_error_names
 from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
 from baselines import _common, _kalman
-
-#: IMU-error states per option: a bias per output channel, then a scale factor.
-IMU_ERRORS: dict[str, tuple[str, ...]] = {"none": (), "bias": ("b",), "bias+scale": ("b", "s")}
 
 PassRunner = Callable[[_kalman.DiscreteModel, _common.FilterSetup], _kalman.FilterOutput]
 
@@ -54,8 +51,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.imu_errors not in IMU_ERRORS:
-            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERRORS)}, got "
+        if self.imu_errors not in IMU_ERROR_KINDS:
+            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
                              f"{self.imu_errors!r}")
         for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd"):
             if not getattr(self, name) > 0:
@@ -63,7 +60,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
 
     def imu_error_names(self) -> tuple[str, ...]:
         """Names of the IMU-error states: ``b`` + channel, then ``s`` + channel."""
-        return tuple(p + c for p in IMU_ERRORS[self.imu_errors] for c in OUTPUT_CHANNELS)
+        return imu_error_names(self.imu_errors)
 
     def setup(self, flight: Flight) -> _common.FilterSetup:
         """The shared start, with the IMU-error states appended (``imu_errors``)."""
@@ -81,7 +78,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         # the initial rates are the first gyro readings: as uncertain as their errors
         rates = np.arange(_common.RATES.start, _common.RATES.stop)
         spread = self.imu_gyro_bias_sd_radps ** 2 + (
-            (self.imu_scale_sd * setup.x0[rates]) ** 2 if "s" in IMU_ERRORS[self.imu_errors]
+            (self.imu_scale_sd * setup.x0[rates]) ** 2 if "s" in IMU_ERROR_KINDS[self.imu_errors]
             else 0.0)
         P0[rates, rates] += spread
         return setup._replace(x0=np.concatenate([setup.x0, np.zeros(k)]), P0=P0, Q=Q)

@@ -19,20 +19,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from aeroid.flights import Flight, exogenous, model_constants, schedule
+from aeroid.flights import (
+    Flight,
+    exogenous,
+    imu_error_names,
+    model_constants,
+    schedule,
+)
 from aeroid.model import NAMES, OUTPUT_CHANNELS, Buffered, Record, symbolic_record
 from baselines._gauss_newton import SmoothRegion
-
-#: What ``imu_errors`` adds per output channel: nothing, a bias, a bias and a scale factor.
-IMU_ERRORS: dict[str, tuple[str, ...]] = {"none": (), "bias": ("b",),
-                                         "bias+scale": ("b", "s")}
-
-
-def imu_error_names(imu_errors: str) -> tuple[str, ...]:
-    """Names of the IMU-error parameters: ``b`` + channel, then ``s`` + channel."""
-    return tuple(prefix + channel for prefix in IMU_ERRORS[imu_errors]
-                 for channel in OUTPUT_CHANNELS)
-
 
 #: Central-difference step of the delay sensitivity [s]: 1 us, 5e-4 of a 2 ms sample; the
 #: outputs are smooth in the delay while no knot crosses a sample within +-1 us.

@@ -14,9 +14,8 @@ import numpy as np
 
 import aeroid
 from aeroid.estimation import nuisance_findings
-from aeroid.flights import Flight
+from aeroid.flights import IMU_ERROR_KINDS, Flight
 from baselines._common import reconstruction_sd
-from baselines._oe_record import IMU_ERRORS
 
 #: Scaling of the IMU-error parameters (conditioning only, no prior): a bias over this
 #: fraction of its channel's RMS (1 for a channel that is all zeros), a scale factor over
@@ -38,7 +37,7 @@ def imu_error_scales(z: np.ndarray, imu_errors: str) -> list[np.ndarray]:
     rms = np.sqrt(np.mean(z * z, axis=0))
     rms = np.where(rms > 0, rms, 1.0)
     return [IMU_ERROR_SCALE * (rms if prefix == "b" else np.ones_like(rms))
-            for prefix in IMU_ERRORS[imu_errors]]
+            for prefix in IMU_ERROR_KINDS[imu_errors]]
 
 
 def initial_velocity_sd(flight: Flight) -> np.ndarray:

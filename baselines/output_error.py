@@ -28,7 +28,7 @@ import numpy as np
 
 import aeroid
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import INPUTS, Flight
+from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common
 from baselines._gauss_newton import (
@@ -39,7 +39,7 @@ from baselines._gauss_newton import (
     posterior_information,
     sandwich,
 )
-from baselines._oe_record import IMU_ERRORS, RecordModel, imu_error_names
+from baselines._oe_record import RecordModel
 from baselines._oe_sensors import (
     HELD_VELOCITY_WARNING,
     consider_covariance,
@@ -228,8 +228,8 @@ class OutputErrorEstimator(Estimator):
             raise ValueError(f"tol must be > 0, got {self.tol}")
         if self.input not in INPUTS:
             raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
-        if self.imu_errors not in IMU_ERRORS:
-            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERRORS)}, got "
+        if self.imu_errors not in IMU_ERROR_KINDS:
+            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
                              f"{self.imu_errors!r}")
         if self.initial_velocity_prior not in ("none", "flight"):
             raise ValueError("initial_velocity_prior must be none or flight, got "

@@ -37,6 +37,7 @@ import pandas as pd
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
+from aeroid.flights import IMU_ERROR_KINDS
 from aeroid.model import STATE_NAMES
 
 if TYPE_CHECKING:
@@ -94,7 +95,7 @@ START_WEIGHT_FLOOR = 1e-3
 #: The initial-state components :func:`fitted_start` fits.
 RATE_NAMES = ("p", "q", "r")
 #: Prefixes of the IMU-error names in ``info["imu_errors"]``: bias, scale factor.
-SENSOR_PREFIXES = ("b", "s")
+SENSOR_PREFIXES = IMU_ERROR_KINDS["bias+scale"]
 
 
 def sensor_law(result: FitResult, channels: tuple[str, ...]

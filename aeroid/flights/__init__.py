@@ -58,9 +58,11 @@ from aeroid.flights._simulate import (
     simulate_truth,
 )
 from aeroid.flights._suite import (
+    IMU_ERROR_KINDS,
     SensorSuite,
     SuiteSimulation,
     body_to_ned,
+    imu_error_names,
     imu_manoeuvre,
     log_trajectory,
     simulate_suite,
@@ -87,6 +89,7 @@ __all__ = [
     "simulate", "simulate_scenario", "simulate_truth", "write_flight",
     "EVALUATIONS", "Truth", "NOISE_FORMS",
     "GROUPS", "SI_UNITS", "SensorGroup", "SensorSuite", "SuiteLog", "SuiteSimulation",
-    "body_to_ned", "imu_manoeuvre", "log_trajectory", "read_suite_log", "simulate_suite",
+    "IMU_ERROR_KINDS", "body_to_ned", "imu_error_names", "imu_manoeuvre", "log_trajectory",
+    "read_suite_log", "simulate_suite",
     "wrap_angle", "write_suite_log",
 ]

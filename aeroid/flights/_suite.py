@@ -40,6 +40,7 @@ from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
 from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog
 from aeroid.model import (
+    OUTPUT_CHANNELS,
     PHI,
     PSI,
     STATE_NAMES,
@@ -51,6 +52,18 @@ from aeroid.model import (
     isa_pressure,
     isa_temperature,
 )
+
+#: The IMU errors an estimator may fit (``imu_errors``): per output channel nothing, a bias
+#: (name ``b`` + channel), or a bias and a scale factor (``s`` + channel), in the sensor law
+#: ``reading = (1 + s) truth + b`` this module simulates.
+IMU_ERROR_KINDS: dict[str, tuple[str, ...]] = {"none": (), "bias": ("b",),
+                                               "bias+scale": ("b", "s")}
+
+
+def imu_error_names(kind: str, channels: tuple[str, ...] = OUTPUT_CHANNELS
+                    ) -> tuple[str, ...]:
+    """Names of the IMU errors of ``kind`` (:data:`IMU_ERROR_KINDS`): ``bax1`` ... ``sr``."""
+    return tuple(prefix + channel for prefix in IMU_ERROR_KINDS[kind] for channel in channels)
 
 
 @dataclass(frozen=True, kw_only=True)
