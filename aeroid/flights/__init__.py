@@ -20,6 +20,13 @@ from aeroid.flights._channels import (
 )
 from aeroid.flights._files import read_column_map, read_flight, write_flight
 from aeroid.flights._flight import Flight, make_flight
+from aeroid.flights._mounting import (
+    Mounting,
+    axis_map,
+    euler_mounting,
+    matrix_mounting,
+    used_samples,
+)
 from aeroid.flights._noise import (
     ACCEL_CHANNELS,
     NOISE_FORMS,
@@ -73,6 +80,7 @@ from aeroid.flights._suite_log import (
     SI_UNITS,
     SensorGroup,
     SuiteLog,
+    mounted_group,
     read_suite_log,
     write_suite_log,
 )
@@ -92,4 +100,6 @@ __all__ = [
     "IMU_ERROR_KINDS", "body_to_ned", "imu_error_names", "imu_manoeuvre", "log_trajectory",
     "read_suite_log", "simulate_suite",
     "wrap_angle", "write_suite_log",
+    "Mounting", "axis_map", "euler_mounting", "matrix_mounting", "mounted_group",
+    "used_samples",
 ]

@@ -23,6 +23,14 @@ scale drawn once per flight (uniform magnitude in the stated range, random sign)
 white Gaussian per sample. The accelerometers read specific force at their true
 positions (eq. 28) with the fin deflection at the sample. INS angles are wrapped to
 (-pi, pi] after the noise.
+
+Board mounting (``imu_mounting``, ``imu_angles_deg``): the IMU reads in the board's axes,
+``v_sensor = C^T v_body`` with ``C`` the rotation from sensor to body axes
+(:mod:`aeroid.flights._mounting`), and its errors, noise and range are the sensor axes'
+(so the drawn ``errors`` are per sensor axis). Range (``accel_range_mps2``,
+``gyro_range_radps``): a reading is clipped to +-range, as a real IMU's full scale. The
+log's imu group then holds the body axes (the mounting applied, as on reading a file)
+with the readings as logged in ``sensor_channels`` and the saturated samples marked.
 """
 
 from __future__ import annotations
@@ -35,10 +43,11 @@ from typing import Any, NamedTuple
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from aeroid.errors import AirframeError
+from aeroid.errors import AirframeError, FlightError
+from aeroid.flights._mounting import Mounting, axis_map, euler_mounting
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
-from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog
+from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog, mounted_group
 from aeroid.model import (
     OUTPUT_CHANNELS,
     PHI,
@@ -93,6 +102,10 @@ class SensorSuite:
     ins_attitude_sd_rad: float = 0.003
     fin_sd_rad: float = 0.0
     offsets_s: tuple[tuple[str, float], ...] = ()
+    imu_mounting: str = ""
+    imu_angles_deg: tuple[float, ...] = ()
+    accel_range_mps2: float | None = None
+    gyro_range_radps: float | None = None
 
     def __post_init__(self) -> None:
         if not self.imu_rate_hz > 0:
@@ -117,6 +130,30 @@ class SensorSuite:
         unknown = sorted({g for g, _ in self.offsets_s} - set(GROUPS))
         if unknown:
             raise AirframeError(f"sensor suite: offsets_s names unknown group(s) {unknown}")
+        self.mounting()  # refuses an improper one
+        for name in ("accel_range_mps2", "gyro_range_radps"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise AirframeError(f"sensor suite: {name} must be a positive number or "
+                                    f"None, got {value}")
+
+    def mounting(self) -> Mounting | None:
+        """The IMU's board mounting (``imu_mounting`` axis map or ``imu_angles_deg``)."""
+        if self.imu_mounting and self.imu_angles_deg:
+            raise AirframeError("sensor suite: give imu_mounting or imu_angles_deg, not both")
+        try:
+            if self.imu_mounting:
+                return axis_map(self.imu_mounting, "sensor suite: imu_mounting")
+            if self.imu_angles_deg:
+                return euler_mounting(list(self.imu_angles_deg), "sensor suite: imu_angles_deg")
+        except FlightError as exc:
+            raise AirframeError(str(exc)) from None
+        return None
+
+    def ranges(self) -> dict[str, float]:
+        """The IMU's stated ranges by the suite log's keys (``accel_range``, ``gyro_range``)."""
+        given = {"accel_range": self.accel_range_mps2, "gyro_range": self.gyro_range_radps}
+        return {k: float(v) for k, v in given.items() if v is not None}
 
 
 #: What a suite's barometer may log: a pressure altitude, or the static pressure with or
@@ -311,15 +348,26 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
               "accel_scale": draw(suite.scale_factor, (2, 3)),
               "gyro_bias": draw(suite.gyro_bias_radps, (3,)),
               "gyro_scale": draw(suite.scale_factor, (3,))}
+    mounting = suite.mounting()
+    rates = states[:, 3:6]
+    if mounting is not None:  # the board's axes: v_sensor = C^T v_body (rows: v @ C)
+        specific, rates = specific @ mounting.rotation, rates @ mounting.rotation
     accel = ((1.0 + errors["accel_scale"]) * specific + errors["accel_bias"]
              + suite.accel_noise_mps2 * rng.standard_normal(specific.shape)).reshape(-1, 6)
-    gyro = ((1.0 + errors["gyro_scale"]) * states[:, 3:6] + errors["gyro_bias"]
+    gyro = ((1.0 + errors["gyro_scale"]) * rates + errors["gyro_bias"]
             + suite.gyro_noise_radps * rng.standard_normal((len(t), 3)))
+    ranges = suite.ranges()
+    if "accel_range" in ranges:  # a real IMU's full scale
+        accel = np.clip(accel, -ranges["accel_range"], ranges["accel_range"])
+    if "gyro_range" in ranges:
+        gyro = np.clip(gyro, -ranges["gyro_range"], ranges["gyro_range"])
     imu = {c: accel[:, j] for j, c in enumerate(GROUPS["imu"][:6])}
     imu.update(p=gyro[:, 0], q=gyro[:, 1], r=gyro[:, 2])
     sd_imu = {**{c: suite.accel_noise_mps2 for c in GROUPS["imu"][:6]},
               **{c: suite.gyro_noise_radps for c in ("p", "q", "r")}}
-    groups = {"imu": _group("imu", t, imu, sd_imu, suite)}
+    groups = {"imu": mounted_group("imu", t.copy(), imu, sd_imu,
+                                   float(dict(suite.offsets_s).get("imu", 0.0)),
+                                   "simulated imu", mounting, ranges)}
     aiding = {"gnss": ({c: table[c] for c in GROUPS["gnss"]},
                        {**{c: suite.gnss_velocity_sd_mps for c in ("vn", "ve", "vd")},
                         **{c: suite.gnss_position_sd_m for c in ("pn", "pe", "pd")}}),
@@ -343,6 +391,8 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
                               {c: s for c, s in sd.items() if s > 0 and c in noisy},
                               suite)
     metadata = {"truth": {k: v.tolist() for k, v in errors.items()}, **(metadata or {})}
+    if groups["imu"].notes:
+        metadata["notes"] = list(groups["imu"].notes)
     return SuiteSimulation(SuiteLog(groups, airframe, metadata, source), table, errors)
 
 

@@ -21,7 +21,12 @@ The groups and their channels are :data:`GROUPS` (``imu``: two accelerometer tri
 three gyros, body axes; ``gnss``: NED velocity and position from the origin, flat
 Earth; ``baro``: pressure altitude, or static pressure (Pa, hPa, mbar, psi) and air
 temperature (K, degC); ``ins``: Euler attitude, possibly wrapped; ``fin``:
-fin deflection). Units are converted to SI (radians) on reading (:data:`UNITS`). An
+fin deflection). The ``imu`` group may state its mounting (a ``[groups.imu.mounting]``
+table: the rotation from the sensor's axes to the body's and the triads' positions) and
+its range (``accel_range`` [m/s^2], ``gyro_range`` [rad/s]): :mod:`._mounting`; the
+mounting is applied on reading, so the groups hold body axes, and the one-line notices
+(``SuiteLog.metadata["notes"]``) say what was applied and how many samples saturated.
+Units are converted to SI (radians) on reading (:data:`UNITS`). An
 optional ``[truth]`` table of numbers and lists (a simulator's sensor errors) is kept as
 metadata. Every bad input is a one-line :class:`~aeroid.errors.FlightError` naming the
 file and column.
@@ -41,6 +46,16 @@ import pandas as pd
 
 from aeroid.errors import AeroidError, FlightError
 from aeroid.flights._columns import UNIT_FACTORS
+from aeroid.flights._mounting import (
+    RANGE_KEYS,
+    TRIADS,
+    ZERO_ENTRY,
+    Mounting,
+    mount,
+    read_mounting,
+    read_ranges,
+    unmount,
+)
 from aeroid.model import Airframe, load_airframe, read_toml, save_airframe
 
 #: The sensor groups and their channels (SI units inside aeroid; NED from the origin).
@@ -75,6 +90,8 @@ UNITS: dict[str, tuple[str, float]] = {
 #: Units with an offset: SI = value * factor + offset.
 UNIT_OFFSETS: dict[str, float] = {"degC": 273.15}
 _GROUP_KEYS = ("file", "time", "offset_s", "columns", "noise_sd")
+#: Keys only the ``imu`` group takes (:mod:`._mounting`).
+_IMU_KEYS = ("mounting", *RANGE_KEYS)
 
 
 @dataclass(frozen=True)
@@ -95,6 +112,19 @@ class SensorGroup:
         The offset added to the logged times [s].
     source : str
         Where the group came from (file name), for messages.
+    mounting : Mounting, optional
+        The rotation from the sensor's axes to the body's (already applied to
+        ``channels``) and the triads' positions; None: sensor axes are body axes.
+    ranges : dict of str to float
+        ``accel_range`` [m/s^2] and ``gyro_range`` [rad/s] where stated.
+    saturated : dict of str to ndarray of bool, shape (n,)
+        Per body channel under a stated range: True where a sensor axis it draws on read
+        at or beyond the range.
+    sensor_channels : dict of str to ndarray, shape (n,)
+        The readings as logged, in the sensor's axes (SI), when mounted; written back by
+        :func:`write_suite_log`.
+    notes : tuple of str
+        One line each: the mounting applied, the samples saturated per range.
     """
 
     name: str
@@ -103,6 +133,16 @@ class SensorGroup:
     noise_sd: dict[str, float] = field(default_factory=dict)
     offset_s: float = 0.0
     source: str = "suite log"
+    mounting: Mounting | None = None
+    ranges: dict[str, float] = field(default_factory=dict)
+    saturated: dict[str, np.ndarray] = field(default_factory=dict)
+    sensor_channels: dict[str, np.ndarray] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    @property
+    def n_saturated(self) -> int:
+        """Number of (sample, body channel) entries saturated."""
+        return int(sum(int(m.sum()) for m in self.saturated.values()))
 
     @property
     def rate_hz(self) -> float:
@@ -166,7 +206,9 @@ def read_suite_log(path: str | Path) -> SuiteLog:
         except AeroidError as exc:
             raise FlightError(str(exc)) from None
     truth = data.get("truth", {})
-    return SuiteLog(groups, airframe, {"truth": dict(truth), "source": str(path)}, str(path))
+    notes = [note for g in groups.values() for note in g.notes]
+    return SuiteLog(groups, airframe, {"truth": dict(truth), "source": str(path),
+                                       "notes": notes}, str(path))
 
 
 def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
@@ -175,7 +217,11 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
         raise FlightError(f"{where}: unknown group {name!r} (known: {', '.join(GROUPS)})")
     if not isinstance(table, Mapping):
         raise FlightError(f"{where} must be a table")
-    extra = sorted(set(table) - set(_GROUP_KEYS))
+    extra = sorted(set(table) - set(_GROUP_KEYS) - set(_IMU_KEYS if name == "imu" else ()))
+    if name != "imu" and set(table) & set(_IMU_KEYS):
+        raise FlightError(f"{where}: {', '.join(sorted(set(table) & set(_IMU_KEYS)))} "
+                          "only in [groups.imu] (the other groups' values are not in a "
+                          "sensor's axes: NED, pressure, angles)")
     missing = [k for k in ("file", "time", "columns") if k not in table]
     if extra or missing:
         raise FlightError(f"{where}: " + (f"unknown key(s) {', '.join(extra)}" if extra else
@@ -220,7 +266,28 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
         if not isinstance(sd, int | float) or isinstance(sd, bool) or not sd > 0:
             raise FlightError(f"{where}.noise_sd.{channel} must be a positive number (SI)")
         noise_sd[channel] = float(sd)
-    return SensorGroup(name, t + float(offset), channels, noise_sd, float(offset), str(file))
+    mounting = read_mounting(table["mounting"], where) if "mounting" in table else None
+    ranges = read_ranges(table, where)
+    return mounted_group(name, t + float(offset), channels, noise_sd, float(offset), str(file),
+                         mounting, ranges)
+
+
+def mounted_group(name: str, t: np.ndarray, sensor: dict[str, np.ndarray],
+                  noise_sd: dict[str, float], offset_s: float, source: str,
+                  mounting: Mounting | None = None, ranges: dict[str, float] | None = None
+                  ) -> SensorGroup:
+    """Return a group from readings in the sensor's axes: mounted, ranges applied.
+
+    The channels become the body's (:func:`aeroid.flights._mounting.mount`); the readings
+    as logged stay in ``sensor_channels`` when mounted.
+    """
+    ranges = dict(ranges or {})
+    if mounting is None and not ranges:
+        return SensorGroup(name, t, dict(sensor), dict(noise_sd), offset_s, source)
+    body = mount(sensor, noise_sd, mounting, ranges, source)
+    return SensorGroup(name, t, body.channels, body.noise_sd, offset_s, source, mounting,
+                       ranges, body.saturated, dict(sensor) if mounting is not None else {},
+                       body.notes)
 
 
 def _column_spec(spec: Any, where: str) -> tuple[str, str]:
@@ -271,20 +338,54 @@ def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
         lines += ["[log]", f"airframe = {json.dumps(airframe_file.name)}", ""]
     for name, group in log.groups.items():
         file = path.with_name(f"{path.stem}-{name}.csv")
-        frame = pd.DataFrame({"t": group.t - group.offset_s, **group.channels})
+        logged = group.sensor_channels or unmount(group.channels, group.mounting)
+        frame = pd.DataFrame({"t": group.t - group.offset_s, **logged})
         frame.to_csv(file, index=False, float_format="%.17g")
         written.append(file)
         lines += [f"[groups.{name}]", f"file = {json.dumps(file.name)}", 'time = ["t", "s"]',
-                  f"offset_s = {group.offset_s!r}", "", f"[groups.{name}.columns]"]
-        lines += [f'{c} = ["{c}", "{SI_UNITS[c]}"]' for c in group.channels] + [""]
-        if group.noise_sd:
+                  f"offset_s = {group.offset_s!r}"]
+        lines += [f"{key} = {value!r}" for key, value in group.ranges.items()]
+        lines += ["", f"[groups.{name}.columns]"]
+        lines += [f'{c} = ["{c}", "{SI_UNITS[c]}"]' for c in logged] + [""]
+        if group.mounting is not None:
+            lines += [f"[groups.{name}.mounting]"]
+            lines += [f"{k} = {json.dumps(v)}" for k, v in group.mounting.to_table().items()]
+            lines += [""]
+        # a noise-free simulation's sd of 0 is no statement (the reader takes sd > 0 only)
+        sensor_sd = {c: sd for c, sd in _sensor_sd(group).items() if sd > 0}
+        if sensor_sd:
             lines += [f"[groups.{name}.noise_sd]"]
-            lines += [f"{c} = {sd!r}" for c, sd in group.noise_sd.items()] + [""]
+            lines += [f"{c} = {sd!r}" for c, sd in sensor_sd.items()] + [""]
     truth = log.metadata.get("truth") or {}
     if truth:
         lines += ["[truth]"] + [f"{k} = {json.dumps(_plain(v))}" for k, v in truth.items()]
     path.write_text("\n".join(lines) + "\n")
     return [path, *written]
+
+
+def _sensor_sd(group: SensorGroup) -> dict[str, float]:
+    """The noise sd of the logged (sensor-axis) channels.
+
+    Unmounted, or mounted by an axis map (each body axis one sensor axis): the sd of the
+    body channel the sensor axis enters. A general rotation mixes them: its sd must be one
+    per triad to be written back (refused otherwise).
+    """
+    if group.mounting is None:
+        return dict(group.noise_sd)
+    out = {}
+    c = group.mounting.rotation
+    for body, sd in group.noise_sd.items():
+        for triad in TRIADS:
+            if body in triad:
+                i = triad.index(body)
+                for j in np.flatnonzero(np.abs(c[i]) > ZERO_ENTRY):
+                    if out.setdefault(triad[j], sd) != sd:
+                        raise FlightError(f"{group.source}: cannot write the noise sd of "
+                                          f"{triad[j]}: its body axes differ")
+                break
+        else:
+            out[body] = sd
+    return out
 
 
 def _plain(value: Any) -> Any:
