@@ -105,7 +105,7 @@ def _measurement_jacobian(model: Callable[[np.ndarray], np.ndarray], x: np.ndarr
 
 def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarray,
         lever: np.ndarray, x0: np.ndarray, p0: np.ndarray, aidings: list[Aiding],
-        extra_noise: np.ndarray) -> Passes:
+        extra_noise: np.ndarray, imu_sd_per_sample: np.ndarray | None = None) -> Passes:
     """Run the filter and the smoother over the IMU record.
 
     Parameters
@@ -121,6 +121,9 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
     aidings : list of Aiding
     extra_noise : ndarray, shape (N,)
         Further process-noise density per state [unit^2 / s].
+    imu_sd_per_sample : ndarray, shape (n, N_IMU), optional
+        The IMU's sd at each sample (a saturated reading's is raised); the step from
+        ``k`` to ``k + 1`` takes the larger of the two samples'. Default ``imu_sd``.
     """
     n = len(t)
     eye = np.eye(N_STATES)
@@ -179,6 +182,8 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
         if abs(x[THETA]) > MAX_PITCH:
             raise FlightError(f"reconstruction: pitch beyond 85 deg at t = {t[k + 1]:.6g} s "
                               "(the Euler-angle kinematics are singular at 90 deg)")
+        if imu_sd_per_sample is not None:
+            q_imu = np.diag(np.maximum(imu_sd_per_sample[k], imu_sd_per_sample[k + 1]) ** 2)
         p = fk @ p @ fk.T + bd @ q_imu @ bd.T + np.diag(extra_noise * dt)
         p = 0.5 * (p + p.T)
         fm[k] = fk
