@@ -92,6 +92,11 @@ class Problem:
     prior_mean, prior_weight : ndarray, shape (n_p,), optional
         A Gaussian prior on the scaled parameters (MAP): mean and inverse variance (0: no
         prior on that parameter).
+    mask : ndarray of bool, shape (n, m), optional
+        The entries in the likelihood (False: a saturated sample, out of it). A masked
+        entry's residual and Jacobian are zero and its variance 1 (no term in the cost
+        or its log-determinant), and the variances are estimated from the entries in:
+        the fit equals the fit of the data without those entries.
     """
 
     z: np.ndarray
@@ -100,21 +105,27 @@ class Problem:
     noise_model: str = "channel"
     prior_mean: np.ndarray | None = None
     prior_weight: np.ndarray | None = None
+    mask: np.ndarray | None = None
 
     def residuals(self, p: np.ndarray) -> np.ndarray:
-        """Return ``z - y(p)``, shape (n, m)."""
-        return self.z - self.model.outputs(p)
+        """Return ``z - y(p)``, shape (n, m) (0 at masked entries)."""
+        e = self.z - self.model.outputs(p)
+        return e if self.mask is None else np.where(self.mask, e, 0.0)
 
     def residuals_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``z - y(p)`` (n, m) and ``dy/dp`` (m, n, n_p)."""
+        """Return ``z - y(p)`` (n, m) and ``dy/dp`` (m, n, n_p) (0 at masked entries)."""
         y, J = self.model.outputs_jacobian(p)
+        if self.mask is not None:
+            return np.where(self.mask, self.z - y, 0.0), J * self.mask.T[:, :, None]
         return self.z - y, J
 
     def noise(self, e: np.ndarray) -> np.ndarray:
         """Return the ML estimate of the error variances from residuals ``e`` (floored).
 
-        Shape (m,) for ``channel``, (n, m) for ``signal``.
+        Shape (m,) for ``channel``, (n, m) for ``signal`` or with a ``mask``.
         """
+        if self.mask is not None:
+            return self.masked_noise(e)
         ms = np.maximum(np.mean(e * e, axis=0), self.r_floor)
         if self.noise_model == "channel":
             return ms
@@ -127,6 +138,19 @@ class Problem:
         a, b = most_likely_law(e * e, y2, np.where(uniform, ms, a),
                                np.where(uniform, 0.0, b), floor=floor)
         return np.maximum(a + b * y2, self.r_floor)
+
+    def masked_noise(self, e: np.ndarray) -> np.ndarray:
+        """:meth:`noise` of each channel's entries in the likelihood; 1 at the others."""
+        assert self.mask is not None
+        out = np.ones(e.shape)
+        for c in range(e.shape[1]):
+            rows = self.mask[:, c]
+            if rows.any():
+                alone = Problem(self.z[rows, c:c + 1], self.model, self.r_floor[c:c + 1],
+                                self.noise_model)
+                out[rows, c] = np.broadcast_to(alone.noise(e[rows, c:c + 1]),
+                                               (int(rows.sum()), 1))[:, 0]
+        return out
 
     def prior_terms(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Return the prior's cost, gradient term and information (all zero without one)."""

@@ -58,6 +58,10 @@ class Estimator(abc.ABC):
     #: ``metadata['initial_state_sd']``, :meth:`aeroid.reconstruction.Reconstruction.
     #: to_flight`); for the others :meth:`fit` warns that the states were taken as exact.
     uses_state_sd: ClassVar[bool] = False
+    #: True for a method that leaves a flight's saturated samples (``metadata
+    #: ['saturated']``, :func:`aeroid.flights.used_samples`) out of its likelihood; the
+    #: others refuse such a flight in :meth:`fit` (its clipped values are not the truth).
+    leaves_out_saturated: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -93,6 +97,12 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         flight.validate()
+        saturated = flight.metadata.get("saturated") or {}
+        if saturated and not self.leaves_out_saturated:
+            raise EstimatorError(
+                f"{self.name}: the flight has {sum(len(k) for k in saturated.values())} "
+                f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); this "
+                "method cannot leave them out of its fit (output-error can)")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)
