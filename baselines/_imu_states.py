@@ -12,12 +12,12 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
 from aeroid.estimation import EstimationResult, nuisance_findings
-from aeroid.flights import IMU_ERROR_KINDS, Flight, imu_error_names
+from aeroid.flights import IMU_ERROR_KINDS, Flight, imu_error_names, used_samples
 from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
 from baselines import _common, _kalman
 
@@ -44,6 +44,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         rates' variance grows by what those errors do to the first gyro reading.
     """
 
+    leaves_out_saturated: ClassVar[bool] = True  # FilterSetup.mask
+
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     imu_accel_bias_sd_mps2: float = 0.2
     imu_gyro_bias_sd_radps: float = 0.005
@@ -63,8 +65,12 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         return imu_error_names(self.imu_errors)
 
     def setup(self, flight: Flight) -> _common.FilterSetup:
-        """The shared start, with the IMU-error states appended (``imu_errors``)."""
+        """The shared start, with the IMU-error states appended (``imu_errors``) and the
+        flight's saturated samples masked (:func:`aeroid.flights.used_samples`)."""
         setup = super().setup(flight)
+        mask = used_samples(flight.metadata, OUTPUT_CHANNELS, len(setup.zs))
+        if mask is not None:
+            setup = setup._replace(mask=mask)
         names = self.imu_error_names()
         if not names:
             return setup
@@ -83,6 +89,26 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         P0[rates, rates] += spread
         return setup._replace(x0=np.concatenate([setup.x0, np.zeros(k)]), P0=P0, Q=Q)
 
+    def innovation_noise_law(self, out: _kalman.FilterOutput, setup: _common.FilterSetup
+                             ) -> tuple[np.ndarray, np.ndarray]:
+        """The shared refit, each channel on its innovations in the likelihood (mask)."""
+        if setup.mask is None:
+            return super().innovation_noise_law(out, setup)
+        laws = []
+        for c in range(setup.zs.shape[1]):
+            rows = setup.mask[:, c]
+            one = _kalman.FilterOutput(out.x[rows], out.sd[rows], out.P, None, "",
+                                       out.innovation[rows, c:c + 1],
+                                       None if out.innovation_var is None
+                                       else out.innovation_var[rows, c:c + 1],
+                                       None if out.noise_var is None
+                                       else out.noise_var[rows, c:c + 1])
+            alone = setup._replace(zs=setup.zs[rows, c:c + 1], r_floor=setup.r_floor[c:c + 1],
+                                   mask=None)
+            laws.append(super().innovation_noise_law(one, alone))
+        return (np.array([float(a[0]) for a, _ in laws]),
+                np.array([float(b[0]) for _, b in laws]))
+
     def run_imu_passes(self, flight: Flight, run_filter: PassRunner,
                        evaluations_per_pass: Callable[[_kalman.DiscreteModel], int]
                        ) -> EstimationResult:
@@ -99,6 +125,10 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             return out
 
         result = self.run_passes(flight, one_pass, evaluations_per_pass)
+        if "fit_residuals" in result.info and flight.metadata.get("saturated"):
+            # the fit check reads the innovations in the likelihood (saturated left out)
+            kept = {c: e[np.isfinite(e)] for c, e in result.info["fit_residuals"].items()}
+            result = dataclasses.replace(result, info={**result.info, "fit_residuals": kept})
         good = [out for out in passes if out.failed_at is None]
         if not names or not good or not np.all(np.isfinite(result.theta)):
             return result

@@ -17,6 +17,15 @@ the true altitude) instead of its pressure altitude::
 
     python examples/make_sensor_suite_log.py /tmp/suite-p --pressure
     aeroid reconstruct /tmp/suite-p/suite.toml -o states.csv --report report/
+
+``--board`` logs the IMU as a flight computer's board mounts it: its long axis along the
+sensor's -y (``[groups.imu.mounting] axes = "x=-y, y=x, z=z"`` in ``suite.toml``; the
+CSV holds the board's axes, the errors and noise are the sensor axes') with a 52 rad/s
+gyro range (the roll peaks near 53 rad/s: about 300 roll samples saturate, clipped at the
+range and marked on reading)::
+
+    python examples/make_sensor_suite_log.py /tmp/suite-b --board
+    aeroid reconstruct /tmp/suite-b/suite.toml -o states.csv --flight flight.csv
 """
 
 from __future__ import annotations
@@ -30,11 +39,16 @@ from aeroid.flights import SensorSuite, reference_scenario, simulate_suite, writ
 SEED = 2026
 
 
-def main(folder: Path, pressure: bool = False) -> None:
+#: The board's mounting and gyro range of ``--board``.
+BOARD = {"imu_mounting": "x=-y, y=x, z=z", "gyro_range_radps": 52.0}
+
+
+def main(folder: Path, pressure: bool = False, board: bool = False) -> None:
     """Simulate the reference flight with the default suite and write its log."""
     folder.mkdir(parents=True, exist_ok=True)
     scenario = reference_scenario()
-    suite = SensorSuite(baro_channels=("pressure", "temperature")) if pressure else SensorSuite()
+    options: dict = {"baro_channels": ("pressure", "temperature")} if pressure else {}
+    suite = SensorSuite(**options, **(BOARD if board else {}))
     sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                          suite, rng=SEED)
     for path in write_suite_log(sim.log, folder / "suite.toml"):
@@ -42,6 +56,6 @@ def main(folder: Path, pressure: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if a != "--pressure"]
+    args = [a for a in sys.argv[1:] if a not in ("--pressure", "--board")]
     main(Path(args[0]) if args else Path(__file__).parent / "suite-log",
-         pressure="--pressure" in sys.argv[1:])
+         pressure="--pressure" in sys.argv[1:], board="--board" in sys.argv[1:])

@@ -81,11 +81,14 @@ class Mounting:
         How it was given, for the one-line notice (``axes x=-y, y=x, z=z``).
     positions_m : ndarray, shape (2, 3), optional
         Both triads' positions from the c.g. in body axes [m].
+    given : (key, value), optional
+        The rotation as the file gave it (``("axes", "x=-y, y=x, z=z")``), written back.
     """
 
     rotation: np.ndarray
     description: str
     positions_m: np.ndarray | None = None
+    given: tuple[str, Any] | None = None
 
     @property
     def is_identity(self) -> bool:
@@ -93,8 +96,9 @@ class Mounting:
         return bool(np.array_equal(self.rotation, np.eye(3)))
 
     def to_table(self) -> dict[str, Any]:
-        """The TOML form (a ``matrix``, exact, and the positions)."""
-        out: dict[str, Any] = {"matrix": self.rotation.tolist()}
+        """The TOML form (the rotation as given, else a ``matrix``; the positions)."""
+        key, value = self.given or ("matrix", self.rotation.tolist())
+        out: dict[str, Any] = {key: value}
         if self.positions_m is not None:
             out["accel1_position_m"] = self.positions_m[0].tolist()
             out["accel2_position_m"] = self.positions_m[1].tolist()
@@ -142,8 +146,9 @@ def axis_map(text: str | Mapping[str, Any], where: str = "mounting") -> Mounting
     if twice:
         raise FlightError(f"{where}: axes: sensor axis {', '.join(twice)} used twice (not a "
                           "rotation)")
-    description = "axes " + ", ".join(f"{b}={pairs[b]}" for b in _AXES)
-    return Mounting(_proper(rotation, where, description), description)
+    text = ", ".join(f"{b}={pairs[b]}" for b in _AXES)
+    return Mounting(_proper(rotation, where, "axes " + text), "axes " + text, None,
+                    ("axes", text))
 
 
 def euler_mounting(angles_deg: Any, where: str = "mounting") -> Mounting:
@@ -161,7 +166,7 @@ def euler_mounting(angles_deg: Any, where: str = "mounting") -> Mounting:
     description = (f"3-2-1 angles roll {values[0]:g}, pitch {values[1]:g}, yaw {values[2]:g} "
                    "deg (sensor axes from body axes: yaw about z, pitch about the new y, "
                    "roll about the new x)")
-    return Mounting(rotation, description)
+    return Mounting(rotation, description, None, ("angles_deg", values.tolist()))
 
 
 def matrix_mounting(matrix: Any, where: str = "mounting") -> Mounting:
@@ -218,7 +223,8 @@ def read_mounting(table: Any, where: str) -> Mounting:
         positions = np.array([_numbers(table[k], 3, f"{where}.mounting", k) for k in given])
         if np.linalg.norm(positions[0] - positions[1]) == 0.0:
             raise FlightError(f"{where}.mounting: the two triads' positions must differ")
-        mounting = Mounting(mounting.rotation, mounting.description, positions)
+        mounting = Mounting(mounting.rotation, mounting.description, positions,
+                            mounting.given)
     return mounting
 
 

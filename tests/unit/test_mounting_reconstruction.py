@@ -81,3 +81,22 @@ def test_mounting_positions_reach_the_airframe(scenario):
     np.testing.assert_array_equal(rec.airframe.accel_positions, positions)
     np.testing.assert_array_equal(rec.to_flight().airframe.accel_positions, positions)
     assert any("replace the airframe's" in note for note in rec.notes)
+
+
+def test_filter_leaves_saturated_samples_out(scenario):
+    """The EKF on a raw-IMU flight with ~300 clipped roll samples: masked, a success with
+    every coefficient within 3 standard errors; the clipped values taken as readings, the
+    fit check refuses (measured: p residual 179x its noise, Clp 25 se off)."""
+    from baselines.ekf import ExtendedKalmanEstimator
+
+    sim = _board(scenario, gyro_range_radps=GYRO_RANGE)
+    flight = reconstruct(sim.log).to_flight(imu="raw")
+    est = ExtendedKalmanEstimator(imu_errors="bias+scale")
+    res = est.fit(flight, rng=0)
+    assert res.success, res.message
+    z = (res.theta - scenario.coefficient_vector) / res.stderr
+    assert np.max(np.abs(z)) < 3.0, z
+    unmarked = dataclasses.replace(flight, metadata={
+        k: v for k, v in flight.metadata.items() if k != "saturated"})
+    bad = est.fit(unmarked, rng=0)
+    assert not bad.success and "p residual" in bad.message, bad.message
