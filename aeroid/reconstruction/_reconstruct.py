@@ -208,10 +208,14 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     missing = [c for c in IMU_CHANNELS if c not in imu_group.channels]
     no_sd = [c for c in IMU_CHANNELS if c not in imu_group.noise_sd]
     if missing or no_sd:
+        axial = not any(c in imu_group.channels for c in ("p", "q", "r"))
         raise FlightError(f"{imu_group.source}: the imu group needs all of "
                           f"{', '.join(IMU_CHANNELS)} with noise_sd; missing "
                           f"{', '.join(missing) or 'none'}, no noise_sd for "
-                          f"{', '.join(no_sd) or 'none'}")
+                          f"{', '.join(no_sd) or 'none'}" + (
+                              " (without gyros the attitude cannot be propagated: an "
+                              "accelerometer-only log is read but not reconstructed yet)"
+                              if axial else ""))
     t = imu_group.t
     if len(t) < OMEGA_DOT_WINDOW:
         raise FlightError(f"{imu_group.source}: {len(t)} IMU samples; the reconstruction "

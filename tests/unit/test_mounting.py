@@ -179,3 +179,28 @@ def test_used_samples_from_flight_metadata():
     assert used_samples({}, ("p",), 5) is None
     with pytest.raises(FlightError, match="not sample indices"):
         used_samples({"saturated": {"q": [7]}}, ("p", "q", "r"), 5)
+
+
+def test_axial_accelerometer_alone_is_read_and_its_reconstruction_refused(tmp_path, scenario):
+    """A cheap board's log: one accelerometer axis (the board's -y is the body's x)."""
+    from aeroid.reconstruction import reconstruct
+
+    board = _sim(scenario, imu_mounting=BOARD)
+    write_suite_log(board.log, tmp_path / "full.toml")  # suite-like CSVs beside it
+    (tmp_path / "axial.toml").write_text(
+        "[log]\nairframe = \"full-airframe.toml\"\n"
+        "[groups.imu]\nfile = \"full-imu.csv\"\ntime = [\"t\", \"s\"]\n"
+        "[groups.imu.columns]\nay1 = [\"ay1\", \"m/s^2\"]\n"
+        "[groups.imu.noise_sd]\nay1 = 0.05\n"
+        "[groups.imu.mounting]\naxes = \"x=-y, y=x, z=z\"\n"
+        "[groups.ins]\nfile = \"full-ins.csv\"\ntime = [\"t\", \"s\"]\n"
+        "[groups.ins.columns]\nphi = [\"phi\", \"rad\"]\ntheta = [\"theta\", \"rad\"]\n"
+        "psi = [\"psi\", \"rad\"]\n")
+    log = read_suite_log(tmp_path / "axial.toml")
+    assert sorted(log["imu"].channels) == ["ax1"]  # body x from the sensor's -y
+    assert log["imu"].noise_sd == {"ax1": 0.05}
+    np.testing.assert_array_equal(log["imu"].channels["ax1"], board.log["imu"].channels["ax1"])
+    with pytest.raises(FlightError) as info:
+        reconstruct(log)
+    message = str(info.value)
+    assert "\n" not in message and "without gyros" in message, message
