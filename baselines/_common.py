@@ -111,7 +111,6 @@ class FilterSetup(NamedTuple):
     law: tuple[np.ndarray, np.ndarray]
     r_floor: np.ndarray
     position_free: tuple[int, ...]
-    mask: np.ndarray | None = None  # (n, m) the measurements in the likelihood
 
     def R_of(self, y_pred: np.ndarray) -> np.ndarray:  # noqa: N802 - the filter's R
         """The measurement-noise covariance at the predicted measurement ``y_pred``."""

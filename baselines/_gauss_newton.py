@@ -49,6 +49,7 @@ class OutputModel(Protocol):
     def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Return ``y(p)`` (n, m) and ``dy/dp`` (m, n, n_p)."""
         ...
+    # optional: ``mask`` (n, m) bool or None, the outputs in the likelihood (Problem's);
     # optional: ``smooth_region(p) -> SmoothRegion`` for a model whose outputs are
     # piecewise smooth in some parameter, with ``edge_note`` (a phrase) saying what an
     # edge is (:func:`gauss_newton`)
@@ -93,7 +94,8 @@ class Problem:
         A Gaussian prior on the scaled parameters (MAP): mean and inverse variance (0: no
         prior on that parameter).
     mask : ndarray of bool, shape (n, m), optional
-        The entries in the likelihood (False: a saturated sample, out of it). A masked
+        The entries in the likelihood (False: a saturated sample, out of it; default the
+        model's ``mask`` if it has one). A masked
         entry's residual and Jacobian are zero and its variance 1 (no term in the cost
         or its log-determinant), and the variances are estimated from the entries in:
         the fit equals the fit of the data without those entries.
@@ -106,6 +108,10 @@ class Problem:
     prior_mean: np.ndarray | None = None
     prior_weight: np.ndarray | None = None
     mask: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.mask is None and getattr(self.model, "mask", None) is not None:
+            object.__setattr__(self, "mask", self.model.mask)  # the model's (OutputModel)
 
     def residuals(self, p: np.ndarray) -> np.ndarray:
         """Return ``z - y(p)``, shape (n, m) (0 at masked entries)."""
@@ -141,10 +147,9 @@ class Problem:
 
     def masked_noise(self, e: np.ndarray) -> np.ndarray:
         """:meth:`noise` of each channel's entries in the likelihood; 1 at the others."""
-        assert self.mask is not None
-        out = np.ones(e.shape)
+        out, mask = np.ones(e.shape), np.ones(e.shape, bool) if self.mask is None else self.mask
         for c in range(e.shape[1]):
-            rows = self.mask[:, c]
+            rows = mask[:, c]
             if rows.any():
                 alone = Problem(self.z[rows, c:c + 1], self.model, self.r_floor[c:c + 1],
                                 self.noise_model)

@@ -65,12 +65,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         return imu_error_names(self.imu_errors)
 
     def setup(self, flight: Flight) -> _common.FilterSetup:
-        """The shared start, with the IMU-error states appended (``imu_errors``) and the
-        flight's saturated samples masked (:func:`aeroid.flights.used_samples`)."""
+        """The shared start, with the IMU-error states appended (``imu_errors``)."""
         setup = super().setup(flight)
-        mask = used_samples(flight.metadata, OUTPUT_CHANNELS, len(setup.zs))
-        if mask is not None:
-            setup = setup._replace(mask=mask)
         names = self.imu_error_names()
         if not names:
             return setup
@@ -91,20 +87,20 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
 
     def innovation_noise_law(self, out: _kalman.FilterOutput, setup: _common.FilterSetup
                              ) -> tuple[np.ndarray, np.ndarray]:
-        """The shared refit, each channel on its innovations in the likelihood (mask)."""
-        if setup.mask is None:
+        """The shared refit, each channel on its innovations in the likelihood (the
+        others, saturated samples, are NaN: :func:`with_mask`)."""
+        if np.all(np.isfinite(out.innovation)):
             return super().innovation_noise_law(out, setup)
         laws = []
         for c in range(setup.zs.shape[1]):
-            rows = setup.mask[:, c]
+            rows = np.isfinite(out.innovation[:, c])
             one = _kalman.FilterOutput(out.x[rows], out.sd[rows], out.P, None, "",
                                        out.innovation[rows, c:c + 1],
                                        None if out.innovation_var is None
                                        else out.innovation_var[rows, c:c + 1],
                                        None if out.noise_var is None
                                        else out.noise_var[rows, c:c + 1])
-            alone = setup._replace(zs=setup.zs[rows, c:c + 1], r_floor=setup.r_floor[c:c + 1],
-                                   mask=None)
+            alone = setup._replace(zs=setup.zs[rows, c:c + 1], r_floor=setup.r_floor[c:c + 1])
             laws.append(super().innovation_noise_law(one, alone))
         return (np.array([float(a[0]) for a, _ in laws]),
                 np.array([float(b[0]) for _, b in laws]))
@@ -115,12 +111,16 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         """:meth:`run_passes` on the model with the IMU-error states, and their report."""
         names = self.imu_error_names()
         passes: list[_kalman.FilterOutput] = []
+        mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             if names:
                 model = _kalman.with_sensor_errors(model, len(names))
-            out = run_filter(model, setup)
+            if mask is None:
+                out = run_filter(model, setup)
+            else:  # saturated samples leave the likelihood
+                out = masked_output(run_filter(with_mask(model, setup.zs, mask), setup), mask)
             passes.append(out)
             return out
 
@@ -145,3 +145,56 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
                                      names)
         return dataclasses.replace(result, info=info,
                                    warnings=(*result.warnings, *warnings))
+
+
+def with_mask(model: _kalman.DiscreteModel, zs: np.ndarray, mask: np.ndarray
+              ) -> _kalman.DiscreteModel:
+    """Return ``model`` whose masked measurements (``mask`` False) carry no information.
+
+    At a masked entry the predicted measurement is the measurement itself and its row of
+    ``H`` is zero (for the UKF: the same value at every sigma point), so its innovation is
+    zero, its innovation covariance is its noise variance alone and uncorrelated with the
+    others, and its column of the gain is zero: the update equals the update on the
+    other measurements alone, exactly (the Kalman filter without those measurements;
+    ``tests/unit/test_kalman_mask.py``). :func:`masked_output` then marks them NaN.
+
+    Parameters
+    ----------
+    model : DiscreteModel
+    zs : ndarray, shape (n, dim_z)
+        The measurements.
+    mask : ndarray of bool, shape (n, dim_z)
+        True for the measurements in the likelihood.
+    """
+    observe, observe_batch = model.observe, model.observe_batch
+
+    def masked_observe(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        z, H = observe(x, k)
+        if mask[k].all():
+            return z, H
+        out = ~mask[k]
+        z, H = np.array(z, dtype=float), np.array(H, dtype=float)
+        z[out], H[out] = zs[k, out], 0.0
+        return z, H
+
+    def masked_batch(X: np.ndarray, k: int) -> np.ndarray:
+        assert observe_batch is not None
+        rows = observe_batch(X, k)
+        if mask[k].all():
+            return rows
+        rows = np.array(rows, dtype=float)
+        rows[:, ~mask[k]] = zs[k, ~mask[k]]
+        return rows
+
+    return dataclasses.replace(model, observe=masked_observe,
+                               observe_batch=None if observe_batch is None else masked_batch)
+
+
+def masked_output(out: _kalman.FilterOutput, mask: np.ndarray) -> _kalman.FilterOutput:
+    """The pass with the masked entries' innovation and its variances NaN (not measured)."""
+    def nan(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else np.where(mask, a, np.nan)
+
+    return dataclasses.replace(out, innovation=nan(out.innovation),
+                               innovation_var=nan(out.innovation_var),
+                               noise_var=nan(out.noise_var))

@@ -263,22 +263,15 @@ def collapsed_warnings() -> Iterator[None]:
 
 def run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             R: np.ndarray, zs: np.ndarray,
-            R_of: Callable[[np.ndarray], np.ndarray] | None = None,
-            mask: np.ndarray | None = None) -> FilterOutput:
+            R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run :func:`_run_ekf` with its repeated warnings collapsed (:func:`collapsed_warnings`)."""
     with collapsed_warnings():
-        return _run_ekf(model, x0, P0, Q, R, zs, R_of, mask)
-
-
-def _used(mask: np.ndarray | None, k: int) -> np.ndarray | None:
-    """The measurements of sample ``k`` in the likelihood, or None for all of them."""
-    return None if mask is None or mask[k].all() else mask[k]
+        return _run_ekf(model, x0, P0, Q, R, zs, R_of)
 
 
 def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
              R: np.ndarray, zs: np.ndarray,
-             R_of: Callable[[np.ndarray], np.ndarray] | None = None,
-             mask: np.ndarray | None = None) -> FilterOutput:
+             R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's EKF with the model's nonlinear prediction over measurements ``zs``.
 
     Sample 0 is an update of the prior ``(x0, P0)`` with ``zs[0]``; each later sample
@@ -295,10 +288,6 @@ def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
     R_of : callable, optional
         ``R_of(z_pred) -> (dim_z, dim_z)``: a measurement-noise covariance that depends
         on the predicted measurement (a per-sample noise model); replaces ``R``.
-    mask : ndarray of bool, shape (n, dim_z), optional
-        The measurements in the likelihood (False: a saturated sample): a sample's update
-        uses only its measurements in (none: no update); the others' innovation,
-        innovation and noise variances are NaN.
 
     Returns
     -------
@@ -326,19 +315,10 @@ def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
         z_hat = np.asarray(z_hat, dtype=float).reshape(-1, 1)
         innov[k] = zs[k] - z_hat.ravel()
         R_k = ekf.R if R_of is None else R_of(z_hat.ravel())
-        used = _used(mask, k)
-        if used is None:
-            ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
-                       Hx=lambda _x, z_hat=z_hat: z_hat, R=R_k)
-            s_var[k] = np.diag(ekf.S)
-            r_var[k] = np.diag(R_k)
-        else:  # only the measurements in the likelihood (mask)
-            innov[k, ~used] = s_var[k] = r_var[k] = np.nan
-            if used.any():
-                ekf.update(zs[k, used].reshape(-1, 1), HJacobian=lambda _x, H=H[used]: H,
-                           Hx=lambda _x, z_hat=z_hat[used]: z_hat, R=R_k[np.ix_(used, used)])
-                s_var[k, used] = np.diag(ekf.S)
-                r_var[k, used] = np.diag(R_k)[used]
+        ekf.update(zs[k].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
+                   Hx=lambda _x, z_hat=z_hat: z_hat, R=R_k)
+        s_var[k] = np.diag(ekf.S)
+        r_var[k] = np.diag(R_k)
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
         reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
@@ -351,23 +331,21 @@ def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
 def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
             R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
             kappa: float = 0.0,
-            R_of: Callable[[np.ndarray], np.ndarray] | None = None,
-            mask: np.ndarray | None = None) -> FilterOutput:
+            R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run :func:`_run_ukf` with its repeated warnings collapsed (:func:`collapsed_warnings`)."""
     with collapsed_warnings():
         return _run_ukf(model, x0, P0, Q, R, zs, alpha=alpha, beta=beta, kappa=kappa,
-                        R_of=R_of, mask=mask)
+                        R_of=R_of)
 
 
 def _run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
              R: np.ndarray, zs: np.ndarray, *, alpha: float = 0.5, beta: float = 2.0,
              kappa: float = 0.0,
-             R_of: Callable[[np.ndarray], np.ndarray] | None = None,
-             mask: np.ndarray | None = None) -> FilterOutput:
+             R_of: Callable[[np.ndarray], np.ndarray] | None = None) -> FilterOutput:
     """Run filterpy's UKF (Merwe scaled sigma points) with batched sigma-point propagation.
 
     Same sequence and arguments as :func:`run_ekf` (``R_of`` gets the sigma points'
-    weighted mean measurement; ``mask`` as there), plus the sigma-point parameters
+    weighted mean measurement), plus the sigma-point parameters
     ``alpha``, ``beta``, ``kappa`` of :class:`filterpy.kalman.MerweScaledSigmaPoints`.
     Needs ``model.transition_batch`` and ``model.observe_batch``.
     """
@@ -405,19 +383,10 @@ def _run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
                                s_var, r_var)
         rows = np.asarray(model.observe_batch(ukf.sigmas_f, k), dtype=float)
         R_k = ukf.R if R_of is None else R_of(points.Wm @ rows)
-        used = _used(mask, k)
-        if used is None:
-            ukf.update(zs[k], R=R_k, hx=_RowFeed(rows))
-            innov[k] = ukf.y
-            s_var[k] = np.diag(ukf.S)
-            r_var[k] = np.diag(R_k)
-        else:  # only the measurements in the likelihood (mask)
-            innov[k] = s_var[k] = r_var[k] = np.nan
-            if used.any():
-                ukf.update(zs[k, used], R=R_k[np.ix_(used, used)], hx=_RowFeed(rows[:, used]))
-                innov[k, used] = ukf.y
-                s_var[k, used] = np.diag(ukf.S)
-                r_var[k, used] = np.diag(R_k)[used]
+        ukf.update(zs[k], R=R_k, hx=_RowFeed(rows))
+        innov[k] = ukf.y
+        s_var[k] = np.diag(ukf.S)
+        r_var[k] = np.diag(R_k)
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
         reason, ukf.P = _check(ukf.P, ukf.x)
         if reason:

@@ -25,6 +25,7 @@ from aeroid.flights import (
     imu_error_names,
     model_constants,
     schedule,
+    used_samples,
 )
 from aeroid.model import NAMES, OUTPUT_CHANNELS, Buffered, Record, symbolic_record
 from baselines._gauss_newton import SmoothRegion
@@ -42,6 +43,10 @@ EDGE_MARGIN = 1e-9
 class RecordModel:
     """``y(p)`` and ``dy/dp`` of a flight's record in scaled parameters.
 
+    ``mask``: the outputs in the likelihood (the flight's saturated samples out:
+    :func:`aeroid.flights.used_samples`), or None; :class:`~baselines._gauss_newton.Problem`
+    takes it.
+
     Parameters ``p``: the graph's parameters (coefficients, free initial-state and
     position components; :func:`aeroid.model.symbolic_record`), then, with
     ``estimate_delay``, ``tau / delay_scale``, then the IMU errors
@@ -57,6 +62,7 @@ class RecordModel:
                  x0: np.ndarray, scale: np.ndarray, delay_s: float,
                  estimate_delay: bool, imu_errors: str = "none") -> None:
         self.const = model_constants(flight)
+        self.mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
         self.schedule = schedule(flight, input)
         self.t = flight.t
         self.exogenous = exogenous(flight)

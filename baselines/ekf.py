@@ -51,6 +51,6 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                                   R_of=setup.R_of, mask=setup.mask)
+                                   R_of=setup.R_of)
 
         return self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)

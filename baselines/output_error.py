@@ -28,7 +28,7 @@ import numpy as np
 
 import aeroid
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names, used_samples
+from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common
 from baselines._gauss_newton import (
@@ -193,7 +193,7 @@ class OutputErrorEstimator(Estimator):
 
     name: ClassVar[str] = "output-error"
     uses_state_sd: ClassVar[bool] = True  # initial_velocity_prior, or a warning
-    leaves_out_saturated: ClassVar[bool] = True  # Problem.mask
+    leaves_out_saturated: ClassVar[bool] = True  # RecordModel.mask, Problem.mask
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
@@ -301,8 +301,7 @@ class OutputErrorEstimator(Estimator):
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
                        prior_mean=np.zeros(scale.size) if has_prior else None,
-                       prior_weight=weight if has_prior else None,
-                       mask=used_samples(flight.metadata, OUTPUT_CHANNELS, len(z)))
+                       prior_weight=weight if has_prior else None)
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -377,8 +376,6 @@ class OutputErrorEstimator(Estimator):
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
                 "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
-        if prob.mask is not None:
-            info["saturated_entries"] = int(np.sum(~prob.mask))
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
                                             failures)
         info.update(start_info)

@@ -64,7 +64,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
                      ) -> _kalman.FilterOutput:
             return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
                                    alpha=self.alpha, beta=self.beta, kappa=self.kappa,
-                                   R_of=setup.R_of, mask=setup.mask)
+                                   R_of=setup.R_of)
 
         return self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)

@@ -130,6 +130,8 @@ class Estimator(abc.ABC):
         info.setdefault("options", self.options())
         if choice is not None:
             info.update(choice.as_info())
+        if saturated:  # left out of the likelihood by this method (leaves_out_saturated)
+            info["saturated_left_out"] = {c: len(k) for c, k in saturated.items()}
         result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
         extra = (choice.warnings if choice is not None else ()) + floor_warnings(
             result, flight, levels)

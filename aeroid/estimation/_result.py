@@ -185,6 +185,10 @@ class EstimationResult:
             counts = f"cost {self.cost:.6g}, " + counts
         compiled = self._compiled_text()
         lines.append(counts + (f", {compiled}" if compiled else ""))
+        left_out = self.info.get("saturated_left_out") if isinstance(self.info, dict) else None
+        if left_out:
+            lines.append("saturated samples left out of the likelihood: "
+                         + ", ".join(f"{c} {n}" for c, n in left_out.items()))
         passes = self.info.get("passes") if isinstance(self.info, dict) else None
         if passes is not None:
             lines.append(f"filter passes: {passes} (of at most "

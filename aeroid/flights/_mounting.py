@@ -178,6 +178,15 @@ def matrix_mounting(matrix: Any, where: str = "mounting") -> Mounting:
     return Mounting(_proper(rotation, where, description), description)
 
 
+def board_mounting(axes: str, angles_deg: Any, where: str) -> Mounting | None:
+    """Return the mounting of an axis map or of 3-2-1 angles (one of them, or None)."""
+    if axes and len(angles_deg):
+        raise FlightError(f"{where}: give an axis map or angles, not both")
+    if axes:
+        return axis_map(axes, where)
+    return euler_mounting(list(angles_deg), where) if len(angles_deg) else None
+
+
 def _numbers(values: Any, n: int, where: str, name: str) -> np.ndarray:
     ok = (isinstance(values, list | tuple | np.ndarray) and len(values) == n
           and all(isinstance(v, int | float | np.floating) and not isinstance(v, bool)

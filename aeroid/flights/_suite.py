@@ -44,7 +44,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from aeroid.errors import AirframeError, FlightError
-from aeroid.flights._mounting import Mounting, axis_map, euler_mounting
+from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
 from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog, mounted_group
@@ -139,16 +139,11 @@ class SensorSuite:
 
     def mounting(self) -> Mounting | None:
         """The IMU's board mounting (``imu_mounting`` axis map or ``imu_angles_deg``)."""
-        if self.imu_mounting and self.imu_angles_deg:
-            raise AirframeError("sensor suite: give imu_mounting or imu_angles_deg, not both")
         try:
-            if self.imu_mounting:
-                return axis_map(self.imu_mounting, "sensor suite: imu_mounting")
-            if self.imu_angles_deg:
-                return euler_mounting(list(self.imu_angles_deg), "sensor suite: imu_angles_deg")
+            return board_mounting(self.imu_mounting, self.imu_angles_deg,
+                                  "sensor suite: imu_mounting / imu_angles_deg")
         except FlightError as exc:
             raise AirframeError(str(exc)) from None
-        return None
 
     def ranges(self) -> dict[str, float]:
         """The IMU's stated ranges by the suite log's keys (``accel_range``, ``gyro_range``)."""

@@ -20,7 +20,7 @@ import pandas as pd
 from scipy.signal import savgol_filter
 
 from aeroid.errors import FlightError
-from aeroid.flights import Flight, SensorGroup, SuiteLog, body_to_ned, exogenous, make_flight
+from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
 from aeroid.reconstruction._barometer import (
     ATMOSPHERES,
@@ -45,6 +45,7 @@ from aeroid.reconstruction._kinematics import (
     VEL,
     ned_velocity,
 )
+from aeroid.reconstruction._sensors import mounted_positions, saturated_samples
 
 Model = Callable[[np.ndarray], np.ndarray]
 #: Savitzky-Golay window [samples] and order of the gyro derivative (the lever-arm term).
@@ -59,9 +60,6 @@ UNIFORM_TOLERANCE = 0.01
 #: A prior set from a first sample has that sample's sd times this (the sample then is not
 #: used again), plus what the time from the sample to the first IMU sample may change.
 PRIOR_INFLATION = 2.0
-#: A saturated IMU reading is integrated at the range with this fraction of the range as
-#: its sd (the truth lies beyond the range by an unknown amount; see :func:`_saturated`).
-SATURATED_SD_REL = 0.05
 
 
 @dataclass(frozen=True)
@@ -204,7 +202,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
                           "are needed)")
     imu_group = log["imu"]
     notes = [str(note) for note in log.metadata.get("notes", ())]
-    airframe = _mounted_positions(airframe, imu_group, notes)
+    airframe = mounted_positions(airframe, imu_group, notes)
     missing = [c for c in IMU_CHANNELS if c not in imu_group.channels]
     no_sd = [c for c in IMU_CHANNELS if c not in imu_group.noise_sd]
     if missing or no_sd:
@@ -245,7 +243,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     extra = np.zeros(N_STATES)
     extra[VEL] = (od_sd * np.linalg.norm(lever)) ** 2 * dt
     imu_sd = np.array([imu_group.noise_sd[c] for c in IMU_CHANNELS])
-    saturated, imu_sd_k = _saturated(imu_group, imu_sd, notes)
+    saturated, imu_sd_k = saturated_samples(imu_group, imu_sd, notes)
     passes = run(t, imu, imu_sd, omega_dot, lever, x0, p0, aidings, extra, imu_sd_k)
     sd = np.sqrt(np.clip(np.einsum("kii->ki", passes.covariance), 0.0, None))
     table = pd.DataFrame({"t": t, **{s: passes.states[:, j] for j, s in enumerate(STATES)},
@@ -288,56 +286,6 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
         for aid in aidings}
     return Reconstruction(table, passes.covariance, passes.nis, passes.innovations,
                           tuple(notes), airframe, fin, meta, imu.copy(), innovation_tables)
-
-
-def _mounted_positions(airframe: Airframe, imu: SensorGroup, notes: list[str]) -> Airframe:
-    """The airframe with the triads' positions of the imu group's mounting, if it gives them.
-
-    The positions enter eq. 28 through the airframe (``accel_positions``): here in the
-    reconstruction's lever arm, and in the estimators' model through the flight's airframe.
-    """
-    if imu.mounting is None or imu.mounting.positions_m is None:
-        return airframe
-    positions = imu.mounting.positions_m
-    if np.array_equal(positions, airframe.accel_positions):
-        return airframe
-    notes.append(f"{imu.source}: accelerometer positions from the imu mounting "
-                 f"{positions.tolist()} m replace the airframe's "
-                 f"{airframe.accel_positions.tolist()} m")
-    return airframe.replace(accel1_position_m=tuple(map(float, positions[0])),
-                            accel2_position_m=tuple(map(float, positions[1])))
-
-
-def _saturated(imu: SensorGroup, imu_sd: np.ndarray, notes: list[str]
-               ) -> tuple[dict[str, list[int]], np.ndarray | None]:
-    """The saturated IMU samples (channel -> indices) and the per-sample IMU sd.
-
-    The IMU drives the kinematics (it is no measurement here), so a saturated reading
-    cannot leave a likelihood: it is integrated as read (the range) with its sd raised to
-    :data:`SATURATED_SD_REL` of the range, so the states' covariance grows by what the
-    reading leaves unknown and the aiding pulls them back; the estimators leave those
-    samples out (``to_flight``'s ``metadata["saturated"]``). Measured on the reference
-    flight logged by a board with a 52 rad/s gyro range (the roll peaks at 53: 322 roll
-    samples saturated, seeds 11 and 12): every source's residual check consistent and
-    phi within 3 sd at every sample; with 0.01 the INS check failed (mean NIS 2.2 and
-    1.7) and phi left 3 sd. A truth far beyond the range (more than a few percent) needs
-    a larger value: the INS check then says so.
-    """
-    saturated = {c: np.flatnonzero(imu.saturated[c]).tolist() for c in IMU_CHANNELS
-                 if c in imu.saturated and imu.saturated[c].any()}
-    if not saturated:
-        return {}, None
-    sd = np.tile(imu_sd, (len(imu.t), 1))
-    for c, k in saturated.items():
-        key = "gyro_range" if c in ("p", "q", "r") else "accel_range"
-        sd[k, IMU_CHANNELS.index(c)] = max(SATURATED_SD_REL * imu.ranges[key],
-                                           imu_sd[IMU_CHANNELS.index(c)])
-    notes.append("saturated IMU samples (" + ", ".join(f"{c} {len(k)}" for c, k in
-                                                       saturated.items())
-                 + f"): integrated at the range with {SATURATED_SD_REL:g} of the range as "
-                 "their sd; left out of the estimators' likelihood (flight metadata "
-                 "'saturated')")
-    return saturated, sd
 
 
 def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int]

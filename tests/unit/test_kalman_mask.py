@@ -1,4 +1,4 @@
-"""Masked measurements (saturated samples) in the filter loops (baselines._kalman)."""
+"""Masked measurements (saturated samples) in the filter loops (baselines._imu_states)."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from baselines import _kalman
+from baselines._imu_states import masked_output, with_mask
 
 #: The filterpy loops against the hand-written filter below: the same algebra in another
 #: order (the UKF's unscented transform of a linear model is exact).
@@ -57,7 +58,7 @@ def _textbook(A, C, Q, R, x0, P0, zs, mask):
 @pytest.mark.parametrize("loop", [_kalman.run_ekf, _kalman.run_ukf])
 def test_masked_filter_equals_filter_without_those_measurements(loop):
     model, A, C, Q, R, x0, P0, zs, mask = _problem()
-    out = loop(model, x0, P0, Q, R, zs, mask=mask)
+    out = masked_output(loop(with_mask(model, zs, mask), x0, P0, Q, R, zs), mask)
     xs, Ps = _textbook(A, C, Q, R, x0, P0, zs, mask)
     assert out.failed_at is None
     np.testing.assert_allclose(out.x, xs, rtol=0, atol=LINEAR_KF_TOL)
@@ -68,5 +69,5 @@ def test_masked_filter_equals_filter_without_those_measurements(loop):
     full = loop(model, x0, P0, Q, R, zs)
     assert np.max(np.abs(full.x[12] - out.x[12])) > 1e3 * LINEAR_KF_TOL
     # an all-True mask is the unmasked filter exactly
-    same = loop(model, x0, P0, Q, R, zs, mask=np.ones_like(mask))
+    same = loop(with_mask(model, zs, np.ones_like(mask)), x0, P0, Q, R, zs)
     np.testing.assert_array_equal(same.x, full.x)

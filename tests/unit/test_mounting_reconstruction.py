@@ -96,6 +96,9 @@ def test_filter_leaves_saturated_samples_out(scenario):
     assert res.success, res.message
     z = (res.theta - scenario.coefficient_vector) / res.stderr
     assert np.max(np.abs(z)) < 3.0, z
+    n_clipped = len(flight.metadata["saturated"]["p"])
+    assert res.info["saturated_left_out"] == {"p": n_clipped}
+    assert f"saturated samples left out of the likelihood: p {n_clipped}" in res.summary()
     unmarked = dataclasses.replace(flight, metadata={
         k: v for k, v in flight.metadata.items() if k != "saturated"})
     bad = est.fit(unmarked, rng=0)
