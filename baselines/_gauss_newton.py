@@ -151,8 +151,8 @@ class Problem:
         for c in range(e.shape[1]):
             rows = mask[:, c]
             if rows.any():
-                alone = Problem(self.z[rows, c:c + 1], self.model, self.r_floor[c:c + 1],
-                                self.noise_model)
+                alone = Problem(self.z[rows, c:c + 1], None,  # type: ignore[arg-type]
+                                self.r_floor[c:c + 1], self.noise_model)  # noise: no model
                 out[rows, c] = np.broadcast_to(alone.noise(e[rows, c:c + 1]),
                                                (int(rows.sum()), 1))[:, 0]
         return out

@@ -90,11 +90,6 @@ class Mounting:
     positions_m: np.ndarray | None = None
     given: tuple[str, Any] | None = None
 
-    @property
-    def is_identity(self) -> bool:
-        """True when the sensor's axes are the body's."""
-        return bool(np.array_equal(self.rotation, np.eye(3)))
-
     def to_table(self) -> dict[str, Any]:
         """The TOML form (the rotation as given, else a ``matrix``; the positions)."""
         key, value = self.given or ("matrix", self.rotation.tolist())
@@ -374,6 +369,8 @@ def used_samples(metadata: Mapping[str, Any], channels: tuple[str, ...], n: int
         if k.size and (k.dtype.kind not in "iu" or k.min() < 0 or k.max() >= n):
             raise FlightError(f"metadata saturated.{c}: not sample indices of the "
                               f"{n}-sample flight")
-        if c in channels:
-            mask[k.astype(int), channels.index(c)] = False
+        if c not in channels:
+            raise FlightError(f"metadata saturated.{c}: not one of the channels fitted "
+                              f"({', '.join(channels)})")
+        mask[k.astype(int), channels.index(c)] = False
     return None if mask.all() else mask

@@ -179,6 +179,8 @@ def test_used_samples_from_flight_metadata():
     assert used_samples({}, ("p",), 5) is None
     with pytest.raises(FlightError, match="not sample indices"):
         used_samples({"saturated": {"q": [7]}}, ("p", "q", "r"), 5)
+    with pytest.raises(FlightError, match="not one of the channels"):
+        used_samples({"saturated": {"vn": [1]}}, ("p", "q", "r"), 5)
 
 
 def test_axial_accelerometer_alone_is_read_and_its_reconstruction_refused(tmp_path, scenario):

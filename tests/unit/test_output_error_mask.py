@@ -92,6 +92,12 @@ def test_output_error_reads_the_flights_saturated_samples(flight):
     prob = OutputErrorEstimator().problem(marked)
     assert prob.mask is not None and int(np.sum(~prob.mask)) == 60
     assert not prob.mask[200:260, OUTPUT_CHANNELS.index("p")].any()
+    # the record model carries it (Problem takes the model's mask) through the fit's steps
+    p0 = np.zeros(prob.model.scale.size)
+    p0[:9] = 1.0
+    fit = gauss_newton(prob, p0, max_iterations=2, tol=1e-3)
+    assert np.all(fit.e[200:260, OUTPUT_CHANNELS.index("p")] == 0.0)
+    assert np.all(fit.r_diag[200:260, OUTPUT_CHANNELS.index("p")] == 1.0)
     # a method that cannot leave them out refuses the flight, in one line
     with pytest.raises(EstimatorError, match="60 saturated sample"):
         EquationErrorEstimator().fit(marked, rng=0)
