@@ -372,7 +372,7 @@ def _sensor_sd(group: SensorGroup) -> dict[str, float]:
     """
     if group.mounting is None:
         return dict(group.noise_sd)
-    out = {}
+    out: dict[str, float] = {}
     c = group.mounting.rotation
     for body, sd in group.noise_sd.items():
         for triad in TRIADS:
