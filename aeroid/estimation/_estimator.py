@@ -102,7 +102,7 @@ class Estimator(abc.ABC):
             raise EstimatorError(
                 f"{self.name}: the flight has {sum(len(k) for k in saturated.values())} "
                 f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); this "
-                "method cannot leave them out of its fit (output-error can)")
+                "method cannot leave them out of its fit (output-error, ekf and ukf can)")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)
