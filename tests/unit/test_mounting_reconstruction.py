@@ -103,3 +103,16 @@ def test_filter_leaves_saturated_samples_out(scenario):
         k: v for k, v in flight.metadata.items() if k != "saturated"})
     bad = est.fit(unmarked, rng=0)
     assert not bad.success and "p residual" in bad.message, bad.message
+
+
+def test_ukf_leaves_saturated_samples_out(scenario):
+    """The UKF through the same mask (its sigma points' rows): measured z within 1.4."""
+    from baselines.ukf import UnscentedKalmanEstimator
+
+    sim = _board(scenario, gyro_range_radps=GYRO_RANGE)
+    flight = reconstruct(sim.log).to_flight(imu="raw")
+    res = UnscentedKalmanEstimator(imu_errors="bias+scale").fit(flight, rng=0)
+    assert res.success, res.message
+    z = (res.theta - scenario.coefficient_vector) / res.stderr
+    assert np.max(np.abs(z)) < 3.0, z
+    assert res.info["saturated_left_out"] == {"p": len(flight.metadata["saturated"]["p"])}
