@@ -239,3 +239,25 @@ def test_filter_carries_the_coefficients_into_the_second_window(clean_windows, m
     res = aeroid.make_estimator(method, {}).fit(clean_windows)
     assert res.success, res.message
     np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=FILTER_RTOL)
+
+
+def test_windows_at_different_densities_and_masses_share_the_coefficients():
+    # each window its own atmosphere and mass (per-window constants): the shared
+    # coefficients are recovered only if each window's density and mass are used
+    sc = reference_scenario()
+    low = dataclasses.replace(sc, airframe=sc.airframe.replace(altitude_m=7000.0,
+                                                               mass_kg=75.0))
+    flights = [simulate_scenario(s, NoNoise(), rng=0) for s in (sc, low)]
+    prior = tuple(aeroid.nominal() * PRIOR_FACTOR)
+    flights = [dataclasses.replace(f, airframe=f.airframe.replace(prior=prior))
+               for f in flights]
+    windows = Windows.of(flights, ["10 km", "7 km"])
+    res = OutputErrorEstimator().fit(windows, rng=0)
+    assert res.success, res.message
+    np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=RECOVERY_RTOL)
+    res = EquationErrorEstimator(one_step=True).fit(windows)
+    np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=ONE_STEP_RTOL)
+    # the same windows with the 7 km one's airframe said to be at 10 km: refused
+    wrong = Windows.of([flights[0], dataclasses.replace(
+        flights[1], airframe=flights[1].airframe.replace(altitude_m=10000.0, mass_kg=75.0))])
+    assert not OutputErrorEstimator().fit(wrong, rng=0).success
