@@ -76,7 +76,12 @@ from aeroid.flights._suite_log import (
     read_suite_log,
     write_suite_log,
 )
-from aeroid.flights._windows import Windows, cut_windows, parse_window_spec
+from aeroid.flights._windows import (
+    Windows,
+    check_window_ranges,
+    cut_windows,
+    parse_window_spec,
+)
 
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
@@ -93,5 +98,5 @@ __all__ = [
     "IMU_ERROR_KINDS", "body_to_ned", "imu_error_names", "imu_manoeuvre", "log_trajectory",
     "read_suite_log", "simulate_suite",
     "wrap_angle", "write_suite_log",
-    "Windows", "cut_windows", "parse_window_spec",
+    "Windows", "check_window_ranges", "cut_windows", "parse_window_spec",
 ]

@@ -24,7 +24,8 @@ from aeroid.errors import FlightError
 from aeroid.flights._flight import Flight
 from aeroid.model import Airframe
 
-__all__ = ["SHARED_AIRFRAME_FIELDS", "Windows", "cut_windows", "parse_window_spec"]
+__all__ = ["SHARED_AIRFRAME_FIELDS", "Windows", "check_window_ranges", "cut_windows",
+           "parse_window_spec"]
 
 #: Airframe fields every window must agree on (the shared parameters' meaning and scale).
 SHARED_AIRFRAME_FIELDS: tuple[str, ...] = (
@@ -177,6 +178,33 @@ def parse_window_spec(spec: str) -> list[tuple[float, float]]:
     return ranges
 
 
+def check_window_ranges(spec: str | Sequence[tuple[float, float]], first: float,
+                        last: float, where: str) -> list[tuple[float, float]]:
+    """Return the ranges of ``spec`` after checking them against a log from ``first`` to
+    ``last`` [s]: each ends after it starts, lies inside the log, and none overlap.
+
+    Raises
+    ------
+    FlightError
+        One line naming ``where`` and the range.
+    """
+    ranges = parse_window_spec(spec) if isinstance(spec, str) else [
+        (float(a), float(b)) for a, b in spec]
+    text = [f"{a:g}-{b:g}" for a, b in ranges]
+    for (start, stop), label in zip(ranges, text, strict=True):
+        if not stop > start:
+            raise FlightError(f"{where}: window {label} ends before it starts")
+        if start < first or stop > last:
+            raise FlightError(f"{where}: window {label} s lies outside the log "
+                              f"({first:g}-{last:g} s)")
+    order = sorted(range(len(ranges)), key=lambda k: ranges[k][0])
+    for a, b in zip(order, order[1:], strict=False):
+        if ranges[b][0] <= ranges[a][1]:
+            raise FlightError(f"{where}: windows {text[a]} and {text[b]} s overlap (they "
+                              "would share samples); give ranges that do not")
+    return ranges
+
+
 def cut_windows(flight: Flight, spec: str | Sequence[tuple[float, float]]) -> Windows:
     """Cut windows out of one log by time ranges on its clock [s] (``"5-6,8-9"``).
 
@@ -190,22 +218,10 @@ def cut_windows(flight: Flight, spec: str | Sequence[tuple[float, float]]) -> Wi
         A malformed spec (:func:`parse_window_spec`), a range outside the log, ranges that
         overlap (share a sample), or a range with fewer than two samples.
     """
-    ranges = parse_window_spec(spec) if isinstance(spec, str) else [
-        (float(a), float(b)) for a, b in spec]
     where = flight.metadata.get("source", "flight")
     t = flight.t
+    ranges = check_window_ranges(spec, float(t[0]), float(t[-1]), where)
     text = [f"{a:g}-{b:g}" for a, b in ranges]
-    for (start, stop), label in zip(ranges, text, strict=True):
-        if not stop > start:
-            raise FlightError(f"{where}: window {label} ends before it starts")
-        if start < t[0] or stop > t[-1]:
-            raise FlightError(f"{where}: window {label} s lies outside the log "
-                              f"({t[0]:g}-{t[-1]:g} s)")
-    order = sorted(range(len(ranges)), key=lambda k: ranges[k][0])
-    for a, b in zip(order, order[1:], strict=False):
-        if ranges[b][0] <= ranges[a][1]:
-            raise FlightError(f"{where}: windows {text[a]} and {text[b]} s overlap (they "
-                              "would share samples); give ranges that do not")
     flights = []
     for (start, stop), label in zip(ranges, text, strict=True):
         rows = np.flatnonzero((t >= start) & (t <= stop))
