@@ -56,7 +56,7 @@ def read_windows(args: argparse.Namespace, read: Callable[[argparse.Namespace, A
                              "several windows (methods that can: output-error, ekf, ukf, "
                              "equation-error)")
     if len(paths) == 1:
-        windows = cut_windows(read(args, paths[0]), spec)
+        windows = cut_windows(read(args, paths[0]), str(spec))
         what = f"{len(windows)} windows of {paths[0]} ({spec} s)"
     else:
         stems = [p.stem for p in paths]
