@@ -261,3 +261,18 @@ def test_windows_at_different_densities_and_masses_share_the_coefficients():
     wrong = Windows.of([flights[0], dataclasses.replace(
         flights[1], airframe=flights[1].airframe.replace(altitude_m=10000.0, mass_kg=75.0))])
     assert not OutputErrorEstimator().fit(wrong, rng=0).success
+
+
+@pytest.mark.parametrize("method", ["output-error", "ekf", "equation-error"])
+def test_a_windows_fit_repeats_with_its_seed_and_leaves_the_windows_alone(noisy_window,
+                                                                          method):
+    other = simulate_scenario(reference_scenario(), NOISE, rng=5)
+    windows = Windows.of([noisy_window, other])
+    before = [f.data.copy() for f in windows]
+    options = {"n_starts": 2} if method == "output-error" else {}  # a random start
+    est = aeroid.make_estimator(method, options)
+    first, second = est.fit(windows, rng=3), est.fit(windows, rng=3)
+    np.testing.assert_array_equal(first.theta, second.theta)
+    for frame, flight in zip(before, windows, strict=True):
+        assert frame.equals(flight.data)
+    assert first.info["windows"] == ["w1", "w2"]
