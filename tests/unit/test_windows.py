@@ -276,3 +276,42 @@ def test_a_windows_fit_repeats_with_its_seed_and_leaves_the_windows_alone(noisy_
     for frame, flight in zip(before, windows, strict=True):
         assert frame.equals(flight.data)
     assert first.info["windows"] == ["w1", "w2"]
+
+
+def _delayed_flight(scenario, tau):
+    """A noise-free flight whose fins follow the logged (latched) deflection ``tau`` late:
+    the model integrated at 0.25 ms through the delayed schedule (as
+    tests/unit/test_output_error_inputs.py makes its delayed flight)."""
+    from aeroid.flights import make_flight
+    from aeroid.model import ForwardModel, Record, Schedule, constants
+
+    clean = simulate_scenario(scenario, NoNoise(), rng=0)
+    t, delta = clean.t, clean["delta"]
+    schedule = Schedule.hold(t, delta).shifted(tau)
+    record = Record.scheduled(schedule, t, None)
+    model = ForwardModel(constants(scenario.airframe), record,
+                         scenario.airframe.accel_positions, substeps=8)
+    theta = scenario.coefficient_vector
+    states = model.states(clean.states()[0], theta)[0]
+    outputs = model.outputs_of(states[None], theta)[0]
+    channels = {"t": t, "delta": delta}
+    channels.update({name: outputs[:, j] for j, name in enumerate(model.output_names)})
+    channels.update({name: states[:, j] for j, name in enumerate(aeroid.model.STATE_NAMES)})
+    return make_flight(channels, scenario.airframe,
+                       {"true_coefficients": aeroid.model.as_dict(theta)})
+
+
+def test_each_window_gets_its_own_fin_delay():
+    # two windows whose actuators lag by different delays: one shared delay cannot fit
+    # both; a delay per window recovers each (the single flight's DELAY_ATOL_S, 1e-7 s)
+    sc = reference_scenario()
+    later = dataclasses.replace(sc, manoeuvre=dataclasses.replace(sc.manoeuvre,
+                                                                  window_s=(6.0, 7.0)))
+    taus = (0.0007, 0.0013)
+    windows = Windows.of([_delayed_flight(sc, taus[0]), _delayed_flight(later, taus[1])])
+    res = OutputErrorEstimator(estimate_delay=True).fit(windows, rng=1)
+    assert res.success, res.message
+    for name, tau in zip(windows.names, taus, strict=True):
+        assert abs(res.info["window_parameters"][name]["delay_s"] - tau) < 1e-7
+        assert res.info["window_parameter_stderr"][name]["delay_s"] > 0
+    np.testing.assert_allclose(res.theta, aeroid.nominal(), rtol=RECOVERY_RTOL)
