@@ -20,7 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation import EstimationResult
-from aeroid.flights import Flight
+from aeroid.flights import Flight, Windows
 from baselines import _common, _kalman
 from baselines._imu_states import ImuFilterOptions
 
@@ -41,6 +41,7 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     """
 
     name: ClassVar[str] = "ekf"
+    supports_windows: ClassVar[bool] = True  # run_windows: baselines._kalman_windows
     description: ClassVar[str] = (
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
@@ -54,3 +55,15 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
                                    R_of=setup.R_of)
 
         return self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
+
+    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+        """Filter the windows in turn, carrying the coefficients (:mod:`baselines.
+        _kalman_windows`; no random draws)."""
+        from baselines._kalman_windows import run_windows
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                   R_of=setup.R_of)
+
+        return run_windows(self, windows, one_pass, lambda _model, n: n)

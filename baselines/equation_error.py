@@ -187,6 +187,7 @@ class EquationErrorEstimator(Estimator):
     """
 
     name: ClassVar[str] = "equation-error"
+    supports_windows: ClassVar[bool] = True  # run_windows: baselines._ee_windows
     description: ClassVar[str] = (
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 
@@ -227,6 +228,14 @@ class EquationErrorEstimator(Estimator):
                 "position_components": [int(c) for c in free]}
         return dataclasses.replace(result, covariance=cov,
                                    stderr=np.sqrt(np.abs(np.diag(cov))), info=info)
+
+    def run_windows(self, windows: aeroid.flights.Windows, rng: np.random.Generator
+                    ) -> EstimationResult:
+        """Several windows: their regressions stacked (:mod:`baselines._ee_windows`)."""
+        from baselines._ee_windows import run_windows
+
+        return run_windows(self, windows, rng, affine_accelerations=affine_accelerations,
+                           roll_floor=roll_floor)
 
     def _solve(self, flight: Flight, *, theta_only: bool = False) -> EstimationResult:
         """One solve at the airframe's positions (``theta_only``: the estimate alone, its

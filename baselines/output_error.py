@@ -55,6 +55,7 @@ from baselines._oe_starts import (
     start_report,
     warm_start_point,
 )
+from baselines._oe_windows import OutputErrorWindows
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -78,7 +79,7 @@ MAX_DELAY_S = 0.1
 MAX_SAMPLES = 50_000
 
 @dataclass(frozen=True, kw_only=True)
-class OutputErrorEstimator(Estimator):
+class OutputErrorEstimator(OutputErrorWindows, Estimator):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the

@@ -19,7 +19,7 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation import EstimationResult
-from aeroid.flights import Flight
+from aeroid.flights import Flight, Windows
 from baselines import _common, _kalman
 from baselines._imu_states import ImuFilterOptions
 
@@ -44,6 +44,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
     """
 
     name: ClassVar[str] = "ukf"
+    supports_windows: ClassVar[bool] = True  # run_windows: baselines._kalman_windows
     description: ClassVar[str] = (
         "augmented-state unscented Kalman filter (filterpy, batched sigma-point RK4)")
 
@@ -68,3 +69,17 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
 
         return self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)
+
+    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+        """Filter the windows in turn, carrying the coefficients (:mod:`baselines.
+        _kalman_windows`; no random draws)."""
+        from baselines._kalman_windows import run_windows
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                   alpha=self.alpha, beta=self.beta, kappa=self.kappa,
+                                   R_of=setup.R_of)
+
+        return run_windows(self, windows, one_pass,
+                           lambda model, n: (2 * model.dim_x + 1) * n)

@@ -146,7 +146,12 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
                     "against the data. A log without aeroid's JSON sidecar needs "
                     "--airframe."),
         epilog_factory=_methods_epilog)
-    p.add_argument("flight", type=Path, help="flight CSV (or .parquet)")
+    p.add_argument("flight", type=Path, nargs="+",
+                   help="flight CSV (or .parquet); several files are fitted together as "
+                        "windows with shared coefficients (each with its own sidecar)")
+    p.add_argument("--windows", metavar="START-END[,START-END...]",
+                   help="fit these time ranges [s] of the one log together (shared "
+                        "coefficients; per window its own start, inputs, delay and biases)")
     p.add_argument("--method", required=True, metavar="NAME[,NAME...]|all",
                    help="estimator name (see 'aeroid methods'), several joined by commas, "
                         "or 'all': one side-by-side table")

@@ -20,6 +20,7 @@ import sys
 import textwrap
 from typing import Any
 
+from aeroid.cli._windows import read_windows, window_notes, window_table, windows_json
 from aeroid.errors import EstimatorError, UsageError
 from aeroid.estimation import ProgressEvent, available, get_estimator, load_errors, make_estimator
 from aeroid.flights import read_column_map, read_flight
@@ -139,11 +140,11 @@ def split_options(methods: list[str], options: dict[str, str]) -> dict[str, dict
     return shares
 
 
-def _read(args: argparse.Namespace) -> Any:
+def _read(args: argparse.Namespace, path: Any = None) -> Any:
     airframe = load_airframe(args.airframe) if getattr(args, "airframe", None) else None
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
-    return read_flight(args.flight, airframe=airframe, columns=columns,
-                       degrees=bool(getattr(args, "degrees", False)))
+    return read_flight(args.flight if path is None else path, airframe=airframe,
+                       columns=columns, degrees=bool(getattr(args, "degrees", False)))
 
 
 def _fit(estimator: Any, flight: Any, args: argparse.Namespace, label: str) -> Any:
@@ -193,7 +194,9 @@ def estimate(args: argparse.Namespace) -> int:
     else:
         shares = split_options(names, options)
         estimators = {n: make_estimator(n, shares[n]) for n in names}
-    flight = _read(args)
+    # a Flight, or Windows (several files, --windows)
+    flight = read_windows(args, _read, estimators.values())
+    several = hasattr(flight, "names")
     report = getattr(args, "report", None)
     fmt = getattr(args, "report_format", "md")
     if report is None and fmt != "md":
@@ -209,15 +212,21 @@ def estimate(args: argparse.Namespace) -> int:
     if single:
         result = results[names[0]]
         if report is not None:
-            from aeroid.report import write_report
+            from aeroid.report import write_report, write_windows_report
 
-            path = write_report(result, flight, report, notes=_report_notes(flight),
-                                fmt=fmt)
+            writer = write_windows_report if several else write_report
+            path = writer(result, flight, report,
+                          notes=window_notes(flight, _report_notes, NO_PRIOR), fmt=fmt)
             print(f"aeroid: wrote {path}", file=sys.stderr)
         if json_output:
-            print(json.dumps(result.to_json_dict(), indent=2, allow_nan=False))
+            out = result.to_json_dict()
+            if several:
+                out["windows"] = windows_json(flight, result)
+            print(json.dumps(out, indent=2, allow_nan=False))
         else:
             print(result.summary(flight.true_coefficients))
+            if several:
+                print(window_table(result))
         return 0 if result.success else 1
     from aeroid.report import (
         compare_results,
@@ -230,12 +239,19 @@ def estimate(args: argparse.Namespace) -> int:
     notes = options_note(list(options), shares) + result_notes(results)
     table = compare_results(results, shares, flight.true_coefficients)
     if report is not None:
-        from aeroid.report import html_page, report_name, write_report, write_text_atomic
+        from aeroid.report import (
+            html_page,
+            report_name,
+            write_report,
+            write_text_atomic,
+            write_windows_report,
+        )
 
         links = {}
-        reading = _report_notes(flight)
+        reading = window_notes(flight, _report_notes, NO_PRIOR)
         for name, result in results.items():
-            write_report(result, flight, report / name, notes=reading, fmt=fmt)
+            writer = write_windows_report if several else write_report
+            writer(result, flight, report / name, notes=reading, fmt=fmt)
             links[name] = f"{name}/{report_name('report', fmt)}"
         text = comparison_markdown(table, notes, links)
         if fmt == "html":
@@ -243,10 +259,17 @@ def estimate(args: argparse.Namespace) -> int:
         path = write_text_atomic(report / report_name("comparison", fmt), text)
         print(f"aeroid: wrote {path} and one report per method", file=sys.stderr)
     if json_output:
-        print(json.dumps({"methods": [r.to_json_dict() for r in results.values()],
-                          "options_applied": shares}, indent=2, allow_nan=False))
+        methods_json = [r.to_json_dict() for r in results.values()]
+        if several:
+            for entry, r in zip(methods_json, results.values(), strict=True):
+                entry["windows"] = windows_json(flight, r)
+        print(json.dumps({"methods": methods_json, "options_applied": shares}, indent=2,
+                         allow_nan=False))
     else:
         print(comparison_text(table, notes))
+        if several:
+            for name, r in results.items():
+                print(f"{name}: " + window_table(r))
     return 0 if all(r.success for r in results.values()) else 1
 
 

@@ -14,7 +14,8 @@ type), ``_predict`` (what a result's model says of a flight, its table and JSON 
 and ``_identifiability`` (what the fit check tests beyond the residuals' size),
 ``_polish`` (from a swarm's best point to the optimum of its objective),
 ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``, ``_ebm``,
-``_sebm``, which import none of one another.
+``_sebm``, which import none of one another. ``_windows``: what :meth:`Estimator.fit`
+does with several windows (:class:`aeroid.flights.Windows`).
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 

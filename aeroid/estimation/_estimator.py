@@ -26,7 +26,8 @@ from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floo
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
-from aeroid.flights import Flight, InputChoice, check_input
+from aeroid.estimation._windows import fit_windows
+from aeroid.flights import Flight, InputChoice, Windows, check_input
 from aeroid.model import NAMES, Airframe
 
 __all__ = ["Estimator", "prior_bounds"]
@@ -62,6 +63,10 @@ class Estimator(abc.ABC):
     #: ['saturated']``, :func:`aeroid.flights.used_samples`) out of its likelihood; the
     #: others refuse such a flight in :meth:`fit` (its clipped values are not the truth).
     leaves_out_saturated: ClassVar[bool] = False
+    #: True for a method that fits several windows with shared coefficients
+    #: (:meth:`run_windows`); :meth:`fit` of a :class:`aeroid.flights.Windows` refuses the
+    #: others in one line.
+    supports_windows: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -73,13 +78,26 @@ class Estimator(abc.ABC):
         with :func:`aeroid.estimation.report_progress`.
         """
 
-    def fit(self, flight: Flight, *, rng: np.random.Generator | int | None = None,
+    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+        """Estimate the coefficients shared by several validated windows (``supports_windows``).
+
+        Each window keeps its own initial state, atmosphere and, where the method
+        estimates them, IMU errors and fin delay (reported per window in
+        ``info['window_parameters']`` and ``info['window_parameter_stderr']``).
+        """
+        raise EstimatorError(f"{self.name or type(self).__name__}: cannot fit several windows")
+
+    def fit(self, flight: Flight | Windows, *,
+            rng: np.random.Generator | int | None = None,
             progress: ProgressCallback | None = None) -> EstimationResult:
         """Validate ``flight``, run the method, time it; never raise for a numerical failure.
 
         Parameters
         ----------
-        flight : Flight
+        flight : Flight or Windows
+            Several windows (:class:`aeroid.flights.Windows`) are fitted together with
+            shared coefficients by a method with ``supports_windows``
+            (:func:`aeroid.estimation._windows.fit_windows`); the others refuse.
         rng : Generator, int or None
             Source of the method's random draws (``np.random.default_rng(rng)``).
         progress : callable or None
@@ -96,6 +114,8 @@ class Estimator(abc.ABC):
             Any other bad input the method finds (e.g. a swarm too large for the flight);
             every other exception inside the method gives ``success=False``.
         """
+        if isinstance(flight, Windows):
+            return fit_windows(self, flight, rng=rng, progress=progress)
         flight.validate()
         saturated = flight.metadata.get("saturated") or {}
         if saturated and not self.leaves_out_saturated:

@@ -84,6 +84,12 @@ from aeroid.flights._suite_log import (
     read_suite_log,
     write_suite_log,
 )
+from aeroid.flights._windows import (
+    Windows,
+    check_window_ranges,
+    cut_windows,
+    parse_window_spec,
+)
 
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
@@ -102,4 +108,5 @@ __all__ = [
     "wrap_angle", "write_suite_log",
     "Mounting", "axis_map", "euler_mounting", "matrix_mounting", "mounted_group",
     "used_samples",
+    "Windows", "check_window_ranges", "cut_windows", "parse_window_spec",
 ]

@@ -14,7 +14,8 @@ below the command line:
 
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
 report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
-``_reconstruction`` (a reconstruction's report).
+``_reconstruction`` (a reconstruction's report), ``_windows`` (a fit of several windows:
+:func:`write_windows_report`, one set of model panels per window).
 """
 
 from aeroid.report._compare import (
@@ -45,6 +46,7 @@ from aeroid.report._reconstruction import (
     reconstruction_figures,
     write_reconstruction_report,
 )
+from aeroid.report._windows import window_view, write_windows_report
 
 __all__ = [
     "BAND_SD",
@@ -72,4 +74,6 @@ __all__ = [
     "write_reconstruction_report",
     "write_report",
     "write_text_atomic",
+    "window_view",
+    "write_windows_report",
 ]

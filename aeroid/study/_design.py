@@ -11,6 +11,8 @@ A study file is TOML with three parts::
                                 # relative to the study file
     prior_offset = [0.10, 0.25] # optional: each run's estimators start from a prior
                                 # truth x (1 +- U(lo, hi)); default: the airframe's prior
+    windows = "5-6,7-8"         # optional: fit these time ranges [s] of each flight
+                                # together (shared coefficients); default: the flight
 
     [[noise]]                   # optional, repeatable; default: one "paper" condition
     label = "paper xi=0.05"     # unique
@@ -49,13 +51,14 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.errors import AirframeError, EstimatorError, StudyError
+from aeroid.errors import AirframeError, EstimatorError, FlightError, StudyError
 from aeroid.estimation import Estimator
 from aeroid.flights import (
     ACCEL_CHANNELS,
     RATE_CHANNELS,
     NoiseModel,
     Scenario,
+    check_window_ranges,
     make_noise,
     scenario_from_dict,
 )
@@ -66,7 +69,7 @@ from aeroid.study._suite import suite_condition
 #: Largest study or scenario file read [bytes] (the shipped ones are a few kB).
 MAX_FILE_BYTES = 1_000_000
 
-STUDY_KEYS = ("name", "description", "runs", "seed", "scenario", "prior_offset")
+STUDY_KEYS = ("name", "description", "runs", "seed", "scenario", "prior_offset", "windows")
 NOISE_KEYS = ("label", "model")
 ESTIMATOR_KEYS = ("label", "method", "options")
 TOP_LEVEL = ("study", "noise", "estimators")
@@ -298,10 +301,40 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
     if not estimators:
         raise StudyError(f"{source}: none of the estimators is installed "
                          f"(skipped: {', '.join(skipped)})")
+    windows = None if "windows" not in head else check_study_windows(
+        head["windows"], scenario, estimators, source)
     return Study(name=name.strip(), runs=head["runs"], seed=head["seed"], scenario=scenario,
                  noise=tuple(noise), estimators=tuple(estimators),
                  description=str(head.get("description", "")), scenario_ref=scenario_ref,
-                 source=source, skipped=tuple(skipped), prior_offset=prior_offset)
+                 source=source, skipped=tuple(skipped), prior_offset=prior_offset,
+                 windows=windows)
+
+
+def check_study_windows(value: Any, scenario: Any, estimators: list[EstimatorSpec],
+                        source: str) -> str:
+    """Return ``[study] windows`` after checking it against the scenario's recorded window
+    and the estimators (each must fit several windows).
+
+    Raises
+    ------
+    StudyError
+        One line naming the file, the key and what is wrong.
+    """
+    where = f"{source}: [study] windows"
+    if not isinstance(value, str):
+        raise StudyError(f"{where} must be a string of time ranges like \"5-6,7-8\", "
+                         f"got {value!r}")
+    first, last = scenario.manoeuvre.window_s
+    try:
+        check_window_ranges(value, float(first), float(last), "the scenario's recording")
+    except FlightError as exc:
+        raise StudyError(f"{where}: {exc}") from None
+    unable = [e.label for e in estimators
+              if not getattr(e.estimator, "supports_windows", False)]
+    if unable:
+        raise StudyError(f"{where}: {', '.join(unable)} cannot fit several windows "
+                         "(methods that can: output-error, ekf, ukf, equation-error)")
+    return value
 
 
 __all__ = ["EstimatorSpec", "NoiseCondition", "Study", "load_study", "loads_study",

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import StudyError
+from aeroid.flights import cut_windows
 from aeroid.model import compile_clock
 from aeroid.study._provenance import code_id
 from aeroid.study._spec import Study
@@ -203,8 +204,9 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
         flight = dataclasses.replace(flight, airframe=dataclasses.replace(
             flight.airframe, prior=tuple(float(v) for v in prior)))
     try:
+        data = flight if study.windows is None else cut_windows(flight, study.windows)
         with compile_clock() as clock:  # the one-time numba compilation of a process
-            result = spec.estimator.fit(flight, rng=np.random.default_rng(
+            result = spec.estimator.fit(data, rng=np.random.default_rng(
                 estimator_seed(study.seed, run)))
     except Exception as exc:  # failure is data: record it, the study goes on
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""

@@ -118,6 +118,10 @@ class Study:
         prior off the truth, each coefficient ``truth (1 + s U(lo, hi))`` with a random
         sign ``s`` (:func:`aeroid.study.run_prior`). None (default): the prior is the
         scenario airframe's (the nominal set, i.e. the truth, for the reference).
+    windows : str, optional
+        ``"5-6,7-8"``: every run's flight is cut into these time ranges [s] and each
+        estimator fits them together, coefficients shared
+        (:func:`aeroid.flights.cut_windows`). None (default): the whole flight.
     """
 
     name: str
@@ -131,6 +135,7 @@ class Study:
     source: str = "<memory>"
     skipped: tuple[str, ...] = field(default=())
     prior_offset: tuple[float, float] | None = None
+    windows: str | None = None
 
     def __post_init__(self) -> None:
         if self.prior_offset is not None:
@@ -179,6 +184,7 @@ class Study:
             "estimators": [e.describe() for e in self.estimators],
             "skipped": list(self.skipped),
             "prior_offset": None if self.prior_offset is None else list(self.prior_offset),
+            "windows": self.windows,
             "fingerprint": self.fingerprint(),
         }
 
@@ -194,6 +200,8 @@ class Study:
         }
         if self.prior_offset is not None:  # absent: the fingerprint of earlier studies
             key["prior_offset"] = list(self.prior_offset)
+        if self.windows is not None:  # absent: the fingerprint of earlier studies
+            key["windows"] = self.windows
         text = json.dumps(key, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -1,0 +1,313 @@
+"""Output-error over several windows with shared coefficients (private).
+
+One record model per window (:class:`baselines._oe_record.RecordModel`, built by the
+estimator's own :meth:`~baselines.output_error.OutputErrorEstimator.problem` of that
+window) stacked behind the Gauss-Newton ``OutputModel`` protocol
+(:mod:`baselines._gauss_newton`): the samples of all windows one after the other, one
+noise model (the sensors are the same), and the parameter vector
+
+``[coefficients, position components, window 1's own, window 2's own, ...]``
+
+where a window's own parameters are its free initial-state components, its fin delay
+(``estimate_delay``) and its IMU errors (``imu_errors``). The Jacobian is block sparse:
+each window's rows depend on the shared columns and on its own block only; it is filled
+block by block from each window's own (local) Jacobian. The information of the stack is
+the sum of the windows' informations (each mapped into the global columns), so the
+standard errors and the Cramér-Rao bound of the shared coefficients are those of all the
+windows' data together. Per-window parameters are reported per window
+(``info['window_parameters']``, ``info['window_parameter_stderr']``), named by window in
+``info['parameter_names']`` (``"w1:p0"``).
+
+Not for several windows: the PSO warm start (``pso_warm_start``) and the consider
+analysis of the positions (``positions="consider"``): refused in one line.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+import aeroid
+from aeroid.errors import EstimatorError
+from aeroid.estimation import EstimationResult
+from aeroid.flights import Windows, imu_error_names
+from aeroid.model import OUTPUT_CHANNELS
+from baselines._gauss_newton import (
+    Fit,
+    Problem,
+    SmoothRegion,
+    posterior_information,
+    sandwich,
+)
+from baselines._oe_record import RecordModel
+from baselines._oe_sensors import HELD_VELOCITY_WARNING, imu_error_report
+from baselines._oe_starts import (
+    EQUATION_ERROR_OPTIONS,
+    Start,
+    best_end,
+    start_report,
+)
+
+__all__ = ["MAX_SAMPLES", "OutputErrorWindows", "WindowsLayout", "WindowsModel", "run_windows",
+           "windows_problem"]
+
+#: Most samples over all windows: output-error's ``MAX_SAMPLES`` (the stacked model and
+#: its Jacobian cost what one record of as many samples does; this module sits below
+#: :mod:`baselines.output_error` and cannot read it: tests/unit/test_windows.py checks the
+#: two agree).
+MAX_SAMPLES = 50_000
+
+
+class OutputErrorWindows:
+    """Output-error's fit of several windows (a mixin of its estimator; not registered)."""
+
+    #: :meth:`aeroid.estimation.Estimator.fit` accepts :class:`aeroid.flights.Windows`.
+    supports_windows: ClassVar[bool] = True
+
+    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+        """Fit several windows with shared coefficients (module docstring)."""
+        return run_windows(self, windows, rng)
+
+
+class WindowsLayout:
+    """Where each window's local parameters sit in the stacked vector.
+
+    A window's local vector (its :class:`RecordModel`'s) is ``[coefficients, x0 free,
+    positions, delay, IMU errors]``; the stacked one ``[coefficients, positions,
+    (x0 free, delay, IMU errors) per window]``.
+    """
+
+    def __init__(self, n_windows: int, n_x0: int, n_pos: int, n_delay: int,
+                 n_imu: int) -> None:
+        n_c = aeroid.model.N_COEFFICIENTS
+        self.n_shared = n_c + n_pos
+        self.n_own = n_x0 + n_delay + n_imu
+        self.n_x0, self.n_pos = n_x0, n_pos
+        self.size = self.n_shared + n_windows * self.n_own
+        self.index = []
+        for w in range(n_windows):
+            base = self.n_shared + w * self.n_own
+            self.index.append(np.concatenate([
+                np.arange(n_c), base + np.arange(n_x0), n_c + np.arange(n_pos),
+                base + n_x0 + np.arange(n_delay + n_imu)]).astype(int))
+
+    def own(self, w: int) -> np.ndarray:
+        """Stacked indices of window ``w``'s own parameters."""
+        base = self.n_shared + w * self.n_own
+        return np.arange(base, base + self.n_own)
+
+
+class WindowsModel:
+    """``y(p)`` (N, m) and ``dy/dp`` (m, N, n_p) of the windows' records stacked in time."""
+
+    edge_note: str = RecordModel.edge_note
+
+    def __init__(self, models: list[RecordModel], layout: WindowsLayout,
+                 scale: np.ndarray) -> None:
+        self.models, self.layout, self.scale = models, layout, scale
+        stops = np.cumsum([m.t.size for m in models])
+        self.rows = [(int(b - m.t.size), int(b)) for b, m in zip(stops, models, strict=True)]
+        self.n_samples = int(stops[-1])
+        self.compiled = all(m.compiled for m in models)
+
+    def outputs(self, p: np.ndarray) -> np.ndarray:
+        """Return the stacked outputs, shape (N, m)."""
+        return np.vstack([m.outputs(p[idx]) for m, idx in zip(self.models, self.layout.index,
+                                                                strict=True)])
+
+    def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return the stacked outputs (N, m) and the block-sparse ``dy/dp`` (m, N, n_p)."""
+        y = np.empty((self.n_samples, len(OUTPUT_CHANNELS)))
+        J = np.zeros((len(OUTPUT_CHANNELS), self.n_samples, p.size))
+        for model, idx, (a, b) in zip(self.models, self.layout.index, self.rows, strict=True):
+            y[a:b], J[:, a:b, idx] = model.outputs_jacobian(p[idx])
+        return y, J
+
+    def smooth_region(self, p: np.ndarray) -> SmoothRegion:
+        """Each window's delay region at its own column; smooth everywhere else."""
+        lo, hi = np.full(p.size, -np.inf), np.full(p.size, np.inf)
+        below, above = lo.copy(), hi.copy()
+        for model, idx in zip(self.models, self.layout.index, strict=True):
+            region = model.smooth_region(p[idx])
+            for dst, src in ((lo, region.lo), (hi, region.hi), (below, region.below),
+                             (above, region.above)):
+                finite = np.isfinite(src)
+                dst[idx[finite]] = src[finite]
+        return SmoothRegion(lo, hi, below, above)
+
+
+def windows_problem(est: Any, windows: Windows) -> tuple[Problem, WindowsModel]:
+    """Return the stacked fit of ``windows``: measurements, model, noise model, priors.
+
+    Each window's part is the estimator's own problem of that window
+    (``est.problem(flight, position_free)``); its scales and prior weights are mapped into
+    the stacked vector (the shared ones agree across windows: the airframes' shared fields
+    do, :class:`aeroid.flights.Windows`). The floor of each variance is the windows'
+    floors averaged over their samples: each is ``R_FLOOR_REL`` of its window's mean
+    square (+1e-300), so the average is that fraction of the stack's mean square.
+    """
+    position_free = est.position_free(windows.flights[0])
+    parts = [est.problem(flight, position_free) for flight in windows]
+    models: list[RecordModel] = [prob.model for prob in parts]  # type: ignore[misc]
+    layout = WindowsLayout(len(parts), len(est.x0_free()), len(position_free),
+                           int(est.estimate_delay), models[0].n_imu)
+    scale = np.zeros(layout.size)
+    weight = np.zeros(layout.size)
+    for prob, model, idx in zip(parts, models, layout.index, strict=True):
+        scale[idx] = model.scale
+        if prob.prior_weight is not None:
+            weight[idx] = prob.prior_weight
+    z = np.vstack([prob.z for prob in parts])
+    has_prior = bool(np.any(weight > 0))
+    model = WindowsModel(models, layout, scale)
+    counts = np.array([prob.z.shape[0] for prob in parts], dtype=float)
+    r_floor = counts @ np.array([prob.r_floor for prob in parts]) / counts.sum()
+    return Problem(z=z, model=model, r_floor=r_floor,
+                   noise_model=est.noise_model,
+                   prior_mean=np.zeros(layout.size) if has_prior else None,
+                   prior_weight=weight if has_prior else None), model
+
+
+def _local_names(est: Any, position_free: tuple[int, ...]) -> tuple[str, ...]:
+    """The names of a window's own parameters, in local order."""
+    names = est.parameter_names(position_free)
+    n_c, n_x0 = aeroid.model.N_COEFFICIENTS, len(est.x0_free())
+    return names[n_c:n_c + n_x0] + names[n_c + n_x0 + len(position_free):]
+
+
+def _starts(est: Any, windows: Windows, model: WindowsModel, first: np.ndarray,
+            rng: np.random.Generator) -> list[Start]:
+    """The prior start, equation-error's over the windows, ``n_starts - 1`` random draws."""
+    n_c = aeroid.model.N_COEFFICIENTS
+    scale = model.scale
+    starts = [Start("prior", first)]
+    if est.equation_error_start:
+        try:
+            ee = aeroid.make_estimator("equation-error", EQUATION_ERROR_OPTIONS)
+            theta = np.asarray(ee.run_windows(windows, rng).theta, dtype=float)
+            if theta.shape != (n_c,) or not np.all(np.isfinite(theta)):
+                raise FloatingPointError("no finite estimate")
+            p0 = first.copy()
+            p0[:n_c] = theta / scale[:n_c]
+            starts.append(Start("equation-error", p0))
+        except Exception as exc:  # failure is data: the fit goes on from its other starts
+            starts.append(Start("equation-error", None, " ".join(str(exc).split())))
+    prior = windows.airframe.prior_vector()
+    for k in range(est.n_starts - 1):
+        p = first.copy()
+        p[:n_c] = prior * (1.0 + 0.2 * rng.standard_normal(n_c)) / scale[:n_c]
+        starts.append(Start(f"random {k + 1}", p))
+    return starts
+
+
+def run_windows(est: Any, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+    """Fit the windows with shared coefficients (output-error's ``run_windows``)."""
+    owner = est.name
+    if est.pso_warm_start:
+        raise EstimatorError(f"{owner}: pso_warm_start is not available for several windows; "
+                             "set pso_warm_start = false")
+    if est.positions == "consider":
+        raise EstimatorError(f"{owner}: positions = consider is not available for several "
+                             "windows; use estimate or known")
+    if windows.n_samples > MAX_SAMPLES:
+        raise EstimatorError(f"{owner}: {windows.n_samples} samples over the windows; it fits "
+                             f"at most {MAX_SAMPLES} at once")
+    prob, model = windows_problem(est, windows)
+    layout, scale = model.layout, model.scale
+    n_c = aeroid.model.N_COEFFICIENTS
+    first = np.zeros(layout.size)
+    first[:n_c] = windows.airframe.prior_vector() / scale[:n_c]
+    if est.estimate_delay:
+        for w in range(len(windows)):
+            i = layout.own(w)[layout.n_x0]
+            first[i] = est.delay_s / scale[i]
+    starts = _starts(est, windows, model, first, rng)
+    fits: list[Fit] = []
+    labels, failures = [], []
+    for start in starts:
+        try:
+            if start.p0 is None:
+                raise FloatingPointError(start.failure)
+            fits.append(est.gauss_newton(prob, start.p0))
+            labels.append(start.label)
+        except FloatingPointError as exc:
+            failures.append(f"{start.label}: {exc}")
+    if not fits:
+        return aeroid.failed_result(owner, failures[0])
+    best = fits[k_best := best_end(fits)]
+    M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
+    try:
+        cov_p = np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        cov_p = np.full_like(M, np.nan)
+    if est.covariance == "sandwich":
+        cov_p = sandwich(cov_p, best.J, best.e, best.r_diag)
+    cov_phys = cov_p * np.outer(scale, scale)
+    phys = best.p * scale
+    stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
+    cov = cov_phys[:n_c, :n_c]
+    return _result(est, windows, model, prob, best, fits, labels, k_best, failures, M,
+                   phys, stderr_phys, cov_phys, cov, len(starts))
+
+
+def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best: Fit,
+            fits: list[Fit], labels: list[str], k_best: int, failures: list[str],
+            M: np.ndarray, phys: np.ndarray, stderr_phys: np.ndarray,
+            cov_phys: np.ndarray, cov: np.ndarray, n_starts: int) -> EstimationResult:
+    """The result: shared coefficients, their covariance, each window's own parameters."""
+    layout, scale = model.layout, model.scale
+    n_c = aeroid.model.N_COEFFICIENTS
+    position_free = model.models[0].position_free
+    local = _local_names(est, position_free)
+    names = list(aeroid.NAMES) + [est.parameter_names(position_free)[n_c + layout.n_x0 + j]
+                                  for j in range(layout.n_pos)]
+    per_window, per_window_sd, window_imu = {}, {}, {}
+    warnings: list[str] = []
+    imu_names = imu_error_names(est.imu_errors)
+    for w, (name, flight) in enumerate(windows.items()):
+        own = layout.own(w)
+        names += [f"{name}:{n}" for n in local]
+        per_window[name] = dict(zip(local, phys[own].tolist(), strict=True))
+        per_window_sd[name] = dict(zip(local, stderr_phys[own].tolist(), strict=True))
+        start = model.models[w].x0.copy()
+        start[list(est.x0_free())] += phys[own[:layout.n_x0]]
+        per_window[name]["initial_state"] = start.tolist()
+        if imu_names:
+            idx = layout.index[w]
+            imu_info, found = imu_error_report(
+                est.parameter_names(position_free), imu_names, phys[idx], stderr_phys[idx],
+                cov_phys[np.ix_(idx, idx)])
+            window_imu[name] = imu_info
+            warnings += [f"window {name}: {text}" for text in found]
+        if "initial_state_sd" in flight.metadata and not est.estimate_initial_velocity:
+            warnings.append(f"window {name}: {HELD_VELOCITY_WARNING}")
+    positions = model.models[0].pos.copy()
+    position_sd = np.zeros(positions.size)
+    for j, c in enumerate(position_free):
+        positions[c] += phys[n_c + j]
+        position_sd[c] = stderr_phys[n_c + j]
+    hist_p = np.array(best.history_p)
+    history = {"axis": "iteration", "step": np.arange(len(hist_p)),
+               "theta": hist_p[:, :n_c] * scale[:n_c], "cost": np.array(best.history_cost)}
+    info: dict[str, Any] = {
+        "R": best.r_diag, "fisher": M, "parameter_names": tuple(names), "parameters": phys,
+        "parameter_stderr": stderr_phys, "parameter_covariance": cov_phys,
+        "iterations": best.n_iterations, "starts": n_starts, "failed_starts": failures,
+        "compiled": model.compiled, "start_costs": [f.nll for f in fits], "input": est.input,
+        "fit_residuals": {c: best.e[:, j] for j, c in enumerate(OUTPUT_CHANNELS)},
+        "window_parameters": per_window, "window_parameter_stderr": per_window_sd,
+        "accel_positions_m": positions.reshape(2, 3),
+        "accel_position_stderr_m": position_sd.reshape(2, 3)}
+    if window_imu:
+        info["window_imu_errors"] = window_imu
+    start_info, found = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
+                                     failures)
+    info.update(start_info)
+    warnings = list(found) + warnings
+    return EstimationResult(
+        estimator=est.name, theta=phys[:n_c], stderr=np.sqrt(np.abs(np.diag(cov))),
+        covariance=cov, cost=best.nll, success=best.converged, message=best.message,
+        n_evaluations=sum(f.n_evaluations for f in fits),
+        n_iterations=sum(f.n_iterations for f in fits), history=history, info=info,
+        warnings=tuple(warnings))
