@@ -15,13 +15,13 @@ written once in :mod:`aeroid.model` from the same equations as :mod:`aeroid.mode
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight
-from baselines import _common, _kalman
+from baselines import _common, _held, _kalman
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -40,17 +40,23 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     (:class:`baselines._imu_states.ImuFilterOptions`).
     """
 
+    supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
     name: ClassVar[str] = "ekf"
     description: ClassVar[str] = (
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
-        ``rng`` is unused)."""
+        ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
+
+        def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                        ) -> _kalman.FilterOutput:
+            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                   R_of=setup.R_of)
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
-            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                                   R_of=setup.R_of)
+            return _held.held_pass(model, setup, holds, filter_pass)
 
         return self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)

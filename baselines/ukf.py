@@ -14,13 +14,13 @@ filterpy's loops (see :mod:`baselines._kalman`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight
-from baselines import _common, _kalman
+from baselines import _common, _held, _kalman
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -43,6 +43,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         Secondary scaling of the sigma points (default 0).
     """
 
+    supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
     name: ClassVar[str] = "ukf"
     description: ClassVar[str] = (
         "augmented-state unscented Kalman filter (filterpy, batched sigma-point RK4)")
@@ -56,15 +57,20 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         if not 0 < self.alpha <= 1:
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
-        ``rng`` is unused)."""
+        ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
 
-        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
-                     ) -> _kalman.FilterOutput:
+        def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                        ) -> _kalman.FilterOutput:
             return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
                                    alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                    R_of=setup.R_of)
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            return _held.held_pass(model, setup, holds, filter_pass)
 
         return self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)

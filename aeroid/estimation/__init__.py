@@ -5,7 +5,8 @@ use the objectives, the EBM reconstruction, the PSO and its :func:`polish`,
 :func:`report_progress` and :func:`box_edge_warnings` defined here.
 
 Modules, one job each (imports point down the list, never up): ``_result`` (the result
-type), ``_predict`` (what a result's model says of a flight, its table and JSON info),
+type), ``_holds`` (held, free and prior coefficients), ``_predict`` (what a result's
+model says of a flight, its table and JSON info),
 ``_options`` (option values from text, option descriptions), ``_progress``
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
@@ -30,6 +31,12 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
+from aeroid.estimation._holds import (
+    CoefficientSpec,
+    apply_holds,
+    combine_with_prior,
+    floor_with_holds,
+)
 from aeroid.estimation._identifiability import identifiability, nuisance_findings
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
@@ -94,6 +101,10 @@ from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, sw
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
 
 __all__ = [
+    "CoefficientSpec",
+    "apply_holds",
+    "combine_with_prior",
+    "floor_with_holds",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

@@ -23,6 +23,7 @@ import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
+from aeroid.estimation._holds import CoefficientSpec, apply_holds
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
@@ -58,6 +59,11 @@ class Estimator(abc.ABC):
     #: ``metadata['initial_state_sd']``, :meth:`aeroid.reconstruction.Reconstruction.
     #: to_flight`); for the others :meth:`fit` warns that the states were taken as exact.
     uses_state_sd: ClassVar[bool] = False
+    #: True for a method whose :meth:`run` takes ``holds=`` (a
+    #: :class:`aeroid.estimation.CoefficientSpec` with something held or a prior): it
+    #: estimates only the free coefficients and adds the priors' information. :meth:`fit`
+    #: refuses holds and priors for the others in one line.
+    supports_holds: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -70,7 +76,8 @@ class Estimator(abc.ABC):
         """
 
     def fit(self, flight: Flight, *, rng: np.random.Generator | int | None = None,
-            progress: ProgressCallback | None = None) -> EstimationResult:
+            progress: ProgressCallback | None = None,
+            holds: CoefficientSpec | Mapping[str, Any] | None = None) -> EstimationResult:
         """Validate ``flight``, run the method, time it; never raise for a numerical failure.
 
         Parameters
@@ -81,6 +88,11 @@ class Estimator(abc.ABC):
         progress : callable or None
             ``progress(event)`` with a :class:`aeroid.estimation.ProgressEvent`, called
             by methods that report progress (the paper's PSO methods: every iteration).
+        holds : CoefficientSpec, mapping or None
+            Coefficients held at a value or given a Gaussian prior (default: all free;
+            a mapping is read by :meth:`CoefficientSpec.from_mapping`). What is held is
+            said in one line (logger ``aeroid``, INFO) and recorded in the result
+            (``held``, ``priors``); held coefficients have no standard error.
 
         Raises
         ------
@@ -93,6 +105,13 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         flight.validate()
+        spec = CoefficientSpec.coerce(holds)
+        owner = self.name or type(self).__name__
+        if not spec.empty:
+            if not self.supports_holds:
+                raise EstimatorError(f"{owner}: this method cannot hold coefficients or take "
+                                     f"priors ({spec.describe()}); fit all nine free")
+            logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)
@@ -102,7 +121,8 @@ class Estimator(abc.ABC):
         start = time.perf_counter()
         try:
             with np.errstate(all="ignore"), progress_listener(progress):
-                result = self.run(flight, generator)
+                result = (self.run(flight, generator) if spec.empty else
+                          self.run(flight, generator, holds=spec))  # type: ignore[call-arg]
         except AeroidError:
             raise  # bad input found by the method (data, options): a user error, one line
         except Exception as exc:  # failure is data (module docstring)
@@ -114,6 +134,7 @@ class Estimator(abc.ABC):
                                          message=result.message or "non-finite estimate")
         result = dataclasses.replace(result, input=None if choice is None else choice.input,
                                      noise_model=self.noise_model_used())
+        result = apply_holds(result, spec)
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
         result = apply_fit_check(result, flight, levels, self.options())
         info = dict(result.info)
