@@ -23,13 +23,13 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation import CoefficientSpec, combine_with_prior
+from aeroid.estimation import CoefficientSpec, combine_with_prior, free_cost
 from aeroid.model import N_STATE, NAMES
 from baselines import _kalman
 from baselines._gauss_newton import Fit, Problem, SmoothRegion
 
 __all__ = ["expand_output", "held_pass", "held_filter_model", "held_fit", "held_inverse",
-           "reduce_setup", "reduced_problem", "with_priors"]
+           "reduce_setup", "reduced_problem", "swarm_problem", "with_priors"]
 
 
 class _ReducedModel:
@@ -291,3 +291,30 @@ def held_pass(model: _kalman.DiscreteModel, setup: Any, holds: CoefficientSpec |
         return run_filter(model, setup)
     out = run_filter(held_filter_model(model, holds), reduce_setup(setup, holds))
     return expand_output(out, holds, model.dim_x)
+
+
+def swarm_problem(est: Any, cost: Any, holds: CoefficientSpec | None, n_samples: int
+                  ) -> tuple[np.ndarray, Any, Callable[[np.ndarray], np.ndarray]]:
+    """Return (free coefficient indices, cost over them, expand to all) for a swarm.
+
+    Without holds: every index, ``cost`` itself, the identity. With them:
+    :func:`aeroid.estimation.free_cost` (priors' penalty ``((theta - mu)/sd)^2 / N``,
+    ``N`` the cost's samples, else ``n_samples``).
+
+    Raises
+    ------
+    EstimatorError
+        Holds with ``polish`` (the polish solves the full problem), or priors with the
+        ``relative`` weighting (no log-likelihood to add them to).
+    """
+    if holds is None or holds.empty:
+        return np.arange(len(NAMES)), cost, lambda theta: np.asarray(theta, dtype=float)
+    if getattr(est, "polish", False):
+        raise EstimatorError(f"{est.name}: polish with held or prior coefficients is not "
+                             "supported; set polish = false")
+    if holds.priors and getattr(est, "weighting", "noise") != "noise":
+        raise EstimatorError(f"{est.name}: priors need weighting = noise (the relative cost "
+                             "is no log-likelihood to add them to)")
+    model = getattr(cost, "model", None)
+    n = getattr(cost, "n_samples", None) or getattr(model, "n_samples", None) or n_samples
+    return free_cost(cost, holds, n)

@@ -31,11 +31,12 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
-from aeroid.estimation._holds import (
-    CoefficientSpec,
+from aeroid.estimation._holds import CoefficientSpec
+from aeroid.estimation._holds_fit import (
     apply_holds,
     combine_with_prior,
     floor_with_holds,
+    free_cost,
 )
 from aeroid.estimation._identifiability import identifiability, nuisance_findings
 from aeroid.estimation._objectives import (
@@ -105,6 +106,7 @@ __all__ = [
     "apply_holds",
     "combine_with_prior",
     "floor_with_holds",
+    "free_cost",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

@@ -23,7 +23,8 @@ import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
-from aeroid.estimation._holds import CoefficientSpec, apply_holds
+from aeroid.estimation._holds import CoefficientSpec
+from aeroid.estimation._holds_fit import apply_holds, check_free
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
@@ -136,7 +137,8 @@ class Estimator(abc.ABC):
                                      noise_model=self.noise_model_used())
         result = apply_holds(result, spec)
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
-        result = apply_fit_check(result, flight, levels, self.options())
+        result = check_free(result, spec,  # held coefficients are known: not checked
+                            lambda r: apply_fit_check(r, flight, levels, self.options()))
         info = dict(result.info)
         info.setdefault("options", self.options())
         if choice is not None:

@@ -72,7 +72,7 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AeroidError, AeroidWarning, EstimatorError
-from aeroid.estimation._holds import CoefficientSpec, floor_with_holds
+from aeroid.estimation._holds_fit import CoefficientSpec, floor_with_holds
 from aeroid.estimation._information import (
     CHANNEL_SETS,
     channel_indices,
@@ -396,5 +396,5 @@ def _cramer_rao_sd(scenario_or_flight: Scenario | Flight, noise_model: NoiseMode
     sd = model_noise_sd(noise_model, outputs, noise_form=noise_form)
     info = output_error_information(flight.airframe, theta, inputs, sd, positions=pos,
                                     channels=channels, estimate_initial=estimate_initial)
-    return floor_with_holds(info, holds or CoefficientSpec())  # all free: sqrt diag inv
+    return floor_with_holds(info, holds)  # None: all free, sqrt(diag(inv(info)))
 

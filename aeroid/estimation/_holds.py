@@ -10,31 +10,26 @@ terms, :func:`airframe_holds`); :meth:`aeroid.estimation.Estimator.fit` takes it
 ``holds=`` and every method that supports it (``supports_holds``) receives it in
 ``run(..., holds=spec)``.
 
-The arithmetic every method shares is here too: the free / held index sets, reduced
-and full parameter vectors (:meth:`CoefficientSpec.expand`), the prior's information
-(:meth:`CoefficientSpec.prior_information`), the Gaussian combination of an estimate
-with the prior (:func:`combine_with_prior`), the Cramér-Rao floor of the free
-coefficients with the prior (:func:`floor_with_holds`) and the result's bookkeeping
-(:func:`apply_holds`).
+The spec's own arithmetic is here: the free / held index sets, reduced and full
+parameter vectors (:meth:`CoefficientSpec.expand`), the prior's information
+(:meth:`CoefficientSpec.prior_information`); what the methods share with it (the
+Gaussian combination with the priors, the floor, a swarm's cost, the result's
+bookkeeping) is in :mod:`aeroid.estimation._holds_fit`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from aeroid.errors import EstimatorError
 from aeroid.model import NAMES
 
-if TYPE_CHECKING:
-    from aeroid.estimation._result import EstimationResult
-
-__all__ = ["CoefficientSpec", "apply_holds", "combine_with_prior", "floor_with_holds"]
+__all__ = ["CoefficientSpec"]
 
 
 def _number(text: Any, where: str) -> float:
@@ -285,72 +280,3 @@ class CoefficientSpec:
         """Return ``{"held": {name: value}, "priors": {name: {"mean", "sd"}}}``."""
         return {"held": dict(self.held),
                 "priors": {n: {"mean": m, "sd": s} for n, (m, s) in self.priors.items()}}
-
-
-def combine_with_prior(theta: np.ndarray, covariance: np.ndarray, spec: CoefficientSpec
-                       ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the Gaussian combination of an estimate with the spec's priors.
-
-    ``theta`` (k,) and ``covariance`` (k, k) over the free coefficients
-    (``spec.free_names``): the posterior of a Gaussian likelihood with that mean and
-    covariance and the independent priors, ``C = inv(inv(cov) + W)``,
-    ``theta' = C (inv(cov) theta + W mu)``, ``W`` the prior's information. For a linear
-    least-squares problem this is the solution with the prior as weighted
-    pseudo-observations ``(theta_j - mu_j) / sd_j``. Computed in the covariance form
-    (``K = C H^T (H C H^T + diag(sd^2))^-1``), equal to the information form. Without
-    priors, the inputs unchanged.
-    """
-    theta = np.asarray(theta, dtype=float)
-    covariance = np.asarray(covariance, dtype=float)
-    free = spec.free_index
-    mean, sd = spec.prior_mean_sd()
-    rows = np.flatnonzero(np.isfinite(sd[free]))  # free coefficients with a prior
-    if rows.size == 0:
-        return theta, covariance
-    # the covariance form of the same update (a Kalman update with the prior as a
-    # measurement): only the small (n_prior, n_prior) matrix is inverted, so a nearly
-    # exact coefficient (noise-free data) does not make the information singular
-    CH = covariance[:, rows]
-    S = covariance[np.ix_(rows, rows)] + np.diag(sd[free][rows] ** 2)
-    gain = np.linalg.solve(S, CH.T).T
-    post = covariance - gain @ CH.T
-    return theta + gain @ (mean[free][rows] - theta[rows]), 0.5 * (post + post.T)
-
-
-def floor_with_holds(information: np.ndarray, spec: CoefficientSpec) -> np.ndarray:
-    """Return the Cramér-Rao sd of the coefficients given the spec, shape (N,).
-
-    ``information`` (N, N): the data's Fisher information of all coefficients. The free
-    ones' floor is ``sqrt(diag(inv(F_ff + diag(1 / sd^2))))`` (prior information added
-    where there is a prior); held ones are NaN (known, no floor).
-    """
-    info = np.asarray(information, dtype=float)
-    free = spec.free_index
-    block = info[np.ix_(free, free)] + np.diag(spec.prior_information()[free])
-    out = np.full(len(NAMES), np.nan)
-    out[free] = np.sqrt(np.diag(np.linalg.inv(block)))
-    return out
-
-
-def apply_holds(result: EstimationResult, spec: CoefficientSpec) -> EstimationResult:
-    """Return ``result`` with the spec recorded and the held coefficients as held.
-
-    Held coefficients: their value exactly, standard error NaN (none), zero covariance
-    rows and columns (known, uncorrelated with the rest); the result's ``held`` and
-    ``priors`` fields name them.
-    """
-    if spec.empty:
-        return result
-    theta = result.theta.copy()
-    held = spec.held_index
-    if result.success or np.all(np.isfinite(theta[spec.free_index])):
-        theta[held] = spec.held_values()
-    stderr = None if result.stderr is None else result.stderr.copy()
-    if stderr is not None:
-        stderr[held] = np.nan
-    cov = None if result.covariance is None else np.array(result.covariance, dtype=float)
-    if cov is not None:
-        cov[held, :] = 0.0
-        cov[:, held] = 0.0
-    return dataclasses.replace(result, theta=theta, stderr=stderr, covariance=cov,
-                               held=dict(spec.held), priors=dict(spec.priors))

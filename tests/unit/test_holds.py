@@ -266,3 +266,60 @@ def test_filters_hold_and_prior(noisy_flight, cls):
     assert tight.stderr[j] <= 1e-6 * abs(TRUTH[j])
     wrong = est.fit(noisy_flight, holds=CoefficientSpec(held={"Cmd": 1.3 * TRUTH[7]}))
     assert not wrong.success
+
+
+# -- the PSO methods -------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["ebm-pso", "sebm-pso", "eam-pso", "pyswarms"])
+def test_swarms_search_only_the_free_coefficients(clean_flight, name):
+    small = {"ebm-pso": {"n_particles": 40, "n_iterations": 60},
+             "sebm-pso": {"n_particles": (20, 20, 20, 20), "n_iterations": 60},
+             "eam-pso": {"n_particles": 30, "n_iterations": 30, "warm_start": True},
+             "pyswarms": {"n_particles": 30, "n_iterations": 20}}[name]
+    est = aeroid.make_estimator(name, small)
+    spec = CoefficientSpec(held={"Cx": TRUTH[0], "Czd": TRUTH[2]})
+    res = est.fit(clean_flight, rng=1, holds=spec)
+    assert res.theta[0] == TRUTH[0] and res.theta[2] == TRUTH[2]
+    assert res.held == spec.held
+    # the swarm's history moves only the free coefficients
+    hist = res.history["theta"]
+    assert np.all(hist[:, 0] == TRUTH[0]) and np.all(hist[:, 2] == TRUTH[2])
+    assert not any("Cx" in w or "Czd" in w for w in res.warnings)
+
+
+def test_swarm_prior_penalty_is_the_map_of_the_quadratic_cost(clean_flight):
+    # EBM's cost is J = J* + (theta - theta*)^T H (theta - theta*) = (2/N) NLL; with the
+    # priors' penalty its minimum is (H + W/N) theta = H theta* + W mu / N (closed form)
+
+    from aeroid.estimation import ebm_cost, free_cost, reconstruct
+    cost = ebm_cost(clean_flight, reconstruct(clean_flight))
+    j = NAMES.index("Cmq")
+    spec = CoefficientSpec(held={"Czd": TRUTH[2]}, priors={"Cmq": (1.3 * TRUTH[j], 50.0)})
+    free, reduced, expand = free_cost(cost, spec, cost.n_samples)
+    theta = TRUTH[free] * 1.01
+    mu = 1.3 * TRUTH[j]
+    penalty = ((theta[list(free).index(j)] - mu) / 50.0) ** 2 / cost.n_samples
+    assert reduced(theta) == pytest.approx(cost(expand(theta)) + penalty, rel=1e-12)
+    H, star = cost.hessian, cost.theta_opt
+    w = np.zeros(len(NAMES))
+    w[j] = 1.0 / 50.0**2 / cost.n_samples
+    A = H + np.diag(w)
+    mean = np.where(w > 0, mu, 0.0)
+    h = NAMES.index("Czd")  # the held coefficient moves to the right-hand side
+    rhs = (H @ star + w * mean)[free] - A[np.ix_(free, [h])] @ [TRUTH[h]]
+    want = np.linalg.solve(A[np.ix_(free, free)], rhs)
+    # a quadratic with minimum `want` and Hessian A_ff: J(x) - J(want) = d^T A_ff d
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        d = want * 1e-3 * rng.standard_normal(want.size)
+        excess = reduced(want + d) - reduced(want)
+        assert excess == pytest.approx(d @ A[np.ix_(free, free)] @ d, rel=1e-6)
+
+
+def test_swarm_priors_refused_without_a_likelihood(clean_flight):
+    far = TRUTH[NAMES.index("Cmq")] * 1.3
+    with pytest.raises(EstimatorError, match="weighting = noise"):
+        aeroid.make_estimator("ebm-pso", {"weighting": "relative"}).fit(
+            clean_flight, holds=CoefficientSpec(priors={"Cmq": (far, 1.0)}))
+    with pytest.raises(EstimatorError, match="polish"):
+        aeroid.make_estimator("ebm-pso", {"polish": True}).fit(
+            clean_flight, holds=CoefficientSpec(held={"Czd": TRUTH[2]}))
