@@ -37,6 +37,7 @@ from aeroid.estimation._holds_fit import (
     combine_with_prior,
     floor_with_holds,
     free_cost,
+    holds_of,
 )
 from aeroid.estimation._identifiability import identifiability, nuisance_findings
 from aeroid.estimation._objectives import (
@@ -107,6 +108,7 @@ __all__ = [
     "combine_with_prior",
     "floor_with_holds",
     "free_cost",
+    "holds_of",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

@@ -136,8 +136,9 @@ class CoefficientSpec:
                         raise EstimatorError(f"--prior {item!r}: expected NAME=MEAN:SD")
                     prior[name] = (_number(mean.strip(), f"--prior {item} mean"),
                                    _number(sd.strip(), f"--prior {item} sd"))
-        sources = {n: f"--hold ({source})" for n in held}
-        sources.update({n: f"--prior ({source})" for n in prior})
+        where = "" if source == "command line" else f" ({source})"
+        sources = {n: f"--hold{where}" for n in held}
+        sources.update({n: f"--prior{where}" for n in prior})
         return cls(held=held, priors=prior, sources=sources)
 
     @classmethod

@@ -217,10 +217,10 @@ class EstimationResult:
             se = "" if self.stderr is None else f"{self.stderr[j]:.4g}"
             se = "held" if name in self.held else se
             row = f"{name:>5} {self.theta[j]:>14.6g} {se:>12}"
-            if name in self.priors:
-                row += " prior N({:g}, {:g}^2)".format(*self.priors[name])
             if truth is not None and errors is not None:
                 row += f" {truth[j]:>12.6g} {errors[j]:>9.3f}"
+            if name in self.priors:
+                row += "  prior N({:g}, {:g}^2)".format(*self.priors[name])
             lines.append(row)
         imu = self.info.get("imu_errors") if isinstance(self.info, dict) else None
         if imu:  # a method that fitted the IMU's errors (output-error's imu_errors)
