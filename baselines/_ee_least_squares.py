@@ -8,11 +8,14 @@ blocks (the method and its measurements are documented there).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 
 import aeroid
 from aeroid import estimation as rc
+from baselines._held import ee_prior_rows
 from baselines.newey_west import (
     MAX_CORRELATION_LENGTH,
     hac_covariance,
@@ -108,7 +111,7 @@ def _subproblem_arrays(X, y: np.ndarray, sd: np.ndarray, lateral_rows: bool) -> 
 
 def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
                       lateral_rows: bool = False, covariance: str = "hac",
-                      held: dict[int, float] | None = None) -> tuple:
+                      held: dict[int, float] | None = None, holds: Any = None) -> tuple:
     """Solve the four SEBM least-squares sub-problems of the EBM regression.
 
     Parameters
@@ -128,6 +131,9 @@ def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
     held : dict of int -> float, optional
         Coefficient index -> value of held coefficients: their columns move to the left
         side (``b - A_h theta_h``); their covariance is zero.
+    holds : CoefficientSpec, optional
+        Its priors join their sub-problem as weighted pseudo-observations
+        (:func:`baselines._held.ee_prior_rows`).
 
     Returns
     -------
@@ -160,6 +166,7 @@ def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
             if not cols:
                 continue
         th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
+        th, cv = ee_prior_rows(A, b, th, cv, s2, cols, holds)
         theta[cols] = th
         cov[np.ix_(cols, cols)] = cv
         corr[np.ix_(cols, cols)] = _correlation(A)

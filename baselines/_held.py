@@ -23,13 +23,14 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation import CoefficientSpec, combine_with_prior, free_cost
+from aeroid.estimation import CoefficientSpec, free_cost
 from aeroid.model import N_STATE, NAMES
 from baselines import _kalman
 from baselines._gauss_newton import Fit, Problem, SmoothRegion
 
 __all__ = ["expand_output", "held_pass", "held_filter_model", "held_fit", "held_inverse",
-           "reduce_setup", "reduced_problem", "swarm_problem", "with_priors"]
+           "ee_prior_rows", "reduce_setup", "reduced_problem", "swarm_problem",
+           "with_priors"]
 
 
 class _ReducedModel:
@@ -184,21 +185,41 @@ def ee_full(theta: np.ndarray, cov: np.ndarray, free: np.ndarray,
     return holds.expand(theta), ee_full_matrix(cov, free, 0.0)
 
 
-def ee_prior(theta: np.ndarray, cov: np.ndarray, holds: CoefficientSpec | None
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """Return the full estimate and covariance with the priors combined in (the prior as
-    weighted pseudo-observations: :func:`aeroid.estimation.combine_with_prior` on the
-    free block); unchanged without priors or with a non-finite estimate."""
-    if holds is None or not holds.priors:
+def ee_prior_rows(A: np.ndarray, b: np.ndarray, theta: np.ndarray, cov: np.ndarray,
+                  sigma2: float, cols: Any, holds: CoefficientSpec | None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Return a least-squares estimate and covariance with the priors on ``cols`` added.
+
+    ``A theta ~ b`` (weighted rows, residual variance ``sigma2``), ``cols`` the coefficient
+    index of each column. The prior ``N(mu, sd^2)`` is a weighted pseudo-observation
+    ``theta_j = mu_j``: with a finite covariance (Newey-West or plain), the Gaussian
+    combination in covariance form (as :func:`aeroid.estimation.combine_with_prior`);
+    when the data alone do not determine every column (rank deficient:
+    a regressor that is zero, the fin's without fin motion), the normal equations with
+    the pseudo-observations, ``(A^T A / sigma2 + W) theta = A^T b / sigma2 + W mu``, and
+    covariance ``inv(A^T A / sigma2 + W)``. Unchanged without priors on ``cols``.
+    """
+    cols = [int(c) for c in cols]
+    if holds is None or not any(NAMES[c] in holds.priors for c in cols):
         return theta, cov
-    free = holds.free_index
-    if not (np.all(np.isfinite(theta[free])) and np.all(np.isfinite(cov[np.ix_(free, free)]))):
-        return theta, cov
-    th, cv = combine_with_prior(theta[free], cov[np.ix_(free, free)], holds)
-    theta, cov = theta.copy(), cov.copy()
-    theta[free] = th
-    cov[np.ix_(free, free)] = cv
-    return theta, cov
+    local = CoefficientSpec(priors={NAMES[c]: holds.priors[NAMES[c]] for c in cols
+                                    if NAMES[c] in holds.priors})
+    mean, sd = local.prior_mean_sd()
+    w = np.where(np.isfinite(sd[cols]), 1.0 / np.where(np.isfinite(sd[cols]), sd[cols], 1.0)
+                 ** 2, 0.0)
+    mu = np.where(w > 0, mean[cols], 0.0)
+    if np.all(np.isfinite(cov)) and np.all(np.isfinite(theta)):
+        rows = np.flatnonzero(w > 0)  # covariance form: a Kalman update by the priors
+        CH = cov[:, rows]
+        gain = np.linalg.solve(cov[np.ix_(rows, rows)] + np.diag(1.0 / w[rows]), CH.T).T
+        post = cov - gain @ CH.T
+        return theta + gain @ (mu[rows] - theta[rows]), 0.5 * (post + post.T)
+    info = A.T @ A / max(sigma2, np.finfo(float).tiny) + np.diag(w)
+    rhs = A.T @ b / max(sigma2, np.finfo(float).tiny) + w * mu
+    scale = np.sqrt(np.diag(info))
+    scale[scale == 0] = 1.0
+    post = np.linalg.inv(info / np.outer(scale, scale)) / np.outer(scale, scale)
+    return post @ rhs, 0.5 * (post + post.T)
 
 
 # -- the augmented-state filters ---------------------------------------------------------

@@ -208,7 +208,7 @@ class EquationErrorEstimator(Estimator):
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
         """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
-        the left side, priors combined with the estimate, :func:`baselines._held.ee_prior`)."""
+        the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
         result = self._solve(flight, holds=holds)
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
@@ -249,8 +249,7 @@ class EquationErrorEstimator(Estimator):
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
-            covariance=covariance, held=_held.held_dict(holds))
-        theta, cov = _held.ee_prior(theta, cov, holds)
+            covariance=covariance, held=_held.held_dict(holds), holds=holds)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
         rows = tuple(row for _, row, _ in SUBPROBLEMS)
@@ -282,7 +281,8 @@ class EquationErrorEstimator(Estimator):
             resid = target - np.einsum("noc,c->no", A, theta)
             sd = np.sqrt(np.mean(resid * resid, axis=0))
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
-        theta, cov = _held.ee_prior(*_held.ee_full(theta, cov, free, holds), holds)
+        theta, cov = _held.ee_full(*_held.ee_prior_rows(Aw, bw, theta, cov, s2, free, holds),
+                                   free, holds)
         corr = _held.ee_full_matrix(_correlation(Aw), free, np.nan)
         info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"],
                 "hac_bandwidth": {"one_step": bandwidth}}

@@ -39,7 +39,13 @@ from aeroid.estimation._holds_fit import (
     free_cost,
     holds_of,
 )
-from aeroid.estimation._identifiability import identifiability, nuisance_findings
+from aeroid.estimation._identifiability import (
+    RecordFinding,
+    identifiability,
+    nuisance_findings,
+    record_findings,
+    record_verdict,
+)
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -156,6 +162,9 @@ __all__ = [
     "failed_result",
     "get_estimator",
     "identifiability",
+    "RecordFinding",
+    "record_findings",
+    "record_verdict",
     "nuisance_findings",
     "gyro_only_floor",
     "load_errors",

@@ -25,6 +25,7 @@ from aeroid.errors import AeroidError, EstimatorError
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
 from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._holds_fit import apply_holds, check_free
+from aeroid.estimation._identifiability import record_findings, record_verdict
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
@@ -93,7 +94,12 @@ class Estimator(abc.ABC):
             Coefficients held at a value or given a Gaussian prior (default: all free;
             a mapping is read by :meth:`CoefficientSpec.from_mapping`). What is held is
             said in one line (logger ``aeroid``, INFO) and recorded in the result
-            (``held``, ``priors``); held coefficients have no standard error.
+            (``held``, ``priors``); held coefficients have no standard error. A
+            coefficient the record cannot determine
+            (:func:`aeroid.estimation.record_findings`: no fin motion, no pitch or yaw
+            rate, a constant roll rate) is named before the fit (same logger); left free
+            without a prior, the result is ``success=False`` and
+            ``info["not_identifiable"]`` names it with its reason.
 
         Raises
         ------
@@ -113,6 +119,9 @@ class Estimator(abc.ABC):
                 raise EstimatorError(f"{owner}: this method cannot hold coefficients or take "
                                      f"priors ({spec.describe()}); fit all nine free")
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
+        findings = record_findings(flight)  # what the record cannot determine, said first
+        for finding in findings:
+            logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)
@@ -139,6 +148,12 @@ class Estimator(abc.ABC):
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
         result = check_free(result, spec,  # held coefficients are known: not checked
                             lambda r: apply_fit_check(r, flight, levels, self.options()))
+        failure, left = record_verdict(findings, spec.held, spec.priors)
+        if left:  # estimated freely although the record cannot determine them
+            result = dataclasses.replace(
+                result, success=False, message=failure if result.success else result.message,
+                warnings=(*result.warnings, *([failure] if not result.success else [])),
+                info={**result.info, "not_identifiable": left})
         info = dict(result.info)
         info.setdefault("options", self.options())
         if choice is not None:
