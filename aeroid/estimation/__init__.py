@@ -31,7 +31,7 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
-from aeroid.estimation._holds import CoefficientSpec
+from aeroid.estimation._holds import FIN_TERMS, CoefficientSpec, airframe_holds
 from aeroid.estimation._holds_fit import (
     apply_holds,
     combine_with_prior,
@@ -110,6 +110,8 @@ from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort
 
 __all__ = [
     "CoefficientSpec",
+    "FIN_TERMS",
+    "airframe_holds",
     "apply_holds",
     "combine_with_prior",
     "floor_with_holds",

@@ -23,7 +23,7 @@ import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
-from aeroid.estimation._holds import CoefficientSpec
+from aeroid.estimation._holds import CoefficientSpec, airframe_holds
 from aeroid.estimation._holds_fit import apply_holds, check_free
 from aeroid.estimation._identifiability import record_findings, record_verdict
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
@@ -94,7 +94,9 @@ class Estimator(abc.ABC):
             Coefficients held at a value or given a Gaussian prior (default: all free;
             a mapping is read by :meth:`CoefficientSpec.from_mapping`). What is held is
             said in one line (logger ``aeroid``, INFO) and recorded in the result
-            (``held``, ``priors``); held coefficients have no standard error. A
+            (``held``, ``priors``); held coefficients have no standard error. An
+            airframe with ``fin = "passive"`` holds Czd and Cmd at zero (a hold or prior
+            given on them too must agree: one line otherwise). A
             coefficient the record cannot determine
             (:func:`aeroid.estimation.record_findings`: no fin motion, no pitch or yaw
             rate, a constant roll rate) is named before the fit (same logger); left free
@@ -112,7 +114,7 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         flight.validate()
-        spec = CoefficientSpec.coerce(holds)
+        spec = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
         owner = self.name or type(self).__name__
         if not spec.empty:
             if not self.supports_holds:
@@ -121,7 +123,8 @@ class Estimator(abc.ABC):
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
         findings = record_findings(flight)  # what the record cannot determine, said first
         for finding in findings:
-            logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
+            if any(n not in spec.held and n not in spec.priors for n in finding.names):
+                logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)

@@ -29,7 +29,11 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.model import NAMES
 
-__all__ = ["CoefficientSpec"]
+__all__ = ["FIN_TERMS", "CoefficientSpec", "airframe_holds"]
+
+#: The coefficients that multiply the fin deflection (aeroid/model/_equations.py: F_AZ's
+#: ``Czd delta`` and M_Y's ``Cmd delta``): held at zero for an airframe without a moving fin.
+FIN_TERMS: tuple[str, ...] = ("Czd", "Cmd")
 
 
 def _number(text: Any, where: str) -> float:
@@ -281,3 +285,12 @@ class CoefficientSpec:
         """Return ``{"held": {name: value}, "priors": {name: {"mean", "sd"}}}``."""
         return {"held": dict(self.held),
                 "priors": {n: {"mean": m, "sd": s} for n, (m, s) in self.priors.items()}}
+
+
+def airframe_holds(airframe: Any) -> CoefficientSpec:
+    """Return what an airframe holds: the fin terms at zero for ``fin = "passive"`` (a log
+    without a moving fin says nothing of them), else nothing."""
+    if getattr(airframe, "fin", "relay") != "passive":
+        return CoefficientSpec()
+    return CoefficientSpec(held=dict.fromkeys(FIN_TERMS, 0.0),
+                           sources=dict.fromkeys(FIN_TERMS, "passive fin"))

@@ -49,6 +49,8 @@ from aeroid.model._fileform import (
 )
 
 #: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
+#: The fin of an airframe (its field ``fin``): the moving ON-OFF fin, or none.
+FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 LIMITS: dict[str, tuple[float, float]] = {
     # 1 mm (a dart) to 10 m (a launch vehicle); a diameter in mm or cm lands outside.
     "diameter_m": (1e-3, 10.0),
@@ -86,8 +88,9 @@ class Airframe:
         Principal moments of inertia [kg m^2]; no products of inertia.
     thrust_n : float
         Thrust [N] along body +x through the c.g., known to every estimator; >= 0.
-    delta_max_deg : float
-        ON-OFF fin deflection [deg], > 0.
+    delta_max_deg : float or None
+        ON-OFF fin deflection [deg], > 0; required with ``fin = "relay"``, absent with
+        ``fin = "passive"``.
     accel1_position_m, accel2_position_m : tuple of 3 float
         Accelerometer triad positions from the c.g. in body axes [m]; distinct.
     accel1_position_sd_m, accel2_position_sd_m : tuple of 3 float
@@ -108,6 +111,11 @@ class Airframe:
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
     fin_law : FinLaw or None
         The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
+    fin : {"relay", "passive"}
+        ``relay`` (default): the moving ON-OFF fin of ``delta_max_deg``; ``passive``:
+        no moving fin (fixed fins: a sounding rocket's), so a log needs no fin column
+        (its deflection is zero), a non-zero one is refused, and the fin terms Czd and
+        Cmd are held at zero in every fit (:data:`FIN_KINDS`; issue 25).
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -119,7 +127,7 @@ class Airframe:
     iy_kgm2: float
     iz_kgm2: float
     thrust_n: float
-    delta_max_deg: float
+    delta_max_deg: float | None = None
     accel1_position_m: tuple[float, float, float]
     accel2_position_m: tuple[float, float, float]
     accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -130,6 +138,7 @@ class Airframe:
     atmosphere_channel: str | None = None
     prior: tuple[float, ...] | None = field(default=None)
     fin_law: FinLaw | None = None
+    fin: str = "relay"
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -139,8 +148,11 @@ class Airframe:
             if not (is_number(value) and math.isfinite(value) and value > 0):
                 raise AirframeError(f"airframe: {name} must be a positive number, got {value!r}")
             object.__setattr__(self, name, float(value))
+        self._check_fin()
         for name in ("thrust_n", "delta_max_deg"):
             value = getattr(self, name)
+            if value is None and self.fin == "passive":
+                continue
             if not (is_number(value) and math.isfinite(value)):
                 raise AirframeError(f"airframe: {name} must be a finite number, got {value!r}")
             object.__setattr__(self, name, float(value))
@@ -163,6 +175,18 @@ class Airframe:
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
                                 f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
+
+    def _check_fin(self) -> None:
+        if self.fin not in FIN_KINDS:
+            raise AirframeError(f"airframe: fin must be one of {', '.join(FIN_KINDS)}, got "
+                                f"{self.fin!r}")
+        if self.fin == "relay" and self.delta_max_deg is None:
+            raise AirframeError("airframe: delta_max_deg is required for a moving fin (or "
+                                'declare fin = "passive": no moving fin)')
+        if self.fin == "passive" and (self.delta_max_deg is not None or self.fin_law):
+            what = "delta_max_deg" if self.delta_max_deg is not None else "[fin_law]"
+            raise AirframeError(f'airframe: fin = "passive" has no moving fin, so no {what}; '
+                                "remove it")
 
     def _check_atmosphere(self) -> None:
         stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
@@ -198,10 +222,12 @@ class Airframe:
             raise AirframeError(f"airframe: thrust_n must be >= 0 (thrust acts along body +x; "
                                 f"a coasting airframe has 0), got {self.thrust_n:g}")
         low, high = LIMITS["delta_max_deg"]
-        if not low < self.delta_max_deg <= high:
+        if self.delta_max_deg is None:
+            pass  # a passive fin (_check_fin)
+        elif not low < self.delta_max_deg <= high:
             raise AirframeError(f"airframe: delta_max_deg must be in ({low:g}, {high:g}] deg, "
                                 f"got {self.delta_max_deg:g}")
-        if self.delta_max_deg < DELTA_MAX_WARN_DEG:
+        if self.delta_max_deg is not None and self.delta_max_deg < DELTA_MAX_WARN_DEG:
             warnings.warn(f"airframe: delta_max_deg {self.delta_max_deg:g} deg is very small "
                           f"(radians? {self.delta_max_deg:g} rad = "
                           f"{math.degrees(self.delta_max_deg):.3g} deg)",
@@ -251,7 +277,15 @@ class Airframe:
 
     @property
     def delta_max_rad(self) -> float:
-        """ON-OFF fin deflection [rad]."""
+        """ON-OFF fin deflection [rad].
+
+        Raises
+        ------
+        AirframeError
+            For a passive fin (it has no throw).
+        """
+        if self.delta_max_deg is None:
+            raise AirframeError('airframe: fin = "passive" has no fin throw (delta_max_deg)')
         return math.radians(self.delta_max_deg)
 
     @property
@@ -289,6 +323,8 @@ class Airframe:
             out["prior"] = dict(zip(NAMES, self.prior, strict=True))
         if self.fin_law is not None:
             out["fin_law"] = self.fin_law.to_table()
+        if self.fin == "relay":
+            table.pop("fin", None)  # the default, left out of the file
         return out
 
     @classmethod

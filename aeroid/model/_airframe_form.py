@@ -12,6 +12,8 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     Iz_kgm2 = 40.0
     thrust_N = 740.0                        # along body +x, >= 0
     delta_max_deg = 8.0                     # ON-OFF fin deflection, > 0
+    # fin = "passive"                       # optional: no moving fin (then no
+                                            #   delta_max_deg); default "relay"
     accel1_position_m = [0.6, 0.0, 0.0]     # triad positions from the c.g., body axes
     accel2_position_m = [-0.6, 0.01, 0.01]
 
@@ -59,10 +61,13 @@ AIRFRAME_KEYS = {
     "accel2_position_m": "accel2_position_m",
     "accel1_position_sd_m": "accel1_position_sd_m",
     "accel2_position_sd_m": "accel2_position_sd_m",
+    "fin": "fin",
 }
 #: ``length_m`` appears in no equation, so it may be left out; the positions' standard
-#: deviations default to 0 (known positions).
-OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
+#: deviations default to 0 (known positions); ``fin`` to ``"relay"``, whose
+#: ``delta_max_deg`` the airframe itself requires (a passive fin has none).
+OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m", "fin",
+                          "delta_max_deg")
 #: File key -> attribute of ``[atmosphere]`` (exactly one is given).
 ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
                    "per_sample": "atmosphere_channel"}
@@ -126,6 +131,7 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
             continue
         where = f"{source}: [airframe] {key}"
         kwargs[attr] = (numbers(table[key], 3, where) if key.startswith("accel")
+                        else text(table[key], where) if key == "fin"
                         else number(table[key], where))
     atmos = check_table(data["atmosphere"], f"{source}: [atmosphere]")
     check_keys(atmos, ATMOSPHERE_KEYS, f"{source}: [atmosphere]")
