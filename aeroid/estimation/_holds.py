@@ -288,9 +288,25 @@ class CoefficientSpec:
 
 
 def airframe_holds(airframe: Any) -> CoefficientSpec:
-    """Return what an airframe holds: the fin terms at zero for ``fin = "passive"`` (a log
-    without a moving fin says nothing of them), else nothing."""
-    if getattr(airframe, "fin", "relay") != "passive":
-        return CoefficientSpec()
-    return CoefficientSpec(held=dict.fromkeys(FIN_TERMS, 0.0),
-                           sources=dict.fromkeys(FIN_TERMS, "passive fin"))
+    """Return what an airframe declares: the fin terms held at zero for ``fin =
+    "passive"`` (a log without a moving fin says nothing of them), its ``[hold]`` values
+    and its ``[prior_sd]`` priors, centred on its ``[prior]``.
+
+    Raises
+    ------
+    EstimatorError
+        When the passive fin and ``[hold]`` or ``[prior_sd]`` disagree on a fin term.
+    """
+    spec = CoefficientSpec()
+    if getattr(airframe, "fin", "relay") == "passive":
+        spec = CoefficientSpec(held=dict.fromkeys(FIN_TERMS, 0.0),
+                               sources=dict.fromkeys(FIN_TERMS, "passive fin"))
+    held = dict(getattr(airframe, "hold", ()) or ())
+    sd = dict(getattr(airframe, "prior_sd", ()) or ())
+    if not (held or sd):
+        return spec
+    mean = dict(zip(NAMES, airframe.prior_vector(), strict=True))
+    sources = {n: "airframe [hold]" for n in held}
+    sources.update({n: "airframe [prior_sd]" for n in sd})
+    return spec.merged(CoefficientSpec(held=held, priors={n: (mean[n], s) for n, s in sd.items()},
+                                       sources=sources))

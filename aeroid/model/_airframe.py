@@ -38,6 +38,9 @@ from aeroid.model._airframe_form import (
     ATMOSPHERE_KEYS,
     SCENARIO_TABLES,
     airframe_fields,
+    check_fin,
+    check_holds,
+    coefficient_pairs,
     prior_tuple,
 )
 from aeroid.model._coefficients import NAMES, nominal
@@ -49,8 +52,6 @@ from aeroid.model._fileform import (
 )
 
 #: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
-#: The fin of an airframe (its field ``fin``): the moving ON-OFF fin, or none.
-FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 LIMITS: dict[str, tuple[float, float]] = {
     # 1 mm (a dart) to 10 m (a launch vehicle); a diameter in mm or cm lands outside.
     "diameter_m": (1e-3, 10.0),
@@ -116,6 +117,9 @@ class Airframe:
         no moving fin (fixed fins: a sounding rocket's), so a log needs no fin column
         (its deflection is zero), a non-zero one is refused, and the fin terms Czd and
         Cmd are held at zero in every fit (:data:`FIN_KINDS`; issue 25).
+    hold, prior_sd : tuple of (name, float)
+        ``[hold]``: coefficients every fit holds at a value; ``[prior_sd]``: the sd of a
+        Gaussian prior centred on ``[prior]`` (needed); :func:`aeroid.estimation.airframe_holds`.
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -139,6 +143,8 @@ class Airframe:
     prior: tuple[float, ...] | None = field(default=None)
     fin_law: FinLaw | None = None
     fin: str = "relay"
+    hold: tuple[tuple[str, float], ...] = ()
+    prior_sd: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -148,7 +154,10 @@ class Airframe:
             if not (is_number(value) and math.isfinite(value) and value > 0):
                 raise AirframeError(f"airframe: {name} must be a positive number, got {value!r}")
             object.__setattr__(self, name, float(value))
-        self._check_fin()
+        check_fin(self.fin, self.delta_max_deg, self.fin_law)
+        for name in ("hold", "prior_sd"):  # issue 25: held coefficients, priors' sd
+            object.__setattr__(self, name, coefficient_pairs(getattr(self, name), name))
+        check_holds(self.hold, self.prior_sd, self.prior)
         for name in ("thrust_n", "delta_max_deg"):
             value = getattr(self, name)
             if value is None and self.fin == "passive":
@@ -175,18 +184,6 @@ class Airframe:
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
                                 f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
-
-    def _check_fin(self) -> None:
-        if self.fin not in FIN_KINDS:
-            raise AirframeError(f"airframe: fin must be one of {', '.join(FIN_KINDS)}, got "
-                                f"{self.fin!r}")
-        if self.fin == "relay" and self.delta_max_deg is None:
-            raise AirframeError("airframe: delta_max_deg is required for a moving fin (or "
-                                'declare fin = "passive": no moving fin)')
-        if self.fin == "passive" and (self.delta_max_deg is not None or self.fin_law):
-            what = "delta_max_deg" if self.delta_max_deg is not None else "[fin_law]"
-            raise AirframeError(f'airframe: fin = "passive" has no moving fin, so no {what}; '
-                                "remove it")
 
     def _check_atmosphere(self) -> None:
         stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
@@ -325,6 +322,7 @@ class Airframe:
             out["fin_law"] = self.fin_law.to_table()
         if self.fin == "relay":
             table.pop("fin", None)  # the default, left out of the file
+        out.update({k: dict(v) for k, v in (("hold", self.hold), ("prior_sd", self.prior_sd)) if v})
         return out
 
     @classmethod

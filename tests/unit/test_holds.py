@@ -323,3 +323,40 @@ def test_swarm_priors_refused_without_a_likelihood(clean_flight):
     with pytest.raises(EstimatorError, match="polish"):
         aeroid.make_estimator("ebm-pso", {"polish": True}).fit(
             clean_flight, holds=CoefficientSpec(held={"Czd": TRUTH[2]}))
+
+
+# -- the airframe file ---------------------------------------------------------------------
+def test_airframe_file_holds_and_priors(tmp_path, clean_flight):
+    from aeroid.errors import AirframeError
+    from aeroid.estimation import airframe_holds
+    from aeroid.model import load_airframe
+    from aeroid.model._airframe import save_airframe
+
+    airframe = clean_flight.airframe.replace(prior=tuple(TRUTH), hold={"Czd": TRUTH[2]},
+                                             prior_sd={"Cmq": 300.0})
+    path = tmp_path / "airframe.toml"
+    save_airframe(airframe, path)
+    text = path.read_text()
+    assert "[hold]" in text and "[prior_sd]" in text
+    back = load_airframe(path)
+    spec = airframe_holds(back)
+    assert spec.held == {"Czd": TRUTH[2]}
+    assert spec.priors == {"Cmq": (TRUTH[8], 300.0)}
+    assert spec.sources["Czd"] == "airframe [hold]"
+    # the flight's airframe is used by every fit, the command line's holds merged in
+    flight = clean_flight.__class__(clean_flight.data, back, clean_flight.metadata)
+    res = EquationErrorEstimator().fit(flight, holds=CoefficientSpec(held={"Cx": TRUTH[0]}))
+    assert res.held == {"Cx": TRUTH[0], "Czd": TRUTH[2]} and "Cmq" in res.priors
+    with pytest.raises(EstimatorError, match="declared twice"):
+        EquationErrorEstimator().fit(flight, holds=CoefficientSpec(held={"Czd": 0.0}))
+    # the sidecar carries them with the flight
+    from aeroid.flights import read_flight
+    flight.write(tmp_path / "flight.csv")
+    again = read_flight(tmp_path / "flight.csv")
+    assert airframe_holds(again.airframe) == spec
+    for changes, words in (({"prior_sd": {"Cmq": 0.0}}, "must be > 0"),
+                           ({"prior_sd": {"Cq": 1.0}}, "Cq"),
+                           ({"hold": {"Cmq": 1.0}}, "both in"),
+                           ({"prior": None}, "needs \\[prior\\]")):
+        with pytest.raises(AirframeError, match=words):
+            airframe.replace(**changes)
