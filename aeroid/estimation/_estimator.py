@@ -152,7 +152,7 @@ class Estimator(abc.ABC):
         result = check_free(result, spec,  # held coefficients are known: not checked
                             lambda r: apply_fit_check(r, flight, levels, self.options()))
         failure, left = record_verdict(findings, spec.held, spec.priors)
-        if left:  # estimated freely although the record cannot determine them
+        if left and failure is not None:  # estimated freely though the record cannot tell
             result = dataclasses.replace(
                 result, success=False, message=failure if result.success else result.message,
                 warnings=(*result.warnings, *([failure] if not result.success else [])),

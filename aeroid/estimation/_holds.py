@@ -204,10 +204,10 @@ class CoefficientSpec:
                     f"{name}: declared twice, differently: {mine[0]} {mine[1]} "
                     f"({self.sources.get(name, '?')}) and {theirs[0]} {theirs[1]} "
                     f"({other.sources.get(name, '?')})")
-            if theirs[0] == "hold":
-                held[name] = theirs[1]
+            if name in other.held:
+                held[name] = other.held[name]
             else:
-                priors[name] = theirs[1]
+                priors[name] = other.priors[name]
             sources.setdefault(name, other.sources.get(name, "?"))
         return CoefficientSpec(held=held, priors=priors, sources=sources)
 

@@ -263,7 +263,7 @@ class EstimationResult:
         def clean(x: float) -> float | None:
             return None if not math.isfinite(x) else float(x)
 
-        out = {
+        out: dict[str, Any] = {
             "method": self.estimator,
             "coefficients": {n: clean(v) for n, v in self.as_dict().items()},
             "stderr": None if self.stderr is None else
