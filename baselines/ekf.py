@@ -37,7 +37,10 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     coefficient estimates and sds at every sample. A covariance that stops being
     positive definite gives ``success=False`` with the time at which it happened. With
     ``imu_errors`` the IMU's biases (and scale factors) are states too
-    (:class:`baselines._imu_states.ImuFilterOptions`).
+    (:class:`baselines._imu_states.ImuFilterOptions`). Held coefficients (``fit(...,
+    holds=...)``) leave the state; a coefficient with a prior starts at its mean with its
+    sd, a free one at the airframe's ``[prior]`` with ``initial_coefficient_sd_rel`` (0.3)
+    of it as sd (:func:`baselines._held.held_pass`).
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held

@@ -30,7 +30,8 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
 
     Options are those of :class:`baselines._common.AugmentedFilterOptions` plus the
     sigma-point parameters below. Result and failure handling as for the EKF, and its
-    IMU-error states (``imu_errors``, :class:`baselines._imu_states.ImuFilterOptions`).
+    IMU-error states (``imu_errors``, :class:`baselines._imu_states.ImuFilterOptions`)
+    and its held and prior coefficients (as the EKF's).
 
     Attributes
     ----------
