@@ -9,8 +9,8 @@ repository root (one process, seconds)::
 
 Prints, per noise model, the flights with a finding, and the smallest margin of each
 test over the seeds (the statistic divided by its limit: above 1 means not named), then
-the same on records that must be named (the fin at zero; q and r noise alone; p / V
-constant).
+the same on records that must be named (the fin at zero, and three fits of it with all
+nine free; q and r noise alone; p / V constant).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from aeroid.estimation import record_findings
+from aeroid.estimation import make_estimator, record_findings
 from aeroid.estimation._identifiability import (
     FIN_MOTION_RAD,
     RATE_SNR,
@@ -64,8 +64,15 @@ def main() -> None:
     zero_fin = theta.copy()
     zero_fin[[2, 7]] = 0.0
     flight = simulate(scenario.airframe, zero_fin, scenario.manoeuvre, GaussianNoise(), rng=0)
-    still = dataclasses.replace(flight, data=flight.data.assign(delta=0.0))
+    meta = {k: v for k, v in flight.metadata.items()
+            if k not in ("delta_knots", "command_switches")}
+    still = dataclasses.replace(flight, data=flight.data.assign(delta=0.0), metadata=meta,
+                                airframe=flight.airframe.replace(fin_law=None))
     print("fin at zero (Gaussian):", [f.names for f in record_findings(still)])
+    for name in ("output-error", "equation-error", "ekf"):
+        res = make_estimator(name).fit(still, rng=0)
+        print(f"  {name}, all nine free: success {res.success}; not identifiable "
+              f"{sorted(res.info.get('not_identifiable', {}))}; {res.message[:90]}")
     # the same log with q and r replaced by their noise alone, and with p held constant
     rng = np.random.default_rng(0)
     quiet = flight.data.assign(q=0.005 * rng.standard_normal(flight.n_samples),

@@ -153,10 +153,10 @@ class Estimator(abc.ABC):
                             lambda r: apply_fit_check(r, flight, levels, self.options()))
         failure, left = record_verdict(findings, spec.held, spec.priors)
         if left and failure is not None:  # estimated freely though the record cannot tell
-            result = dataclasses.replace(
-                result, success=False, message=failure if result.success else result.message,
-                warnings=(*result.warnings, *([failure] if not result.success else [])),
-                info={**result.info, "not_identifiable": left})
+            result = dataclasses.replace(  # the cause first; the method's own failure kept
+                result, success=False, message=failure, info={**result.info,
+                                                              "not_identifiable": left},
+                warnings=(*result.warnings, *([] if result.success else [result.message])))
         info = dict(result.info)
         info.setdefault("options", self.options())
         if choice is not None:
