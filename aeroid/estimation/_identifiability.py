@@ -99,7 +99,8 @@ def record_findings(flight: Flight) -> tuple[RecordFinding, ...]:
 
     From the logged deflection, the body rates and the velocities alone (no fit): the
     fin terms without fin motion, the damping terms without pitch or yaw rate, Cl0 and
-    Clp when the roll rate never changes.
+    Clp when the roll rate never changes. A test whose channels the flight lacks is not
+    made.
     """
     found = []
     if "delta" in flight.channels:
@@ -107,13 +108,17 @@ def record_findings(flight: Flight) -> tuple[RecordFinding, ...]:
         if span < FIN_MOTION_RAD:
             found.append(RecordFinding(("Czd", "Cmd"), f"no fin motion: the deflection "
                                        f"spans {span:.2g} rad < {FIN_MOTION_RAD:g}"))
-    q, r = flight["q"], flight["r"]
-    rms = float(np.sqrt(np.mean(q * q + r * r)))
-    noise = estimate_noise_sd(np.column_stack([q, r]), floor_fraction=0.0)
-    level = float(np.sqrt(np.sum(noise * noise)))
-    if rms <= max(RATE_SNR * level, RATE_FLOOR_RADPS):
-        found.append(RecordFinding(("Czq", "Cmq"), f"pitch and yaw rates near zero: RMS "
-                                   f"{rms:.2g} rad/s, noise {level:.2g} rad/s"))
+    have = set(flight.channels)
+    if {"q", "r"} <= have:
+        q, r = flight["q"], flight["r"]
+        rms = float(np.sqrt(np.mean(q * q + r * r)))
+        noise = estimate_noise_sd(np.column_stack([q, r]), floor_fraction=0.0)
+        level = float(np.sqrt(np.sum(noise * noise)))
+        if rms <= max(RATE_SNR * level, RATE_FLOOR_RADPS):
+            found.append(RecordFinding(("Czq", "Cmq"), f"pitch and yaw rates near zero: RMS "
+                                       f"{rms:.2g} rad/s, noise {level:.2g} rad/s"))
+    if not {"p", "u", "v", "w"} <= have:
+        return tuple(found)
     t = flight.t - np.mean(flight.t)
     speed = np.sqrt(flight["u"] ** 2 + flight["v"] ** 2 + flight["w"] ** 2)
     x = flight["p"] / np.where(speed > 0, speed, np.nan)
