@@ -210,6 +210,8 @@ class EquationErrorEstimator(Estimator):
         """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
         the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
         result = self._solve(flight, holds=holds)
+        if holds is not None and holds.held:  # the data against the held values
+            result = _held.ee_held_check(result, self._solve(flight), holds)
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:

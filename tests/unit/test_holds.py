@@ -242,11 +242,25 @@ def test_equation_error_identity_and_limits(clean_flight, noisy_flight, one_step
         np.testing.assert_allclose(tight.stderr[finite], held.stderr[finite], rtol=EE_SE_RTOL)
 
 
-def test_equation_error_wrong_held_value_is_refused(clean_flight):
+def test_equation_error_wrong_held_value_is_refused(clean_flight, noisy_flight):
     for one_step in (False, True):
         res = EquationErrorEstimator(one_step=one_step).fit(
             clean_flight, holds=CoefficientSpec(held={"Czd": 1.3 * TRUTH[2]}))
         assert not res.success and "does not fit" in res.message
+        assert any("contradicts the held value(s) Czd" in w for w in res.warnings)
+    # 5 % off under noise: the fit check on the loads does not see it (a success), the
+    # check of the held value against the free fit warns (z of ~100)
+    j = NAMES.index("Cmd")
+    res = EquationErrorEstimator().fit(noisy_flight, holds=CoefficientSpec(
+        held={"Cmd": 1.05 * TRUTH[j]}))
+    assert abs(res.info["held_check"]["Cmd"]) > 10
+    assert any("contradicts the held value(s) Cmd" in w for w in res.warnings)
+    # the truth itself is not flagged, noise-free or with the Gaussian IMU
+    for flight in (clean_flight, noisy_flight):
+        res = EquationErrorEstimator().fit(flight, holds=CoefficientSpec(
+            held={"Cmd": TRUTH[j], "Czd": TRUTH[2]}))
+        assert res.success, res.message
+        assert not any("contradicts" in w for w in res.warnings)
 
 
 # -- EKF / UKF -------------------------------------------------------------------------------
