@@ -4,14 +4,19 @@ A :class:`aeroid.estimation.CoefficientSpec` says which coefficients are held at
 and which have a Gaussian prior. Here it is applied without touching the models:
 
 - output-error (:func:`with_priors`, :func:`held_fit`, :func:`held_inverse`): the
-  Gauss-Newton problem is solved over a
-  reduced parameter vector that is mapped into the full one (the held coefficients at
-  their scaled values); the priors join :class:`baselines._gauss_newton.Problem`'s prior
-  terms; the fit is mapped back (held Jacobian columns zero) and the covariance is the
-  inverse of the free block of the information, prior included.
-- the augmented-state filters (:func:`held_filter_model`, :func:`reduce_setup`,
-  :func:`expand_output`): held coefficients leave the augmented state; a prior is the
-  initial mean and sd of that coefficient's state.
+  Gauss-Newton problem is solved over a reduced parameter vector that is mapped into the
+  full one (the held coefficients at their scaled values); the priors join
+  :class:`baselines._gauss_newton.Problem`'s prior terms; the fit is mapped back (held
+  Jacobian columns zero) and the covariance is the inverse of the free block of the
+  information, prior included.
+- equation-error (:func:`held_dict`, :func:`ee_one_step`, :func:`ee_prior_rows`,
+  :func:`ee_held_check`): held terms to the left side, priors as weighted
+  pseudo-observations, held values compared with the free fit (a warning).
+- the augmented-state filters (:func:`held_pass`: :func:`held_filter_model`,
+  :func:`reduce_setup`, :func:`expand_output`): held coefficients leave the augmented
+  state; a prior is the initial mean and sd of that coefficient's state.
+- pyswarms (:func:`swarm_problem`): the swarm over the free coefficients, the priors'
+  penalty added (:func:`aeroid.estimation.free_cost`).
 """
 
 from __future__ import annotations
@@ -28,9 +33,9 @@ from aeroid.model import N_STATE, NAMES
 from baselines import _kalman
 from baselines._gauss_newton import Fit, Problem, SmoothRegion
 
-__all__ = ["expand_output", "held_pass", "held_filter_model", "held_fit", "held_inverse",
-           "ee_held_check", "ee_prior_rows", "reduce_setup", "reduced_problem", "swarm_problem",
-           "with_priors"]
+__all__ = ["ee_full", "ee_full_matrix", "ee_held_check", "ee_one_step", "ee_prior_rows",
+           "expand_output", "held_dict", "held_filter_model", "held_fit", "held_inverse",
+           "held_pass", "reduce_setup", "reduced_problem", "swarm_problem", "with_priors"]
 
 
 class _ReducedModel:
