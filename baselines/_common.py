@@ -325,7 +325,7 @@ class AugmentedFilterOptions(Estimator):
                     f"pass {n_passes} diverged at t = {flight.t[nxt.failed_at]:.4f} s "
                     f"({nxt.reason}); the result is pass {n_passes - 1}'s")
                 break
-            changes.append(float(np.max(np.abs(nxt.x[-1, COEFFICIENTS]
+            changes.append(float(np.nanmax(np.abs(nxt.x[-1, COEFFICIENTS]  # held: 0/0
                                                - out.x[-1, COEFFICIENTS])
                                         / nxt.sd[-1, COEFFICIENTS])))
             out, setup = nxt, nxt_setup

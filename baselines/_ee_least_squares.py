@@ -8,11 +8,14 @@ blocks (the method and its measurements are documented there).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.linalg
 
 import aeroid
 from aeroid import estimation as rc
+from baselines._held import ee_prior_rows
 from baselines.newey_west import (
     MAX_CORRELATION_LENGTH,
     hac_covariance,
@@ -107,7 +110,8 @@ def _subproblem_arrays(X, y: np.ndarray, sd: np.ndarray, lateral_rows: bool) -> 
 
 
 def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
-                      lateral_rows: bool = False, covariance: str = "hac") -> tuple:
+                      lateral_rows: bool = False, covariance: str = "hac",
+                      held: dict[int, float] | None = None, holds: Any = None) -> tuple:
     """Solve the four SEBM least-squares sub-problems of the EBM regression.
 
     Parameters
@@ -124,6 +128,12 @@ def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
     lateral_rows : bool
     covariance : {"hac", "ols"}
         Newey-West or white-residual covariance (:func:`_lstsq`).
+    held : dict of int -> float, optional
+        Coefficient index -> value of held coefficients: their columns move to the left
+        side (``b - A_h theta_h``); their covariance is zero.
+    holds : CoefficientSpec, optional
+        Its priors join their sub-problem as weighted pseudo-observations
+        (:func:`baselines._held.ee_prior_rows`).
 
     Returns
     -------
@@ -148,7 +158,15 @@ def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
     problems = _subproblem_arrays(X, y, sd, lateral_rows)
     while problems:  # each problem's columns are freed once it is solved
         label, cols, A, b = problems.pop(0)
+        if held:  # held terms to the left side
+            local = [i for i, c in enumerate(cols) if c in held]
+            b = b - A[:, local] @ np.array([held[cols[i]] for i in local])
+            theta[[cols[i] for i in local]] = [held[cols[i]] for i in local]
+            A, cols = np.delete(A, local, axis=1), [c for c in cols if c not in held]
+            if not cols:
+                continue
         th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
+        th, cv = ee_prior_rows(A, b, th, cv, s2, cols, holds)
         theta[cols] = th
         cov[np.ix_(cols, cols)] = cv
         corr[np.ix_(cols, cols)] = _correlation(A)

@@ -15,13 +15,13 @@ written once in :mod:`aeroid.model` from the same equations as :mod:`aeroid.mode
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _kalman
+from baselines import _common, _held, _kalman
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -37,22 +37,31 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     coefficient estimates and sds at every sample. A covariance that stops being
     positive definite gives ``success=False`` with the time at which it happened. With
     ``imu_errors`` the IMU's biases (and scale factors) are states too
-    (:class:`baselines._imu_states.ImuFilterOptions`).
+    (:class:`baselines._imu_states.ImuFilterOptions`). Held coefficients (``fit(...,
+    holds=...)``) leave the state; a coefficient with a prior starts at its mean with its
+    sd, a free one at the airframe's ``[prior]`` with ``initial_coefficient_sd_rel`` (0.3)
+    of it as sd (:func:`baselines._held.held_pass`).
     """
 
+    supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
     name: ClassVar[str] = "ekf"
     supports_windows: ClassVar[bool] = True  # run_windows: baselines._kalman_windows
     description: ClassVar[str] = (
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
-        ``rng`` is unused)."""
+        ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
+
+        def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                        ) -> _kalman.FilterOutput:
+            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                   R_of=setup.R_of)
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
-            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                                   R_of=setup.R_of)
+            return _held.held_pass(model, setup, holds, filter_pass)
 
         return self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
 

@@ -80,7 +80,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -88,6 +88,7 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
+from baselines import _held
 from baselines._ee_least_squares import (  # the sub-problems' names are read from here
     LATERAL,
     SUBPROBLEMS,
@@ -188,6 +189,7 @@ class EquationErrorEstimator(Estimator):
 
     name: ClassVar[str] = "equation-error"
     supports_windows: ClassVar[bool] = True  # run_windows: baselines._ee_windows
+    supports_holds: ClassVar[bool] = True  # held to the left side, priors combined
     description: ClassVar[str] = (
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 
@@ -204,9 +206,13 @@ class EquationErrorEstimator(Estimator):
         if self.positions not in ("consider", "known"):
             raise ValueError(f"positions must be 'consider' or 'known', got {self.positions!r}")
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
-        """Solve the least-squares problems (deterministic)."""
-        result = self._solve(flight)
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
+        """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
+        the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
+        result = self._solve(flight, holds=holds)
+        if holds is not None and holds.held:  # the data against the held values
+            result = _held.ee_held_check(result, self._solve(flight), holds)
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:
@@ -221,7 +227,7 @@ class EquationErrorEstimator(Estimator):
                 moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
                                                 accel2_position_m=tuple(pos[3:]))
                 ends.append(self._solve(dataclasses.replace(flight, airframe=moved),
-                                        theta_only=True).theta)
+                                        theta_only=True, holds=holds).theta)
             G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
         cov = result.covariance + (G * sd[free] ** 2) @ G.T
         info = {**result.info, "position_sensitivity": G,
@@ -237,12 +243,13 @@ class EquationErrorEstimator(Estimator):
         return run_windows(self, windows, rng, affine_accelerations=affine_accelerations,
                            roll_floor=roll_floor)
 
-    def _solve(self, flight: Flight, *, theta_only: bool = False) -> EstimationResult:
+    def _solve(self, flight: Flight, *, theta_only: bool = False,
+               holds: Any = None) -> EstimationResult:
         """One solve at the airframe's positions (``theta_only``: the estimate alone, its
         covariance plain least squares and no gyro-only floor, for the sensitivities)."""
         covariance = "ols" if theta_only else self.covariance
         if self.one_step:
-            return self._one_step(flight, covariance, theta_only)
+            return self._one_step(flight, covariance, theta_only, holds)
         rec = rc.reconstruct(flight)
         y = rc.regression_target(rec, smoothing=self.smoothing)
         window = rec.smoothing_window
@@ -253,7 +260,7 @@ class EquationErrorEstimator(Estimator):
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
-            covariance=covariance)
+            covariance=covariance, held=_held.held_dict(holds), holds=holds)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
         rows = tuple(row for _, row, _ in SUBPROBLEMS)
@@ -264,8 +271,10 @@ class EquationErrorEstimator(Estimator):
         del rec, y  # step 1's arrays (all but the loads in the fit check) before the floor
         return self._result(flight, theta, cov, corr, cost, info, floor=not theta_only)
 
-    def _one_step(self, flight: Flight, covariance: str, theta_only: bool) -> EstimationResult:
+    def _one_step(self, flight: Flight, covariance: str, theta_only: bool,
+                  holds: Any = None) -> EstimationResult:
         c, A = affine_accelerations(flight)
+        c, A, free = _held.ee_one_step(c, A, holds)  # held terms into c
         n = flight.n_samples
         meas = np.concatenate([flight.accelerations().reshape(n, 6),
                                rc.rate_derivatives(flight)], axis=1)
@@ -283,7 +292,9 @@ class EquationErrorEstimator(Estimator):
             resid = target - np.einsum("noc,c->no", A, theta)
             sd = np.sqrt(np.mean(resid * resid, axis=0))
             sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
-        corr = _correlation(Aw)
+        theta, cov = _held.ee_full(*_held.ee_prior_rows(Aw, bw, theta, cov, s2, free, holds),
+                                   free, holds)
+        corr = _held.ee_full_matrix(_correlation(Aw), free, np.nan)
         info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"],
                 "hac_bandwidth": {"one_step": bandwidth}}
         names = aeroid.model.ACCEL_CHANNELS  # the rate-derivative rows are no flight channels

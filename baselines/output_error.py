@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -30,7 +30,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common
+from baselines import _common, _held
 from baselines._gauss_newton import (
     NOISE_MODELS,
     Fit,
@@ -195,6 +195,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
     name: ClassVar[str] = "output-error"
     uses_state_sd: ClassVar[bool] = True  # initial_velocity_prior, or a warning
     leaves_out_saturated: ClassVar[bool] = True  # RecordModel.mask, Problem.mask
+    supports_holds: ClassVar[bool] = True  # holds: baselines._held, the model untouched
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
@@ -308,14 +309,14 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
         return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol)
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
         if flight.n_samples > MAX_SAMPLES:
             raise aeroid.EstimatorError(
                 f"output-error: {flight.n_samples} samples; it fits at most {MAX_SAMPLES} "
                 "at once (the model and its Jacobian grow with the record: ~25 kB per "
                 "sample); fit windows of the log")
-        prob = self.problem(flight)
+        prob = _held.with_priors(self, flight, self.problem(flight), holds)
         model: RecordModel = prob.model  # type: ignore[assignment]
         scale = model.scale
         n_p = scale.size
@@ -342,7 +343,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
             try:
                 if start.p0 is None:
                     raise FloatingPointError(start.failure)
-                fits.append(self.gauss_newton(prob, start.p0))
+                fits.append(_held.held_fit(self, prob, start.p0, holds))
                 labels.append(start.label)
             except FloatingPointError as exc:
                 failures.append(f"{start.label}: {exc}")
@@ -353,7 +354,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         n_iter = sum(f.n_iterations for f in fits)
         M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
         try:
-            cov_p = np.linalg.inv(M)
+            cov_p = _held.held_inverse(M, holds)
         except np.linalg.LinAlgError:
             cov_p = np.full_like(M, np.nan)
         if self.covariance == "sandwich":

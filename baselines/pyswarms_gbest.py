@@ -25,7 +25,7 @@ import logging
 import logging.config
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -33,6 +33,7 @@ import aeroid
 from aeroid import estimation
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
+from baselines import _held
 
 
 @contextlib.contextmanager
@@ -113,6 +114,7 @@ class PyswarmsEstimator(Estimator):
     """
 
     name: ClassVar[str] = "pyswarms"
+    supports_holds: ClassVar[bool] = True  # the free coefficients only: baselines._held
     description: ClassVar[str] = "pyswarms global-best PSO on the EBM or EAM objective"
 
     objective: Literal["ebm", "eam"] = "ebm"
@@ -162,20 +164,24 @@ class PyswarmsEstimator(Estimator):
         X, y = estimation.ebm_regression(flight, rec, smoothing=self.smoothing)
         return estimation.regression_fit(rec, X, y, theta, estimation.EBM_ROWS)
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
-        """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it)."""
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
+        """Run the swarm (initial swarm from ``rng``, pyswarms' draws seeded from it;
+        ``holds``: the free coefficients only, priors' penalty added: ``free_cost``)."""
         cost = self.cost_function(flight)
         bounds = aeroid.prior_bounds(flight.airframe)
+        free, search, expand = _held.swarm_problem(self, cost, holds, flight.n_samples)
+        bounds_all, bounds = bounds, bounds[free]
         low, span = bounds[:, 0], bounds[:, 1] - bounds[:, 0]
         count = {"n": 0}
 
         def fun(u: np.ndarray) -> np.ndarray:
             count["n"] += len(u)
-            values = np.asarray(cost(low + u * span), dtype=float)
+            values = np.asarray(search(low + u * span), dtype=float)
             return np.where(np.isfinite(values), values, np.inf)
 
         init = rng.random((self.n_particles, len(bounds)))
-        init[0] = np.clip((flight.airframe.prior_vector() - low) / span, 0.0, 1.0)
+        init[0] = np.clip((flight.airframe.prior_vector()[free] - low) / span, 0.0, 1.0)
         options = {"c1": self.c1, "c2": self.c2, "w": self.w}
         with seeded_global_state(rng), _quiet_pyswarms():
             from pyswarms.single import GlobalBestPSO
@@ -187,14 +193,14 @@ class PyswarmsEstimator(Estimator):
                 init_pos=init)
             best_cost, best_u = optimizer.optimize(fun, iters=self.n_iterations,
                                                    verbose=False)
-        theta = low + np.asarray(best_u) * span
+        theta = expand(low + np.asarray(best_u) * span)
         hist_cost = np.asarray(optimizer.cost_history, dtype=float)
         history = {"axis": "iteration", "step": np.arange(1, len(hist_cost) + 1),
                    "theta": np.tile(theta, (len(hist_cost), 1)), "cost": hist_cost}
-        info = {"objective": self.objective, "bounds": bounds}
+        info = {"objective": self.objective, "bounds": bounds_all}
         message, warnings, state0 = f"{self.n_iterations} iterations", (), None
         if self.polish and np.isfinite(best_cost):
-            polished = estimation.polish(cost, bounds, theta,
+            polished = estimation.polish(cost, bounds_all, theta,
                                          initial_rates=self.polish_initial_rates)
             theta, best_cost, state0 = polished.theta, polished.cost, polished.state0
             count["n"] += polished.n_evaluations
@@ -207,7 +213,8 @@ class PyswarmsEstimator(Estimator):
         return EstimationResult(
             estimator=self.name, theta=theta, cost=float(best_cost),
             success=bool(np.isfinite(best_cost)),
-            warnings=estimation.box_edge_warnings(theta, bounds) + warnings,
+            warnings=estimation.box_edge_warnings(theta[free], bounds,
+                                                  [aeroid.NAMES[j] for j in free]) + warnings,
             message=message, n_evaluations=count["n"],
             n_iterations=self.n_iterations, history=history,
             info=info)

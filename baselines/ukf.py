@@ -14,13 +14,13 @@ filterpy's loops (see :mod:`baselines._kalman`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _kalman
+from baselines import _common, _held, _kalman
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -30,7 +30,8 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
 
     Options are those of :class:`baselines._common.AugmentedFilterOptions` plus the
     sigma-point parameters below. Result and failure handling as for the EKF, and its
-    IMU-error states (``imu_errors``, :class:`baselines._imu_states.ImuFilterOptions`).
+    IMU-error states (``imu_errors``, :class:`baselines._imu_states.ImuFilterOptions`)
+    and its held and prior coefficients (as the EKF's).
 
     Attributes
     ----------
@@ -43,6 +44,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         Secondary scaling of the sigma points (default 0).
     """
 
+    supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
     name: ClassVar[str] = "ukf"
     supports_windows: ClassVar[bool] = True  # run_windows: baselines._kalman_windows
     description: ClassVar[str] = (
@@ -57,15 +59,20 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         if not 0 < self.alpha <= 1:
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
-        ``rng`` is unused)."""
+        ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
 
-        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
-                     ) -> _kalman.FilterOutput:
+        def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                        ) -> _kalman.FilterOutput:
             return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
                                    alpha=self.alpha, beta=self.beta, kappa=self.kappa,
                                    R_of=setup.R_of)
+
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                     ) -> _kalman.FilterOutput:
+            return _held.held_pass(model, setup, holds, filter_pass)
 
         return self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)

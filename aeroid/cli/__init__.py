@@ -175,6 +175,11 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
                         "{channel = \"p\", unit = \"deg/s\"}}")
     p.add_argument("--degrees", action="store_true",
                    help="angles in deg, rates in deg/s (columns without a unit in the map)")
+    # held and prior coefficients (issue 25): aeroid.estimation.CoefficientSpec.parse
+    p.add_argument("--hold", action="append", default=[], metavar="NAME=VALUE",
+                   help="hold a coefficient at a value, not estimated (repeatable)")
+    p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
+                   help="a Gaussian prior on a coefficient, sd > 0 (repeatable)")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:

@@ -22,7 +22,14 @@ from typing import Any
 
 from aeroid.cli._windows import read_windows, window_notes, window_table, windows_json
 from aeroid.errors import EstimatorError, UsageError
-from aeroid.estimation import ProgressEvent, available, get_estimator, load_errors, make_estimator
+from aeroid.estimation import (
+    CoefficientSpec,
+    ProgressEvent,
+    available,
+    get_estimator,
+    load_errors,
+    make_estimator,
+)
 from aeroid.flights import read_column_map, read_flight
 from aeroid.model import load_airframe
 
@@ -147,6 +154,19 @@ def _read(args: argparse.Namespace, path: Any = None) -> Any:
                        columns=columns, degrees=bool(getattr(args, "degrees", False)))
 
 
+def holds_from_args(args: argparse.Namespace) -> CoefficientSpec:
+    """Return the ``--hold NAME=VALUE`` and ``--prior NAME=MEAN:SD`` of the command line.
+
+    Raises
+    ------
+    EstimatorError
+        One line for a malformed item, an unknown name, an sd <= 0, or a coefficient
+        both held and given a prior.
+    """
+    return CoefficientSpec.parse(getattr(args, "hold", None) or (),
+                                 getattr(args, "prior", None) or ())
+
+
 def _fit(estimator: Any, flight: Any, args: argparse.Namespace, label: str) -> Any:
     bar = None
     if progress_wanted(quiet=bool(getattr(args, "quiet", False)
@@ -155,7 +175,8 @@ def _fit(estimator: Any, flight: Any, args: argparse.Namespace, label: str) -> A
                        stderr_tty=sys.stderr.isatty(), stdout_tty=sys.stdout.isatty()):
         bar = ProgressBar(label)
     try:
-        return estimator.fit(flight, rng=getattr(args, "seed", None), progress=bar)
+        return estimator.fit(flight, rng=getattr(args, "seed", None), progress=bar,
+                             holds=holds_from_args(args))
     finally:
         if bar is not None:
             bar.close()
@@ -186,6 +207,7 @@ def estimate(args: argparse.Namespace) -> int:
     message, is still printed), so scripts can tell.
     """
     options = parse_options(getattr(args, "option", None))
+    holds_from_args(args)  # a bad --hold or --prior is said before the log is read
     single = "," not in args.method and args.method.strip() != "all"
     names = [args.method.strip()] if single else method_names(args.method)
     if single:

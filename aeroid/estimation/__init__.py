@@ -5,7 +5,8 @@ use the objectives, the EBM reconstruction, the PSO and its :func:`polish`,
 :func:`report_progress` and :func:`box_edge_warnings` defined here.
 
 Modules, one job each (imports point down the list, never up): ``_result`` (the result
-type), ``_predict`` (what a result's model says of a flight, its table and JSON info),
+type), ``_holds`` (held, free and prior coefficients), ``_predict`` (what a result's
+model says of a flight, its table and JSON info),
 ``_options`` (option values from text, option descriptions), ``_progress``
 (progress reports of a running fit), ``_estimator`` (the interface), ``_registry``
 (names -> classes, entry points), ``_pso_kernels`` and ``_pso`` (the paper's optimiser),
@@ -31,7 +32,21 @@ from aeroid.estimation._floor import (
     output_sensitivities,
 )
 from aeroid.estimation._gyro_floor import GYRO_FLOOR_NAMES, gyro_only_floor
-from aeroid.estimation._identifiability import identifiability, nuisance_findings
+from aeroid.estimation._holds import FIN_TERMS, CoefficientSpec, airframe_holds
+from aeroid.estimation._holds_fit import (
+    apply_holds,
+    combine_with_prior,
+    floor_with_holds,
+    free_cost,
+    holds_of,
+)
+from aeroid.estimation._identifiability import (
+    RecordFinding,
+    identifiability,
+    nuisance_findings,
+    record_findings,
+    record_verdict,
+)
 from aeroid.estimation._objectives import (
     EAM_OUTPUTS,
     EBM_ROWS,
@@ -95,6 +110,14 @@ from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, sw
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
 
 __all__ = [
+    "CoefficientSpec",
+    "FIN_TERMS",
+    "airframe_holds",
+    "apply_holds",
+    "combine_with_prior",
+    "floor_with_holds",
+    "free_cost",
+    "holds_of",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",
@@ -142,6 +165,9 @@ __all__ = [
     "failed_result",
     "get_estimator",
     "identifiability",
+    "RecordFinding",
+    "record_findings",
+    "record_verdict",
     "nuisance_findings",
     "gyro_only_floor",
     "load_errors",

@@ -14,6 +14,7 @@ import numpy as np
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation._estimator import prior_bounds
+from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._objectives import (
     EAM_ROLL_WINDOW,
     OutputErrorCost,
@@ -102,6 +103,7 @@ class EAMPSO(PSOMethodOptions):
     """
 
     name: ClassVar[str] = "eam-pso"
+    supports_holds: ClassVar[bool] = True  # the search over the free ones: held_search
     description: ClassVar[str] = ("output error (eq. 23): batched RK4 of the whole swarm, "
                                   "modified PSO (paper, 450 x 200)")
 
@@ -127,7 +129,8 @@ class EAMPSO(PSOMethodOptions):
             raise ValueError(f"stall_iterations must be >= 1 or none, "
                              f"got {self.stall_iterations}")
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator,
+            holds: CoefficientSpec | None = None) -> EstimationResult:
         """Estimate the coefficients by output error (see class docstring).
 
         Raises
@@ -149,6 +152,7 @@ class EAMPSO(PSOMethodOptions):
                                input=self.input, delay_s=self.delay_s)
         x0 = flight.airframe.prior_vector()[None, :] if self.warm_start else None
         res, warnings, polished = run_pso(self, cost, bounds, rng, n_particles=self.n_particles,
+                                          holds=holds,
                                           x0=x0, stall_iterations=self.stall_iterations)
         state0 = cost.state0 if polished is None or polished.state0 is None else polished.state0
         info: dict[str, Any] = {

@@ -16,11 +16,13 @@ from typing import ClassVar
 import numpy as np
 
 from aeroid.estimation._estimator import prior_bounds
+from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._objectives import EBM_ROWS, ebm_cost
 from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
     StepOneOptions,
     check_swarm_size,
+    prior_information,
     pso_history,
     reconstruction_info,
     run_pso,
@@ -79,6 +81,7 @@ class EBMPSO(StepOneOptions):
     """
 
     name: ClassVar[str] = "ebm-pso"
+    supports_holds: ClassVar[bool] = True  # the search over the free ones: held_search
     description: ClassVar[str] = ("two-step EBM: forces/moments from accelerometers and rates, "
                                   "SG smoothing, one 9-D modified PSO (eq. 34)")
 
@@ -89,19 +92,21 @@ class EBMPSO(StepOneOptions):
         super().__post_init__()
         check_swarm_size(self.n_particles)
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator,
+            holds: CoefficientSpec | None = None) -> EstimationResult:
         """Reconstruct, smooth and fit (see class docstring)."""
         rec = step_one(self, flight)
         rows = (0, 1, 2, 3, 4, 5) if self.lateral else EBM_ROWS
         cost = ebm_cost(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
                         rows=rows, guard_fraction=self.guard_fraction)
         bounds = prior_bounds(flight.airframe, self.box)
-        res, warnings, polished = run_pso(self, cost, bounds, rng, n_particles=self.n_particles)
+        res, warnings, polished = run_pso(self, cost, bounds, rng, n_particles=self.n_particles,
+                                          holds=holds)
         info = reconstruction_info(rec)
         info.update({"weighting": self.weighting, "smoothing": self.smoothing,
                      "rows": rows, "n_particles": self.n_particles, "bounds": bounds,
                      "closed_form_theta": cost.theta_opt, "closed_form_cost": cost.cost_min,
-                     "information": cost.hessian})  # the fit check's identifiability
+                     "information": prior_information(cost, holds)})  # identifiability
         if polished is not None:
             info["polish"] = polish_info(polished)
         X, y = ebm_regression(flight, rec, smoothing=self.smoothing)

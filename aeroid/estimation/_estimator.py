@@ -23,6 +23,9 @@ import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
+from aeroid.estimation._holds import CoefficientSpec, airframe_holds
+from aeroid.estimation._holds_fit import apply_holds, check_free
+from aeroid.estimation._identifiability import record_findings, record_verdict
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
@@ -67,6 +70,11 @@ class Estimator(abc.ABC):
     #: (:meth:`run_windows`); :meth:`fit` of a :class:`aeroid.flights.Windows` refuses the
     #: others in one line.
     supports_windows: ClassVar[bool] = False
+    #: True for a method whose :meth:`run` takes ``holds=`` (a
+    #: :class:`aeroid.estimation.CoefficientSpec` with something held or a prior): it
+    #: estimates only the free coefficients and adds the priors' information. :meth:`fit`
+    #: refuses holds and priors for the others in one line.
+    supports_holds: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -89,7 +97,8 @@ class Estimator(abc.ABC):
 
     def fit(self, flight: Flight | Windows, *,
             rng: np.random.Generator | int | None = None,
-            progress: ProgressCallback | None = None) -> EstimationResult:
+            progress: ProgressCallback | None = None,
+            holds: CoefficientSpec | Mapping[str, Any] | None = None) -> EstimationResult:
         """Validate ``flight``, run the method, time it; never raise for a numerical failure.
 
         Parameters
@@ -103,6 +112,18 @@ class Estimator(abc.ABC):
         progress : callable or None
             ``progress(event)`` with a :class:`aeroid.estimation.ProgressEvent`, called
             by methods that report progress (the paper's PSO methods: every iteration).
+        holds : CoefficientSpec, mapping or None
+            Coefficients held at a value or given a Gaussian prior (default: all free;
+            a mapping is read by :meth:`CoefficientSpec.from_mapping`). What is held is
+            said in one line (logger ``aeroid``, INFO) and recorded in the result
+            (``held``, ``priors``); held coefficients have no standard error. An
+            airframe with ``fin = "passive"`` holds Czd and Cmd at zero (a hold or prior
+            given on them too must agree: one line otherwise). A
+            coefficient the record cannot determine
+            (:func:`aeroid.estimation.record_findings`: no fin motion, no pitch or yaw
+            rate, a constant roll rate) is named before the fit (same logger); left free
+            without a prior, the result is ``success=False`` and
+            ``info["not_identifiable"]`` names it with its reason.
 
         Raises
         ------
@@ -115,6 +136,11 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         if isinstance(flight, Windows):
+            spec = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
+            if not spec.empty:
+                raise EstimatorError(f"{self.name or type(self).__name__}: several windows "
+                                     f"cannot hold coefficients or take priors yet "
+                                     f"({spec.describe()}); fit one window")
             return fit_windows(self, flight, rng=rng, progress=progress)
         flight.validate()
         saturated = flight.metadata.get("saturated") or {}
@@ -123,6 +149,17 @@ class Estimator(abc.ABC):
                 f"{self.name}: the flight has {sum(len(k) for k in saturated.values())} "
                 f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); this "
                 "method cannot leave them out of its fit (output-error, ekf and ukf can)")
+        spec = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
+        owner = self.name or type(self).__name__
+        if not spec.empty:
+            if not self.supports_holds:
+                raise EstimatorError(f"{owner}: this method cannot hold coefficients or take "
+                                     f"priors ({spec.describe()}); fit all nine free")
+            logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
+        findings = record_findings(flight)  # what the record cannot determine, said first
+        for finding in findings:
+            if any(n not in spec.held and n not in spec.priors for n in finding.names):
+                logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)
@@ -132,7 +169,8 @@ class Estimator(abc.ABC):
         start = time.perf_counter()
         try:
             with np.errstate(all="ignore"), progress_listener(progress):
-                result = self.run(flight, generator)
+                result = (self.run(flight, generator) if spec.empty else
+                          self.run(flight, generator, holds=spec))  # type: ignore[call-arg]
         except AeroidError:
             raise  # bad input found by the method (data, options): a user error, one line
         except Exception as exc:  # failure is data (module docstring)
@@ -144,8 +182,16 @@ class Estimator(abc.ABC):
                                          message=result.message or "non-finite estimate")
         result = dataclasses.replace(result, input=None if choice is None else choice.input,
                                      noise_model=self.noise_model_used())
+        result = apply_holds(result, spec)
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
-        result = apply_fit_check(result, flight, levels, self.options())
+        result = check_free(result, spec,  # held coefficients are known: not checked
+                            lambda r: apply_fit_check(r, flight, levels, self.options()))
+        failure, left = record_verdict(findings, spec.held, spec.priors)
+        if left and failure is not None:  # estimated freely though the record cannot tell
+            result = dataclasses.replace(  # the cause first; the method's own failure kept
+                result, success=False, message=failure, info={**result.info,
+                                                              "not_identifiable": left},
+                warnings=(*result.warnings, *([] if result.success else [result.message])))
         info = dict(result.info)
         info.setdefault("options", self.options())
         if choice is not None:

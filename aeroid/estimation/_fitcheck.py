@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from aeroid.estimation._holds_fit import floor_with_holds, holds_of
 from aeroid.estimation._identifiability import identifiability_findings
 from aeroid.estimation._information import coefficient_information, fisher_information
 from aeroid.estimation._result import EstimationResult
@@ -322,7 +323,7 @@ FLOOR_SUBSTEPS = 1
 
 
 def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: A002
-               levels: Mapping[str, float] | None = None) -> np.ndarray | None:
+               levels: Mapping[str, float] | None = None, holds: Any = None) -> np.ndarray | None:
     """Return the Cramér-Rao floor of the nine coefficients at ``theta`` from the data.
 
     The output-error information of the flight's record (both triads and the rates,
@@ -331,7 +332,7 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
     noise-free (every channel below :data:`NOISE_FREE_FRACTION` of its RMS: no floor to
     compare with)
     or the model diverges. ``levels``: the data's noise levels already computed
-    (:func:`data_noise_levels`).
+    (:func:`data_noise_levels`); ``holds``: that of the free ones (:func:`floor_with_holds`).
     """
     from aeroid.estimation._signals import smooth
     from aeroid.flights import flight_record, model_constants
@@ -364,7 +365,7 @@ def data_floor(flight: Flight, theta: np.ndarray, input: str = "hold",  # noqa: 
     if not np.all(np.isfinite(info)):
         return None
     try:
-        return np.sqrt(np.diag(np.linalg.inv(coefficient_information(info))))
+        return floor_with_holds(coefficient_information(info), holds)  # None: all free
     except np.linalg.LinAlgError:
         return None
 
@@ -386,7 +387,7 @@ def floor_warnings(result: EstimationResult, flight: Flight,
         # standard errors at 0.4-23x it on two paper-noise flights (measured): no
         # yardstick for a warning.
         return ()
-    floor = data_floor(flight, result.theta, result.input or "hold", levels)
+    floor = data_floor(flight, result.theta, result.input or "hold", levels, holds_of(result))
     if floor is None:
         return ()
     low = [f"{name} ({se:.3g} < {f:.3g})"

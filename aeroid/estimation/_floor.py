@@ -58,9 +58,9 @@ sensor does; studies must say which floor they draw. The heteroscedastic floor a
 depends on where the zero crossings fall between samples: linearised about the paper-
 noise flight's (noisy) first state instead, it gives Czq 0.30 % and Cmd 0.005 % (the
 homoscedastic floor moves by < 10 %). A Monte Carlo check (tests/unit/test_fisher.py,
-slow) finds the spread of a weighted least-squares fit with weights ``1 / sd^2`` from
-the true outputs at 0.90-1.05 times both floors; an estimator that weights by the
-measured values cannot exploit the exact zero crossings in the same way.
+slow) finds the spread of a weighted least-squares fit with weights ``1 / sd^2`` from the
+true outputs at 0.90-1.05 times both floors; an estimator weighting by the measured
+values cannot exploit the exact zero crossings in the same way.
 """
 
 from __future__ import annotations
@@ -72,6 +72,7 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import AeroidError, AeroidWarning, EstimatorError
+from aeroid.estimation._holds_fit import CoefficientSpec, floor_with_holds
 from aeroid.estimation._information import (
     CHANNEL_SETS,
     channel_indices,
@@ -309,6 +310,7 @@ def cramer_rao_sd(
     channels: str = "both",
     estimate_initial: tuple[str, ...] = (),
     input: str = "auto",  # noqa: A002 - the estimators' option name
+    holds: CoefficientSpec | None = None,
 ) -> np.ndarray:
     """Return the Cramér-Rao standard deviations of the nine coefficients, shape (9,).
 
@@ -337,13 +339,13 @@ def cramer_rao_sd(
         logged deflection first (:func:`aeroid.flights.check_input`: an error when they
         contradict it, an :class:`~aeroid.errors.AeroidWarning` when they agree in part).
         Per-sample channels of the flight are used.
+    holds : CoefficientSpec or None
+        Held ones known (floor NaN), priors added (:func:`floor_with_holds`).
 
     Returns
     -------
     pandas.Series, 9 values
-        ``sqrt(diag(F^-1))`` indexed by the coefficient names (same units as the
-        coefficients; ``.to_numpy()`` gives them in :data:`aeroid.model.NAMES` order).
-        Divide by ``|theta|`` for a relative floor.
+        ``sqrt(diag(F^-1))`` by coefficient name (``.to_numpy()``: :data:`NAMES` order).
 
     Raises
     ------
@@ -352,7 +354,7 @@ def cramer_rao_sd(
     """
     try:
         sd = _cramer_rao_sd(scenario_or_flight, noise_model, positions, noise_form, channels,
-                            estimate_initial, input)
+                            estimate_initial, input, holds)
     except AeroidError:
         raise
     except (TypeError, ValueError, np.linalg.LinAlgError) as exc:
@@ -363,9 +365,8 @@ def cramer_rao_sd(
 
 
 def _cramer_rao_sd(scenario_or_flight: Scenario | Flight, noise_model: NoiseModel,
-                   positions: str, noise_form: str, channels: str,
-                   estimate_initial: tuple[str, ...], input: str,  # noqa: A002
-                   ) -> np.ndarray:
+                   positions: str, noise_form: str, channels: str, estimate_initial: tuple,
+                   input: str, holds: CoefficientSpec | None) -> np.ndarray:  # noqa: A002
     if isinstance(scenario_or_flight, Scenario):
         flight = simulate(scenario_or_flight.airframe, scenario_or_flight.coefficient_vector,
                           scenario_or_flight.manoeuvre, NoNoise(), rng=0)
@@ -395,6 +396,5 @@ def _cramer_rao_sd(scenario_or_flight: Scenario | Flight, noise_model: NoiseMode
     sd = model_noise_sd(noise_model, outputs, noise_form=noise_form)
     info = output_error_information(flight.airframe, theta, inputs, sd, positions=pos,
                                     channels=channels, estimate_initial=estimate_initial)
-    cov = np.linalg.inv(info)
-    return np.sqrt(np.diag(cov))
+    return floor_with_holds(info, holds)  # None: all free, sqrt(diag(inv(info)))
 

@@ -16,13 +16,34 @@ coefficients, any positive scale: EBM-PSO's quadratic form). Three findings:
 - **confounded pairs**: two coefficients whose estimates correlate above
   :data:`CORRELATION_LIMIT` in magnitude: the data determine a combination of the two
   much better than either (a warning naming them).
+
+Before the fit, from the record alone (:func:`record_findings`): coefficients whose
+regressor the record does not excite, each named with its reason and the suggestion to
+hold it or give it a prior. A fit that estimates such a coefficient freely anyway is not
+a success (:func:`record_verdict`):
+
+- **no fin motion** (the logged deflection's range below :data:`FIN_MOTION_RAD`): the
+  fin terms Czd, Cmd multiply the deflection (regressor zero, or a constant confounded
+  with any constant force);
+- **no pitch or yaw rate** (the RMS of ``sqrt(q^2 + r^2)`` at most :data:`RATE_SNR`
+  times their noise level, or below :data:`RATE_FLOOR_RADPS`): the damping terms Czq,
+  Cmq multiply q and r;
+- **a roll rate that never changes** (the spread of ``p / V`` along a cubic in time below
+  :data:`ROLL_VARIATION` of its mean): the roll moment ``Cl0 + Clp p d / (2 V)`` then
+  fixes only that combination, so Cl0 and Clp are named together.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+
+from aeroid.estimation._signals import estimate_noise_sd
+
+if TYPE_CHECKING:
+    from aeroid.flights import Flight
 
 #: Scaled information at most this fraction of the largest is zero: squares of rounding
 #: (1e-16 relative) sum to 1e-32; real differences between coefficients stay far above
@@ -39,7 +60,99 @@ LITTLE_INFORMATION_SD = 1.0
 #: state, which fixes the ratio Cl0 / Clp), so those fits carry this warning.
 CORRELATION_LIMIT = 0.98
 
+#: A fin whose logged deflection spans less than this [rad] (0.06 deg, below one count of
+#: a servo log) does not move: the reference flight's relay spans 0.28 rad, 279 times it.
+FIN_MOTION_RAD = 1e-3
+#: Pitch and yaw rates whose RMS is at most this many times their noise level are noise:
+#: on the reference flight they are at least 20 (Gaussian tactical IMU) and 41 (paper
+#: noise) times it over 50 seeds each (benchmarks/identifiability_false_alarms.py), so
+#: the limit keeps a factor 6.6 from a normal flight.
+RATE_SNR = 3.0
+#: Below this RMS [rad/s] the pitch and yaw rates are zero whatever the noise estimate
+#: says (a noise-free log of a pure roll).
+RATE_FLOOR_RADPS = 1e-6
+#: A roll regressor ``p / V`` whose cubic trend over the record spreads less than this
+#: fraction of its mean does not separate Cl0 from Clp: the reference flight's spreads at
+#: least 0.020 (noise-free, Gaussian) and 0.018 (paper noise, 50 seeds), 18 times it.
+ROLL_VARIATION = 1e-3
+
 Pairs = tuple[tuple[str, str, float], ...]
+
+
+class RecordFinding(NamedTuple):
+    """Coefficients the record cannot determine, and why (one phrase)."""
+
+    names: tuple[str, ...]
+    reason: str
+
+    def text(self) -> str:
+        """Return one line: the names, the reason, what to do."""
+        verb = "is" if len(self.names) == 1 else "are"
+        holds = " ".join(f"--hold {n}=VALUE" for n in self.names)
+        return (f"{', '.join(self.names)} {verb} not identifiable from this record "
+                f"({self.reason}): hold {'it' if len(self.names) == 1 else 'them'} "
+                f"({holds}) or give a prior (--prior NAME=MEAN:SD)")
+
+
+def record_findings(flight: Flight) -> tuple[RecordFinding, ...]:
+    """Return the coefficients the record does not excite (module docstring), with why.
+
+    From the logged deflection, the body rates and the velocities alone (no fit): the
+    fin terms without fin motion, the damping terms without pitch or yaw rate, Cl0 and
+    Clp when the roll rate never changes. A test whose channels the flight lacks is not
+    made.
+    """
+    found = []
+    if "delta" in flight.channels:
+        span = float(np.ptp(flight["delta"]))
+        if span < FIN_MOTION_RAD:
+            found.append(RecordFinding(("Czd", "Cmd"), f"no fin motion: the deflection "
+                                       f"spans {span:.2g} rad < {FIN_MOTION_RAD:g}"))
+    have = set(flight.channels)
+    if {"q", "r"} <= have:
+        q, r = flight["q"], flight["r"]
+        rms = float(np.sqrt(np.mean(q * q + r * r)))
+        noise = estimate_noise_sd(np.column_stack([q, r]), floor_fraction=0.0)
+        level = float(np.sqrt(np.sum(noise * noise)))
+        if rms <= max(RATE_SNR * level, RATE_FLOOR_RADPS):
+            found.append(RecordFinding(("Czq", "Cmq"), f"pitch and yaw rates near zero: RMS "
+                                       f"{rms:.2g} rad/s, noise {level:.2g} rad/s"))
+    if not {"p", "u", "v", "w"} <= have:
+        return tuple(found)
+    t = flight.t - np.mean(flight.t)
+    speed = np.sqrt(flight["u"] ** 2 + flight["v"] ** 2 + flight["w"] ** 2)
+    x = flight["p"] / np.where(speed > 0, speed, np.nan)
+    if np.all(np.isfinite(x)) and x.size > 4:
+        trend = np.polyval(np.polyfit(t, x, 3), t)
+        mean = abs(float(np.mean(trend)))
+        spread = float(np.std(trend)) / mean if mean > 0 else 0.0
+        if spread < ROLL_VARIATION:
+            found.append(RecordFinding(("Cl0", "Clp"), f"a roll rate that never changes: "
+                                       f"p / V spreads {spread:.2g} of its mean < "
+                                       f"{ROLL_VARIATION:g}, so only Cl0 + Clp p d / (2V) is "
+                                       "determined"))
+    return tuple(found)
+
+
+def record_verdict(findings: Sequence[RecordFinding], held: Mapping[str, Any],
+                   priors: Mapping[str, Any]) -> tuple[str | None, dict[str, str]]:
+    """Return (failure message or None, name -> reason) of the findings a fit leaves free.
+
+    A coefficient held or given a prior is determined by that; any other named by
+    ``findings`` makes the fit no success for it.
+    """
+    left: dict[str, str] = {}
+    for finding in findings:
+        for name in finding.names:
+            if name not in held and name not in priors:
+                left[name] = finding.reason
+    if not left:
+        return None, {}
+    reasons = dict.fromkeys(left.values())
+    text = "; ".join(f"{', '.join(n for n in left if left[n] == why)}: {why}"
+                     for why in reasons)
+    return (f"not identifiable from this record, estimated anyway: {text}; hold them or "
+            "give priors (--hold NAME=VALUE, --prior NAME=MEAN:SD)", left)
 
 
 def _from_information(theta_scale: np.ndarray, information: np.ndarray
@@ -162,6 +275,7 @@ def nuisance_findings(names: Sequence[str], theta: np.ndarray, covariance: np.nd
     return out
 
 
-__all__ = ["CORRELATION_LIMIT", "LITTLE_INFORMATION_SD", "NO_INFORMATION_SD",
-           "ZERO_INFORMATION", "identifiability", "identifiability_findings",
-           "nuisance_findings"]
+__all__ = ["CORRELATION_LIMIT", "FIN_MOTION_RAD", "LITTLE_INFORMATION_SD",
+           "NO_INFORMATION_SD", "RATE_FLOOR_RADPS", "RATE_SNR", "ROLL_VARIATION",
+           "ZERO_INFORMATION", "RecordFinding", "identifiability", "identifiability_findings",
+           "nuisance_findings", "record_findings", "record_verdict"]

@@ -22,6 +22,8 @@ import numpy as np
 
 from aeroid.estimation import _pso as pso
 from aeroid.estimation._estimator import Estimator
+from aeroid.estimation._holds import CoefficientSpec
+from aeroid.estimation._holds_fit import free_cost
 from aeroid.estimation._objectives import GUARD_FRACTION, WEIGHTINGS
 from aeroid.estimation._polish import Polished, polish
 from aeroid.estimation._progress import pso_callback
@@ -41,8 +43,8 @@ from aeroid.model import NAMES
 __all__ = [
     "MAX_ITERATIONS", "MAX_PARTICLES", "MAX_SUBSTEPS", "PSOMethodOptions", "StepOneOptions",
     "check_common_options",
-    "check_step_one_options", "check_swarm_size", "polish_result", "pso_history",
-    "reconstruction_info", "run_pso", "step_one",
+    "check_step_one_options", "check_swarm_size", "held_search", "polish_result",
+    "prior_information", "pso_history", "reconstruction_info", "run_pso", "step_one",
 ]
 
 #: Largest swarm. EAM-PSO simulates the whole swarm at once and holds its states,
@@ -167,6 +169,7 @@ def pso_history(res: pso.PSOResult) -> dict[str, Any]:
 
 def run_pso(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *,
             n_particles: int, names: Sequence[str] = NAMES, stage: str = "PSO",
+            holds: CoefficientSpec | None = None,
             **kwargs: Any) -> tuple[pso.PSOResult, tuple[str, ...], Polished | None]:
     """Run the modified PSO with the estimator's options, polish, check the edges.
 
@@ -185,6 +188,9 @@ def run_pso(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *
         Names of the searched coefficients (for the warnings).
     stage : str
         Name of this run in the progress reports.
+    holds : CoefficientSpec or None
+        Held coefficients leave the search (the box shrinks to the free ones); priors
+        add their penalty to the cost (:func:`held_search`). The result is over ``names``.
     **kwargs
         Passed to :func:`aeroid.estimation.minimize` (``x0``, ``stall_iterations``).
 
@@ -201,6 +207,9 @@ def run_pso(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *
         The polish (:func:`polish_result`), None without ``polish`` or when the swarm
         found no finite cost.
     """
+    if holds is not None and not holds.empty:
+        return held_search(est, cost, bounds, rng, n_particles=n_particles, names=names,
+                           stage=stage, holds=holds, **kwargs)
     res = pso.minimize(cost, bounds, n_particles=n_particles, n_iterations=est.n_iterations,
                        rng=rng, topology=est.topology, interpolation=est.interpolation,
                        callback=pso_callback(est.n_iterations, stage), **kwargs)
@@ -228,3 +237,60 @@ def polish_result(res: pso.PSOResult, cost: Any, bounds: np.ndarray, *,
         n_evaluations=res.n_evaluations + polished.n_evaluations,
         message=f"{res.message}; polished: {polished.message}")
     return res, polished
+
+
+def held_search(est: Any, cost: Any, bounds: np.ndarray, rng: np.random.Generator, *,
+                n_particles: int, names: Sequence[str], stage: str, holds: CoefficientSpec,
+                **kwargs: Any) -> tuple[pso.PSOResult, tuple[str, ...], None]:
+    """:func:`run_pso` over the free coefficients of ``names`` (the others held).
+
+    The swarm searches the free coefficients' box; the cost sees the held values. A
+    prior ``N(mu, sd^2)`` adds ``((theta - mu) / sd)^2 / N`` (``N`` the cost's samples):
+    with ``weighting = "noise"`` the cost is ``2 / N`` times the negative log-likelihood,
+    so this is the prior's share of the same scale (MAP). The result's ``x``, history and
+    cost are over all of ``names`` (the cost with the penalty).
+
+    Raises
+    ------
+    EstimatorError
+        Priors with ``weighting = "relative"`` (no likelihood to add them to), or
+        ``polish`` with held or prior coefficients (the polish solves the full problem).
+    """
+    from aeroid.errors import EstimatorError
+
+    if getattr(est, "polish", False):
+        raise EstimatorError(f"{est.name}: polish with held or prior coefficients is not "
+                             "supported; set polish = false")
+    if holds.priors and est.weighting != "noise":
+        raise EstimatorError(f"{est.name}: priors need weighting = noise (the relative cost "
+                             "is no log-likelihood to add them to)")
+    names = list(names)
+    n = float(getattr(cost, "n_samples", None) or cost.model.n_samples)
+    free, reduced, full = free_cost(cost, holds, n, names)
+
+    if free.size == 0:  # every coefficient of this (sub-)problem held
+        x = full(np.empty(0))
+        c = float(cost(x))
+        res = pso.PSOResult(x=x, cost=c, success=True, message="every coefficient held",
+                            n_evaluations=1, n_iterations=0, history_cost=np.array([c]),
+                            history_x=x[None, :])
+        return res, (), None
+    if kwargs.get("x0") is not None:
+        kwargs["x0"] = np.asarray(kwargs["x0"], dtype=float)[:, free]
+    res = pso.minimize(reduced, bounds[free], n_particles=n_particles,
+                       n_iterations=est.n_iterations, rng=rng, topology=est.topology,
+                       interpolation=est.interpolation,
+                       callback=pso_callback(est.n_iterations, stage), **kwargs)
+    res = dataclasses.replace(res, x=full(res.x), history_x=full(res.history_x))
+    warnings = box_edge_warnings(res.x[free], bounds[free], [names[i] for i in free]) \
+        if res.success else ()
+    return res, warnings, None
+
+
+def prior_information(cost: Any, holds: CoefficientSpec | None) -> np.ndarray:
+    """Return a quadratic cost's curvature ``H`` (N, N) with the priors' ``diag(1 / sd^2) / N``
+    added (the penalty of :func:`held_search` in the cost's units)."""
+    hessian = np.asarray(cost.hessian, dtype=float)
+    if holds is None or not holds.priors:
+        return hessian
+    return hessian + np.diag(holds.prior_information()) / float(cost.n_samples)

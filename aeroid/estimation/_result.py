@@ -83,6 +83,12 @@ class EstimationResult:
         ``"signal"`` (per sample, ``a + b yhat^2``); None for a method without a
         ``noise_model`` option (one level per channel, or no noise model). Set by
         :meth:`aeroid.estimation.Estimator.fit`.
+    held : dict of str -> float
+        Coefficients held at a value (not estimated: standard error NaN, zero covariance
+        rows; :class:`aeroid.estimation.CoefficientSpec`); empty when all are free.
+    priors : dict of str -> (float, float)
+        Coefficients estimated with a Gaussian prior ``(mean, sd)``: their standard
+        errors and covariance include the prior's information.
     """
 
     estimator: str
@@ -101,6 +107,8 @@ class EstimationResult:
     info: dict[str, Any] = field(default_factory=dict)
     input: str | None = None
     noise_model: str | None = None
+    held: dict[str, float] = field(default_factory=dict)
+    priors: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "theta", np.asarray(self.theta, dtype=float).reshape(-1))
@@ -211,9 +219,12 @@ class EstimationResult:
         errors = self.relative_error_pct(truth) if truth is not None else None
         for j, name in enumerate(self.names):
             se = "" if self.stderr is None else f"{self.stderr[j]:.4g}"
+            se = "held" if name in self.held else se
             row = f"{name:>5} {self.theta[j]:>14.6g} {se:>12}"
             if truth is not None and errors is not None:
                 row += f" {truth[j]:>12.6g} {errors[j]:>9.3f}"
+            if name in self.priors:
+                row += "  prior N({:g}, {:g}^2)".format(*self.priors[name])
             lines.append(row)
         imu = self.info.get("imu_errors") if isinstance(self.info, dict) else None
         if imu:  # a method that fitted the IMU's errors (output-error's imu_errors)
@@ -241,6 +252,9 @@ class EstimationResult:
         for j, name in enumerate(self.names):
             row[name] = float(self.theta[j])
             row[f"{name}_stderr"] = math.nan if self.stderr is None else float(self.stderr[j])
+        if self.held or self.priors:
+            row["held"] = " ".join(self.held)
+            row["priors"] = " ".join(self.priors)
         return row
 
     def to_json_dict(self) -> dict[str, Any]:
@@ -253,7 +267,7 @@ class EstimationResult:
         def clean(x: float) -> float | None:
             return None if not math.isfinite(x) else float(x)
 
-        out = {
+        out: dict[str, Any] = {
             "method": self.estimator,
             "coefficients": {n: clean(v) for n, v in self.as_dict().items()},
             "stderr": None if self.stderr is None else
@@ -266,6 +280,10 @@ class EstimationResult:
             "n_iterations": int(self.n_iterations),
             "wall_time_s": float(self.wall_time_s),
         }
+        if self.held or self.priors:
+            out["held"] = {n: float(v) for n, v in self.held.items()}
+            out["priors"] = {n: {"mean": float(m), "sd": float(s)}
+                             for n, (m, s) in self.priors.items()}
         compiled = self.info.get("compiled") if isinstance(self.info, dict) else None
         if compiled is not None:
             out["compiled"] = bool(compiled)

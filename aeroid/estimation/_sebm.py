@@ -14,6 +14,7 @@ import numpy as np
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation._estimator import prior_bounds
+from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._objectives import SEBM_PROBLEMS, sebm_costs
 from aeroid.estimation._polish import polish_info
 from aeroid.estimation._pso_methods import (
@@ -86,6 +87,7 @@ class SEBMPSO(StepOneOptions):
     """
 
     name: ClassVar[str] = "sebm-pso"
+    supports_holds: ClassVar[bool] = True  # the search over the free ones: held_search
     description: ClassVar[str] = ("separated EBM: step 1 as ebm-pso, then four PSO problems "
                                   "(eqs. 39-42; 50/150/100/150 particles)")
 
@@ -99,7 +101,8 @@ class SEBMPSO(StepOneOptions):
         for n in self.n_particles:
             check_swarm_size(n)
 
-    def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
+    def run(self, flight: Flight, rng: np.random.Generator,
+            holds: CoefficientSpec | None = None) -> EstimationResult:
         """Reconstruct, smooth and solve the four problems (see class docstring)."""
         missing = sorted(set(range(len(NAMES))) - {c for _, _, cols, _ in SEBM_PROBLEMS
                                                    for c in cols})
@@ -121,7 +124,8 @@ class SEBMPSO(StepOneOptions):
             res, found, polished = run_pso(self, cost, bounds[list(cols)], rng,
                                            n_particles=n_particles,
                                            names=[NAMES[c] for c in cols],
-                                           stage=f"{label} {k + 1}/{len(self.n_particles)}")
+                                           stage=f"{label} {k + 1}/{len(self.n_particles)}",
+                                           holds=holds)
             warnings += [f"{label}: {w}" for w in found]
             theta[list(cols)] = res.x
             closed[list(cols)] = cost.theta_opt

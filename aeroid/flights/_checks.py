@@ -39,6 +39,7 @@ from aeroid.flights._input_checks import (
     check_inputs,
     range_hint,
 )
+from aeroid.flights._passive_fin import passive_fin_problem
 from aeroid.model import AIRFRAME_LIMITS, Airframe
 
 #: Relative spread of the sample interval accepted as a uniform time base.
@@ -236,7 +237,9 @@ def _ranges(finite: dict[str, np.ndarray], airframe: Airframe, warns: list[str])
         if high.size:
             found.append(f"|theta| > 90 deg at row {high[0]} (an Euler pitch angle is within "
                          "+-90 deg; angles in degrees? use --degrees)")
-    if "delta" in finite:
+    if "delta" in finite and airframe.fin == "passive":  # issue 25: no moving fin
+        found += [p for p in [passive_fin_problem(finite["delta"])] if p]
+    elif "delta" in finite:
         peak = float(np.max(np.abs(finite["delta"])))
         limit = airframe.delta_max_rad
         where = (f"|delta| reaches {peak:.4g} rad, {peak / limit:.3g}x the airframe's "

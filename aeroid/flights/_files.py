@@ -46,6 +46,7 @@ from aeroid.flights._columns import (
     unwrap_angles,
 )
 from aeroid.flights._flight import Flight, air_angles, write_flight
+from aeroid.flights._passive_fin import passive_fin_frame
 from aeroid.flights._sidecar import read_sidecar
 from aeroid.model import Airframe, fileform, load_airframe
 
@@ -206,10 +207,12 @@ def read_flight(
         notes += unwrapped
     notes += _column_notes(header, names)
     metadata["source"] = str(path)
+    data, passive = passive_fin_frame(pd.DataFrame(values, columns=channels, copy=False),
+                                      airframe, str(path))  # fin = "passive": no fin column
+    notes += [passive] if passive else []
     for note in notes:
         _NOTICES.info(f"{path}: {note}")
-    return Flight(pd.DataFrame(values, columns=channels, copy=False), airframe, metadata,
-                  notes=tuple(notes))
+    return Flight(data, airframe, metadata, notes=tuple(notes))
 
 
 def _convert_units(values: np.ndarray, index: Mapping[str, int], read: Mapping[str, str],

@@ -38,6 +38,9 @@ from aeroid.model._airframe_form import (
     ATMOSPHERE_KEYS,
     SCENARIO_TABLES,
     airframe_fields,
+    check_fin,
+    check_holds,
+    coefficient_pairs,
     prior_tuple,
 )
 from aeroid.model._coefficients import NAMES, nominal
@@ -86,8 +89,9 @@ class Airframe:
         Principal moments of inertia [kg m^2]; no products of inertia.
     thrust_n : float
         Thrust [N] along body +x through the c.g., known to every estimator; >= 0.
-    delta_max_deg : float
-        ON-OFF fin deflection [deg], > 0.
+    delta_max_deg : float or None
+        ON-OFF fin deflection [deg], > 0; required with ``fin = "relay"``, absent with
+        ``fin = "passive"``.
     accel1_position_m, accel2_position_m : tuple of 3 float
         Accelerometer triad positions from the c.g. in body axes [m]; distinct.
     accel1_position_sd_m, accel2_position_sd_m : tuple of 3 float
@@ -108,6 +112,14 @@ class Airframe:
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
     fin_law : FinLaw or None
         The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
+    fin : {"relay", "passive"}
+        ``relay`` (default): the moving ON-OFF fin of ``delta_max_deg``; ``passive``:
+        no moving fin (fixed fins: a sounding rocket's), so a log needs no fin column
+        (its deflection is zero), a non-zero one is refused, and the fin terms Czd and
+        Cmd are held at zero in every fit (:data:`FIN_KINDS`; issue 25).
+    hold, prior_sd : tuple of (name, float)
+        ``[hold]``: coefficients every fit holds at a value; ``[prior_sd]``: the sd of a
+        Gaussian prior centred on ``[prior]`` (needed); :func:`aeroid.estimation.airframe_holds`.
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -119,7 +131,7 @@ class Airframe:
     iy_kgm2: float
     iz_kgm2: float
     thrust_n: float
-    delta_max_deg: float
+    delta_max_deg: float | None = None
     accel1_position_m: tuple[float, float, float]
     accel2_position_m: tuple[float, float, float]
     accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -130,6 +142,9 @@ class Airframe:
     atmosphere_channel: str | None = None
     prior: tuple[float, ...] | None = field(default=None)
     fin_law: FinLaw | None = None
+    fin: str = "relay"
+    hold: tuple[tuple[str, float], ...] = ()
+    prior_sd: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -139,8 +154,14 @@ class Airframe:
             if not (is_number(value) and math.isfinite(value) and value > 0):
                 raise AirframeError(f"airframe: {name} must be a positive number, got {value!r}")
             object.__setattr__(self, name, float(value))
+        check_fin(self.fin, self.delta_max_deg, self.fin_law)
+        for name in ("hold", "prior_sd"):  # issue 25: held coefficients, priors' sd
+            object.__setattr__(self, name, coefficient_pairs(getattr(self, name), name))
+        check_holds(self.hold, self.prior_sd, self.prior)
         for name in ("thrust_n", "delta_max_deg"):
             value = getattr(self, name)
+            if value is None and self.fin == "passive":
+                continue
             if not (is_number(value) and math.isfinite(value)):
                 raise AirframeError(f"airframe: {name} must be a finite number, got {value!r}")
             object.__setattr__(self, name, float(value))
@@ -198,10 +219,12 @@ class Airframe:
             raise AirframeError(f"airframe: thrust_n must be >= 0 (thrust acts along body +x; "
                                 f"a coasting airframe has 0), got {self.thrust_n:g}")
         low, high = LIMITS["delta_max_deg"]
-        if not low < self.delta_max_deg <= high:
+        if self.delta_max_deg is None:
+            pass  # a passive fin (_check_fin)
+        elif not low < self.delta_max_deg <= high:
             raise AirframeError(f"airframe: delta_max_deg must be in ({low:g}, {high:g}] deg, "
                                 f"got {self.delta_max_deg:g}")
-        if self.delta_max_deg < DELTA_MAX_WARN_DEG:
+        if self.delta_max_deg is not None and self.delta_max_deg < DELTA_MAX_WARN_DEG:
             warnings.warn(f"airframe: delta_max_deg {self.delta_max_deg:g} deg is very small "
                           f"(radians? {self.delta_max_deg:g} rad = "
                           f"{math.degrees(self.delta_max_deg):.3g} deg)",
@@ -251,7 +274,15 @@ class Airframe:
 
     @property
     def delta_max_rad(self) -> float:
-        """ON-OFF fin deflection [rad]."""
+        """ON-OFF fin deflection [rad].
+
+        Raises
+        ------
+        AirframeError
+            For a passive fin (it has no throw).
+        """
+        if self.delta_max_deg is None:
+            raise AirframeError('airframe: fin = "passive" has no fin throw (delta_max_deg)')
         return math.radians(self.delta_max_deg)
 
     @property
@@ -289,6 +320,9 @@ class Airframe:
             out["prior"] = dict(zip(NAMES, self.prior, strict=True))
         if self.fin_law is not None:
             out["fin_law"] = self.fin_law.to_table()
+        if self.fin == "relay":
+            table.pop("fin", None)  # the default, left out of the file
+        out.update({k: dict(v) for k, v in (("hold", self.hold), ("prior_sd", self.prior_sd)) if v})
         return out
 
     @classmethod

@@ -12,6 +12,8 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     Iz_kgm2 = 40.0
     thrust_N = 740.0                        # along body +x, >= 0
     delta_max_deg = 8.0                     # ON-OFF fin deflection, > 0
+    # fin = "passive"                       # optional: no moving fin (then no
+                                            #   delta_max_deg); default "relay"
     accel1_position_m = [0.6, 0.0, 0.0]     # triad positions from the c.g., body axes
     accel2_position_m = [-0.6, 0.01, 0.01]
 
@@ -22,6 +24,11 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
 
     [prior]                                 # optional: the nine coefficients to start from
     Cx = -0.98                              # (all nine names; default: the nominal values)
+
+    [hold]                                  # optional: coefficients every fit holds
+    Czd = 0.0
+    [prior_sd]                              # optional: a Gaussian prior N([prior], sd^2)
+    Cmq = 300.0
 
     [fin_law]                               # optional: the relay law (aeroid.model.FinLaw)
     command_amplitude = 0.5                 # A, or [[t_s, A], ...] (piecewise linear)
@@ -59,17 +66,22 @@ AIRFRAME_KEYS = {
     "accel2_position_m": "accel2_position_m",
     "accel1_position_sd_m": "accel1_position_sd_m",
     "accel2_position_sd_m": "accel2_position_sd_m",
+    "fin": "fin",
 }
 #: ``length_m`` appears in no equation, so it may be left out; the positions' standard
-#: deviations default to 0 (known positions).
-OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m")
+#: deviations default to 0 (known positions); ``fin`` to ``"relay"``, whose
+#: ``delta_max_deg`` the airframe itself requires (a passive fin has none).
+OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m", "fin",
+                          "delta_max_deg")
 #: File key -> attribute of ``[atmosphere]`` (exactly one is given).
 ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
                    "per_sample": "atmosphere_channel"}
 #: Flight channels a per-sample atmosphere may name (:func:`aeroid.flights.exogenous`).
 ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
 #: The tables of an airframe file.
-AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "hold", "prior_sd")
+#: The fin of an airframe (its field ``fin``): the moving ON-OFF fin, or none.
+FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
 SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
 
@@ -106,7 +118,7 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
     unknown = sorted(str(t) for t in data if t not in known)
     if unknown:
         hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
-                "[prior] and [fin_law] (starting values go in [prior])"
+                "[prior], [fin_law], [hold] and [prior_sd] (starting values go in [prior])"
                 if set(unknown) & set(SCENARIO_TABLES) else "")
         raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
                             f"(allowed: {', '.join(known)}){hint}")
@@ -126,6 +138,7 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
             continue
         where = f"{source}: [airframe] {key}"
         kwargs[attr] = (numbers(table[key], 3, where) if key.startswith("accel")
+                        else text(table[key], where) if key == "fin"
                         else number(table[key], where))
     atmos = check_table(data["atmosphere"], f"{source}: [atmosphere]")
     check_keys(atmos, ATMOSPHERE_KEYS, f"{source}: [atmosphere]")
@@ -138,6 +151,12 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
         prior = check_table(data["prior"], f"{source}: [prior]")
         check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
         kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
+    for name in ("hold", "prior_sd"):  # some coefficients: held, or a prior's sd
+        if name in data:
+            table = check_table(data[name], f"{source}: [{name}]")
+            check_keys(table, NAMES, f"{source}: [{name}]")
+            kwargs[name] = tuple((n, number(table[n], f"{source}: [{name}] {n}"))
+                                 for n in NAMES if n in table)
     return kwargs, data.get("fin_law")
 
 
@@ -153,5 +172,47 @@ def prior_tuple(prior: Any) -> tuple[float, ...]:
                             ) from None
 
 
-__all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
+__all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "FIN_KINDS", "check_fin", "check_holds",
+           "coefficient_pairs", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
            "OPTIONAL_AIRFRAME_KEYS", "SCENARIO_TABLES", "airframe_fields", "prior_tuple"]
+
+
+def check_fin(fin: Any, delta_max_deg: Any, fin_law: Any) -> None:
+    """Raise AirframeError (one line) unless the fin declaration is consistent.
+
+    ``relay`` needs ``delta_max_deg``; ``passive`` has neither ``delta_max_deg`` nor a
+    fin law.
+    """
+    if fin not in FIN_KINDS:
+        raise AirframeError(f"airframe: fin must be one of {', '.join(FIN_KINDS)}, got {fin!r}")
+    if fin == "relay" and delta_max_deg is None:
+        raise AirframeError("airframe: delta_max_deg is required for a moving fin (or "
+                            'declare fin = "passive": no moving fin)')
+    if fin == "passive" and (delta_max_deg is not None or fin_law is not None):
+        what = "delta_max_deg" if delta_max_deg is not None else "[fin_law]"
+        raise AirframeError(f'airframe: fin = "passive" has no moving fin, so no {what}; '
+                            "remove it")
+
+
+def coefficient_pairs(value: Any, name: str) -> tuple[tuple[str, float], ...]:
+    """Return ``[hold]`` or ``[prior_sd]`` (a mapping or pairs) as (name, float) pairs in
+    :data:`NAMES` order; one-line AirframeError for an unknown name or a bad number."""
+    pairs = dict(value.items() if isinstance(value, Mapping) else value or ())
+    check_keys(pairs, NAMES, f"airframe: [{name}]")
+    return tuple((n, number(pairs[n], f"airframe: [{name}] {n}")) for n in NAMES if n in pairs)
+
+
+def check_holds(hold: tuple[tuple[str, float], ...], prior_sd: tuple[tuple[str, float], ...],
+                prior: Any) -> None:
+    """Raise AirframeError (one line): an sd <= 0, a coefficient both held and given a
+    prior, or ``[prior_sd]`` without ``[prior]`` (its mean: no default is assumed)."""
+    bad = [n for n, sd in prior_sd if not sd > 0]
+    if bad:
+        raise AirframeError(f"airframe: [prior_sd] {bad[0]} must be > 0 (hold it in [hold] "
+                            "instead)")
+    both = sorted(set(dict(hold)) & set(dict(prior_sd)))
+    if both:
+        raise AirframeError(f"airframe: {', '.join(both)} both in [hold] and [prior_sd] "
+                            "(choose one)")
+    if prior_sd and prior is None:
+        raise AirframeError("airframe: [prior_sd] needs [prior]: the priors' means")

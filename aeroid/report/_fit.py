@@ -28,6 +28,7 @@ from aeroid.estimation import (
     correlation,
     data_floor,
     estimate_noise_sd,
+    holds_of,
     switch_free_samples,
 )
 from aeroid.flights import UNITS, Flight, schedule
@@ -170,11 +171,25 @@ def _fit_check_lines(check: Mapping[str, Any]) -> list[str]:
 
 
 def _coefficient_rows(frame: Any) -> tuple[list[str], list[list[Any]]]:
-    labels = {"estimate": "estimate", "stderr": "std err", "prior": "prior (start)",
-              "floor": "Cramér-Rao floor", "truth": "truth", "error_pct": "error %"}
+    labels = {"estimate": "estimate", "stderr": "std err", "held_prior": "held / prior",
+              "prior": "prior (start)", "floor": "Cramér-Rao floor", "truth": "truth",
+              "error_pct": "error %"}
     columns = [c for c in labels if c in frame.columns]
     rows = [[name, *(frame.loc[name, c] for c in columns)] for name in frame.index]
     return ["coefficient", *(labels[c] for c in columns)], rows
+
+
+def _with_holds(frame: Any, result: EstimationResult) -> Any:
+    """Add the column ``held_prior`` (held at a value, a Gaussian prior, or free) to a
+    coefficient frame of a result fitted with held or prior coefficients."""
+    if not (result.held or result.priors):
+        return frame
+    frame = frame.copy()
+    frame["held_prior"] = [
+        f"held at {result.held[n]:g}" if n in result.held else
+        "prior N({:g}, {:g}^2)".format(*result.priors[n]) if n in result.priors else "free"
+        for n in frame.index]
+    return frame
 
 
 def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[str],
@@ -191,7 +206,7 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
     found = [f"- warning: {_number(w)}" for w in result.warnings]
     found += [f"- {_number(n)}" for n in notes]
     lines += (found or ["none"]) + [""]
-    frame = result.to_frame(flight, floor=floor)
+    frame = _with_holds(result.to_frame(flight, floor=floor), result)
     header, rows = _coefficient_rows(frame)
     lines += ["## Coefficients", ""] + _table(header, rows) + [""]
     lines += _imu_error_lines(result.info)
@@ -293,7 +308,8 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     prediction = result.predict(flight) if finite else None
     floor = None
     if finite:
-        floor = data_floor(flight, result.theta, prediction.attrs["input"])  # type: ignore
+        floor = data_floor(flight, result.theta, prediction.attrs["input"],  # type: ignore
+                           holds=holds_of(result))  # held: no floor; priors added
     figures = report_figures(result, flight, prediction)
     for stem, fig in figures.items():
         write_figure_atomic(fig, folder / f"{stem}.png", DPI)
