@@ -47,6 +47,7 @@ from aeroid.model._fileform import (
     numbers,
     read_toml,
 )
+from aeroid.model._tables import MachTables, TableSpec
 
 #: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
 LIMITS: dict[str, tuple[float, float]] = {
@@ -108,6 +109,9 @@ class Airframe:
         Pre-flight coefficient prediction in :data:`aeroid.model.NAMES` order.
     fin_law : FinLaw or None
         The fin law (``[fin_law]``), its ``delta_max_rad`` this airframe's.
+    tables : TableSpec or None
+        Coefficients the fits take as tables in Mach (``[tables]``;
+        :meth:`mach_tables`); None: every coefficient constant.
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -130,6 +134,7 @@ class Airframe:
     atmosphere_channel: str | None = None
     prior: tuple[float, ...] | None = field(default=None)
     fin_law: FinLaw | None = None
+    tables: TableSpec | None = None
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -159,6 +164,8 @@ class Airframe:
         self._check_ranges()
         if self.prior is not None:
             object.__setattr__(self, "prior", prior_tuple(self.prior))
+        if self.tables is not None and not isinstance(self.tables, TableSpec):
+            raise AirframeError(f"airframe: tables must be a TableSpec, got {self.tables!r}")
         if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
@@ -264,6 +271,14 @@ class Airframe:
         """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
         return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
 
+    def mach_tables(self, states: np.ndarray | None = None) -> MachTables | None:
+        """Return the coefficient tables of a flight of this airframe (None: no ``[tables]``).
+
+        ``states`` (n, 9): the flight's, to choose knots given as a count from its Mach
+        range; the speed of sound from ``[tables] temperature_K`` or ISA at the altitude.
+        """
+        return None if self.tables is None else self.tables.resolve(self.altitude_m, states)
+
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), (N_COEFFICIENTS,)."""
         return nominal() if self.prior is None else np.array(self.prior)
@@ -289,6 +304,8 @@ class Airframe:
             out["prior"] = dict(zip(NAMES, self.prior, strict=True))
         if self.fin_law is not None:
             out["fin_law"] = self.fin_law.to_table()
+        if self.tables is not None:
+            out["tables"] = self.tables.to_table()
         return out
 
     @classmethod

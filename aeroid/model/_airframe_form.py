@@ -31,6 +31,11 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     evaluation = "continuous"               # optional: or "latched" (at the log's samples),
                                             # or control_rate_Hz = f (a clock of its own)
 
+    [tables]                                # optional: coefficients as tables in Mach
+    Cx = [1.1, 1.4, 1.7, 2.0, 2.2]          # knots [Mach] (aeroid.model.TableSpec), or a
+    Cmq = 3                                 # count chosen from the flight's Mach range
+    temperature_K = 255.7                   # optional: else ISA at [atmosphere] altitude_m
+
 :meth:`aeroid.model.Airframe.from_dict` builds the airframe from what
 :func:`airframe_fields` reads here; the checks of the values themselves (ranges, the
 one atmosphere) are the airframe's own.
@@ -44,6 +49,7 @@ from typing import Any
 from aeroid.errors import AirframeError
 from aeroid.model._coefficients import NAMES
 from aeroid.model._fileform import check_keys, check_table, number, numbers, text
+from aeroid.model._tables import TableSpec
 
 #: File key -> attribute of ``[airframe]``.
 AIRFRAME_KEYS = {
@@ -69,7 +75,7 @@ ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kg
 #: Flight channels a per-sample atmosphere may name (:func:`aeroid.flights.exogenous`).
 ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
 #: The tables of an airframe file.
-AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "tables")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
 SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
 
@@ -138,6 +144,8 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
         prior = check_table(data["prior"], f"{source}: [prior]")
         check_keys(prior, NAMES, f"{source}: [prior]", required=NAMES)
         kwargs["prior"] = tuple(number(prior[n], f"{source}: [prior] {n}") for n in NAMES)
+    if "tables" in data:
+        kwargs["tables"] = TableSpec.from_table(data["tables"], f"{source}: [tables]")
     return kwargs, data.get("fin_law")
 
 
