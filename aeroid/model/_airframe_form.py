@@ -112,7 +112,7 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
     unknown = sorted(str(t) for t in data if t not in known)
     if unknown:
         hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
-                "[prior] and [fin_law] (starting values go in [prior])"
+                "[prior], [fin_law] and [tables] (starting values go in [prior])"
                 if set(unknown) & set(SCENARIO_TABLES) else "")
         raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
                             f"(allowed: {', '.join(known)}){hint}")
