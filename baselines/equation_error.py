@@ -88,6 +88,7 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
+from baselines import _tables_fit
 from baselines._ee_least_squares import (  # the sub-problems' names are read from here
     LATERAL,
     SUBPROBLEMS,
@@ -187,6 +188,7 @@ class EquationErrorEstimator(Estimator):
     """
 
     name: ClassVar[str] = "equation-error"
+    fits_tables: ClassVar[bool] = True  # the airframe's [tables]: baselines/_tables_fit.py
     description: ClassVar[str] = (
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 
@@ -205,6 +207,9 @@ class EquationErrorEstimator(Estimator):
 
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
         """Solve the least-squares problems (deterministic)."""
+        tables = _tables_fit.flight_tables(flight)
+        if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
+            return _tables_fit.equation_error_tables(self, flight, tables)
         result = self._solve(flight)
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)

@@ -58,6 +58,10 @@ class Estimator(abc.ABC):
     #: ``metadata['initial_state_sd']``, :meth:`aeroid.reconstruction.Reconstruction.
     #: to_flight`); for the others :meth:`fit` warns that the states were taken as exact.
     uses_state_sd: ClassVar[bool] = False
+    #: True for a method that fits the airframe's coefficient tables in Mach
+    #: (``[tables]``, :class:`aeroid.model.TableSpec`); :meth:`fit` refuses such a flight
+    #: for the others instead of fitting constants in silence.
+    fits_tables: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -93,6 +97,13 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         flight.validate()
+        spec = getattr(flight.airframe, "tables", None)
+        if spec is not None and not self.fits_tables:
+            raise EstimatorError(
+                f"{self.name or type(self).__name__}: the airframe's [tables] makes "
+                f"{', '.join(name for name, _ in spec.knots)} tables in Mach; this method fits "
+                "constant coefficients (output-error and equation-error fit tables); remove "
+                "[tables] to fit constants")
         choice = self.input_choice(flight)
         try:
             generator = np.random.default_rng(rng)

@@ -1,0 +1,63 @@
+"""Fits of coefficient tables in Mach on a noise-free piece of the Mach-sweep flight."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import aeroid
+from aeroid.flights import NoNoise, load_scenario, simulate
+from aeroid.model import TableSpec
+
+MACH_SWEEP = Path(__file__).parents[2] / "studies" / "scenarios" / "mach_sweep.toml"
+#: The fits' knots: the truth's (the scenario's) within Mach 1.68-2.19 of the first 6 s.
+KNOTS = (1.65, 1.925, 2.2)
+#: Equation-error on noise-free data: the axial force regresses on Cx with no
+#: derivative (exact to rounding); the moments go through the reconstruction's SG
+#: derivatives of the rates, which leave 1e-4..1e-3 relative on a constant-coefficient
+#: noise-free flight too (module docstring of baselines.equation_error: 6e-4 %, and the
+#: roll rate here varies faster as the airframe slows).
+EE_AXIAL_TOL = 1e-9
+EE_MOMENT_TOL = 2e-3
+
+
+@pytest.fixture(scope="module")
+def sweep():
+    scenario = load_scenario(MACH_SWEEP)
+    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(0.5, 6.5))
+    flight = simulate(scenario.airframe, scenario.coefficient_vector, manoeuvre, NoNoise(),
+                      rng=0, tables=scenario.tables)
+    spec = TableSpec((("Cx", KNOTS), ("Cmq", KNOTS)))
+    flight = dataclasses.replace(flight, airframe=flight.airframe.replace(tables=spec))
+    truth = dict(zip(scenario.tables.parameter_names(), scenario.coefficients, strict=True))
+    mach = scenario.tables.mach(flight.states())
+    assert mach.min() > KNOTS[0] and mach.max() < KNOTS[-1]
+    return flight, truth
+
+
+def test_equation_error_recovers_every_table_point(sweep):
+    flight, truth = sweep
+    result = aeroid.make_estimator("equation-error").run(flight, np.random.default_rng(0))
+    assert result.names == flight.airframe.mach_tables().parameter_names()
+    assert len(result.theta) == len(result.names) == aeroid.model.N_COEFFICIENTS - 2 + 6
+    for name, value in zip(result.names, result.theta, strict=True):
+        tol = EE_AXIAL_TOL if name.startswith("Cx") else EE_MOMENT_TOL
+        assert value == pytest.approx(truth[name], rel=tol), name
+    assert result.stderr.shape == result.theta.shape
+    assert result.info["tables"] == {"Cx": list(KNOTS), "Cmq": list(KNOTS)}
+
+
+def test_equation_error_refuses_what_it_does_not_fit_with_tables(sweep):
+    flight, _ = sweep
+    for options in ({"one_step": True}, {"smoothing": "both"}, {"lateral_rows": True}):
+        with pytest.raises(aeroid.EstimatorError, match="with \\[tables\\]"):
+            aeroid.make_estimator("equation-error", options).fit(flight)
+
+
+def test_a_method_without_tables_refuses_a_flight_with_tables(sweep):
+    flight, _ = sweep
+    with pytest.raises(aeroid.EstimatorError, match=r"ekf: the airframe's \[tables\] makes Cx"):
+        aeroid.make_estimator("ekf").fit(flight)
