@@ -55,6 +55,7 @@ from baselines._oe_starts import (
     start_report,
     warm_start_point,
 )
+from baselines._tables_fit import coefficient_layout, flight_tables, mach_notes
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -192,6 +193,7 @@ class OutputErrorEstimator(Estimator):
     """
 
     name: ClassVar[str] = "output-error"
+    fits_tables: ClassVar[bool] = True  # the airframe's [tables]: baselines/_tables_fit.py
     uses_state_sd: ClassVar[bool] = True  # initial_velocity_prior, or a warning
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
@@ -245,9 +247,11 @@ class OutputErrorEstimator(Estimator):
                              f"magnitude, got {self.delay_s}")
 
     # ----------------------------------------------------------------------------------
-    def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
-        """Names of the estimated parameters, in the order of ``info['parameters']``."""
-        names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
+    def parameter_names(self, position_free: tuple[int, ...] = (),
+                        coefficient_names: tuple[str, ...] | None = None) -> tuple[str, ...]:
+        """Names of the estimated parameters, in the order of ``info['parameters']``
+        (``coefficient_names``: with [tables], their parameters' instead of NAMES)."""
+        names = list(coefficient_names or aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free]
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors)))
@@ -276,7 +280,7 @@ class OutputErrorEstimator(Estimator):
         ``positions="estimate"`` carry a Gaussian prior centred on the given position.
         """
         position_free = self.position_free(flight) if position_free is None else position_free
-        prior = flight.airframe.prior_vector()
+        _, prior = coefficient_layout(flight)  # with [tables]: flat tables at the prior
         pos = flight.airframe.accel_positions.ravel()
         pos_sd = flight.airframe.accel_position_sd.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
@@ -295,7 +299,7 @@ class OutputErrorEstimator(Estimator):
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
-                            imu_errors=self.imu_errors)
+                            imu_errors=self.imu_errors, tables=flight_tables(flight))
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -317,8 +321,11 @@ class OutputErrorEstimator(Estimator):
         model: RecordModel = prob.model  # type: ignore[assignment]
         scale = model.scale
         n_p = scale.size
-        prior = flight.airframe.prior_vector()
-        n_c = aeroid.model.N_COEFFICIENTS
+        names, prior = coefficient_layout(flight)  # with [tables]: their parameters
+        n_c = len(names)
+        if self.pso_warm_start and flight.airframe.tables is not None:
+            raise aeroid.EstimatorError("output-error: pso_warm_start searches the constant "
+                                        "coefficients; it is not available with [tables]")
         first = np.zeros(n_p)
         first[:n_c] = prior / scale[:n_c]
         i_delay = model.n_graph
@@ -369,14 +376,17 @@ class OutputErrorEstimator(Estimator):
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
         position_free = model.position_free
         info = {"R": best.r_diag, "fisher": M,
-                "parameter_names": self.parameter_names(position_free),
+                "parameter_names": self.parameter_names(position_free, names),
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
                 "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
-                                            failures)
+                                            failures, n_c)
+        if model.tables is not None:
+            info["tables"] = model.tables.to_table()
+            warnings += list(mach_notes(flight, model.tables))
         info.update(start_info)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)
@@ -387,13 +397,13 @@ class OutputErrorEstimator(Estimator):
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         if model.n_imu:
-            imu_info, found = imu_error_report(self.parameter_names(position_free),
+            imu_info, found = imu_error_report(self.parameter_names(position_free, names),
                                                imu_error_names(self.imu_errors), phys,
                                                stderr_phys, cov_phys)
             info.update(imu_info)
             warnings += found
         return EstimationResult(
-            estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
+            estimator=self.name, names=names, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,
             n_evaluations=n_evals, n_iterations=n_iter, history=history, info=info,
             warnings=tuple(warnings))

@@ -61,3 +61,19 @@ def test_a_method_without_tables_refuses_a_flight_with_tables(sweep):
     flight, _ = sweep
     with pytest.raises(aeroid.EstimatorError, match=r"ekf: the airframe's \[tables\] makes Cx"):
         aeroid.make_estimator("ekf").fit(flight)
+
+
+#: Output-error integrating with the truth's RK4 step (8 substeps) on noise-free data:
+#: what is left is rounding and the solver's tolerance.
+OE_TOL = 1e-6
+
+
+def test_output_error_recovers_every_table_point(sweep):
+    flight, truth = sweep
+    result = aeroid.make_estimator("output-error", {"substeps": 8}).fit(flight, rng=0)
+    assert result.success, result.message
+    assert result.names == flight.airframe.mach_tables().parameter_names()
+    for name, value in zip(result.names, result.theta, strict=True):
+        assert value == pytest.approx(truth[name], rel=OE_TOL), name
+    assert np.all(np.isfinite(result.stderr)) and np.all(result.stderr > 0)
+    assert result.info["parameter_names"][:len(result.names)] == result.names
