@@ -31,6 +31,11 @@ from aeroid.flights import Flight
 from aeroid.model import NAMES, MachTables
 from aeroid.model import tables as mach_tables
 from baselines._ee_least_squares import SUBPROBLEMS, _correlation, _lstsq
+from baselines._oe_record import RecordModel
+
+#: Initial-state components the floor's record model takes as nuisance parameters: the
+#: rates, as output-error estimates them by default.
+FLOOR_FREE_STATES = (3, 4, 5)
 
 #: Time samples per block of the regressors (equation-error's).
 BLOCK_SAMPLES = rc.REGRESSION_BLOCK
@@ -177,5 +182,36 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
         message="", n_evaluations=1, n_iterations=1, info=info, warnings=warnings)
 
 
+def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
+                substeps: int = 2, input: str = "hold") -> np.ndarray:  # noqa: A002
+    """Return the Cramér-Rao floor of the tables' parameters, shape (n_parameters,).
+
+    The output-error information ``sum_k J_k^T R^-1 J_k`` of the flight's record (both
+    triads and the rates, :data:`aeroid.model.OUTPUT_CHANNELS`) at ``parameters`` (the
+    tables' constants and points, e.g. the truth), with white noise of sd ``noise_sd``
+    (one per output channel) and the initial rates as nuisance parameters; the square
+    root of the diagonal of its inverse, in the parameters' units.
+    """
+    tables = flight_tables(flight)
+    if tables is None:
+        raise EstimatorError("table floor: the flight's airframe has no [tables]")
+    p = np.asarray(parameters, dtype=float)
+    sd = np.asarray(noise_sd, dtype=float)
+    if p.shape != (tables.n_parameters,) or sd.shape != (len(aeroid.model.OUTPUT_CHANNELS),):
+        raise EstimatorError(f"table floor: expected {tables.n_parameters} parameters and "
+                             f"{len(aeroid.model.OUTPUT_CHANNELS)} noise sd, got "
+                             f"{p.shape} and {sd.shape}")
+    scale = np.concatenate([np.where(p != 0.0, p, 1.0), np.ones(len(FLOOR_FREE_STATES))])
+    model = RecordModel(flight, input=input, substeps=substeps, x0_free=FLOOR_FREE_STATES,
+                        position_free=(), compiled=True, x0=flight.states()[0], scale=scale,
+                        delay_s=0.0, estimate_delay=False, tables=tables)
+    _, J = model.outputs_jacobian(np.concatenate([p / scale[:p.size],
+                                                  np.zeros(len(FLOOR_FREE_STATES))]))
+    Jw = J / sd[:, None, None]
+    F = np.einsum("mnp,mnq->pq", Jw, Jw)
+    cov = np.linalg.inv(F) * np.outer(scale, scale)
+    return np.sqrt(np.diag(cov))[:p.size]
+
+
 __all__ = ["coefficient_layout", "equation_error_tables", "expand_regressors", "flight_tables",
-           "mach_notes", "subproblem_columns"]
+           "mach_notes", "subproblem_columns", "table_floor"]

@@ -77,3 +77,31 @@ def test_output_error_recovers_every_table_point(sweep):
         assert value == pytest.approx(truth[name], rel=OE_TOL), name
     assert np.all(np.isfinite(result.stderr)) and np.all(result.stderr > 0)
     assert result.info["parameter_names"][:len(result.names)] == result.names
+
+
+#: The table floor (CasADi AD) against the Fisher information of central-difference
+#: sensitivities (aeroid.model.ForwardModel): differences of step 1e-6 relative agree
+#: with exact derivatives to ~1e-6; the inverse amplifies that by the conditioning.
+FLOOR_FD_TOL = 1e-3
+
+
+def test_table_floor_of_one_knot_tables_is_the_constant_floor():
+    """One knot per table is a constant coefficient: the floor is the constant model's."""
+    from baselines._tables_fit import table_floor
+
+    airframe = aeroid.model.reference_airframe()
+    spec = TableSpec((("Cx", (1.7,)), ("Cmq", (1.7,))))
+    flight = aeroid.flights.simulate_scenario(aeroid.flights.reference_scenario(), NoNoise(),
+                                              rng=0)
+    flight = dataclasses.replace(flight, airframe=flight.airframe.replace(tables=spec))
+    c = aeroid.model.nominal()
+    sd = np.array([0.05] * 6 + [0.005] * 3)
+    floor = table_floor(flight, flight.airframe.mach_tables().expand(c), sd)
+    model = aeroid.model.ForwardModel(aeroid.model.constants(airframe),
+                                      aeroid.flights.flight_record(flight, "hold"),
+                                      airframe.accel_positions, substeps=2)
+    J = model.sensitivities(flight.states()[0], c, free_states=("p", "q", "r"))
+    Jw = J / sd[None, :, None]
+    F = np.einsum("nmp,nmq->pq", Jw, Jw)
+    want = np.sqrt(np.diag(np.linalg.inv(F)))[:len(c)]
+    np.testing.assert_allclose(floor, want, rtol=FLOOR_FD_TOL)
