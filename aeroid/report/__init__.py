@@ -14,7 +14,8 @@ below the command line:
 
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
 report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
-``_reconstruction`` (a reconstruction's report).
+``_reconstruction`` (a reconstruction's report), ``_tables`` (fitted coefficient tables
+in Mach: CSV, JSBSim fragment, figure).
 """
 
 from aeroid.report._compare import (
@@ -45,8 +46,20 @@ from aeroid.report._reconstruction import (
     reconstruction_figures,
     write_reconstruction_report,
 )
+from aeroid.report._tables import (
+    FittedTable,
+    fitted_tables,
+    jsbsim_fragment,
+    tables_csv,
+    tables_figure,
+)
 
 __all__ = [
+    "FittedTable",
+    "fitted_tables",
+    "jsbsim_fragment",
+    "tables_csv",
+    "tables_figure",
     "BAND_SD",
     "FORMATS",
     "RECONSTRUCTION_REPORT",
