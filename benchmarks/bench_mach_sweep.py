@@ -4,6 +4,7 @@ Run by hand from the repository root (one process; the seeds one after another):
 
     python benchmarks/bench_mach_sweep.py --seeds 0 1 2 3 4 --out /tmp/sweep.jsonl
     python benchmarks/bench_mach_sweep.py --summary /tmp/sweep.jsonl
+    python benchmarks/bench_mach_sweep.py --seeds 5 6 7 --methods output-error --forms tables
 
 The truth of ``studies/scenarios/mach_sweep.toml`` (a coasting airframe through Mach
 2.19 -> 1.11 in 20 s, Cx and Cmq tables +-15 %) is integrated once; each seed records it
@@ -50,8 +51,9 @@ def verdict(result: aeroid.EstimationResult) -> str:
     return "method"
 
 
-def run(seeds: list[int], out: Path) -> None:
-    """Fit every seed four ways; one JSON line per fit appended to ``out``."""
+def run(seeds: list[int], out: Path, methods: tuple[str, ...] = METHODS,
+        forms: tuple[str, ...] = ("constants", "tables")) -> None:
+    """Fit every seed (up to) four ways; one JSON line per fit appended to ``out``."""
     scenario = load_scenario(SCENARIO)
     data = aeroid.model.read_toml(SCENARIO)
     noise = noise_for(data, "gaussian")
@@ -70,8 +72,10 @@ def run(seeds: list[int], out: Path) -> None:
         if floor is None:
             floor = table_floor(flight, true_p, sd)
         constant = dataclasses.replace(flight, airframe=flight.airframe.replace(tables=None))
-        for method in METHODS:
+        for method in methods:
             for form, fl in (("constants", constant), ("tables", flight)):
+                if form not in forms:
+                    continue
                 t0 = time.perf_counter()
                 result = aeroid.make_estimator(method).fit(fl, rng=seed)
                 row = {"seed": seed, "method": method, "form": form,
@@ -111,6 +115,8 @@ def summary(path: Path) -> None:
             table = [r for r in these if "z" in r]
             if table:
                 z = np.abs(np.array([r["z"] for r in table]))
+                print(f"    all points: {z.size} point-runs, within 1.96 se: "
+                      f"{np.mean(z <= 1.96):.3f}, within 3 se: {np.mean(z <= 3.0):.3f}")
                 ratio = np.array([r["stderr"] for r in table]) / np.array(table[0]["floor"])
                 for j, name in enumerate(table[0]["names"]):
                     print(f"    {name:12s} max |z| {z[:, j].max():5.2f}  within 1.96: "
@@ -123,12 +129,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="*", default=[0, 1, 2])
     parser.add_argument("--out", type=Path, default=Path("mach_sweep.jsonl"))
+    parser.add_argument("--methods", nargs="*", default=list(METHODS), choices=METHODS)
+    parser.add_argument("--forms", nargs="*", default=["constants", "tables"],
+                        choices=["constants", "tables"])
     parser.add_argument("--summary", type=Path)
     args = parser.parse_args()
     if args.summary:
         summary(args.summary)
     else:
-        run(args.seeds, args.out)
+        run(args.seeds, args.out, tuple(args.methods), tuple(args.forms))
 
 
 if __name__ == "__main__":
