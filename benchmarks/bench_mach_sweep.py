@@ -52,7 +52,7 @@ def verdict(result: aeroid.EstimationResult) -> str:
 
 
 def run(seeds: list[int], out: Path, methods: tuple[str, ...] = METHODS,
-        forms: tuple[str, ...] = ("constants", "tables")) -> None:
+        forms: tuple[str, ...] = ("constants", "tables"), substeps: int | None = None) -> None:
     """Fit every seed (up to) four ways; one JSON line per fit appended to ``out``."""
     scenario = load_scenario(SCENARIO)
     data = aeroid.model.read_toml(SCENARIO)
@@ -77,8 +77,10 @@ def run(seeds: list[int], out: Path, methods: tuple[str, ...] = METHODS,
                 if form not in forms:
                     continue
                 t0 = time.perf_counter()
-                result = aeroid.make_estimator(method).fit(fl, rng=seed)
-                row = {"seed": seed, "method": method, "form": form,
+                options = ({"substeps": substeps}
+                           if substeps is not None and method == "output-error" else {})
+                result = aeroid.make_estimator(method, options).fit(fl, rng=seed)
+                row = {"seed": seed, "method": method, "form": form, "options": options,
                        "success": bool(result.success), "verdict": verdict(result),
                        "message": result.message, "wall_s": time.perf_counter() - t0,
                        "worst_ratio": _worst(result)}
@@ -132,12 +134,13 @@ def main() -> None:
     parser.add_argument("--methods", nargs="*", default=list(METHODS), choices=METHODS)
     parser.add_argument("--forms", nargs="*", default=["constants", "tables"],
                         choices=["constants", "tables"])
+    parser.add_argument("--substeps", type=int, help="output-error's RK4 steps per sample")
     parser.add_argument("--summary", type=Path)
     args = parser.parse_args()
     if args.summary:
         summary(args.summary)
     else:
-        run(args.seeds, args.out, tuple(args.methods), tuple(args.forms))
+        run(args.seeds, args.out, tuple(args.methods), tuple(args.forms), args.substeps)
 
 
 if __name__ == "__main__":

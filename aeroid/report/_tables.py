@@ -8,7 +8,11 @@ tables' parameters (``result.names``: ``Cx@M1.4`` ...) with their standard error
 - :func:`jsbsim_fragment`: one ``<function name="aero/coefficient/NAME_mach">`` per
   table, its ``<table>`` indexed by ``velocities/mach`` (JSBSim interpolates linearly
   between the rows and holds the end values beyond them: the model's tables);
-- :func:`tables_figure`: each coefficient against Mach with its 95 % intervals.
+- :func:`tables_figure`: each coefficient against Mach with its 95 % intervals;
+- :func:`write_tables_report`: the report of such a fit (``aeroid estimate --report``):
+  the three files above and a page with the points, the constants and the fit check.
+  The figures of the model against the data are not drawn for tables:
+  :meth:`aeroid.estimation.EstimationResult.predict` integrates constant coefficients.
 """
 
 from __future__ import annotations
@@ -16,6 +20,8 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -24,6 +30,8 @@ from matplotlib.figure import Figure
 from aeroid.errors import EstimatorError
 from aeroid.model import LABELS
 from aeroid.model import tables as mach_tables
+from aeroid.report._files import write_figure_atomic, write_text_atomic
+from aeroid.report._html import html_page
 
 POINT_SEPARATOR = mach_tables.POINT_SEPARATOR
 
@@ -140,5 +148,68 @@ def tables_figure(tables: Sequence[FittedTable],
     return fig
 
 
-__all__ = ["DIGITS", "Z95", "FittedTable", "fitted_tables", "jsbsim_fragment", "tables_csv",
-           "tables_figure"]
+#: Files of :func:`write_tables_report` beside the report page.
+TABLE_FILES = {"csv": "tables.csv", "jsbsim": "tables_jsbsim.xml", "figure": "tables.png"}
+#: Dots per inch of the figure (the reports' own).
+DPI = 110
+
+
+def has_tables(names: Sequence[str]) -> bool:
+    """Whether a result's names hold table points (``Cx@M1.4``)."""
+    return any(POINT_SEPARATOR in name for name in names)
+
+
+def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
+                        notes: Sequence[str] = (), fmt: str = "md") -> Path:
+    """Write the report of a fit with coefficient tables into ``folder``; return its page.
+
+    ``result``: an :class:`aeroid.estimation.EstimationResult` whose names hold table
+    points; ``name``: the page's file name (``report.md`` or ``report.html``). Writes
+    :data:`TABLE_FILES` (CSV, JSBSim fragment, figure) and the page.
+    """
+    tables = fitted_tables(result.names, result.theta, result.stderr)
+    write_text_atomic(folder / TABLE_FILES["csv"], tables_csv(tables))
+    write_text_atomic(folder / TABLE_FILES["jsbsim"],
+                      jsbsim_fragment(tables, f"aeroid {result.estimator}"))
+    write_figure_atomic(tables_figure(tables), folder / TABLE_FILES["figure"], DPI)
+    source = flight.metadata.get("source", "flight")
+    status = "ok" if result.success else "FAILED"
+    lines = [f"# {result.estimator} on {source}: coefficient tables in Mach", "",
+             f"**{status}**" + (f": {result.message}" if result.message else ""), "",
+             f"{flight.n_samples} samples, t = {flight.t[0]:g} .. {flight.t[-1]:g} s.", "",
+             "## Warnings and notes", ""]
+    found = [f"- warning: {w}" for w in result.warnings] + [f"- {n}" for n in notes]
+    found.append("- the figures of the model against the data are not drawn for tables "
+                 "(the prediction integrates constant coefficients)")
+    lines += found + ["", "## Tables", "", f"![tables]({TABLE_FILES['figure']})", "",
+                      "| coefficient | Mach | estimate | std err | 95 % interval |",
+                      "|---|---|---|---|---|"]
+    for t in tables:
+        lines += [f"| {t.name} | {m:g} | {v:.6g} | {s:.3g} | {v - Z95 * s:.6g} .. "
+                  f"{v + Z95 * s:.6g} |"
+                  for m, v, s in zip(t.mach, t.value, t.stderr, strict=True)]
+    stderr = (np.full(len(result.names), np.nan) if result.stderr is None
+              else np.asarray(result.stderr, dtype=float))
+    lines += ["", "## Constant coefficients", "", "| coefficient | estimate | std err |",
+              "|---|---|---|"]
+    lines += [f"| {n} | {v:.6g} | {s:.3g} |"
+              for n, v, s in zip(result.names, result.theta, stderr, strict=True)
+              if POINT_SEPARATOR not in n]
+    check = result.info.get("fit_check")
+    lines += ["", "## Fit check", ""]
+    if isinstance(check, Mapping) and check:
+        lines += ["| channel | residual RMS / noise |", "|---|---|"]
+        lines += [f"| {c} | {r:.3g} |" for c, r in check["ratio"].items()]
+    else:
+        lines += ["The method reports no residuals: no fit check."]
+    lines += ["", f"Files: `{TABLE_FILES['csv']}` (every point, its standard error and 95 % "
+              f"interval), `{TABLE_FILES['jsbsim']}` (a JSBSim aerodynamics fragment: "
+              "one `<function>` per table, indexed by `velocities/mach`).", ""]
+    text = "\n".join(lines)
+    if fmt == "html":
+        text = html_page(text, f"{result.estimator} on {source}")
+    return write_text_atomic(folder / name, text)
+
+
+__all__ = ["DIGITS", "TABLE_FILES", "Z95", "FittedTable", "fitted_tables", "has_tables",
+           "jsbsim_fragment", "tables_csv", "tables_figure", "write_tables_report"]

@@ -87,3 +87,19 @@ def test_figure_has_a_panel_per_coefficient():
     assert len(axes) == 2
     assert axes[0].get_xlabel() == "Mach" and "C_x" in axes[0].get_ylabel()
     assert len(axes[0].get_lines()) >= 2  # the fit and the truth
+
+
+def test_a_table_result_gets_the_tables_report_and_predict_refuses_it(tmp_path):
+    import aeroid
+    from aeroid.report import write_report
+
+    flight = aeroid.flights.simulate_scenario(aeroid.flights.reference_scenario(), rng=0)
+    result = aeroid.EstimationResult(estimator="equation-error", names=NAMES, theta=THETA,
+                                     stderr=STDERR)
+    with pytest.raises(EstimatorError, match="predict integrates the nine constant"):
+        result.predict(flight)
+    page = write_report(result, flight, tmp_path / "rep")
+    assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == [
+        "report.md", "tables.csv", "tables.png", "tables_jsbsim.xml"]
+    text = page.read_text()
+    assert "| Cx | 1.6 | -0.95 | 0.0095 |" in text and "| Cza | -11.8 | 0.118 |" in text
