@@ -20,7 +20,7 @@ constants and the table points ``Cx@M1.4``), and their result's ``names`` say so
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -49,17 +49,41 @@ def flight_tables(flight: Flight) -> MachTables | None:
     return flight.airframe.mach_tables(flight.states())
 
 
-def coefficient_layout(flight: Flight) -> tuple[tuple[str, ...], np.ndarray]:
+class FitsTables:
+    """Mixin of an estimator that fits the airframe's ``[tables]`` (the others refuse)."""
+
+    fits_tables: ClassVar[bool] = True
+
+
+def coefficient_layout(flight: Flight, pso_warm_start: bool = False
+                       ) -> tuple[tuple[str, ...], np.ndarray]:
     """Return the names of the coefficient parameters and their prior.
 
     Without tables: :data:`aeroid.model.NAMES` and the airframe's prior; with tables,
     their parameter names and the prior's flat tables (each point at the prior value).
+    ``pso_warm_start`` (output-error's option, a search of the nine constants) is
+    refused with tables in one line.
     """
     prior = flight.airframe.prior_vector()
     tables = flight_tables(flight)
     if tables is None:
         return NAMES, prior
+    if pso_warm_start:
+        raise EstimatorError("output-error: pso_warm_start searches the constant "
+                             "coefficients; it is not available with [tables]")
     return tables.parameter_names(), tables.expand(prior)
+
+
+def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]:
+    """Output-error's result with tables: ``info['parameter_names']`` with the tables'
+    names, ``info['tables']`` (the knots); returns the Mach notes (:func:`mach_notes`).
+    Nothing without tables."""
+    if model.tables is None:
+        return []
+    rest = tuple(info["parameter_names"])[len(NAMES):]
+    info["parameter_names"] = (*model.tables.parameter_names(), *rest)
+    info["tables"] = model.tables.to_table()
+    return list(mach_notes(flight, model.tables))
 
 
 def mach_notes(flight: Flight, tables: MachTables) -> tuple[str, ...]:
@@ -213,5 +237,5 @@ def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
     return np.sqrt(np.diag(cov))[:p.size]
 
 
-__all__ = ["coefficient_layout", "equation_error_tables", "expand_regressors", "flight_tables",
-           "mach_notes", "subproblem_columns", "table_floor"]
+__all__ = ["FitsTables", "coefficient_layout", "equation_error_tables", "expand_regressors",
+           "flight_tables", "mach_notes", "record_tables", "subproblem_columns", "table_floor"]

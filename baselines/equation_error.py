@@ -147,7 +147,7 @@ def roll_floor(flight: Flight, theta: np.ndarray) -> dict[str, float]:
 
 
 @dataclass(frozen=True, kw_only=True)
-class EquationErrorEstimator(Estimator):
+class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     """Closed-form equation-error least squares (EBM step 2 or one step on the sensors).
 
     Attributes
@@ -188,7 +188,6 @@ class EquationErrorEstimator(Estimator):
     """
 
     name: ClassVar[str] = "equation-error"
-    fits_tables: ClassVar[bool] = True  # the airframe's [tables]: baselines/_tables_fit.py
     description: ClassVar[str] = (
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 

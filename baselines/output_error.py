@@ -30,7 +30,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common
+from baselines import _common, _tables_fit
 from baselines._gauss_newton import (
     NOISE_MODELS,
     Fit,
@@ -55,7 +55,6 @@ from baselines._oe_starts import (
     start_report,
     warm_start_point,
 )
-from baselines._tables_fit import coefficient_layout, flight_tables, mach_notes
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -79,7 +78,7 @@ MAX_DELAY_S = 0.1
 MAX_SAMPLES = 50_000
 
 @dataclass(frozen=True, kw_only=True)
-class OutputErrorEstimator(Estimator):
+class OutputErrorEstimator(_tables_fit.FitsTables, Estimator):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the
@@ -193,7 +192,6 @@ class OutputErrorEstimator(Estimator):
     """
 
     name: ClassVar[str] = "output-error"
-    fits_tables: ClassVar[bool] = True  # the airframe's [tables]: baselines/_tables_fit.py
     uses_state_sd: ClassVar[bool] = True  # initial_velocity_prior, or a warning
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
@@ -247,11 +245,9 @@ class OutputErrorEstimator(Estimator):
                              f"magnitude, got {self.delay_s}")
 
     # ----------------------------------------------------------------------------------
-    def parameter_names(self, position_free: tuple[int, ...] = (),
-                        coefficient_names: tuple[str, ...] | None = None) -> tuple[str, ...]:
-        """Names of the estimated parameters, in the order of ``info['parameters']``
-        (``coefficient_names``: with [tables], their parameters' instead of NAMES)."""
-        names = list(coefficient_names or aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
+    def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
+        """Names of the estimated parameters, in the order of ``info['parameters']``."""
+        names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free]
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors)))
@@ -280,7 +276,7 @@ class OutputErrorEstimator(Estimator):
         ``positions="estimate"`` carry a Gaussian prior centred on the given position.
         """
         position_free = self.position_free(flight) if position_free is None else position_free
-        _, prior = coefficient_layout(flight)  # with [tables]: flat tables at the prior
+        _, prior = _tables_fit.coefficient_layout(flight)  # [tables]: flat at the prior
         pos = flight.airframe.accel_positions.ravel()
         pos_sd = flight.airframe.accel_position_sd.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
@@ -299,7 +295,7 @@ class OutputErrorEstimator(Estimator):
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
-                            imu_errors=self.imu_errors, tables=flight_tables(flight))
+                            imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight))
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -321,11 +317,8 @@ class OutputErrorEstimator(Estimator):
         model: RecordModel = prob.model  # type: ignore[assignment]
         scale = model.scale
         n_p = scale.size
-        names, prior = coefficient_layout(flight)  # with [tables]: their parameters
-        n_c = len(names)
-        if self.pso_warm_start and flight.airframe.tables is not None:
-            raise aeroid.EstimatorError("output-error: pso_warm_start searches the constant "
-                                        "coefficients; it is not available with [tables]")
+        names, prior = _tables_fit.coefficient_layout(flight, self.pso_warm_start)
+        n_c = len(names)  # the coefficients, or with [tables] their parameters
         first = np.zeros(n_p)
         first[:n_c] = prior / scale[:n_c]
         i_delay = model.n_graph
@@ -376,7 +369,7 @@ class OutputErrorEstimator(Estimator):
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
         position_free = model.position_free
         info = {"R": best.r_diag, "fisher": M,
-                "parameter_names": self.parameter_names(position_free, names),
+                "parameter_names": self.parameter_names(position_free),
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
@@ -384,9 +377,7 @@ class OutputErrorEstimator(Estimator):
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
                                             failures, n_c)
-        if model.tables is not None:
-            info["tables"] = model.tables.to_table()
-            warnings += list(mach_notes(flight, model.tables))
+        warnings += _tables_fit.record_tables(info, model, flight)  # names, notes
         info.update(start_info)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)
@@ -397,7 +388,7 @@ class OutputErrorEstimator(Estimator):
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         if model.n_imu:
-            imu_info, found = imu_error_report(self.parameter_names(position_free, names),
+            imu_info, found = imu_error_report(info["parameter_names"],
                                                imu_error_names(self.imu_errors), phys,
                                                stderr_phys, cov_phys)
             info.update(imu_info)

@@ -379,9 +379,7 @@ def floor_warnings(result: EstimationResult, flight: Flight,
     """
     if result.stderr is None or not result.success:
         return ()
-    if tuple(result.names) != NAMES:
-        # coefficient tables in Mach (the airframe's [tables]): this floor's model has
-        # constant coefficients; the tables' floor is baselines._tables_fit.table_floor
+    if tuple(result.names) != NAMES:  # tables in Mach: baselines._tables_fit.table_floor
         return ()
     if (result.noise_model or "channel") != "channel":
         # A method that weights each sample (a_c + b_c yhat^2) has a per-sample floor,
