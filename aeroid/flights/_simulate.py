@@ -247,15 +247,15 @@ def record_flight(
     noise = noise or NoNoise()
     seed = rng if isinstance(rng, int | np.integer) else None
     rng = np.random.default_rng(rng)
-    parameters = None if tables is None else _parameters(coefficients, tables)
     if not isinstance(truth, Truth):
         t, states, delta = truth
         change = np.flatnonzero(np.diff(delta)) + 1
         truth = Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
     k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
+    given = coefficients
     coefficients = (as_vector(coefficients) if tables is None
-                    else tables.coefficient_array(parameters, states))
+                    else tables.coefficient_array(_parameters(given, tables), states))
     accel = accelerometers(states, delta, coefficients, constants(airframe),
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
@@ -278,8 +278,9 @@ def record_flight(
         **_switch_metadata(truth, float(t[0]), float(t[-1])),
     }
     if tables is not None:
-        metadata["true_parameters"] = dict(zip(tables.parameter_names(),
-                                               parameters.tolist(), strict=True))
+        parameters = _parameters(given, tables).tolist()
+        metadata["true_parameters"] = dict(zip(tables.parameter_names(), parameters,
+                                               strict=True))
         metadata["true_tables"] = {**tables.to_table(),
                                    "speed_of_sound_mps": tables.speed_of_sound_mps}
     return make_flight(channels, seen, metadata)
