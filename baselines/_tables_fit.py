@@ -36,6 +36,15 @@ from baselines._oe_record import RecordModel
 #: Initial-state components the floor's record model takes as nuisance parameters: the
 #: rates, as output-error estimates them by default.
 FLOOR_FREE_STATES = (3, 4, 5)
+#: Data whose every output channel's noise level (from the data) is below this fraction
+#: of its RMS are noise-free: no floor (the fit check's NOISE_FREE_FRACTION).
+NOISE_FREE_FRACTION = 1e-3
+#: A channel's noise level is at least this fraction of its RMS (the fit check's
+#: RESOLUTION: a clean channel counts much, not infinitely).
+RESOLUTION = 1e-5
+#: Standard errors below this fraction of the table floor claim more than the data allow
+#: (a warning; the fit check's FLOOR_FRACTION for constant coefficients).
+FLOOR_FRACTION = 0.5
 
 #: Time samples per block of the regressors (equation-error's).
 BLOCK_SAMPLES = rc.REGRESSION_BLOCK
@@ -83,7 +92,12 @@ def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]
     rest = tuple(info["parameter_names"])[len(NAMES):]
     info["parameter_names"] = (*model.tables.parameter_names(), *rest)
     info["tables"] = model.tables.to_table()
-    return list(mach_notes(flight, model.tables))
+    n = model.tables.n_parameters
+    stderr = np.asarray(info["parameter_stderr"][:n], dtype=float)
+    extra, low = floor_entries(model.tables.parameter_names(), stderr,
+                               data_table_floor(flight, np.asarray(info["parameters"][:n])))
+    info.update(extra)
+    return list(mach_notes(flight, model.tables)) + list(low)
 
 
 def mach_notes(flight: Flight, tables: MachTables) -> tuple[str, ...]:
@@ -194,10 +208,14 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
                             "correlation": corr, "tables": tables.to_table(),
                             "speed_of_sound_mps": tables.speed_of_sound_mps,
                             "mach_range": (float(mach.min()), float(mach.max()))}
+    low: tuple[str, ...] = ()
     if not theta_only:
         info.update(rc.regression_fit(rec, X, y, theta, tuple(p[1] for p in problems)))
+        extra, low = floor_entries(tables.parameter_names(), np.sqrt(np.abs(np.diag(cov))),
+                                   data_table_floor(flight, theta))
+        info.update(extra)
     capped = [label for label, bw in bandwidth.items() if bw["capped"]]
-    warnings = mach_notes(flight, tables) + tuple(
+    warnings = mach_notes(flight, tables) + low + tuple(
         f"residuals of {label} stay correlated beyond the Newey-West cap; its standard "
         "errors are not reliable" for label in capped)
     return aeroid.EstimationResult(
@@ -237,5 +255,37 @@ def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
     return np.sqrt(np.diag(cov))[:p.size]
 
 
-__all__ = ["FitsTables", "coefficient_layout", "equation_error_tables", "expand_regressors",
-           "flight_tables", "mach_notes", "record_tables", "subproblem_columns", "table_floor"]
+def data_table_floor(flight: Flight, theta: np.ndarray) -> np.ndarray | None:
+    """Return :func:`table_floor` at ``theta`` with each channel's noise level estimated
+    from the data (:func:`aeroid.estimation.data_noise_levels`), or None on noise-free
+    data (every channel below :data:`NOISE_FREE_FRACTION` of its RMS) or without a
+    finite floor."""
+    channels = aeroid.model.OUTPUT_CHANNELS
+    levels = rc.data_noise_levels(flight, channels)
+    rms = np.array([float(np.sqrt(np.mean(flight[c] ** 2))) for c in channels])
+    sd = np.array([levels[c] for c in channels])
+    if not np.any(sd > NOISE_FREE_FRACTION * rms) or not np.all(np.isfinite(theta)):
+        return None
+    try:
+        floor = table_floor(flight, theta, np.maximum(sd, RESOLUTION * rms))
+    except np.linalg.LinAlgError:
+        return None
+    return floor if np.all(np.isfinite(floor)) else None
+
+
+def floor_entries(names: tuple[str, ...], stderr: np.ndarray, floor: np.ndarray | None
+                  ) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """``info['table_floor']`` (name -> floor) and the warning of standard errors below
+    :data:`FLOOR_FRACTION` of it (none without a floor)."""
+    if floor is None:
+        return {}, ()
+    low = [f"{n} ({s:.3g} < {f:.3g})" for n, s, f in zip(names, stderr, floor, strict=True)
+           if np.isfinite(s) and s < FLOOR_FRACTION * f]
+    info = {"table_floor": dict(zip(names, floor.tolist(), strict=True))}
+    return info, ((f"standard errors claim more than the data allow: below half the "
+                   f"Cramér-Rao floor for {', '.join(low)}",) if low else ())
+
+
+__all__ = ["FitsTables", "coefficient_layout", "data_table_floor", "equation_error_tables",
+           "expand_regressors", "flight_tables", "floor_entries", "mach_notes", "record_tables",
+           "subproblem_columns", "table_floor"]

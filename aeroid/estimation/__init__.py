@@ -19,7 +19,7 @@ and ``_identifiability`` (what the fit check tests beyond the residuals' size),
 """
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
-from aeroid.estimation._fitcheck import data_floor
+from aeroid.estimation._fitcheck import data_floor, data_noise_levels
 from aeroid.estimation._floor import (
     coefficient_information,
     cramer_rao_sd,
@@ -134,6 +134,7 @@ __all__ = [
     "model_outputs",
     "output_sensitivities",
     "data_floor",
+    "data_noise_levels",
     "ebm_cost",
     "ebm_regression",
     "difference_noise_sd",

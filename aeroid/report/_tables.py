@@ -167,7 +167,9 @@ def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
     points; ``name``: the page's file name (``report.md`` or ``report.html``). Writes
     :data:`TABLE_FILES` (CSV, JSBSim fragment, figure) and the page.
     """
-    tables = fitted_tables(result.names, result.theta, result.stderr)
+    given = result.info.get("table_floor") or {}  # name -> floor (the fits' info)
+    floor = (np.array([given.get(n, np.nan) for n in result.names]) if given else None)
+    tables = fitted_tables(result.names, result.theta, result.stderr, floor)
     write_text_atomic(folder / TABLE_FILES["csv"], tables_csv(tables))
     write_text_atomic(folder / TABLE_FILES["jsbsim"],
                       jsbsim_fragment(tables, f"aeroid {result.estimator}"))
