@@ -122,8 +122,8 @@ def check_knots(knots: Any, where: str) -> tuple[float, ...]:
 def choose_knots(mach: np.ndarray, count: int) -> tuple[float, ...]:
     """Return ``count`` knots evenly spaced over the range of ``mach``, rounded to 0.01.
 
-    The end knots are the lowest and highest Mach of the data (rounded inward), so no
-    sample lies beyond the table and every point has data on both sides of it.
+    The end knots are the lowest and highest Mach of the data rounded outward to 0.01, so
+    no sample lies beyond the table.
     """
     if int(count) != count or count < 1:
         raise AirframeError(f"tables: knot count must be a positive integer, got {count!r}")
@@ -131,9 +131,9 @@ def choose_knots(mach: np.ndarray, count: int) -> tuple[float, ...]:
     mach = mach[np.isfinite(mach)]
     if mach.size == 0:
         raise AirframeError("tables: no finite Mach number in the data to choose knots from")
-    # rounded inward to 0.01 Mach (a rounding error of the speed does not move a knot)
-    low = math.ceil(float(mach.min()) * 100 - 1e-6) / 100
-    high = math.floor(float(mach.max()) * 100 + 1e-6) / 100
+    # rounded outward to 0.01 Mach (a rounding error of the speed does not move a knot)
+    low = math.floor(float(mach.min()) * 100 + 1e-6) / 100
+    high = math.ceil(float(mach.max()) * 100 - 1e-6) / 100
     if count == 1 or high - low < MIN_KNOT_SPACING * (count - 1):
         if count > 1:
             raise AirframeError(f"tables: the data span Mach {mach.min():.4g}-{mach.max():.4g},"

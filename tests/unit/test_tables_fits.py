@@ -142,3 +142,16 @@ def test_constants_across_the_sweep_fail_the_fit_check_and_the_table_passes(swee
     # levels' own scatter (measured 0.96-1.02 here)
     floor = np.array([right.info["table_floor"][n] for n in right.names])
     np.testing.assert_allclose(right.stderr / floor, 1.0, atol=0.1)
+
+
+def test_knots_given_as_a_count_are_chosen_from_the_flights_mach_range(sweep):
+    flight, _ = sweep
+    counted = dataclasses.replace(flight, airframe=flight.airframe.replace(
+        tables=TableSpec((("Cx", 4),))))
+    result = aeroid.make_estimator("equation-error").run(counted, np.random.default_rng(0))
+    mach = flight.airframe.mach_tables(flight.states()).mach(flight.states())
+    knots = [float(n.split("@M")[1]) for n in result.names if n.startswith("Cx@")]
+    assert len(knots) == 4
+    assert mach.min() - 0.01 < knots[0] <= mach.min()  # rounded outward to 0.01 Mach
+    assert mach.max() <= knots[-1] < mach.max() + 0.01
+    assert not any("beyond" in w for w in result.warnings)  # no sample beyond the knots
