@@ -166,6 +166,10 @@ class Airframe:
             object.__setattr__(self, "prior", prior_tuple(self.prior))
         if self.tables is not None and not isinstance(self.tables, TableSpec):
             raise AirframeError(f"airframe: tables must be a TableSpec, got {self.tables!r}")
+        if self.tables is not None and self.tables.temperature_k is None \
+                and self.altitude_m is None:
+            raise AirframeError("airframe: [tables] needs the speed of sound for Mach: give "
+                                "[tables] temperature_K, or [atmosphere] altitude_m for ISA")
         if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "

@@ -84,3 +84,25 @@ def test_mach_sweep_scenario_reads_its_tables():
     data["coefficients"]["Cx"] = [[2.2]]
     with pytest.raises(AirframeError, match=r"\[coefficients\] Cx"):
         aeroid.flights.scenario_from_dict(data, source="s.toml")
+
+
+def test_a_table_flight_reads_back_with_its_tables(tmp_path):
+    scenario = load_scenario(MACH_SWEEP)
+    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(0.0, 0.2))
+    flight = simulate(scenario.airframe, scenario.coefficient_vector, manoeuvre,
+                      tables=scenario.tables, rng=0)
+    flight.write(tmp_path / "f.csv")
+    again = aeroid.flights.read_flight(tmp_path / "f.csv")
+    assert again.airframe.tables == scenario.airframe.tables
+    assert again.metadata["true_parameters"] == flight.metadata["true_parameters"]
+    assert again.metadata["true_tables"]["Cmq"] == list(scenario.tables.knots_of("Cmq"))
+
+
+def test_tables_without_a_speed_of_sound_are_refused_on_load():
+    data = aeroid.model.read_toml(MACH_SWEEP)
+    data["atmosphere"] = {"density_kgm3": 0.7}
+    with pytest.raises(AirframeError, match=r"s.toml: .*\[tables\] needs the speed of sound"):
+        aeroid.flights.scenario_from_dict(data, source="s.toml")
+    data["tables"]["temperature_K"] = 255.7
+    scenario = aeroid.flights.scenario_from_dict(data, source="s.toml")
+    assert scenario.tables.speed_of_sound_mps == pytest.approx((1.4 * 287.05287 * 255.7) ** 0.5)
