@@ -52,10 +52,27 @@ BLOCK_SAMPLES = rc.REGRESSION_BLOCK
 
 def flight_tables(flight: Flight) -> MachTables | None:
     """Return the tables of ``flight`` (its airframe's ``[tables]``; counted knots chosen
-    from its Mach range), or None when it has none."""
+    from its Mach range), or None when it has none.
+
+    Raises
+    ------
+    EstimatorError
+        One line naming the table points no sample informs (their hat functions are zero
+        at every sample's Mach): the fit could not determine them.
+    """
     if flight.airframe.tables is None:
         return None
-    return flight.airframe.mach_tables(flight.states())
+    states = flight.states()
+    tables = flight.airframe.mach_tables(states)
+    mach = tables.mach(states)
+    empty = [mach_tables.point_name(name, k) for name, knots in tables.knots
+             for k, weight in zip(knots, mach_tables.basis(knots, mach).max(axis=0),
+                                  strict=True) if weight == 0.0]
+    if empty:
+        raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
+                             f"spans Mach {mach.min():.4g}-{mach.max():.4g}); give knots "
+                             "within it, or a knot count")
+    return tables
 
 
 class FitsTables:

@@ -155,3 +155,13 @@ def test_knots_given_as_a_count_are_chosen_from_the_flights_mach_range(sweep):
     assert mach.min() - 0.01 < knots[0] <= mach.min()  # rounded outward to 0.01 Mach
     assert mach.max() <= knots[-1] < mach.max() + 0.01
     assert not any("beyond" in w for w in result.warnings)  # no sample beyond the knots
+
+
+def test_a_table_point_without_data_is_refused_before_the_fit(sweep):
+    flight, _ = sweep
+    far = dataclasses.replace(flight, airframe=flight.airframe.replace(
+        tables=TableSpec((("Cx", (1.1, 1.375, 1.65, 2.2)),))))
+    for method in ("equation-error", "output-error"):
+        with pytest.raises(aeroid.EstimatorError,
+                           match=r"no sample informs Cx@M1.1, Cx@M1.375 \(the flight spans"):
+            aeroid.make_estimator(method).fit(far)
