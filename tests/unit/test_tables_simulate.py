@@ -106,3 +106,10 @@ def test_tables_without_a_speed_of_sound_are_refused_on_load():
     data["tables"]["temperature_K"] = 255.7
     scenario = aeroid.flights.scenario_from_dict(data, source="s.toml")
     assert scenario.tables.speed_of_sound_mps == pytest.approx((1.4 * 287.05287 * 255.7) ** 0.5)
+
+
+def test_a_study_refuses_a_scenario_with_tables_in_one_line(tmp_path):
+    study = tmp_path / "s.toml"
+    study.write_text(f'[study]\nruns = 1\nseed = 1\nscenario = "{MACH_SWEEP}"\n')
+    with pytest.raises(aeroid.errors.StudyError, match="has coefficient tables in Mach"):
+        aeroid.study.load_study(study)
