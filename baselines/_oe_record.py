@@ -27,7 +27,7 @@ from aeroid.flights import (
     schedule,
     used_samples,
 )
-from aeroid.model import NAMES, OUTPUT_CHANNELS, Buffered, Record, symbolic_record
+from aeroid.model import NAMES, OUTPUT_CHANNELS, Buffered, MachTables, Record, symbolic_record
 from baselines._gauss_newton import SmoothRegion
 
 #: Central-difference step of the delay sensitivity [s]: 1 us, 5e-4 of a 2 ms sample; the
@@ -47,8 +47,9 @@ class RecordModel:
     :func:`aeroid.flights.used_samples`), or None; :class:`~baselines._gauss_newton.Problem`
     takes it.
 
-    Parameters ``p``: the graph's parameters (coefficients, free initial-state and
-    position components; :func:`aeroid.model.symbolic_record`), then, with
+    Parameters ``p``: the graph's parameters (coefficients, or with ``tables`` the
+    tables' parameters; free initial-state and position components;
+    :func:`aeroid.model.symbolic_record`), then, with
     ``estimate_delay``, ``tau / delay_scale``, then the IMU errors
     (:func:`imu_error_names`), each over its entry of ``scale``.
     """
@@ -60,7 +61,8 @@ class RecordModel:
     def __init__(self, flight: Flight, *, input: str, substeps: int,  # noqa: A002
                  x0_free: tuple[int, ...], position_free: tuple[int, ...], compiled: bool,
                  x0: np.ndarray, scale: np.ndarray, delay_s: float,
-                 estimate_delay: bool, imu_errors: str = "none") -> None:
+                 estimate_delay: bool, imu_errors: str = "none",
+                 tables: MachTables | None = None) -> None:
         self.const = model_constants(flight)
         self.mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
         self.schedule = schedule(flight, input)
@@ -74,7 +76,9 @@ class RecordModel:
         self.estimate_delay = estimate_delay
         self.delay_s = float(delay_s)
         self.delay_scale = flight.dt
-        self.n_graph = len(NAMES) + len(x0_free) + len(position_free)
+        self.tables = tables  # coefficient tables in Mach (baselines/_tables_fit.py)
+        self.n_theta = len(NAMES) if tables is None else tables.n_parameters
+        self.n_graph = self.n_theta + len(x0_free) + len(position_free)
         self.imu_errors = imu_errors
         self.n_imu = len(imu_error_names(imu_errors))
         self.scale = np.asarray(scale, dtype=float)
@@ -155,7 +159,7 @@ class RecordModel:
             simulate, jacobian, self.compiled = symbolic_record(
                 self.const, record.dt, self.substeps, record.n_samples, self.x0_free,
                 self.position_free, self.compiled_requested, n_pieces,
-                record.exogenous is not None)
+                record.exogenous is not None, tables=self.tables)
             d, pieces, exo = record.symbolic_inputs()
             inputs = [np.zeros(self.n_graph), self.scale[:self.n_graph], self.x0, d, pieces,
                       exo, self.pos]

@@ -16,6 +16,7 @@ import aeroid
 from aeroid.estimation import nuisance_findings
 from aeroid.flights import IMU_ERROR_KINDS, Flight
 from baselines._common import reconstruction_sd
+from baselines._tables_fit import coefficient_layout
 
 #: Scaling of the IMU-error parameters (conditioning only, no prior): a bias over this
 #: fraction of its channel's RMS (1 for a channel that is all zeros), a scale factor over
@@ -76,7 +77,7 @@ def consider_covariance(est: Any, flight: Flight, best: Any, scale: np.ndarray) 
         return np.zeros((scale.size, scale.size))
     wide_free = tuple(sorted(set(considered) | {3 * t for t in est.rx_free()}))
     wide = est.problem(flight, position_free=wide_free).model
-    first = aeroid.model.N_COEFFICIENTS + len(est.x0_free())
+    first = wide.n_theta + len(est.x0_free())
     p = np.zeros(wide.scale.size)
     p[:first] = best.p[:first]  # the considered offsets at 0: the given positions
     n_rest = best.p.size - first - len(est.position_free(flight))  # delay, IMU errors
@@ -100,7 +101,7 @@ def position_report(est: Any, model: Any, phys: np.ndarray, stderr: np.ndarray
     record model's start with the estimated components added; used by
     :meth:`aeroid.estimation.EstimationResult.predict`).
     """
-    n_c = aeroid.model.N_COEFFICIENTS
+    n_c = model.n_theta
     first_pos = n_c + len(est.x0_free())
     positions = model.pos.copy()
     position_sd = np.zeros(6)
@@ -122,7 +123,7 @@ def prior_weights(est: Any, flight: Flight, scale: np.ndarray,
     ``u, v, w`` (their sd from the flight's metadata); zero elsewhere (no prior).
     """
     weight = np.zeros(scale.size)
-    n_c = aeroid.model.N_COEFFICIENTS
+    n_c = len(coefficient_layout(flight)[0])  # with [tables]: their parameters
     pos_sd = flight.airframe.accel_position_sd.ravel()
     if est.positions == "estimate":
         first = n_c + len(est.x0_free())

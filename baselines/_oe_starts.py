@@ -59,10 +59,11 @@ class Start:
 def equation_error_start(flight: Flight, first: np.ndarray, scale: np.ndarray,
                          rng: np.random.Generator) -> Start:
     """Return the start at equation-error's estimate (the rest of ``first`` kept)."""
-    n = len(aeroid.NAMES)
     try:
         est = aeroid.make_estimator("equation-error", EQUATION_ERROR_OPTIONS)
-        theta = np.asarray(est.run(flight, rng).theta, dtype=float)
+        result = est.run(flight, rng)
+        theta = np.asarray(result.theta, dtype=float)
+        n = len(result.names)  # the coefficients, or with [tables] their parameters
     except Exception as exc:  # failure is data: the fit goes on from its other starts
         text = " ".join(str(exc).split())
         return Start("equation-error", None, text)
@@ -85,7 +86,8 @@ def best_end(ends: list[Any]) -> int:
 
 
 def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarray,
-                 failures: list[str] = ()) -> tuple[dict[str, Any], list[str]]:
+                 failures: list[str] = (), n_coefficients: int | None = None
+                 ) -> tuple[dict[str, Any], list[str]]:
     """Compare every start's end with the best one; return ``info`` entries and warnings.
 
     Parameters
@@ -116,7 +118,7 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
         away: a second optimum (an unconverged end shows none; ``info`` has it); one per
         failed start.
     """
-    n = len(aeroid.NAMES)
+    n = len(aeroid.NAMES) if n_coefficients is None else n_coefficients  # [tables]: more
     p_best, nll_best = ends[best].p[:n], ends[best].nll
     with np.errstate(all="ignore"):
         distance = [float(np.max(np.abs(f.p[:n] - p_best) / stderr[:n])) for f in ends]

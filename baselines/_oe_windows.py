@@ -40,6 +40,7 @@ from baselines._gauss_newton import (
     posterior_information,
     sandwich,
 )
+from baselines._oe_constants import MAX_SAMPLES  # output-error's: the stacked record costs as much
 from baselines._oe_record import RecordModel
 from baselines._oe_sensors import HELD_VELOCITY_WARNING, imu_error_report
 from baselines._oe_starts import (
@@ -52,11 +53,6 @@ from baselines._oe_starts import (
 __all__ = ["MAX_SAMPLES", "OutputErrorWindows", "WindowsLayout", "WindowsModel", "run_windows",
            "windows_problem"]
 
-#: Most samples over all windows: output-error's ``MAX_SAMPLES`` (the stacked model and
-#: its Jacobian cost what one record of as many samples does; this module sits below
-#: :mod:`baselines.output_error` and cannot read it: tests/unit/test_windows.py checks the
-#: two agree).
-MAX_SAMPLES = 50_000
 
 
 class OutputErrorWindows:

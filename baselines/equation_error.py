@@ -88,7 +88,7 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
-from baselines import _held
+from baselines import _held, _tables_fit
 from baselines._ee_least_squares import (  # the sub-problems' names are read from here
     LATERAL,
     SUBPROBLEMS,
@@ -147,7 +147,7 @@ def roll_floor(flight: Flight, theta: np.ndarray) -> dict[str, float]:
 
 
 @dataclass(frozen=True, kw_only=True)
-class EquationErrorEstimator(Estimator):
+class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     """Closed-form equation-error least squares (EBM step 2 or one step on the sensors).
 
     Attributes
@@ -210,6 +210,9 @@ class EquationErrorEstimator(Estimator):
             ) -> EstimationResult:
         """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
         the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
+        tables = _tables_fit.flight_tables(flight)
+        if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
+            return _tables_fit.equation_error_tables(self, flight, tables)
         result = self._solve(flight, holds=holds)
         if holds is not None and holds.held:  # the data against the held values
             result = _held.ee_held_check(result, self._solve(flight), holds)

@@ -30,7 +30,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common, _held
+from baselines import _common, _held, _tables_fit
 from baselines._gauss_newton import (
     NOISE_MODELS,
     Fit,
@@ -38,6 +38,15 @@ from baselines._gauss_newton import (
     gauss_newton,
     posterior_information,
     sandwich,
+)
+from baselines._oe_constants import (
+    MAX_DELAY_S,
+    MAX_SAMPLES,
+    POSITION_NAMES,
+    R_FLOOR_REL,
+    X0_NAMES,
+    X0_RATES,
+    X0_VELOCITIES,
 )
 from baselines._oe_record import RecordModel
 from baselines._oe_sensors import (
@@ -57,29 +66,9 @@ from baselines._oe_starts import (
 )
 from baselines._oe_windows import OutputErrorWindows
 
-#: Initial-state components that can be estimated: the rates p, q, r
-#: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
-#: The attitude (phi, theta) enters only through gravity and psi not at all, so they are
-#: taken from the first measured sample.
-X0_RATES = (3, 4, 5)
-X0_VELOCITIES = (0, 1, 2)
-X0_NAMES = ("u0", "v0", "w0", "p0", "q0", "r0")
-#: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
-#: finite on noise-free data, far below any real noise level.
-R_FLOOR_REL = 1e-24
-#: Names of the six accelerometer-position components.
-POSITION_NAMES = ("rx1", "ry1", "rz1", "rx2", "ry2", "rz2")
-#: Largest actuator delay accepted [s] (a starting value or a fixed delay): a tenth of a
-#: second is far beyond any fin actuator and beyond the fits' record lengths' sense.
-MAX_DELAY_S = 0.1
-#: Longest record fitted whole: the C model is built for the record's length and its
-#: Jacobian holds every sample. Measured on the reference airframe (Gaussian IMU): 5 001
-#: samples 7 s and +66 MB, 20 001 samples 19 s and +510 MB (model build and compile
-#: included); 50 000 samples would take ~1.5 GB. A longer log: fit windows of it.
-MAX_SAMPLES = 50_000
 
 @dataclass(frozen=True, kw_only=True)
-class OutputErrorEstimator(OutputErrorWindows, Estimator):
+class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the
@@ -279,7 +268,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         ``positions="estimate"`` carry a Gaussian prior centred on the given position.
         """
         position_free = self.position_free(flight) if position_free is None else position_free
-        prior = flight.airframe.prior_vector()
+        _, prior = _tables_fit.coefficient_layout(flight)  # [tables]: flat at the prior
         pos = flight.airframe.accel_positions.ravel()
         pos_sd = flight.airframe.accel_position_sd.ravel()
         scale = [np.where(prior != 0.0, prior, 1.0)]
@@ -298,7 +287,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
-                            imu_errors=self.imu_errors)
+                            imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight))
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -320,8 +309,8 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         model: RecordModel = prob.model  # type: ignore[assignment]
         scale = model.scale
         n_p = scale.size
-        prior = flight.airframe.prior_vector()
-        n_c = aeroid.model.N_COEFFICIENTS
+        names, prior = _tables_fit.coefficient_layout(flight, self.pso_warm_start)
+        n_c = len(names)  # the coefficients, or with [tables] their parameters
         first = np.zeros(n_p)
         first[:n_c] = prior / scale[:n_c]
         i_delay = model.n_graph
@@ -379,7 +368,8 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
                 "start_costs": [f.nll for f in fits], "input": self.input,
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
-                                            failures)
+                                            failures, n_c)
+        warnings += _tables_fit.record_tables(info, model, flight)  # names, notes
         info.update(start_info)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)
@@ -390,13 +380,13 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         if model.n_imu:
-            imu_info, found = imu_error_report(self.parameter_names(position_free),
+            imu_info, found = imu_error_report(info["parameter_names"],
                                                imu_error_names(self.imu_errors), phys,
                                                stderr_phys, cov_phys)
             info.update(imu_info)
             warnings += found
         return EstimationResult(
-            estimator=self.name, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
+            estimator=self.name, names=names, theta=theta, stderr=np.sqrt(np.abs(np.diag(cov))),
             covariance=cov, cost=best.nll, success=best.converged, message=best.message,
             n_evaluations=n_evals, n_iterations=n_iter, history=history, info=info,
             warnings=tuple(warnings))

@@ -38,7 +38,8 @@ def simulate(args: argparse.Namespace) -> int:
     data = read_toml(args.scenario) if args.scenario else reference_scenario_data()
     noise = noise_for(data, args.noise)
     flight = simulate_flight(scenario.airframe, scenario.coefficient_vector,
-                             scenario.manoeuvre, noise, rng=args.seed)
+                             scenario.manoeuvre, noise, rng=args.seed,
+                             tables=scenario.tables)  # coefficient tables in Mach, if any
     try:
         sidecar = flight.write(args.output)
     except OSError as exc:  # a full disk, /proc, a name over 255 bytes, no permission

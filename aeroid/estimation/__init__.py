@@ -21,7 +21,7 @@ does with several windows (:class:`aeroid.flights.Windows`).
 """
 
 from aeroid.estimation._estimator import Estimator, prior_bounds
-from aeroid.estimation._fitcheck import data_floor
+from aeroid.estimation._fitcheck import data_floor, data_noise_levels
 from aeroid.estimation._floor import (
     coefficient_information,
     cramer_rao_sd,
@@ -158,6 +158,7 @@ __all__ = [
     "model_outputs",
     "output_sensitivities",
     "data_floor",
+    "data_noise_levels",
     "ebm_cost",
     "ebm_regression",
     "difference_noise_sd",

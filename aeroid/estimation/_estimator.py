@@ -75,6 +75,10 @@ class Estimator(abc.ABC):
     #: estimates only the free coefficients and adds the priors' information. :meth:`fit`
     #: refuses holds and priors for the others in one line.
     supports_holds: ClassVar[bool] = False
+    #: True for a method that fits the airframe's coefficient tables in Mach
+    #: (``[tables]``, :class:`aeroid.model.TableSpec`); :meth:`fit` refuses such a flight
+    #: for the others instead of fitting constants in silence.
+    fits_tables: ClassVar[bool] = False
 
     @abc.abstractmethod
     def run(self, flight: Flight, rng: np.random.Generator) -> EstimationResult:
@@ -135,6 +139,20 @@ class Estimator(abc.ABC):
             Any other bad input the method finds (e.g. a swarm too large for the flight);
             every other exception inside the method gives ``success=False``.
         """
+        tables = getattr(flight.airframe, "tables", None)
+        if tables is not None and not self.fits_tables:
+            raise EstimatorError(
+                f"{self.name or type(self).__name__}: the airframe's [tables] makes "
+                f"{', '.join(name for name, _ in tables.knots)} tables in Mach; this method "
+                "fits constant coefficients (output-error and equation-error fit tables); "
+                "remove [tables] to fit constants")
+        if tables is not None and (isinstance(flight, Windows) or not airframe_holds(
+                flight.airframe).merged(CoefficientSpec.coerce(holds)).empty):
+            raise EstimatorError(
+                f"{self.name or type(self).__name__}: coefficient tables ([tables]) are fitted "
+                "on one flight with every coefficient free; several windows, held "
+                "coefficients and priors (a passive fin's included) cannot be combined with "
+                "tables yet")
         if isinstance(flight, Windows):
             spec = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
             if not spec.empty:

@@ -57,7 +57,7 @@ from aeroid.estimation._signals import (
 )
 from aeroid.estimation._whiteness import autocorrelation_test, family_limit, switch_test
 from aeroid.flights import STATE_CHANNELS, Flight
-from aeroid.model import OUTPUT_CHANNELS
+from aeroid.model import NAMES, OUTPUT_CHANNELS
 
 #: A residual RMS above this many times the data's noise level fails the fit. Measured
 #: with the 4th-difference yardstick on the shipped studies' right-model fits (runs 0-9,
@@ -379,6 +379,8 @@ def floor_warnings(result: EstimationResult, flight: Flight,
     the result's ``input`` (``hold`` for a method that integrates no model).
     """
     if result.stderr is None or not result.success:
+        return ()
+    if tuple(result.names) != NAMES:  # tables in Mach: baselines._tables_fit.table_floor
         return ()
     if (result.noise_model or "channel") != "channel":
         # A method that weights each sample (a_c + b_c yhat^2) has a per-sample floor,

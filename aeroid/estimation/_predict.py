@@ -38,7 +38,7 @@ import pandas as pd
 from aeroid.errors import EstimatorError
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
 from aeroid.flights import IMU_ERROR_KINDS
-from aeroid.model import STATE_NAMES
+from aeroid.model import NAMES, STATE_NAMES
 
 if TYPE_CHECKING:
     from aeroid.flights import Flight
@@ -247,7 +247,17 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
         ``estimator``, ``imu_errors`` (the biases and scale factors applied, ``{}`` for
         none) and ``imu_errors_note`` (one line saying what was done).
         NaN where the simulation diverged (or every value, for NaN coefficients).
+
+    Raises
+    ------
+    EstimatorError
+        For a result of coefficient tables in Mach (names other than the nine): the
+        model here has constant coefficients.
     """
+    if tuple(result.names) != NAMES:
+        raise EstimatorError(f"{result.estimator}: predict integrates the nine constant "
+                             f"coefficients; this result has {len(result.names)} parameters "
+                             "(coefficient tables in Mach: aeroid.report.fitted_tables)")
     from aeroid.flights import flight_record, model_constants
     from aeroid.model import ForwardModel
 

@@ -25,6 +25,14 @@ A scenario may also carry the airframe file's ``[fin_law]``: what the simulated 
 airframe tells the estimators (their ``law`` input). It is independent of ``[actuator]``,
 so a study can give the estimators a law that differs from the truth (a wrong delay);
 left out, the flights' airframe has no fin law.
+
+A true coefficient may be a table in Mach (:class:`aeroid.model.MachTables`): in
+``[coefficients]``, ``Cx = [[1.1, -1.13], [1.6, -0.98], [2.2, -0.83]]`` gives its value
+at each Mach number (increasing), linear between and held beyond the ends; the speed of
+sound is that of the airframe's ``[tables] temperature_K`` or ISA at ``[atmosphere]
+altitude_m``. The scenario's ``coefficients`` are then the tables' parameters
+(:meth:`~aeroid.model.MachTables.parameter_names`) and ``tables`` the tables. The
+airframe's own ``[tables]`` is what the flights tell the fits (like ``[fin_law]``).
 """
 
 from __future__ import annotations
@@ -46,6 +54,7 @@ from aeroid.model import (
     STATE_NAMES,
     Airframe,
     FinLaw,
+    MachTables,
     Profile,
     fileform,
     profile,
@@ -186,10 +195,12 @@ class Scenario:
     manoeuvre: Manoeuvre
     noise: NoiseModel
     name: str = "reference"
+    tables: MachTables | None = None
 
     @property
     def coefficient_vector(self) -> np.ndarray:
-        """The true coefficients, shape (N_COEFFICIENTS,)."""
+        """The true coefficients, shape (N_COEFFICIENTS,) (with :attr:`tables`: their
+        parameters, shape (tables.n_parameters,))."""
         return np.array(self.coefficients)
 
 
@@ -234,7 +245,7 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
         raise AirframeError(f"{source}: no [coefficients] table (the true coefficients)")
     table = fileform.check_table(data["coefficients"], f"{source}: [coefficients]")
     fileform.check_keys(table, NAMES, f"{source}: [coefficients]", required=NAMES)
-    coefficients = tuple(fileform.number(table[n], f"{source}: [coefficients] {n}") for n in NAMES)
+    coefficients, tables = _true_coefficients(table, airframe, f"{source}: [coefficients]")
     noise_tables = fileform.check_table(data.get("noise", {}), f"{source}: [noise]")
     fileform.check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
     noise_options = {name: fileform.check_table(table, f"{source}: [noise.{name}]")
@@ -246,7 +257,34 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
         raise AirframeError(f"{source}: {exc}") from None
     noise = models.get("paper") or make_noise("paper")
     return Scenario(airframe=airframe, coefficients=coefficients, manoeuvre=manoeuvre,
-                    noise=noise, name=Path(source).stem)
+                    noise=noise, name=Path(source).stem, tables=tables)
+
+
+def _true_coefficients(table: Any, airframe: Airframe, where: str
+                       ) -> tuple[tuple[float, ...], MachTables | None]:
+    """The ``[coefficients]`` values: numbers, or ``[[mach, value], ...]`` tables."""
+    if not any(isinstance(table[n], list) for n in NAMES):
+        return tuple(fileform.number(table[n], f"{where} {n}") for n in NAMES), None
+    knots, values = {}, []
+    for name in NAMES:
+        value = table[name]
+        if not isinstance(value, list):
+            values.append(fileform.number(value, f"{where} {name}"))
+            continue
+        rows = [fileform.numbers(row, 2, f"{where} {name} (rows [mach, value])")
+                for row in value]
+        if not rows:
+            raise AirframeError(f"{where} {name}: an empty table (rows [mach, value])")
+        knots[name] = tuple(row[0] for row in rows)
+        values.extend(row[1] for row in rows)
+    spec = airframe.tables
+    try:
+        sound = (spec.speed_of_sound(airframe.altitude_m) if spec is not None
+                 else airframe.speed_of_sound_mps)
+        tables = MachTables(tuple(knots.items()), sound)
+    except AirframeError as exc:
+        raise AirframeError(f"{where}: {exc}") from None
+    return tuple(values), tables
 
 
 def _actuator_options(act: Any, where: str) -> dict[str, Any]:

@@ -25,18 +25,22 @@ from typing import NamedTuple
 
 import numpy as np
 
+from aeroid.errors import AirframeError
 from aeroid.flights._flight import STATE_CHANNELS, Flight, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
 from aeroid.model import (
     Airframe,
+    MachTables,
     Schedule,
     accelerometers,
     as_dict,
     as_vector,
     constants,
     propagate,
+    rk4_step,
+    state_derivative,
 )
 
 
@@ -89,9 +93,48 @@ def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
     return Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
 
 
+def _latched_tables(airframe: Airframe, parameters: np.ndarray, tables: MachTables,
+                    manoeuvre: Manoeuvre) -> Truth:
+    """:func:`_latched` with coefficient tables: numpy RK4, coefficients at each stage's Mach.
+
+    The numba kernels take constant coefficients; this is the numpy right-hand side
+    (:func:`aeroid.model.state_derivative`) with the coefficients of
+    :meth:`aeroid.model.MachTables.coefficient_array` at every RK4 stage, the model the
+    output-error graph integrates (benchmarks/bench_tables.py measures its cost).
+    """
+    const = constants(airframe)
+    law = manoeuvre.fin_law(airframe.delta_max_rad)
+    dt = manoeuvre.dt
+    h = dt / manoeuvre.truth_substeps
+    n = int(round(manoeuvre.window_s[1] / dt)) + 1
+    t = np.arange(n) * dt
+    states = np.empty((n, len(STATE_CHANNELS)))
+    delta = np.empty(n)
+    x = np.array(manoeuvre.initial_state)
+
+    def rhs(_t: float, y: np.ndarray, d: float) -> np.ndarray:
+        return state_derivative(y, d, tables.coefficient_array(parameters, y), const)
+
+    varying = law.time_varying
+    with np.errstate(all="ignore"):
+        for k in range(n):
+            states[k] = x
+            delta[k] = law(x[6], t[k] if varying else None)
+            if k < n - 1:
+                for sub in range(manoeuvre.truth_substeps):
+                    x = rk4_step(rhs, t[k] + sub * h, x, h, delta[k])
+    change = np.flatnonzero(np.diff(delta)) + 1
+    return Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
+
+
 def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
-                   *, backend: str = "auto") -> Truth:
+                   *, backend: str = "auto", tables: MachTables | None = None) -> Truth:
     """Integrate the closed relay loop from t = 0 to the end of the window.
+
+    With ``tables`` (:class:`aeroid.model.MachTables`), ``coefficients`` are the tables'
+    parameters (:meth:`~aeroid.model.MachTables.parameter_names`), evaluated at each RK4
+    stage's Mach by numpy (``backend`` unused); only the latched relay without delay or
+    rate limit is supported then (anything else: one-line error).
 
     Returns
     -------
@@ -101,7 +144,14 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
     law = manoeuvre.fin_law(airframe.delta_max_rad)
-    if manoeuvre.evaluation == "latched" and law.delay_s == 0 and law.rate_limit_dps is None:
+    plain = (manoeuvre.evaluation == "latched" and law.delay_s == 0
+             and law.rate_limit_dps is None)
+    if tables is not None:
+        if not plain:
+            raise AirframeError("simulate: coefficient tables are simulated with the latched "
+                                "relay without delay or rate limit only")
+        return _latched_tables(airframe, _parameters(coefficients, tables), tables, manoeuvre)
+    if plain:
         return _latched(airframe, coefficients, manoeuvre, backend)
     rate = (None if manoeuvre.evaluation == "continuous" else
             manoeuvre.control_rate_hz or manoeuvre.sample_rate_hz)
@@ -125,6 +175,7 @@ def simulate(
     *,
     rng: np.random.Generator | int | None = None,
     backend: str = "auto",
+    tables: MachTables | None = None,
 ) -> Flight:
     """Simulate a recorded flight.
 
@@ -141,6 +192,10 @@ def simulate(
         Source of every random draw (normalised once with ``default_rng``).
     backend : {"auto", "numba", "numpy"}
         Integration backend (:func:`aeroid.model.propagate`).
+    tables : MachTables, optional
+        True coefficient tables in Mach: ``coefficients`` are then their parameters
+        (:func:`simulate_truth`), and ``metadata`` holds ``true_parameters`` (name ->
+        value) and ``true_tables`` (name -> knots) instead of ``true_coefficients``.
 
     Returns
     -------
@@ -148,9 +203,21 @@ def simulate(
         Recorded window; its airframe carries the estimator's copy of the sensor
         positions, ``metadata`` the truth (coefficients, positions), noise and seed.
     """
-    coefficients = as_vector(coefficients)
-    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend)
-    return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng)
+    coefficients = (as_vector(coefficients) if tables is None
+                    else _parameters(coefficients, tables))
+    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend, tables=tables)
+    return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng,
+                         tables=tables)
+
+
+def _parameters(parameters: np.ndarray, tables: MachTables) -> np.ndarray:
+    """The tables' parameter vector, checked for its length."""
+    p = np.asarray(parameters, dtype=float).reshape(-1)
+    if p.size != tables.n_parameters:
+        raise AirframeError(f"simulate: {p.size} coefficient values for tables of "
+                            f"{tables.n_parameters} parameters "
+                            f"({', '.join(tables.parameter_names())})")
+    return p
 
 
 def record_flight(
@@ -161,6 +228,7 @@ def record_flight(
     noise: NoiseModel | None = None,
     *,
     rng: np.random.Generator | int | None = None,
+    tables: MachTables | None = None,
 ) -> Flight:
     """Record a flight from an integrated truth: window, accelerometers, noise.
 
@@ -179,13 +247,15 @@ def record_flight(
     noise = noise or NoNoise()
     seed = rng if isinstance(rng, int | np.integer) else None
     rng = np.random.default_rng(rng)
-    coefficients = as_vector(coefficients)
     if not isinstance(truth, Truth):
         t, states, delta = truth
         change = np.flatnonzero(np.diff(delta)) + 1
         truth = Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
     k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
+    given = coefficients
+    coefficients = (as_vector(coefficients) if tables is None
+                    else tables.coefficient_array(_parameters(given, tables), states))
     accel = accelerometers(states, delta, coefficients, constants(airframe),
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
@@ -201,12 +271,18 @@ def record_flight(
     metadata = {
         "noise": noise.to_dict(),
         "seed": None if seed is None else int(seed),
-        "true_coefficients": as_dict(coefficients),
+        "true_coefficients": as_dict(coefficients) if tables is None else None,
         "true_accel_positions_m": airframe.accel_positions.tolist(),
         "manoeuvre": _manoeuvre_metadata(manoeuvre),
         "actuator": _actuator_metadata(manoeuvre, airframe),
         **_switch_metadata(truth, float(t[0]), float(t[-1])),
     }
+    if tables is not None:
+        parameters = _parameters(given, tables).tolist()
+        metadata["true_parameters"] = dict(zip(tables.parameter_names(), parameters,
+                                               strict=True))
+        metadata["true_tables"] = {**tables.to_table(),
+                                   "speed_of_sound_mps": tables.speed_of_sound_mps}
     return make_flight(channels, seen, metadata)
 
 
@@ -247,4 +323,5 @@ def simulate_scenario(scenario: Scenario, noise: NoiseModel | None = None, *,
                       rng: np.random.Generator | int | None = None) -> Flight:
     """Simulate ``scenario`` with ``noise`` (default: the scenario's own noise model)."""
     return simulate(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                    scenario.noise if noise is None else noise, rng=rng)
+                    scenario.noise if noise is None else noise, rng=rng,
+                    tables=scenario.tables)

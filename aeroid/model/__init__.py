@@ -5,14 +5,17 @@ The equations of motion (paper eqs. 2-16) and the lever-arm accelerometers (eq. 
 defined once, by name; numpy, numba and CasADi evaluate the same definitions.
 
 Namespaces: :mod:`equations <aeroid.model._equations>` (the equations by name),
-:mod:`symbolic <aeroid.model._symbolic>` (CasADi) and :mod:`fileform
+:mod:`symbolic <aeroid.model._symbolic>` (CasADi), :mod:`fileform
 <aeroid.model._fileform>` (reading and checking aeroid's TOML and JSON files: one-line
-errors naming the file and key; the flights' readers use it).
+errors naming the file and key; the flights' readers use it) and :mod:`tables
+<aeroid.model._tables>` (coefficients as tables in Mach: the hat basis,
+:class:`MachTables`).
 """
 
 from aeroid.model import _equations as equations
 from aeroid.model import _fileform as fileform
 from aeroid.model import _symbolic as symbolic
+from aeroid.model import _tables as tables
 from aeroid.model._actuator import FIN_LAW_KEYS, FinLaw, Profile, RelayActuator, Track, profile
 from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
 from aeroid.model._airframe import (
@@ -89,6 +92,7 @@ from aeroid.model._inputs import (
 )
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
 from aeroid.model._sensitivity import DEFAULT_REL_STEP, SENSITIVITY_BLOCK_BYTES
+from aeroid.model._tables import MachTables, TableSpec
 
 __all__ = [
     "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",
@@ -108,4 +112,5 @@ __all__ = [
     "density", "fileform", "profile",
     "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
     "pressure_altitude",
+    "MachTables", "TableSpec", "tables",
 ]

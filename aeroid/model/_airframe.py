@@ -36,6 +36,9 @@ from aeroid.model._airframe_form import (
     AIRFRAME_TABLES,
     ATMOSPHERE_CHANNELS,
     ATMOSPHERE_KEYS,
+    DELTA_MAX_WARN_DEG,
+    LIMITS,
+    MIN_SENSOR_SEPARATION_M,
     SCENARIO_TABLES,
     airframe_fields,
     check_fin,
@@ -50,27 +53,7 @@ from aeroid.model._fileform import (
     numbers,
     read_toml,
 )
-
-#: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
-LIMITS: dict[str, tuple[float, float]] = {
-    # 1 mm (a dart) to 10 m (a launch vehicle); a diameter in mm or cm lands outside.
-    "diameter_m": (1e-3, 10.0),
-    # 100 m exceeds any airframe; a length in mm lands outside.
-    "length_m": (1e-3, 100.0),
-    # Dead Sea shore to 20 km: the ISA model here holds its 216.65 K layer above 11 km
-    # and is wrong above 20 km (give density_kgm3 for a flight higher up).
-    "altitude_m": (-500.0, 20_000.0),
-    # the air at 65 km to the densest surface air (1.42 kg/m^3 at -40 C) with margin.
-    "density_kgm3": (1e-4, 1.5),
-    # a fin throw is positive; beyond 45 deg a fin stalls and the linear Czd/Cmd mean nothing.
-    "delta_max_deg": (0.0, 45.0),
-}
-#: A fin throw below this [deg] is accepted with a warning: 0.14 "deg" is 8 deg in radians.
-DELTA_MAX_WARN_DEG = 1.0
-#: Closest accelerometer triads [m]. At R1 == R2 the two triads measure the same point
-#: and the angular acceleration of eq. 29 is rank-deficient; closer than 1 mm their
-#: difference is far below any accelerometer's noise.
-MIN_SENSOR_SEPARATION_M = 1e-3
+from aeroid.model._tables import MachTables, TableSpec
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -120,6 +103,9 @@ class Airframe:
     hold, prior_sd : tuple of (name, float)
         ``[hold]``: coefficients every fit holds at a value; ``[prior_sd]``: the sd of a
         Gaussian prior centred on ``[prior]`` (needed); :func:`aeroid.estimation.airframe_holds`.
+    tables : TableSpec or None
+        Coefficients the fits take as tables in Mach (``[tables]``;
+        :meth:`mach_tables`); None: every coefficient constant.
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -145,6 +131,7 @@ class Airframe:
     fin: str = "relay"
     hold: tuple[tuple[str, float], ...] = ()
     prior_sd: tuple[tuple[str, float], ...] = ()
+    tables: TableSpec | None = None
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -180,6 +167,12 @@ class Airframe:
         self._check_ranges()
         if self.prior is not None:
             object.__setattr__(self, "prior", prior_tuple(self.prior))
+        if self.tables is not None and not isinstance(self.tables, TableSpec):
+            raise AirframeError(f"airframe: tables must be a TableSpec, got {self.tables!r}")
+        if self.tables is not None and self.tables.temperature_k is None \
+                and self.altitude_m is None:
+            raise AirframeError("airframe: [tables] needs the speed of sound for Mach: give "
+                                "[tables] temperature_K, or [atmosphere] altitude_m for ISA")
         if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
@@ -295,6 +288,14 @@ class Airframe:
         """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
         return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
 
+    def mach_tables(self, states: np.ndarray | None = None) -> MachTables | None:
+        """Return the coefficient tables of a flight of this airframe (None: no ``[tables]``).
+
+        ``states`` (n, 9): the flight's, to choose knots given as a count from its Mach
+        range; the speed of sound from ``[tables] temperature_K`` or ISA at the altitude.
+        """
+        return None if self.tables is None else self.tables.resolve(self.altitude_m, states)
+
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), (N_COEFFICIENTS,)."""
         return nominal() if self.prior is None else np.array(self.prior)
@@ -323,6 +324,8 @@ class Airframe:
         if self.fin == "relay":
             table.pop("fin", None)  # the default, left out of the file
         out.update({k: dict(v) for k, v in (("hold", self.hold), ("prior_sd", self.prior_sd)) if v})
+        if self.tables is not None:
+            out["tables"] = self.tables.to_table()
         return out
 
     @classmethod

@@ -38,6 +38,11 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     evaluation = "continuous"               # optional: or "latched" (at the log's samples),
                                             # or control_rate_Hz = f (a clock of its own)
 
+    [tables]                                # optional: coefficients as tables in Mach
+    Cx = [1.1, 1.4, 1.7, 2.0, 2.2]          # knots [Mach] (aeroid.model.TableSpec), or a
+    Cmq = 3                                 # count chosen from the flight's Mach range
+    temperature_K = 255.7                   # optional: else ISA at [atmosphere] altitude_m
+
 :meth:`aeroid.model.Airframe.from_dict` builds the airframe from what
 :func:`airframe_fields` reads here; the checks of the values themselves (ranges, the
 one atmosphere) are the airframe's own.
@@ -51,6 +56,7 @@ from typing import Any
 from aeroid.errors import AirframeError
 from aeroid.model._coefficients import NAMES
 from aeroid.model._fileform import check_keys, check_table, number, numbers, text
+from aeroid.model._tables import TableSpec
 
 #: File key -> attribute of ``[airframe]``.
 AIRFRAME_KEYS = {
@@ -78,8 +84,29 @@ ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kg
                    "per_sample": "atmosphere_channel"}
 #: Flight channels a per-sample atmosphere may name (:func:`aeroid.flights.exogenous`).
 ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
+#: Physical ranges [unit of the key], each with its reason; outside: AirframeError.
+LIMITS: dict[str, tuple[float, float]] = {
+    # 1 mm (a dart) to 10 m (a launch vehicle); a diameter in mm or cm lands outside.
+    "diameter_m": (1e-3, 10.0),
+    # 100 m exceeds any airframe; a length in mm lands outside.
+    "length_m": (1e-3, 100.0),
+    # Dead Sea shore to 20 km: the ISA model here holds its 216.65 K layer above 11 km
+    # and is wrong above 20 km (give density_kgm3 for a flight higher up).
+    "altitude_m": (-500.0, 20_000.0),
+    # the air at 65 km to the densest surface air (1.42 kg/m^3 at -40 C) with margin.
+    "density_kgm3": (1e-4, 1.5),
+    # a fin throw is positive; beyond 45 deg a fin stalls and the linear Czd/Cmd mean nothing.
+    "delta_max_deg": (0.0, 45.0),
+}
+#: A fin throw below this [deg] is accepted with a warning: 0.14 "deg" is 8 deg in radians.
+DELTA_MAX_WARN_DEG = 1.0
+#: Closest accelerometer triads [m]. At R1 == R2 the two triads measure the same point
+#: and the angular acceleration of eq. 29 is rank-deficient; closer than 1 mm their
+#: difference is far below any accelerometer's noise.
+MIN_SENSOR_SEPARATION_M = 1e-3
 #: The tables of an airframe file.
-AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "hold", "prior_sd")
+AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "hold", "prior_sd",
+                   "tables")
 #: The fin of an airframe (its field ``fin``): the moving ON-OFF fin, or none.
 FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
@@ -118,7 +145,8 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
     unknown = sorted(str(t) for t in data if t not in known)
     if unknown:
         hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
-                "[prior], [fin_law], [hold] and [prior_sd] (starting values go in [prior])"
+                "[prior], [fin_law], [hold], [prior_sd] and [tables] (starting values go in "
+                "[prior])"
                 if set(unknown) & set(SCENARIO_TABLES) else "")
         raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
                             f"(allowed: {', '.join(known)}){hint}")
@@ -157,6 +185,8 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
             check_keys(table, NAMES, f"{source}: [{name}]")
             kwargs[name] = tuple((n, number(table[n], f"{source}: [{name}] {n}"))
                                  for n in NAMES if n in table)
+    if "tables" in data:
+        kwargs["tables"] = TableSpec.from_table(data["tables"], f"{source}: [tables]")
     return kwargs, data.get("fin_law")
 
 
@@ -174,7 +204,8 @@ def prior_tuple(prior: Any) -> tuple[float, ...]:
 
 __all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "FIN_KINDS", "check_fin", "check_holds",
            "coefficient_pairs", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
-           "OPTIONAL_AIRFRAME_KEYS", "SCENARIO_TABLES", "airframe_fields", "prior_tuple"]
+           "OPTIONAL_AIRFRAME_KEYS", "SCENARIO_TABLES", "airframe_fields", "prior_tuple",
+           "DELTA_MAX_WARN_DEG", "LIMITS", "MIN_SENSOR_SEPARATION_M"]
 
 
 def check_fin(fin: Any, delta_max_deg: Any, fin_law: Any) -> None:

@@ -37,7 +37,6 @@ from aeroid.model import _compiled, _symbolic
 from aeroid.model import _equations as eq
 from aeroid.model import _inputs as inputs
 from aeroid.model import _sensitivity as sensitivity
-from aeroid.model._coefficients import N_COEFFICIENTS
 from aeroid.model._dynamics import (
     N_STATE,
     Constants,
@@ -47,6 +46,7 @@ from aeroid.model._dynamics import (
 from aeroid.model._inputs import Record
 from aeroid.model._integrate import propagate
 from aeroid.model._sensitivity import DEFAULT_REL_STEP
+from aeroid.model._tables import MachTables
 
 
 class ForwardModel:
@@ -186,7 +186,8 @@ class ForwardModel:
 # --------------------------------------------------------------------------------------
 def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                     x0_free: tuple[int, ...] = (), position_free: tuple[int, ...] = (),
-                    compiled: bool = False, n_pieces: int = 1, varying: bool = False
+                    compiled: bool = False, n_pieces: int = 1, varying: bool = False,
+                    tables: MachTables | None = None
                     ) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record (both triads, rates) and its Jacobian.
 
@@ -200,6 +201,11 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     the schedule's pieces per interval (``n_pieces`` per interval, rows ``end``,
     ``start``, ``stop``: :meth:`aeroid.model.Schedule.segments`) and, with ``varying``,
     the exogenous table (7 rows, one column per sample).
+
+    With ``tables`` (:class:`aeroid.model.MachTables`), the first parameters are the
+    tables' (:meth:`~aeroid.model.MachTables.parameter_names`: constants and table
+    points, ``n_c = tables.n_parameters`` of them instead of the 9 coefficients), the
+    coefficients evaluated at each RK4 stage's and sample's Mach number.
 
     The Jacobian is propagated with the record (forward sensitivities): the interval
     step ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
@@ -221,15 +227,18 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     """
     return _symbolic_record(inputs.normalised(const, varying), float(dt), int(substeps),
                             int(n_samples), tuple(x0_free), tuple(position_free),
-                            bool(compiled), int(n_pieces), bool(varying))
+                            bool(compiled), int(n_pieces), bool(varying), tables)
 
 
 @functools.lru_cache(maxsize=16)
 def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                      x0_free: tuple[int, ...], position_free: tuple[int, ...],
-                     compiled: bool, n_pieces: int, varying: bool
+                     compiled: bool, n_pieces: int, varying: bool,
+                     tables: MachTables | None = None
                      ) -> tuple[ca.Function, ca.Function, bool]:
     n_pos = 6
+    # the coefficient parameters: the 9 coefficients, or the tables' constants and points
+    N_COEFFICIENTS = _symbolic.n_theta(tables)
     n_x0, n_free_pos = len(x0_free), len(position_free)
     n_p = N_COEFFICIENTS + n_x0 + n_free_pos
     # one interval with sensitivities (SX)
@@ -242,14 +251,16 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     theta = p9 * scale9
     dtheta = ca.horzcat(ca.SX.eye(N_COEFFICIENTS), ca.SX.zeros(N_COEFFICIENTS,
                                                                n_p - N_COEFFICIENTS))
-    x_next = _symbolic.interval_step_symbolic(x, theta, sym, const, dt, substeps)
+    x_next = _symbolic.interval_step_symbolic(x, theta, sym, const, dt, substeps, tables)
     s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
     # symbol names unique per configuration: several compiled libraries may be loaded in
     # one process
     tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}"
            f"r{''.join(map(str, position_free)) or 'n'}s{substeps}S{n_pieces}"
            f"{'v' if varying else 'c'}h"
-           f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}")
+           f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}"
+           + ("" if tables is None else
+              f"t{hashlib.sha256(repr(tables).encode()).hexdigest()[:8]}"))
     step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, *sym], [x_next, s_next])
     # outputs with sensitivities (SX)
     d = ca.SX.sym("delta")
@@ -258,7 +269,8 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     scale_pos = ca.SX.sym("scale_pos", n_pos)
     pos0 = ca.SX.sym("pos", n_pos)
     pos = pos0 + ppos * scale_pos
-    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const, exo))
+    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const, exo),
+                              tables)
     dpos = ca.SX.zeros(n_pos, n_p)
     for j, component in enumerate(position_free):
         dpos[component, N_COEFFICIENTS + n_x0 + j] = 1.0

@@ -33,6 +33,7 @@ from aeroid.model._coefficients import N_COEFFICIENTS
 from aeroid.model._compile_clock import compiling
 from aeroid.model._dynamics import N_STATE, OUTPUT_CHANNELS, Constants
 from aeroid.model._integrate import rk4_stages
+from aeroid.model._tables import MachTables
 
 # numpy functions on CasADi symbols return CasADi values (not the legacy behaviour, which
 # CasADi 3.8 announces with a FutureWarning); older CasADi versions lack the setting.
@@ -50,7 +51,25 @@ def _coefficients(theta) -> eq.Coefficients:
     return eq.Coefficients(*(theta[i] for i in range(N_COEFFICIENTS)))
 
 
-def rhs(x, delta, theta, const: Constants):
+def n_theta(tables: MachTables | None = None) -> int:
+    """Length of the coefficient parameters: the coefficients, or the tables' parameters."""
+    return N_COEFFICIENTS if tables is None else tables.n_parameters
+
+
+def coefficients_at(theta, state: eq.State, tables: MachTables | None = None
+                    ) -> eq.Coefficients:
+    """Return the coefficients of parameters ``theta`` at ``state``.
+
+    Without ``tables`` ``theta`` holds the coefficients; with them, the constants and
+    table points of :meth:`aeroid.model.MachTables.parameter_names`, evaluated at the
+    state's Mach number (:meth:`aeroid.model.MachTables.at_state`).
+    """
+    if tables is None:
+        return _coefficients(theta)
+    return tables.at_state([theta[i] for i in range(tables.n_parameters)], state)
+
+
+def rhs(x, delta, theta, const: Constants, tables: MachTables | None = None):
     """Return d(state)/dt (a CasADi vector of 9) and the aerodynamic loads (eqs. 2-10).
 
     Parameters
@@ -60,26 +79,29 @@ def rhs(x, delta, theta, const: Constants):
     delta : scalar symbol or float
         Fin deflection [rad].
     theta : casadi SX/MX or sequence, length 9
-        Coefficients in ``aeroid.NAMES`` order.
+        Coefficients in ``aeroid.NAMES`` order (with ``tables``: their parameters,
+        :func:`coefficients_at`).
     const : Constants
+    tables : MachTables, optional
     """
     state = _state(x)
-    loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
+    loads = eq.aerodynamic_loads(state, coefficients_at(theta, state, tables), delta, const)
     return ca.vertcat(*eq.derivative(state, loads, const, eq.trig(state))), loads
 
 
-def measurement(x, delta, theta, positions, const: Constants):
+def measurement(x, delta, theta, positions, const: Constants,
+                tables: MachTables | None = None):
     """Return the outputs ``[a1 (3), ..., p, q, r]`` (:func:`aeroid.model.equations.outputs`).
 
     Parameters
     ----------
-    x, delta, theta, const
+    x, delta, theta, const, tables
         As in :func:`rhs`.
     positions : casadi vector of length 3 n_triads, or sequence
         ``[x1, y1, z1, x2, y2, z2, ...]`` triad positions from the c.g. [m].
     """
     state = _state(x)
-    loads = eq.aerodynamic_loads(state, _coefficients(theta), delta, const)
+    loads = eq.aerodynamic_loads(state, coefficients_at(theta, state, tables), delta, const)
     flat = positions if isinstance(positions, ca.SX | ca.MX) else ca.vertcat(*positions)
     n_triads = flat.shape[0] // 3
     symbol = type(x) if isinstance(x, ca.SX | ca.MX) else ca.SX
@@ -88,7 +110,7 @@ def measurement(x, delta, theta, positions, const: Constants):
 
 
 def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Constants | None,
-                  dt: float, substeps: int):
+                  dt: float, substeps: int, tables: MachTables | None = None):
     """Return the state one sample interval later: the pieces of a schedule, RK4 each.
 
     The same scheme as the numba kernel (:func:`aeroid.model._compiled.integrate_set`):
@@ -109,7 +131,7 @@ def interval_step(x, theta, end, start, stop, const_a: Constants, const_b: Const
             deltas = [start[j] + d_span * ui for ui in u]
             consts = [const_a] * 3 if const_b is None else [
                 inputs.lerp(const_a, const_b, f_start + length * ui) for ui in u]
-            x = rk4_stages(lambda y, d, k: rhs(y, d, theta, k)[0], x, h,
+            x = rk4_stages(lambda y, d, k: rhs(y, d, theta, k, tables)[0], x, h,
                            *zip(deltas, consts, strict=True))
         f_start = end[j]
     return x
@@ -159,14 +181,14 @@ def interval_symbols(n_pieces: int, varying: bool) -> IntervalSymbols:
 
 
 def interval_step_symbolic(x, theta, sym: IntervalSymbols, const: Constants, dt: float,
-                           substeps: int):
+                           substeps: int, tables: MachTables | None = None):
     """:func:`interval_step` on the symbols of :func:`interval_symbols`."""
     n_pieces = sym.pieces.shape[0] // 3
     end, start, stop = (sym.pieces[i * n_pieces:(i + 1) * n_pieces] for i in range(3))
     if sym.exo_a.shape[0]:
         return interval_step(x, theta, end, start, stop, inputs.with_exogenous(const, sym.exo_a),
-                             inputs.with_exogenous(const, sym.exo_b), dt, substeps)
-    return interval_step(x, theta, end, start, stop, const, None, dt, substeps)
+                             inputs.with_exogenous(const, sym.exo_b), dt, substeps, tables)
+    return interval_step(x, theta, end, start, stop, const, None, dt, substeps, tables)
 
 
 def sample_constants(const: Constants, exo) -> Constants:

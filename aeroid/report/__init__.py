@@ -15,7 +15,8 @@ below the command line:
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
 report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
 ``_reconstruction`` (a reconstruction's report), ``_windows`` (a fit of several windows:
-:func:`write_windows_report`, one set of model panels per window).
+:func:`write_windows_report`, one set of model panels per window), ``_tables`` (fitted
+coefficient tables in Mach: CSV, JSBSim fragment, figure).
 """
 
 from aeroid.report._compare import (
@@ -46,9 +47,21 @@ from aeroid.report._reconstruction import (
     reconstruction_figures,
     write_reconstruction_report,
 )
+from aeroid.report._tables import (
+    FittedTable,
+    fitted_tables,
+    jsbsim_fragment,
+    tables_csv,
+    tables_figure,
+)
 from aeroid.report._windows import window_view, write_windows_report
 
 __all__ = [
+    "FittedTable",
+    "fitted_tables",
+    "jsbsim_fragment",
+    "tables_csv",
+    "tables_figure",
     "BAND_SD",
     "FORMATS",
     "RECONSTRUCTION_REPORT",

@@ -43,6 +43,7 @@ from aeroid.report._figures import (
 )
 from aeroid.report._files import make_directory, write_figure_atomic, write_text_atomic
 from aeroid.report._html import html_page, report_name
+from aeroid.report._tables import has_tables, write_tables_report
 
 __all__ = ["REPORT_NAME", "report_figures", "report_markdown", "write_report"]
 
@@ -304,6 +305,8 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     """
     name = report_name(REPORT_NAME.rsplit(".", 1)[0], fmt)
     folder = make_directory(directory)
+    if has_tables(result.names):  # coefficient tables in Mach: aeroid/report/_tables.py
+        return write_tables_report(result, flight, folder, name, notes=notes, fmt=fmt)
     finite = bool(np.all(np.isfinite(result.theta)))
     prediction = result.predict(flight) if finite else None
     floor = None

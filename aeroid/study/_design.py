@@ -215,7 +215,12 @@ def _load_scenario(ref: Any, base_dir: Path, source: str) -> tuple[Scenario, dic
             return scenario_from_dict(data, source="reference"), data, ref
         path = Path(ref) if Path(ref).is_absolute() else base_dir / ref
         data = read_study_toml(path, f"{source}: [study] scenario")
-        return scenario_from_dict(data, source=str(path)), data, str(path)
+        scenario = scenario_from_dict(data, source=str(path))
+        if scenario.tables is not None or scenario.airframe.tables is not None:
+            raise StudyError(f"{source}: [study] scenario {path} has coefficient tables in "
+                             "Mach; a study scores the nine constant coefficients "
+                             "(benchmarks/bench_mach_sweep.py measures table fits)")
+        return scenario, data, str(path)
     except AirframeError as exc:
         raise StudyError(f"{source}: [study] scenario: {exc}") from None
 

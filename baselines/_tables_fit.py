@@ -1,0 +1,308 @@
+"""Fits with coefficient tables in Mach (the airframe's ``[tables]``; private).
+
+The airframe's ``[tables]`` (:class:`aeroid.model.TableSpec`) makes some coefficients
+piecewise-linear functions of Mach (:class:`aeroid.model.MachTables`); the fits then
+estimate the tables' parameters (:meth:`~aeroid.model.MachTables.parameter_names`: the
+constants and the table points ``Cx@M1.4``), and their result's ``names`` say so.
+
+* **Equation-error** (:func:`equation_error_tables`): the loads are linear in the
+  coefficients and a table is linear in its points, so the regressor of table point
+  ``i`` of coefficient ``j`` is the coefficient's regressor times the hat function
+  ``B_i`` at each sample's Mach (:func:`expand_regressors`); each SEBM sub-problem takes
+  the expanded columns of its coefficients and is solved as equation-error's
+  (:func:`baselines._ee_least_squares._lstsq`, Newey-West covariance).
+* **Output-error** evaluates the tables at each RK4 stage's Mach inside its CasADi graph
+  (:func:`aeroid.model.symbolic_record` with ``tables``); its Cramér-Rao covariance
+  gives each point's standard error. :func:`table_floor` is the Cramér-Rao floor of the
+  points at given parameters with given noise (the same information, at the truth).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, ClassVar
+
+import numpy as np
+
+import aeroid
+from aeroid import estimation as rc
+from aeroid.errors import EstimatorError
+from aeroid.flights import Flight
+from aeroid.model import NAMES, MachTables
+from aeroid.model import tables as mach_tables
+from baselines._ee_least_squares import SUBPROBLEMS, _correlation, _lstsq
+from baselines._oe_record import RecordModel
+
+#: Initial-state components the floor's record model takes as nuisance parameters: the
+#: rates, as output-error estimates them by default.
+FLOOR_FREE_STATES = (3, 4, 5)
+#: Data whose every output channel's noise level (from the data) is below this fraction
+#: of its RMS are noise-free: no floor (the fit check's NOISE_FREE_FRACTION).
+NOISE_FREE_FRACTION = 1e-3
+#: A channel's noise level is at least this fraction of its RMS (the fit check's
+#: RESOLUTION: a clean channel counts much, not infinitely).
+RESOLUTION = 1e-5
+#: Standard errors below this fraction of the table floor claim more than the data allow
+#: (a warning; the fit check's FLOOR_FRACTION for constant coefficients).
+FLOOR_FRACTION = 0.5
+
+#: Time samples per block of the regressors (equation-error's).
+BLOCK_SAMPLES = rc.REGRESSION_BLOCK
+
+
+def flight_tables(flight: Flight) -> MachTables | None:
+    """Return the tables of ``flight`` (its airframe's ``[tables]``; counted knots chosen
+    from its Mach range), or None when it has none.
+
+    Raises
+    ------
+    EstimatorError
+        One line naming the table points no sample informs (their hat functions are zero
+        at every sample's Mach): the fit could not determine them.
+    """
+    if flight.airframe.tables is None:
+        return None
+    states = flight.states()
+    tables = flight.airframe.mach_tables(states)
+    mach = tables.mach(states)
+    empty = [mach_tables.point_name(name, k) for name, knots in tables.knots
+             for k, weight in zip(knots, mach_tables.basis(knots, mach).max(axis=0),
+                                  strict=True) if weight == 0.0]
+    if empty:
+        raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
+                             f"spans Mach {mach.min():.4g}-{mach.max():.4g}); give knots "
+                             "within it, or a knot count")
+    return tables
+
+
+class FitsTables:
+    """Mixin of an estimator that fits the airframe's ``[tables]`` (the others refuse)."""
+
+    fits_tables: ClassVar[bool] = True
+
+
+def coefficient_layout(flight: Flight, pso_warm_start: bool = False
+                       ) -> tuple[tuple[str, ...], np.ndarray]:
+    """Return the names of the coefficient parameters and their prior.
+
+    Without tables: :data:`aeroid.model.NAMES` and the airframe's prior; with tables,
+    their parameter names and the prior's flat tables (each point at the prior value).
+    ``pso_warm_start`` (output-error's option, a search of the nine constants) is
+    refused with tables in one line.
+    """
+    prior = flight.airframe.prior_vector()
+    tables = flight_tables(flight)
+    if tables is None:
+        return NAMES, prior
+    if pso_warm_start:
+        raise EstimatorError("output-error: pso_warm_start searches the constant "
+                             "coefficients; it is not available with [tables]")
+    return tables.parameter_names(), tables.expand(prior)
+
+
+def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]:
+    """Output-error's result with tables: ``info['parameter_names']`` with the tables'
+    names, ``info['tables']`` (the knots); returns the Mach notes (:func:`mach_notes`).
+    Nothing without tables."""
+    if model.tables is None:
+        return []
+    rest = tuple(info["parameter_names"])[len(NAMES):]
+    info["parameter_names"] = (*model.tables.parameter_names(), *rest)
+    info["tables"] = model.tables.to_table()
+    n = model.tables.n_parameters
+    stderr = np.asarray(info["parameter_stderr"][:n], dtype=float)
+    extra, low = floor_entries(model.tables.parameter_names(), stderr,
+                               data_table_floor(flight, np.asarray(info["parameters"][:n])))
+    info.update(extra)
+    return list(mach_notes(flight, model.tables)) + list(low)
+
+
+def mach_notes(flight: Flight, tables: MachTables) -> tuple[str, ...]:
+    """One line per table whose knots the flight's Mach range leaves: what was done."""
+    mach = tables.mach(flight.states())
+    lo, hi = float(np.min(mach)), float(np.max(mach))
+    notes = []
+    for name, knots in tables.knots:
+        beyond = [f"below {knots[0]:g}" if lo < knots[0] else "",
+                  f"above {knots[-1]:g}" if hi > knots[-1] else ""]
+        beyond = [b for b in beyond if b]
+        if beyond:
+            notes.append(f"tables: the flight's Mach {lo:.4g}-{hi:.4g} goes "
+                         f"{' and '.join(beyond)}, beyond {name}'s knots: its end values "
+                         "hold there")
+    return tuple(notes)
+
+
+def expand_regressors(X: np.ndarray, tables: MachTables, mach: np.ndarray) -> np.ndarray:
+    """Return the regressors of the tables' parameters, shape (n, rows, n_parameters).
+
+    ``X`` (n, rows, 9): the regressors of the nine coefficients (the loads at unit
+    coefficient vectors, :func:`aeroid.model.regressors`); ``mach`` (n,) each sample's
+    Mach number. A table point's column is its coefficient's times its hat function.
+    """
+    given = dict(tables.knots)
+    columns = []
+    for j, (name, _) in enumerate(tables.layout):
+        if name in given:
+            columns.append(X[..., j, None] * mach_tables.basis(given[name], mach)[:, None, :])
+        else:
+            columns.append(X[..., j, None])
+    return np.concatenate(columns, axis=-1)
+
+
+def subproblem_columns(tables: MachTables) -> tuple[tuple[str, int, list[int]], ...]:
+    """The SEBM sub-problems (label, load row, parameter columns) with the tables' columns."""
+    layout = tables.layout
+    return tuple((label, row, [i for c in cols for i in range(layout[c][1].start,
+                                                              layout[c][1].stop)])
+                 for label, row, cols in SUBPROBLEMS)
+
+
+def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroid.EstimationResult:
+    """Equation-error's two-step fit of the tables' parameters (module docstring).
+
+    ``est``: the :class:`baselines.equation_error.EquationErrorEstimator` (its
+    ``smoothing``, ``covariance`` and ``positions`` options). The one-step form, the
+    lateral rows and ``smoothing="both"`` (which smooths the regressors before the hat
+    functions would multiply them) are refused in one line.
+    """
+    refused = [what for what, on in (("one_step", est.one_step),
+                                     ("lateral_rows", est.lateral_rows),
+                                     ('smoothing = "both"', est.smoothing == "both")) if on]
+    if refused:
+        raise EstimatorError(f"equation-error: with [tables] it fits the two-step form only; "
+                             f"{', '.join(refused)} is not available with tables")
+    result = _solve(est, flight, tables, est.covariance)
+    sd = flight.airframe.accel_position_sd.ravel()
+    free = np.flatnonzero(sd)
+    if est.positions == "known" or free.size == 0:
+        return result
+    G = np.empty((tables.n_parameters, free.size))  # consider the uncertain positions
+    given = flight.airframe.accel_positions.ravel()
+    for j, c in enumerate(free):
+        ends = []
+        for sign in (1.0, -1.0):
+            pos = given.copy()
+            pos[c] += sign * sd[c]
+            moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
+                                            accel2_position_m=tuple(pos[3:]))
+            ends.append(_solve(est, dataclasses.replace(flight, airframe=moved), tables,
+                               "ols", theta_only=True).theta)
+        G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
+    cov = result.covariance + (G * sd[free] ** 2) @ G.T
+    info = {**result.info, "position_sensitivity": G,
+            "position_components": [int(c) for c in free]}
+    return dataclasses.replace(result, covariance=cov, stderr=np.sqrt(np.abs(np.diag(cov))),
+                               info=info)
+
+
+def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
+           theta_only: bool = False) -> aeroid.EstimationResult:
+    rec = rc.reconstruct(flight)
+    y = rc.regression_target(rec, smoothing=est.smoothing)
+    mach = tables.mach(flight.states())
+    X = np.concatenate([expand_regressors(part, tables, mach[start:stop])
+                        for start, stop, part in rc.regressor_blocks(
+                            flight, smoothing=est.smoothing, window=rec.smoothing_window,
+                            block=BLOCK_SAMPLES)])
+    sd = rc.estimate_noise_sd(rec.fm)
+    n_p = tables.n_parameters
+    theta, cov = np.full(n_p, np.nan), np.zeros((n_p, n_p))
+    corr = np.full((n_p, n_p), np.nan)
+    sigma2, bandwidth, cost = {}, {}, 0.0
+    problems = subproblem_columns(tables)
+    for label, row, cols in problems:
+        A = X[:, row, cols] / sd[row]
+        b = y[:, row] / sd[row]
+        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
+        theta[cols] = th
+        cov[np.ix_(cols, cols)] = cv
+        corr[np.ix_(cols, cols)] = _correlation(A)
+        sigma2[label] = s2
+        cost += s2 * max(A.shape[0] - len(cols), 1)
+    info: dict[str, Any] = {"sigma2": sigma2, "subproblems": [p[0] for p in problems],
+                            "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth,
+                            "correlation": corr, "tables": tables.to_table(),
+                            "speed_of_sound_mps": tables.speed_of_sound_mps,
+                            "mach_range": (float(mach.min()), float(mach.max()))}
+    low: tuple[str, ...] = ()
+    if not theta_only:
+        info.update(rc.regression_fit(rec, X, y, theta, tuple(p[1] for p in problems)))
+        extra, low = floor_entries(tables.parameter_names(), np.sqrt(np.abs(np.diag(cov))),
+                                   data_table_floor(flight, theta))
+        info.update(extra)
+    capped = [label for label, bw in bandwidth.items() if bw["capped"]]
+    warnings = mach_notes(flight, tables) + low + tuple(
+        f"residuals of {label} stay correlated beyond the Newey-West cap; its standard "
+        "errors are not reliable" for label in capped)
+    return aeroid.EstimationResult(
+        estimator=est.name, names=tables.parameter_names(), theta=theta,
+        stderr=np.sqrt(np.abs(np.diag(cov))), covariance=cov, cost=float(cost), success=True,
+        message="", n_evaluations=1, n_iterations=1, info=info, warnings=warnings)
+
+
+def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
+                substeps: int = 2, input: str = "hold") -> np.ndarray:  # noqa: A002
+    """Return the Cramér-Rao floor of the tables' parameters, shape (n_parameters,).
+
+    The output-error information ``sum_k J_k^T R^-1 J_k`` of the flight's record (both
+    triads and the rates, :data:`aeroid.model.OUTPUT_CHANNELS`) at ``parameters`` (the
+    tables' constants and points, e.g. the truth), with white noise of sd ``noise_sd``
+    (one per output channel) and the initial rates as nuisance parameters; the square
+    root of the diagonal of its inverse, in the parameters' units.
+    """
+    tables = flight_tables(flight)
+    if tables is None:
+        raise EstimatorError("table floor: the flight's airframe has no [tables]")
+    p = np.asarray(parameters, dtype=float)
+    sd = np.asarray(noise_sd, dtype=float)
+    if p.shape != (tables.n_parameters,) or sd.shape != (len(aeroid.model.OUTPUT_CHANNELS),):
+        raise EstimatorError(f"table floor: expected {tables.n_parameters} parameters and "
+                             f"{len(aeroid.model.OUTPUT_CHANNELS)} noise sd, got "
+                             f"{p.shape} and {sd.shape}")
+    scale = np.concatenate([np.where(p != 0.0, p, 1.0), np.ones(len(FLOOR_FREE_STATES))])
+    model = RecordModel(flight, input=input, substeps=substeps, x0_free=FLOOR_FREE_STATES,
+                        position_free=(), compiled=True, x0=flight.states()[0], scale=scale,
+                        delay_s=0.0, estimate_delay=False, tables=tables)
+    _, J = model.outputs_jacobian(np.concatenate([p / scale[:p.size],
+                                                  np.zeros(len(FLOOR_FREE_STATES))]))
+    Jw = J / sd[:, None, None]
+    F = np.einsum("mnp,mnq->pq", Jw, Jw)
+    cov = np.linalg.inv(F) * np.outer(scale, scale)
+    return np.sqrt(np.diag(cov))[:p.size]
+
+
+def data_table_floor(flight: Flight, theta: np.ndarray) -> np.ndarray | None:
+    """Return :func:`table_floor` at ``theta`` with each channel's noise level estimated
+    from the data (:func:`aeroid.estimation.data_noise_levels`), or None on noise-free
+    data (every channel below :data:`NOISE_FREE_FRACTION` of its RMS) or without a
+    finite floor."""
+    channels = aeroid.model.OUTPUT_CHANNELS
+    levels = rc.data_noise_levels(flight, channels)
+    rms = np.array([float(np.sqrt(np.mean(flight[c] ** 2))) for c in channels])
+    sd = np.array([levels[c] for c in channels])
+    if not np.any(sd > NOISE_FREE_FRACTION * rms) or not np.all(np.isfinite(theta)):
+        return None
+    try:
+        floor = table_floor(flight, theta, np.maximum(sd, RESOLUTION * rms))
+    except np.linalg.LinAlgError:
+        return None
+    return floor if np.all(np.isfinite(floor)) else None
+
+
+def floor_entries(names: tuple[str, ...], stderr: np.ndarray, floor: np.ndarray | None
+                  ) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """``info['table_floor']`` (name -> floor) and the warning of standard errors below
+    :data:`FLOOR_FRACTION` of it (none without a floor)."""
+    if floor is None:
+        return {}, ()
+    low = [f"{n} ({s:.3g} < {f:.3g})" for n, s, f in zip(names, stderr, floor, strict=True)
+           if np.isfinite(s) and s < FLOOR_FRACTION * f]
+    info = {"table_floor": dict(zip(names, floor.tolist(), strict=True))}
+    return info, ((f"standard errors claim more than the data allow: below half the "
+                   f"Cramér-Rao floor for {', '.join(low)}",) if low else ())
+
+
+__all__ = ["FitsTables", "coefficient_layout", "data_table_floor", "equation_error_tables",
+           "expand_regressors", "flight_tables", "floor_entries", "mach_notes", "record_tables",
+           "subproblem_columns", "table_floor"]
