@@ -378,10 +378,8 @@ def floor_warnings(result: EstimationResult, flight: Flight,
     or ``"channel"``): the floor here is the per-channel one. The floor's record takes
     the result's ``input`` (``hold`` for a method that integrates no model).
     """
-    if result.stderr is None or not result.success:
-        return ()
-    if tuple(result.names) != NAMES:  # tables in Mach: baselines._tables_fit.table_floor
-        return ()
+    if result.stderr is None or not result.success or tuple(result.names) != NAMES:
+        return ()  # other names: tables in Mach (baselines._tables_fit.table_floor)
     if (result.noise_model or "channel") != "channel":
         # A method that weights each sample (a_c + b_c yhat^2) has a per-sample floor,
         # far below this per-channel one under signal-proportional noise; the same floor
