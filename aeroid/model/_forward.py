@@ -199,7 +199,7 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     Inputs besides the parameters: the deflection at every sample (the outputs see it),
     the schedule's pieces per interval (``n_pieces`` per interval, rows ``end``,
     ``start``, ``stop``: :meth:`aeroid.model.Schedule.segments`) and, with ``varying``,
-    the exogenous table (7 rows, one column per sample).
+    the exogenous table (len(EXOGENOUS) rows, one column per sample).
 
     The Jacobian is propagated with the record (forward sensitivities): the interval
     step ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
@@ -212,7 +212,7 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     Returns
     -------
     simulate : Function ``(p, scale, x0_given (9), delta (1, n), pieces (3 S, n - 1),
-        exo (7 or 0, n), pos (6)) -> Y (n, 9)``
+        exo (len(EXOGENOUS) or 0, n), pos (6)) -> Y (n, 9)``
     jacobian : Function ``(same) -> (Y (n, 9), dY (9, n n_p))``
         Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
     is_compiled : bool
