@@ -76,6 +76,14 @@ from aeroid.flights._suite_log import (
     read_suite_log,
     write_suite_log,
 )
+from aeroid.flights._turbulence import (
+    MIL_SCALE_LENGTH_M,
+    WIND_KEYS,
+    Wind,
+    dryden_autocorrelation,
+    path_axes,
+    shaping_filters,
+)
 
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
@@ -92,4 +100,6 @@ __all__ = [
     "IMU_ERROR_KINDS", "body_to_ned", "imu_error_names", "imu_manoeuvre", "log_trajectory",
     "read_suite_log", "simulate_suite",
     "wrap_angle", "write_suite_log",
+    "MIL_SCALE_LENGTH_M", "WIND_KEYS", "Wind", "dryden_autocorrelation", "path_axes",
+    "shaping_filters",
 ]

@@ -17,6 +17,15 @@ whose knots split the RK4 steps, the recorded ``delta_k`` is the deflection at `
 carries the true deflection in the window (``delta_knots``: the knots of its
 :class:`~aeroid.model.Schedule`, a jump being two knots at one time) and the commanded
 switches (``command_switches``: instants and the command after each, before the delay).
+
+A manoeuvre's ``wind`` (:class:`~aeroid.flights._turbulence.Wind`) is the air the flight
+crosses: the model's loads see the air-relative velocity; the states stay over the
+ground. Its Dryden gusts are drawn from the simulation's generator before the sensor
+noise, on the sample grid, and enter the truth integration as per-sample wind
+(exogenous columns, linear within each interval); the recorded ``alpha`` and ``beta``
+are then the air-relative angles (what a vane measures), and ``metadata["wind"]`` holds
+the ``[wind]`` table. Turbulence needs the latched relay (the closed relay loop with
+switch instants inside the truth takes constants only: refused in one line).
 """
 
 from __future__ import annotations
@@ -25,17 +34,24 @@ from typing import NamedTuple
 
 import numpy as np
 
-from aeroid.flights._flight import STATE_CHANNELS, Flight, make_flight
+from aeroid.errors import AirframeError
+from aeroid.flights._flight import STATE_CHANNELS, Flight, air_angles, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
 from aeroid.model import (
+    PHI,
+    PSI,
+    THETA,
     Airframe,
+    Constants,
     Schedule,
     accelerometers,
     as_dict,
+    as_state,
     as_vector,
     constants,
+    equations,
     propagate,
 )
 
@@ -56,6 +72,8 @@ class Truth(NamedTuple):
     command_t, command_delta : ndarray, shape (m,)
         Commanded switch instants [s] (before the actuator delay) and the command after
         each [rad].
+    wind : ndarray, shape (n, 3), or None
+        The wind at each sample, NED [m/s] (steady plus gusts); None: still air.
     """
 
     t: np.ndarray
@@ -64,12 +82,18 @@ class Truth(NamedTuple):
     schedule: Schedule
     command_t: np.ndarray
     command_delta: np.ndarray
+    wind: np.ndarray | None = None
 
 
 def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
-             backend: str) -> Truth:
-    """The paper's relay, evaluated at each sample instant and held (no delay, no rate)."""
-    const = constants(airframe)
+             backend: str, const: Constants | None = None,
+             exogenous: np.ndarray | None = None) -> Truth:
+    """The paper's relay, evaluated at each sample instant and held (no delay, no rate).
+
+    ``const``: the model constants (default the airframe's); ``exogenous``: a per-sample
+    table (n, len(EXOGENOUS)) over the whole truth (a gusty wind), or None.
+    """
+    const = constants(airframe) if const is None else const
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     dt = manoeuvre.dt
     n = int(round(manoeuvre.window_s[1] / dt)) + 1
@@ -84,31 +108,77 @@ def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
         delta[k] = law(x[6], t[k] if varying else None)
         if k < n - 1:
             x = propagate(x, c, delta[k:k + 1], dt, const,
-                          substeps=manoeuvre.truth_substeps, backend=backend)[0, -1]
+                          substeps=manoeuvre.truth_substeps, backend=backend,
+                          exogenous=None if exogenous is None else exogenous[k:k + 2])[0, -1]
     change = np.flatnonzero(np.diff(delta)) + 1
     return Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
 
 
 def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
-                   *, backend: str = "auto") -> Truth:
+                   *, backend: str = "auto", rng: np.random.Generator | None = None
+                   ) -> Truth:
     """Integrate the closed relay loop from t = 0 to the end of the window.
+
+    ``rng``: the source of the manoeuvre's Dryden gusts (required with turbulence,
+    unused otherwise).
 
     Returns
     -------
     Truth
-        ``(t, states, delta, schedule, command_t, command_delta)``; its first three
+        ``(t, states, delta, schedule, command_t, command_delta, wind)``; its first three
         fields are the sample times [s], shape (n,), the true states at the samples,
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
     law = manoeuvre.fin_law(airframe.delta_max_rad)
-    if manoeuvre.evaluation == "latched" and law.delay_s == 0 and law.rate_limit_dps is None:
+    latched = (manoeuvre.evaluation == "latched" and law.delay_s == 0
+               and law.rate_limit_dps is None)
+    wind = manoeuvre.wind
+    if wind is not None:
+        return _windy(airframe, coefficients, manoeuvre, backend, latched, rng)
+    if latched:
         return _latched(airframe, coefficients, manoeuvre, backend)
+    return _relay_loop(airframe, coefficients, manoeuvre, backend, constants(airframe))
+
+
+def _windy(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre, backend: str,
+           latched: bool, rng: np.random.Generator | None) -> Truth:
+    """The truth in the manoeuvre's wind (module docstring)."""
+    wind = manoeuvre.wind
+    assert wind is not None
+    const = wind.constants(constants(airframe))
+    n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
+    if not wind.turbulent:
+        truth = (_latched(airframe, coefficients, manoeuvre, backend, const) if latched
+                 else _relay_loop(airframe, coefficients, manoeuvre, backend, const))
+        return truth._replace(wind=np.tile(np.array(wind.steady_ned_mps), (n, 1)))
+    if not latched:
+        raise AirframeError("manoeuvre: Dryden turbulence is simulated with the latched relay "
+                            "only (no delay, rate limit or continuous evaluation)")
+    if rng is None:
+        raise AirframeError("manoeuvre: turbulence needs the simulation's random generator "
+                            "(rng) for its gusts")
+    x0 = np.array(manoeuvre.initial_state)
+    # rows: each NED axis in body axes (the columns of the NED-to-body rotation R), so
+    # this matrix is R^T and takes the body velocity to NED
+    body_to_ned = np.array([equations.ned_to_body(x0[PHI], x0[THETA], x0[PSI], *e)
+                            for e in np.eye(3)])
+    velocity_ned = body_to_ned @ x0[:3]
+    gusts = wind.gusts(n, manoeuvre.dt, velocity_ned, rng)
+    truth = _latched(airframe, coefficients, manoeuvre, backend, const,
+                     wind.exogenous(constants(airframe), gusts))
+    return truth._replace(wind=np.array(wind.steady_ned_mps) + gusts)
+
+
+def _relay_loop(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
+                backend: str, const: Constants) -> Truth:
+    """The relay loop closed inside the truth integration (module docstring)."""
+    law = manoeuvre.fin_law(airframe.delta_max_rad)
     rate = (None if manoeuvre.evaluation == "continuous" else
             manoeuvre.control_rate_hz or manoeuvre.sample_rate_hz)
     substeps = manoeuvre.truth_substeps
     n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
     h = manoeuvre.dt / substeps
-    loop = RelayLoop(law, as_vector(coefficients), constants(airframe),
+    loop = RelayLoop(law, as_vector(coefficients), const,
                      np.array(manoeuvre.initial_state), h, (n - 1) * substeps,
                      control_rate_hz=rate, backend=backend)
     states = loop.run(every=substeps)
@@ -138,7 +208,8 @@ def simulate(
     noise : NoiseModel, optional
         Sensor noise and position error; default :class:`~aeroid.flights.NoNoise`.
     rng : numpy.random.Generator or int, optional
-        Source of every random draw (normalised once with ``default_rng``).
+        Source of every random draw (normalised once with ``default_rng``): the
+        manoeuvre's Dryden gusts first, then the sensor noise.
     backend : {"auto", "numba", "numpy"}
         Integration backend (:func:`aeroid.model.propagate`).
 
@@ -149,8 +220,15 @@ def simulate(
         positions, ``metadata`` the truth (coefficients, positions), noise and seed.
     """
     coefficients = as_vector(coefficients)
-    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend)
-    return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng)
+    if manoeuvre.wind is None or not manoeuvre.wind.turbulent:
+        truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend)
+        return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng)
+    seed = rng if isinstance(rng, int | np.integer) else None
+    generator = np.random.default_rng(rng)  # one stream: the gusts, then the sensor noise
+    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend, rng=generator)
+    flight = record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=generator)
+    flight.metadata["seed"] = None if seed is None else int(seed)
+    return flight
 
 
 def record_flight(
@@ -186,13 +264,17 @@ def record_flight(
         truth = Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
     k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
-    accel = accelerometers(states, delta, coefficients, constants(airframe),
+    const = _recorded_constants(airframe, manoeuvre, truth, k0)
+    accel = accelerometers(states, delta, coefficients, const,
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
     channels.update({name: accel[:, j] for j, name in enumerate(ACCEL_CHANNELS)})
     channels.update({name: states[:, j] for j, name in enumerate(STATE_CHANNELS)})
     channels["delta"] = delta
     channels = noise.corrupt(channels, rng)
+    if manoeuvre.wind is not None:  # the air-relative angles (in still air: derived)
+        channels["alpha"], channels["beta"] = air_angles(
+            *equations.air_velocity(as_state(states), const))
     positions = noise.perturb_positions(airframe.accel_positions, rng)
     sd = noise.position_sd(positions)  # the estimators are told how uncertain they are
     seen = airframe.replace(accel1_position_m=tuple(positions[0]),
@@ -207,7 +289,22 @@ def record_flight(
         "actuator": _actuator_metadata(manoeuvre, airframe),
         **_switch_metadata(truth, float(t[0]), float(t[-1])),
     }
+    if manoeuvre.wind is not None:
+        metadata["wind"] = manoeuvre.wind.describe()
     return make_flight(channels, seen, metadata)
+
+
+def _recorded_constants(airframe: Airframe, manoeuvre: Manoeuvre, truth: Truth,
+                        k0: int) -> Constants:
+    """The model constants at the recorded samples: the wind per sample where there is one."""
+    const = constants(airframe)
+    if manoeuvre.wind is None:
+        return const
+    if truth.wind is None:
+        raise AirframeError("record_flight: the manoeuvre has a wind but the truth none "
+                            "(simulate it with simulate_truth)")
+    wind = truth.wind[k0:]
+    return const._replace(wind_n=wind[:, 0], wind_e=wind[:, 1], wind_d=wind[:, 2])
 
 
 def _manoeuvre_metadata(manoeuvre: Manoeuvre) -> dict[str, float | list[float]]:

@@ -71,7 +71,8 @@ ATMOSPHERE_CHANNELS = ("rho", "altitude", "qbar")
 #: The tables of an airframe file.
 AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
-SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
+SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise",
+                   "wind")
 
 
 def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
