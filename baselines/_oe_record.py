@@ -43,7 +43,8 @@ class RecordModel:
     """``y(p)`` and ``dy/dp`` of a flight's record in scaled parameters.
 
     Parameters ``p``: the graph's parameters (coefficients, free initial-state and
-    position components; :func:`aeroid.model.symbolic_record`), then, with
+    position components, with ``wind_free`` the steady wind north, east, down;
+    :func:`aeroid.model.symbolic_record`), then, with
     ``estimate_delay``, ``tau / delay_scale``, then the IMU errors
     (:func:`imu_error_names`), each over its entry of ``scale``.
     """
@@ -55,7 +56,8 @@ class RecordModel:
     def __init__(self, flight: Flight, *, input: str, substeps: int,  # noqa: A002
                  x0_free: tuple[int, ...], position_free: tuple[int, ...], compiled: bool,
                  x0: np.ndarray, scale: np.ndarray, delay_s: float,
-                 estimate_delay: bool, imu_errors: str = "none") -> None:
+                 estimate_delay: bool, imu_errors: str = "none", wind_free: bool = False
+                 ) -> None:
         self.const = model_constants(flight)
         self.schedule = schedule(flight, input)
         self.t = flight.t
@@ -68,7 +70,8 @@ class RecordModel:
         self.estimate_delay = estimate_delay
         self.delay_s = float(delay_s)
         self.delay_scale = flight.dt
-        self.n_graph = len(NAMES) + len(x0_free) + len(position_free)
+        self.wind_free = wind_free
+        self.n_graph = len(NAMES) + len(x0_free) + len(position_free) + 3 * int(wind_free)
         self.imu_errors = imu_errors
         self.n_imu = len(imu_error_names(imu_errors))
         self.scale = np.asarray(scale, dtype=float)
@@ -149,7 +152,7 @@ class RecordModel:
             simulate, jacobian, self.compiled = symbolic_record(
                 self.const, record.dt, self.substeps, record.n_samples, self.x0_free,
                 self.position_free, self.compiled_requested, n_pieces,
-                record.exogenous is not None)
+                record.exogenous is not None, wind_free=self.wind_free)
             d, pieces, exo = record.symbolic_inputs()
             inputs = [np.zeros(self.n_graph), self.scale[:self.n_graph], self.x0, d, pieces,
                       exo, self.pos]

@@ -55,6 +55,7 @@ from baselines._oe_starts import (
     start_report,
     warm_start_point,
 )
+from baselines._oe_wind import WIND_NAMES, wind_report, wind_scales
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -181,6 +182,9 @@ class OutputErrorEstimator(Estimator):
         parameter set compiles for ~3-5 s, then a Jacobian costs ~4x less). Without a
         working compiler it falls back to CasADi's virtual machine (same numbers);
         ``info['compiled']`` says which ran.
+    estimate_wind : bool
+        Also estimate a steady wind (north, east, down [m/s]; default False: still air),
+        reported in ``info['wind_ned_mps']`` with a notice (:mod:`baselines._oe_wind`).
 
     Notes
     -----
@@ -217,6 +221,7 @@ class OutputErrorEstimator(Estimator):
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     compile_model: bool = True
+    estimate_wind: bool = False
 
     def __post_init__(self) -> None:
         for name in ("substeps", "max_iterations", "n_starts", "pso_particles"):
@@ -249,6 +254,7 @@ class OutputErrorEstimator(Estimator):
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free]
+        names += list(WIND_NAMES) if self.estimate_wind else []
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors)))
 
@@ -283,6 +289,8 @@ class OutputErrorEstimator(Estimator):
         scale.append(np.ones(len(self.x0_free())))
         scale.append([pos_sd[c] if pos_sd[c] > 0 else max(abs(pos[c]), 0.1)
                       for c in position_free])
+        if self.estimate_wind:
+            scale.append(wind_scales())
         if self.estimate_delay:
             scale.append([flight.dt])
         z = _common.measurements(flight)
@@ -295,7 +303,7 @@ class OutputErrorEstimator(Estimator):
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
-                            imu_errors=self.imu_errors)
+                            imu_errors=self.imu_errors, wind_free=self.estimate_wind)
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -386,6 +394,9 @@ class OutputErrorEstimator(Estimator):
         if self.estimate_delay:
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
+        if self.estimate_wind:
+            warnings.append(wind_report(self.parameter_names(position_free), phys,
+                                        stderr_phys, info))
         if model.n_imu:
             imu_info, found = imu_error_report(self.parameter_names(position_free),
                                                imu_error_names(self.imu_errors), phys,

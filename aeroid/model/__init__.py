@@ -78,7 +78,7 @@ from aeroid.model._dynamics import (
     state_derivative,
 )
 from aeroid.model._equations import Coefficients, Loads, State, Trig
-from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
+from aeroid.model._forward import Buffered, ForwardModel, symbolic_record, with_steady_wind
 from aeroid.model._inputs import (
     EXOGENOUS,
     Pieces,
@@ -107,5 +107,5 @@ __all__ = [
     "AIRFRAME_LIMITS", "DEFAULT_REL_STEP", "FIN_LAW_KEYS", "Profile", "SCENARIO_TABLES", "Track",
     "density", "fileform", "profile",
     "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
-    "pressure_altitude",
+    "pressure_altitude", "with_steady_wind",
 ]

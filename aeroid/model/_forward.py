@@ -186,15 +186,17 @@ class ForwardModel:
 # --------------------------------------------------------------------------------------
 def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                     x0_free: tuple[int, ...] = (), position_free: tuple[int, ...] = (),
-                    compiled: bool = False, n_pieces: int = 1, varying: bool = False
-                    ) -> tuple[ca.Function, ca.Function, bool]:
+                    compiled: bool = False, n_pieces: int = 1, varying: bool = False,
+                    wind_free: bool = False) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record (both triads, rates) and its Jacobian.
 
     Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; the next
     ``len(x0_free)`` are offsets of those state components (indices into the state,
     increasing) from the given initial state (``x0 = x0_given + p * scale``); the last
     ``len(position_free)`` are offsets of those position components (indices into the
-    flattened positions ``[x1, y1, z1, x2, y2, z2]``) from the given positions.
+    flattened positions ``[x1, y1, z1, x2, y2, z2]``) from the given positions; with
+    ``wind_free``, three more: a steady wind (north, east, down) [m/s] added to the
+    constants' wind (or to each sample's, with ``varying``), ``wind = p * scale``.
 
     Inputs besides the parameters: the deflection at every sample (the outputs see it),
     the schedule's pieces per interval (``n_pieces`` per interval, rows ``end``,
@@ -221,17 +223,17 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     """
     return _symbolic_record(inputs.normalised(const, varying), float(dt), int(substeps),
                             int(n_samples), tuple(x0_free), tuple(position_free),
-                            bool(compiled), int(n_pieces), bool(varying))
+                            bool(compiled), int(n_pieces), bool(varying), bool(wind_free))
 
 
 @functools.lru_cache(maxsize=16)
 def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                      x0_free: tuple[int, ...], position_free: tuple[int, ...],
-                     compiled: bool, n_pieces: int, varying: bool
+                     compiled: bool, n_pieces: int, varying: bool, wind_free: bool = False
                      ) -> tuple[ca.Function, ca.Function, bool]:
     n_pos = 6
-    n_x0, n_free_pos = len(x0_free), len(position_free)
-    n_p = N_COEFFICIENTS + n_x0 + n_free_pos
+    n_x0, n_free_pos, n_wind = len(x0_free), len(position_free), 3 * int(wind_free)
+    n_p = N_COEFFICIENTS + n_x0 + n_free_pos + n_wind
     # one interval with sensitivities (SX)
     x = ca.SX.sym("x", N_STATE)
     sens = ca.SX.sym("S", N_STATE, n_p)
@@ -242,15 +244,19 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     theta = p9 * scale9
     dtheta = ca.horzcat(ca.SX.eye(N_COEFFICIENTS), ca.SX.zeros(N_COEFFICIENTS,
                                                                n_p - N_COEFFICIENTS))
-    x_next = _symbolic.interval_step_symbolic(x, theta, sym, const, dt, substeps)
-    s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
+    pw, sw = ca.SX.sym("pw", n_wind), ca.SX.sym("sw", n_wind)  # wind parameters, scales
+    dwind = ca.horzcat(ca.SX.zeros(n_wind, n_p - n_wind), ca.SX.eye(n_wind))
+    const_w, sym_w, wind_row = _with_wind(const, sym, pw * sw)
+    x_next = _symbolic.interval_step_symbolic(x, theta, sym_w, const_w, dt, substeps)
+    s_next = ca.jtimes(x_next, ca.vertcat(x, p9, pw), ca.vertcat(sens, dtheta, dwind))
     # symbol names unique per configuration: several compiled libraries may be loaded in
     # one process
     tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}"
            f"r{''.join(map(str, position_free)) or 'n'}s{substeps}S{n_pieces}"
-           f"{'v' if varying else 'c'}h"
+           f"{'v' if varying else 'c'}{'w' if wind_free else ''}h"
            f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}")
-    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, *sym], [x_next, s_next])
+    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, pw, sw, *sym],
+                       [x_next, s_next])
     # outputs with sensitivities (SX)
     d = ca.SX.sym("delta")
     exo = ca.SX.sym("exo", n_exo)
@@ -258,15 +264,17 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     scale_pos = ca.SX.sym("scale_pos", n_pos)
     pos0 = ca.SX.sym("pos", n_pos)
     pos = pos0 + ppos * scale_pos
-    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const, exo))
+    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const_w,
+                                                                           exo + wind_row))
     dpos = ca.SX.zeros(n_pos, n_p)
     for j, component in enumerate(position_free):
         dpos[component, N_COEFFICIENTS + n_x0 + j] = 1.0
-    dy = ca.jtimes(y, ca.vertcat(x, p9, ppos), ca.vertcat(sens, dtheta, dpos))
-    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, exo, pos0, ppos, scale_pos],
-                      [y, dy])
-    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, exo, pos0, ppos, scale_pos], [y])
-    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, *sym], [x_next])
+    dy = ca.jtimes(y, ca.vertcat(x, p9, pw, ppos), ca.vertcat(sens, dtheta, dwind, dpos))
+    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, pw, sw, d, exo, pos0, ppos,
+                                          scale_pos], [y, dy])
+    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, pw, sw, d, exo, pos0, ppos,
+                                           scale_pos], [y])
+    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, pw, sw, *sym], [x_next])
     is_compiled = False
     if compiled:
         built = _symbolic.compile_functions([step, out, step_plain, out_plain],
@@ -284,6 +292,7 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     exo_table = ca.MX.sym("exo", n_exo, n_samples)
     pos_given = ca.MX.sym("pos", n_pos)
     pm, sm = p[:N_COEFFICIENTS], scale[:N_COEFFICIENTS]
+    wm = [p[n_p - n_wind:], scale[n_p - n_wind:]]  # the wind parameters (empty without)
     ppos_parts, spos_parts = [ca.MX(0.0)] * n_pos, [ca.MX(0.0)] * n_pos
     for j, component in enumerate(position_free):
         ppos_parts[component] = p[N_COEFFICIENTS + n_x0 + j]
@@ -305,23 +314,63 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
         return ca.repmat(v, 1, k)
 
     interval_inputs = [pieces, exo_table[:, :m], exo_table[:, 1:]]
-    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m), *interval_inputs)
+    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m),
+                                          *[rep(v, m) for v in wm], *interval_inputs)
     states = ca.horzcat(x0, xs)
     sample_inputs = [delta, exo_table, rep(pos_given, n_samples), rep(ppos_m, n_samples),
                      rep(spos_m, n_samples)]
     Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples),
-                                 *sample_inputs)
+                                 *[rep(v, n_samples) for v in wm], *sample_inputs)
     record_inputs = [p, scale, x0_given, delta, pieces, exo_table, pos_given]
     simulate = ca.Function("oe_simulate", record_inputs, [ca.densify(Y.T)])
     xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m),
-                                                *interval_inputs)
+                                                *[rep(v, m) for v in wm], *interval_inputs)
     states = ca.horzcat(x0, xs)
     sens_all = ca.horzcat(s0, ss)  # 9 x (n_samples n_p), block k = S_k
     Y, dY = out.map(n_samples)(states, sens_all, rep(pm, n_samples), rep(sm, n_samples),
-                               *sample_inputs)
+                               *[rep(v, n_samples) for v in wm], *sample_inputs)
     # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
     jacobian = ca.Function("oe_jacobian", record_inputs, [ca.densify(Y.T), ca.densify(dY)])
     return simulate, jacobian, is_compiled
+
+
+def with_steady_wind(const: Constants, record: Record, wind_ned: Sequence[float]
+                     ) -> tuple[Constants, Record]:
+    """Return ``const`` and ``record`` with a steady wind (north, east, down [m/s]) added.
+
+    The wind adds to the constants' wind and, where the record has per-sample values,
+    to each sample's (what :func:`symbolic_record` does with ``wind_free``).
+    """
+    names = ("wind_n", "wind_e", "wind_d")
+    wind = [float(w) for w in wind_ned]
+    const = const._replace(**{k: getattr(const, k) + w for k, w in zip(names, wind,
+                                                                       strict=True)})
+    if record.exogenous is None:
+        return const, record
+    table = record.exogenous.copy()
+    for k, w in zip(names, wind, strict=True):
+        table[:, inputs.EXOGENOUS.index(k)] += w
+    return const, Record(record.dt, record.delta, record.pieces, table)
+
+
+def _with_wind(const: Constants, sym: _symbolic.IntervalSymbols, wind: ca.SX
+               ) -> tuple[Constants, _symbolic.IntervalSymbols, ca.SX]:
+    """The constants and interval symbols with a steady wind ``wind`` (3 or 0) added.
+
+    Returns the constants, the interval symbols, and the row to add to a sample's
+    exogenous row (zeros but the wind columns; empty without per-sample values).
+    """
+    n_exo = sym.exo_a.shape[0]
+    row = ca.SX.zeros(n_exo)
+    if wind.shape[0] == 0:
+        return const, sym, row
+    names = ("wind_n", "wind_e", "wind_d")
+    if not n_exo:
+        return const._replace(**{k: getattr(const, k) + wind[j]
+                                 for j, k in enumerate(names)}), sym, row
+    for j, k in enumerate(names):
+        row[inputs.EXOGENOUS.index(k)] = wind[j]
+    return const, sym._replace(exo_a=sym.exo_a + row, exo_b=sym.exo_b + row), row
 
 
 class Buffered:
