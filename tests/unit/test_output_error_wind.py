@@ -116,3 +116,15 @@ def test_the_option_is_named_in_the_methods_options(capsys) -> None:
     assert main(["methods", "--options", "output-error"]) == 0
     text = capsys.readouterr().out
     assert "  estimate_wind : bool = false\n      Also estimate a steady wind" in text
+
+
+def test_output_error_is_still_refused_in_turbulence(reference_scenario) -> None:
+    """Moderate Dryden turbulence (sd 3 m/s) on the windy flight: a steady wind does not
+    explain gusts, and the verdict says so (measured: refused on 12/12 flights with sd
+    0.3-3 m/s, by size or by whiteness)."""
+    s = reference_scenario
+    gusty = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=WIND,
+                                                       turbulence_sd_mps=3.0))
+    flight = simulate(s.airframe, s.coefficient_vector, gusty, make_noise("gaussian"), rng=2)
+    result = aeroid.make_estimator("output-error", {"estimate_wind": True}).fit(flight, rng=0)
+    assert not result.success
