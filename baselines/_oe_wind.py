@@ -1,4 +1,4 @@
-"""Output-error's steady wind: its parameters' names, scales and report (issue 26).
+"""Output-error's steady wind: its option, parameters' names and scales, report (issue 26).
 
 With ``estimate_wind`` the three components of a steady wind (north, east, down [m/s],
 the air's velocity over the ground) are parameters of the output-error model after the
@@ -10,6 +10,7 @@ by :data:`WIND_SCALE_MPS`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -21,23 +22,45 @@ WIND_NAMES = ("wind_n", "wind_e", "wind_d")
 WIND_SCALE_MPS = 1.0
 
 
-def wind_scales() -> np.ndarray:
-    """Return the scales of the wind parameters, shape (3,) [m/s]."""
-    return np.full(len(WIND_NAMES), WIND_SCALE_MPS)
+@dataclass(frozen=True, kw_only=True)
+class WindOption:
+    """Output-error's wind option (a base of :class:`baselines.output_error.
+    OutputErrorEstimator`: ``aeroid methods --options output-error`` lists it).
+
+    Attributes
+    ----------
+    estimate_wind : bool
+        Also estimate a steady wind (north, east, down [m/s]; default False: still air),
+        reported in ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a
+        one-line notice (:mod:`baselines._oe_wind`).
+    """
+
+    estimate_wind: bool = False
 
 
-def wind_report(names: tuple[str, ...], phys: np.ndarray, stderr: np.ndarray,
-                info: dict[str, Any]) -> str:
-    """Put the estimated wind in ``info`` and return the fit's one-line notice.
+def wind_names(est: Any) -> list[str]:
+    """Return the names of the wind parameters ``est`` estimates (none without the option)."""
+    return list(WIND_NAMES) if est.estimate_wind else []
+
+
+def wind_scales(est: Any) -> list[float]:
+    """Return the scales of the wind parameters ``est`` estimates [m/s]."""
+    return [WIND_SCALE_MPS] * len(wind_names(est))
+
+
+def wind_report(est: Any, position_free: tuple[int, ...], phys: np.ndarray,
+                stderr: np.ndarray, info: dict[str, Any]) -> list[str]:
+    """Put the estimated wind in ``info`` and return the fit's one-line notice (or nothing).
 
     ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (north, east, down).
     """
-    first = names.index(WIND_NAMES[0])
+    if not est.estimate_wind:
+        return []
+    first = est.parameter_names(position_free).index(WIND_NAMES[0])
     wind = phys[first:first + len(WIND_NAMES)]
     sd = stderr[first:first + len(WIND_NAMES)]
     shown = ", ".join(f"{axis} {w:+.2f} +- {s:.2f}" for axis, w, s
                       in zip(("north", "east", "down"), wind, sd, strict=True))
-    notice = (f"estimate_wind: a steady wind was estimated with the coefficients "
-              f"(the loads see the air-relative velocity): {shown} m/s")
     info.update(wind_ned_mps=wind.tolist(), wind_stderr_mps=sd.tolist())
-    return notice
+    return [f"estimate_wind: a steady wind was estimated with the coefficients (the loads "
+            f"see the air-relative velocity): {shown} m/s"]

@@ -30,7 +30,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common
+from baselines import _common, _oe_wind
 from baselines._gauss_newton import (
     NOISE_MODELS,
     Fit,
@@ -55,7 +55,6 @@ from baselines._oe_starts import (
     start_report,
     warm_start_point,
 )
-from baselines._oe_wind import WIND_NAMES, wind_report, wind_scales
 
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
@@ -79,7 +78,7 @@ MAX_DELAY_S = 0.1
 MAX_SAMPLES = 50_000
 
 @dataclass(frozen=True, kw_only=True)
-class OutputErrorEstimator(Estimator):
+class OutputErrorEstimator(Estimator, _oe_wind.WindOption):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the
@@ -182,9 +181,6 @@ class OutputErrorEstimator(Estimator):
         parameter set compiles for ~3-5 s, then a Jacobian costs ~4x less). Without a
         working compiler it falls back to CasADi's virtual machine (same numbers);
         ``info['compiled']`` says which ran.
-    estimate_wind : bool
-        Also estimate a steady wind (north, east, down [m/s]; default False: still air),
-        reported in ``info['wind_ned_mps']`` with a notice (:mod:`baselines._oe_wind`).
 
     Notes
     -----
@@ -221,7 +217,6 @@ class OutputErrorEstimator(Estimator):
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     compile_model: bool = True
-    estimate_wind: bool = False
 
     def __post_init__(self) -> None:
         for name in ("substeps", "max_iterations", "n_starts", "pso_particles"):
@@ -253,8 +248,7 @@ class OutputErrorEstimator(Estimator):
     def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
-        names += [POSITION_NAMES[c] for c in position_free]
-        names += list(WIND_NAMES) if self.estimate_wind else []
+        names += [POSITION_NAMES[c] for c in position_free] + _oe_wind.wind_names(self)
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors)))
 
@@ -288,9 +282,7 @@ class OutputErrorEstimator(Estimator):
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
         scale.append([pos_sd[c] if pos_sd[c] > 0 else max(abs(pos[c]), 0.1)
-                      for c in position_free])
-        if self.estimate_wind:
-            scale.append(wind_scales())
+                      for c in position_free] + _oe_wind.wind_scales(self))
         if self.estimate_delay:
             scale.append([flight.dt])
         z = _common.measurements(flight)
@@ -394,9 +386,7 @@ class OutputErrorEstimator(Estimator):
         if self.estimate_delay:
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
-        if self.estimate_wind:
-            warnings.append(wind_report(self.parameter_names(position_free), phys,
-                                        stderr_phys, info))
+        warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
         if model.n_imu:
             imu_info, found = imu_error_report(self.parameter_names(position_free),
                                                imu_error_names(self.imu_errors), phys,

@@ -178,7 +178,8 @@ def wind_from_table(table: Any, where: str) -> Wind:
     fileform.check_keys(table, WIND_KEYS, where)
     values = {k: fileform.number(table[k], f"{where} {k}") for k in table}
     try:
-        return Wind(steady_ned_mps=tuple(values.get(k, 0.0) for k in WIND_KEYS[:3]),
+        north, east, down = (values.get(k, 0.0) for k in WIND_KEYS[:3])
+        return Wind(steady_ned_mps=(north, east, down),
                     turbulence_sd_mps=values.get("turbulence_sd_mps", 0.0),
                     scale_length_m=values.get("scale_length_m", MIL_SCALE_LENGTH_M))
     except AirframeError as exc:

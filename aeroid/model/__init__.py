@@ -78,7 +78,7 @@ from aeroid.model._dynamics import (
     state_derivative,
 )
 from aeroid.model._equations import Coefficients, Loads, State, Trig
-from aeroid.model._forward import Buffered, ForwardModel, symbolic_record, with_steady_wind
+from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
 from aeroid.model._inputs import (
     EXOGENOUS,
     Pieces,
@@ -89,6 +89,7 @@ from aeroid.model._inputs import (
 )
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
 from aeroid.model._sensitivity import DEFAULT_REL_STEP, SENSITIVITY_BLOCK_BYTES
+from aeroid.model._wind import with_steady_wind
 
 __all__ = [
     "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",

@@ -69,13 +69,6 @@ def _fast_atan2(y: float, x: float) -> float:
     return math.atan(y / x) if x > 0.0 else math.atan2(y, x)
 
 
-def _still_air_wind_body(x: Any, const: Any) -> tuple[float, float, float]:
-    # still air: the zeros the rotation would give, without six sin/cos per RK4 stage
-    if const.wind_n == 0.0 and const.wind_e == 0.0 and const.wind_d == 0.0:
-        return 0.0, 0.0, 0.0
-    return eq.ned_to_body(x.phi, x.theta, x.psi, const.wind_n, const.wind_e, const.wind_d)
-
-
 def _generated(name: str, body: str, namespace: dict[str, Any]) -> Callable[..., Any]:
     """Return a function compiled from source text (helpers written from field names)."""
     exec(body, namespace)  # noqa: S102 - source built here from tuple field names only
@@ -217,9 +210,8 @@ if HAVE_NUMBA:
             return OneSignature(kernel) if entry else kernel
         return decorate
 
-    _HOOKS = {eq.atan2: _fast_atan2, eq.wind_body: _still_air_wind_body}
     for _fn in eq.ELEMENT_WISE:
-        _register(_fn, _HOOKS.get(_fn, _fn))
+        _register(_fn, _fast_atan2 if _fn is eq.atan2 else eq.KERNEL_HOOKS.get(_fn, _fn))
     for _fn in (eq.outputs, from_array, coefficients_from_array, axpy, rk4_combine,
                 inputs.with_exogenous, inputs.lerp):
         _register(_fn, _fn)

@@ -156,6 +156,14 @@ def wind_body(x: State, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
     return ned_to_body(x.phi, x.theta, x.psi, const.wind_n, const.wind_e, const.wind_d)
 
 
+def still_air_wind_body(x: State, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
+    """:func:`wind_body` for the compiled kernels (:data:`KERNEL_HOOKS`): in still air the
+    zeros the rotation would give, without six sin/cos per RK4 stage (numba only: a branch)."""
+    if const.wind_n == 0.0 and const.wind_e == 0.0 and const.wind_d == 0.0:
+        return 0.0, 0.0, 0.0
+    return ned_to_body(x.phi, x.theta, x.psi, const.wind_n, const.wind_e, const.wind_d)
+
+
 def air_velocity(x: State, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
     """Return the air-relative velocity in body axes [m/s]: ``(u, v, w)`` minus the wind."""
     wx, wy, wz = wind_body(x, const)
@@ -288,6 +296,8 @@ def outputs(out: Any, x: State, f: Loads, const: Constants, positions: Any) -> A
     return out
 
 
+#: The compiled kernels' implementation of some functions above (the same values).
+KERNEL_HOOKS: dict[Any, Any] = {wind_body: still_air_wind_body}
 #: The element-wise functions above, in dependency order (the compiled layer registers
 #: each as a numba overload of itself, and :func:`outputs` too; :func:`atan2` gets its
 #: fast implementation there, :func:`wind_body` its still-air shortcut).

@@ -47,6 +47,7 @@ from aeroid.model._dynamics import (
 from aeroid.model._inputs import Record
 from aeroid.model._integrate import propagate
 from aeroid.model._sensitivity import DEFAULT_REL_STEP
+from aeroid.model._wind import with_wind_symbols
 
 
 class ForwardModel:
@@ -246,7 +247,7 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                                                                n_p - N_COEFFICIENTS))
     pw, sw = ca.SX.sym("pw", n_wind), ca.SX.sym("sw", n_wind)  # wind parameters, scales
     dwind = ca.horzcat(ca.SX.zeros(n_wind, n_p - n_wind), ca.SX.eye(n_wind))
-    const_w, sym_w, wind_row = _with_wind(const, sym, pw * sw)
+    const_w, sym_w, wind_row = with_wind_symbols(const, sym, pw * sw)
     x_next = _symbolic.interval_step_symbolic(x, theta, sym_w, const_w, dt, substeps)
     s_next = ca.jtimes(x_next, ca.vertcat(x, p9, pw), ca.vertcat(sens, dtheta, dwind))
     # symbol names unique per configuration: several compiled libraries may be loaded in
@@ -332,45 +333,6 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
     jacobian = ca.Function("oe_jacobian", record_inputs, [ca.densify(Y.T), ca.densify(dY)])
     return simulate, jacobian, is_compiled
-
-
-def with_steady_wind(const: Constants, record: Record, wind_ned: Sequence[float]
-                     ) -> tuple[Constants, Record]:
-    """Return ``const`` and ``record`` with a steady wind (north, east, down [m/s]) added.
-
-    The wind adds to the constants' wind and, where the record has per-sample values,
-    to each sample's (what :func:`symbolic_record` does with ``wind_free``).
-    """
-    names = ("wind_n", "wind_e", "wind_d")
-    wind = [float(w) for w in wind_ned]
-    const = const._replace(**{k: getattr(const, k) + w for k, w in zip(names, wind,
-                                                                       strict=True)})
-    if record.exogenous is None:
-        return const, record
-    table = record.exogenous.copy()
-    for k, w in zip(names, wind, strict=True):
-        table[:, inputs.EXOGENOUS.index(k)] += w
-    return const, Record(record.dt, record.delta, record.pieces, table)
-
-
-def _with_wind(const: Constants, sym: _symbolic.IntervalSymbols, wind: ca.SX
-               ) -> tuple[Constants, _symbolic.IntervalSymbols, ca.SX]:
-    """The constants and interval symbols with a steady wind ``wind`` (3 or 0) added.
-
-    Returns the constants, the interval symbols, and the row to add to a sample's
-    exogenous row (zeros but the wind columns; empty without per-sample values).
-    """
-    n_exo = sym.exo_a.shape[0]
-    row = ca.SX.zeros(n_exo)
-    if wind.shape[0] == 0:
-        return const, sym, row
-    names = ("wind_n", "wind_e", "wind_d")
-    if not n_exo:
-        return const._replace(**{k: getattr(const, k) + wind[j]
-                                 for j, k in enumerate(names)}), sym, row
-    for j, k in enumerate(names):
-        row[inputs.EXOGENOUS.index(k)] = wind[j]
-    return const, sym._replace(exo_a=sym.exo_a + row, exo_b=sym.exo_b + row), row
 
 
 class Buffered:
