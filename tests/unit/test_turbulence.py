@@ -19,11 +19,13 @@ from aeroid.flights import (
     NoNoise,
     Wind,
     path_axes,
+    read_flight,
     reference_scenario,
     scenario_from_dict,
     shaping_filters,
     simulate,
     simulate_truth,
+    write_flight,
 )
 from aeroid.model import reference_scenario_data
 
@@ -119,7 +121,7 @@ def test_zero_wind_is_still_air_to_the_bit(clean_flight) -> None:
         np.testing.assert_array_equal(flight[channel], clean_flight[channel], err_msg=channel)
 
 
-def test_a_steady_wind_flight_records_the_air_relative_angles() -> None:
+def test_a_steady_wind_flight_records_the_air_relative_angles(tmp_path) -> None:
     s = reference_scenario()
     steady = (3.0, 4.0, 0.0)
     windy = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=steady))
@@ -131,6 +133,10 @@ def test_a_steady_wind_flight_records_the_air_relative_angles() -> None:
     np.testing.assert_allclose(flight["beta"], np.arcsin(air[:, 1] / np.linalg.norm(air, axis=1)),
                                atol=1e-14)
     assert flight.metadata["wind"]["north_mps"] == 3.0
+    write_flight(flight, tmp_path / "windy.csv")
+    back = read_flight(tmp_path / "windy.csv")  # the wind travels in the sidecar
+    assert back.metadata["wind"] == flight.metadata["wind"]
+    np.testing.assert_array_equal(back["beta"], flight["beta"])
     # the wind moved the flight: the inertial and air-relative angles differ by ~0.5 deg
     assert np.max(np.abs(flight["beta"] - np.arcsin(x[:, 1] / np.linalg.norm(x[:, :3], axis=1)))
                   ) > 1e-3
