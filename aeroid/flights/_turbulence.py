@@ -92,6 +92,8 @@ def path_axes(velocity_ned: np.ndarray) -> np.ndarray:
     """Return the unit vectors of ``u_g, v_g, w_g`` in NED as rows (module docstring)."""
     e_u = np.asarray(velocity_ned, dtype=float) / np.linalg.norm(velocity_ned)
     e_v = np.cross([0.0, 0.0, 1.0], e_u)  # horizontal, to the right of the path
+    if np.linalg.norm(e_v) < 1e-9:  # a vertical path: "to the right" of flying north
+        e_v = np.array([0.0, 1.0, 0.0])
     e_v /= np.linalg.norm(e_v)
     return np.array([e_u, e_v, np.cross(e_u, e_v)])
 

@@ -92,6 +92,8 @@ def test_gusts_repeat_with_the_generator_and_lie_in_the_path_axes() -> None:
     np.testing.assert_allclose(axes @ axes.T, np.eye(3), atol=1e-15)
     np.testing.assert_allclose(np.cross(axes[0], velocity), 0.0, atol=1e-12)
     assert axes[1][2] == 0.0 and np.linalg.det(axes) == pytest.approx(1.0)
+    np.testing.assert_allclose(path_axes(np.array([0.0, 0.0, -300.0])) @ [0.0, 0.0, -1.0],
+                               [1.0, 0.0, 0.0], atol=1e-15)  # climbing vertically: defined
 
 
 def _with_wind(**table) -> dict:
