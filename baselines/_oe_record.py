@@ -48,7 +48,8 @@ class RecordModel:
     takes it.
 
     Parameters ``p``: the graph's parameters (coefficients, or with ``tables`` the
-    tables' parameters; free initial-state and position components;
+    tables' parameters; free initial-state and position components, with ``wind_free``
+    the steady wind north, east, down;
     :func:`aeroid.model.symbolic_record`), then, with
     ``estimate_delay``, ``tau / delay_scale``, then the IMU errors
     (:func:`imu_error_names`), each over its entry of ``scale``.
@@ -62,7 +63,7 @@ class RecordModel:
                  x0_free: tuple[int, ...], position_free: tuple[int, ...], compiled: bool,
                  x0: np.ndarray, scale: np.ndarray, delay_s: float,
                  estimate_delay: bool, imu_errors: str = "none",
-                 tables: MachTables | None = None) -> None:
+                 tables: MachTables | None = None, wind_free: bool = False) -> None:
         self.const = model_constants(flight)
         self.mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
         self.schedule = schedule(flight, input)
@@ -78,7 +79,8 @@ class RecordModel:
         self.delay_scale = flight.dt
         self.tables = tables  # coefficient tables in Mach (baselines/_tables_fit.py)
         self.n_theta = len(NAMES) if tables is None else tables.n_parameters
-        self.n_graph = self.n_theta + len(x0_free) + len(position_free)
+        self.wind_free = wind_free
+        self.n_graph = self.n_theta + len(x0_free) + len(position_free) + 3 * int(wind_free)
         self.imu_errors = imu_errors
         self.n_imu = len(imu_error_names(imu_errors))
         self.scale = np.asarray(scale, dtype=float)
@@ -159,7 +161,7 @@ class RecordModel:
             simulate, jacobian, self.compiled = symbolic_record(
                 self.const, record.dt, self.substeps, record.n_samples, self.x0_free,
                 self.position_free, self.compiled_requested, n_pieces,
-                record.exogenous is not None, tables=self.tables)
+                record.exogenous is not None, tables=self.tables, wind_free=self.wind_free)
             d, pieces, exo = record.symbolic_inputs()
             inputs = [np.zeros(self.n_graph), self.scale[:self.n_graph], self.x0, d, pieces,
                       exo, self.pos]

@@ -30,7 +30,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common, _held, _tables_fit
+from baselines import _common, _held, _oe_wind, _tables_fit
 from baselines._gauss_newton import (
     NOISE_MODELS,
     Fit,
@@ -68,7 +68,8 @@ from baselines._oe_windows import OutputErrorWindows
 
 
 @dataclass(frozen=True, kw_only=True)
-class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator):
+class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator,
+                           _oe_wind.WindOption):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the
@@ -240,7 +241,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
-        names += [POSITION_NAMES[c] for c in position_free]
+        names += [POSITION_NAMES[c] for c in position_free] + _oe_wind.wind_names(self)
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors)))
 
@@ -274,7 +275,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
         scale.append([pos_sd[c] if pos_sd[c] > 0 else max(abs(pos[c]), 0.1)
-                      for c in position_free])
+                      for c in position_free] + _oe_wind.wind_scales(self))
         if self.estimate_delay:
             scale.append([flight.dt])
         z = _common.measurements(flight)
@@ -287,7 +288,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                             x0_free=self.x0_free(), position_free=position_free,
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
-                            imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight))
+                            imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight),
+                            wind_free=self.estimate_wind)
         r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
         return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
@@ -305,6 +307,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                 f"output-error: {flight.n_samples} samples; it fits at most {MAX_SAMPLES} "
                 "at once (the model and its Jacobian grow with the record: ~25 kB per "
                 "sample); fit windows of the log")
+        if self.estimate_wind and _tables_fit.flight_tables(flight) is not None:
+            raise aeroid.EstimatorError("output-error: estimate_wind with coefficient tables "
+                                        "([tables]) is not built (Mach needs the airspeed)")
         prob = _held.with_priors(self, flight, self.problem(flight), holds)
         model: RecordModel = prob.model  # type: ignore[assignment]
         scale = model.scale
@@ -379,6 +384,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         if self.estimate_delay:
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
+        warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
         if model.n_imu:
             imu_info, found = imu_error_report(info["parameter_names"],
                                                imu_error_names(self.imu_errors), phys,

@@ -259,7 +259,7 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
                              f"coefficients; this result has {len(result.names)} parameters "
                              "(coefficient tables in Mach: aeroid.report.fitted_tables)")
     from aeroid.flights import flight_record, model_constants
-    from aeroid.model import ForwardModel
+    from aeroid.model import ForwardModel, with_steady_wind
 
     options = _options(result)
     input_mode = str(result.input or result.info.get("input", options.get("input", "hold")))
@@ -271,7 +271,10 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
     positions = (flight.airframe.accel_positions if positions is None
                  else np.asarray(positions, dtype=float).reshape(-1, 3))
     record = flight_record(flight, input_mode, delay)
-    model = ForwardModel(model_constants(flight), record, positions, substeps=steps)
+    const = model_constants(flight)
+    if result.info.get("wind_ned_mps") is not None:  # the fit's steady wind (output-error)
+        const, record = with_steady_wind(const, record, result.info["wind_ned_mps"])
+    model = ForwardModel(const, record, positions, substeps=steps)
     bias, scale, applied = sensor_law(result, tuple(model.output_names))
     if not imu_errors:
         bias, scale = np.zeros_like(bias), np.zeros_like(scale)

@@ -84,6 +84,14 @@ from aeroid.flights._suite_log import (
     read_suite_log,
     write_suite_log,
 )
+from aeroid.flights._turbulence import (
+    MIL_SCALE_LENGTH_M,
+    WIND_KEYS,
+    Wind,
+    dryden_autocorrelation,
+    path_axes,
+    shaping_filters,
+)
 from aeroid.flights._windows import (
     Windows,
     check_window_ranges,
@@ -109,4 +117,6 @@ __all__ = [
     "Mounting", "axis_map", "euler_mounting", "matrix_mounting", "mounted_group",
     "used_samples",
     "Windows", "check_window_ranges", "cut_windows", "parse_window_spec",
+    "MIL_SCALE_LENGTH_M", "WIND_KEYS", "Wind", "dryden_autocorrelation", "path_axes",
+    "shaping_filters",
 ]

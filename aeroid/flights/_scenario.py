@@ -21,6 +21,16 @@ tables and keys and values of the wrong type are one-line errors naming the file
                                      # "continuous" (switch instants located in the truth)
     # control_rate_Hz = 2000.0       # a digital relay latched at its own clock instead
 
+``[wind]`` (optional; :mod:`aeroid.flights._turbulence`) is the air the flight crosses: a
+steady wind over the ground and Dryden turbulence (MIL-F-8785C); left out, still air::
+
+    [wind]
+    north_mps = 3.5                  # steady wind, NED [m/s] (each key optional, 0)
+    east_mps = 3.5
+    down_mps = 0.0
+    turbulence_sd_mps = 3.0          # Dryden intensity per component (0: none)
+    scale_length_m = 533.4           # Dryden scale length (MIL-F-8785C, above 2000 ft)
+
 A scenario may also carry the airframe file's ``[fin_law]``: what the simulated flights'
 airframe tells the estimators (their ``law`` input). It is independent of ``[actuator]``,
 so a study can give the estimators a law that differs from the truth (a wrong delay);
@@ -47,6 +57,7 @@ import numpy as np
 
 from aeroid.errors import AirframeError
 from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.flights._turbulence import Wind, wind_from_table
 from aeroid.model import (
     FIN_LAW_KEYS,
     NAMES,
@@ -111,6 +122,8 @@ class Manoeuvre:
     control_rate_hz : float or None
         The relay's clock [Hz] (``control_rate`` only); its instants are ``m /
         control_rate_hz`` from t = 0.
+    wind : Wind or None
+        The air the flight crosses (steady wind, Dryden turbulence); None: still air.
     """
 
     command_amplitude: Profile = 0.5
@@ -123,8 +136,11 @@ class Manoeuvre:
     rate_limit_dps: float | None = None
     evaluation: str = "latched"
     control_rate_hz: float | None = None
+    wind: Wind | None = None
 
     def __post_init__(self) -> None:
+        if self.wind is not None and not isinstance(self.wind, Wind):
+            raise AirframeError(f"manoeuvre: wind must be a Wind or None, got {self.wind!r}")
         for name in ("command_amplitude", "command_phase_deg"):
             object.__setattr__(self, name, profile(getattr(self, name), f"manoeuvre: {name}"))
         try:
@@ -183,7 +199,8 @@ class Manoeuvre:
         """
         fields = dataclasses.asdict(self)
         return {k: v for k, v in fields.items()
-                if k not in FIN_LAW_DEFAULTS or v != FIN_LAW_DEFAULTS[k]}
+                if (k not in FIN_LAW_DEFAULTS or v != FIN_LAW_DEFAULTS[k])
+                and not (k == "wind" and v is None)}  # still air: as before the wind
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -246,6 +263,8 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
     table = fileform.check_table(data["coefficients"], f"{source}: [coefficients]")
     fileform.check_keys(table, NAMES, f"{source}: [coefficients]", required=NAMES)
     coefficients, tables = _true_coefficients(table, airframe, f"{source}: [coefficients]")
+    if "wind" in data:
+        options["wind"] = wind_from_table(data["wind"], f"{source}: [wind]")
     noise_tables = fileform.check_table(data.get("noise", {}), f"{source}: [noise]")
     fileform.check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
     noise_options = {name: fileform.check_table(table, f"{source}: [noise.{name}]")

@@ -17,6 +17,15 @@ whose knots split the RK4 steps, the recorded ``delta_k`` is the deflection at `
 carries the true deflection in the window (``delta_knots``: the knots of its
 :class:`~aeroid.model.Schedule`, a jump being two knots at one time) and the commanded
 switches (``command_switches``: instants and the command after each, before the delay).
+
+A manoeuvre's ``wind`` (:class:`~aeroid.flights._turbulence.Wind`) is the air the flight
+crosses: the model's loads see the air-relative velocity; the states stay over the
+ground. Its Dryden gusts are drawn from the simulation's generator before the sensor
+noise, on the sample grid, and enter the truth integration as per-sample wind
+(exogenous columns, linear within each interval); the recorded ``alpha`` and ``beta``
+are then the air-relative angles (what a vane measures), and ``metadata["wind"]`` holds
+the ``[wind]`` table. Turbulence needs the latched relay (the closed relay loop with
+switch instants inside the truth takes constants only: refused in one line).
 """
 
 from __future__ import annotations
@@ -26,18 +35,25 @@ from typing import NamedTuple
 import numpy as np
 
 from aeroid.errors import AirframeError
-from aeroid.flights._flight import STATE_CHANNELS, Flight, make_flight
+from aeroid.flights._flight import STATE_CHANNELS, Flight, air_angles, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
+from aeroid.flights._sim_metadata import actuator_metadata, manoeuvre_metadata, switch_metadata
 from aeroid.model import (
+    PHI,
+    PSI,
+    THETA,
     Airframe,
+    Constants,
     MachTables,
     Schedule,
     accelerometers,
     as_dict,
+    as_state,
     as_vector,
     constants,
+    equations,
     propagate,
     rk4_step,
     state_derivative,
@@ -60,6 +76,8 @@ class Truth(NamedTuple):
     command_t, command_delta : ndarray, shape (m,)
         Commanded switch instants [s] (before the actuator delay) and the command after
         each [rad].
+    wind : ndarray, shape (n, 3), or None
+        The wind at each sample, NED [m/s] (steady plus gusts); None: still air.
     """
 
     t: np.ndarray
@@ -68,12 +86,18 @@ class Truth(NamedTuple):
     schedule: Schedule
     command_t: np.ndarray
     command_delta: np.ndarray
+    wind: np.ndarray | None = None
 
 
 def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
-             backend: str) -> Truth:
-    """The paper's relay, evaluated at each sample instant and held (no delay, no rate)."""
-    const = constants(airframe)
+             backend: str, const: Constants | None = None,
+             exogenous: np.ndarray | None = None) -> Truth:
+    """The paper's relay, evaluated at each sample instant and held (no delay, no rate).
+
+    ``const``: the model constants (default the airframe's); ``exogenous``: a per-sample
+    table (n, len(EXOGENOUS)) over the whole truth (a gusty wind), or None.
+    """
+    const = constants(airframe) if const is None else const
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     dt = manoeuvre.dt
     n = int(round(manoeuvre.window_s[1] / dt)) + 1
@@ -88,7 +112,8 @@ def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
         delta[k] = law(x[6], t[k] if varying else None)
         if k < n - 1:
             x = propagate(x, c, delta[k:k + 1], dt, const,
-                          substeps=manoeuvre.truth_substeps, backend=backend)[0, -1]
+                          substeps=manoeuvre.truth_substeps, backend=backend,
+                          exogenous=None if exogenous is None else exogenous[k:k + 2])[0, -1]
     change = np.flatnonzero(np.diff(delta)) + 1
     return Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
 
@@ -128,18 +153,21 @@ def _latched_tables(airframe: Airframe, parameters: np.ndarray, tables: MachTabl
 
 
 def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
-                   *, backend: str = "auto", tables: MachTables | None = None) -> Truth:
+                   *, backend: str = "auto", tables: MachTables | None = None,
+                   rng: np.random.Generator | None = None) -> Truth:
     """Integrate the closed relay loop from t = 0 to the end of the window.
 
     With ``tables`` (:class:`aeroid.model.MachTables`), ``coefficients`` are the tables'
     parameters (:meth:`~aeroid.model.MachTables.parameter_names`), evaluated at each RK4
     stage's Mach by numpy (``backend`` unused); only the latched relay without delay or
-    rate limit is supported then (anything else: one-line error).
+    rate limit, in still air, is supported then (anything else: one-line error).
+    ``rng``: the source of the manoeuvre's Dryden gusts (required with turbulence,
+    unused otherwise).
 
     Returns
     -------
     Truth
-        ``(t, states, delta, schedule, command_t, command_delta)``; its first three
+        ``(t, states, delta, schedule, command_t, command_delta, wind)``; its first three
         fields are the sample times [s], shape (n,), the true states at the samples,
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
@@ -147,18 +175,56 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
     plain = (manoeuvre.evaluation == "latched" and law.delay_s == 0
              and law.rate_limit_dps is None)
     if tables is not None:
-        if not plain:
-            raise AirframeError("simulate: coefficient tables are simulated with the latched "
-                                "relay without delay or rate limit only")
+        if not plain or manoeuvre.wind is not None:
+            raise AirframeError("simulate: coefficient tables are simulated in still air with "
+                                "the latched relay without delay or rate limit only")
         return _latched_tables(airframe, _parameters(coefficients, tables), tables, manoeuvre)
+    if manoeuvre.wind is not None:
+        return _windy(airframe, coefficients, manoeuvre, backend, plain, rng)
     if plain:
         return _latched(airframe, coefficients, manoeuvre, backend)
+    return _relay_loop(airframe, coefficients, manoeuvre, backend, constants(airframe))
+
+
+def _windy(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre, backend: str,
+           latched: bool, rng: np.random.Generator | None) -> Truth:
+    """The truth in the manoeuvre's wind (module docstring)."""
+    wind = manoeuvre.wind
+    assert wind is not None
+    const = wind.constants(constants(airframe))
+    n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
+    if not wind.turbulent:
+        truth = (_latched(airframe, coefficients, manoeuvre, backend, const) if latched
+                 else _relay_loop(airframe, coefficients, manoeuvre, backend, const))
+        return truth._replace(wind=np.tile(np.array(wind.steady_ned_mps), (n, 1)))
+    if not latched:
+        raise AirframeError("manoeuvre: Dryden turbulence is simulated with the latched relay "
+                            "only (no delay, rate limit or continuous evaluation)")
+    if rng is None:
+        raise AirframeError("manoeuvre: turbulence needs the simulation's random generator "
+                            "(rng) for its gusts")
+    x0 = np.array(manoeuvre.initial_state)
+    # rows: each NED axis in body axes (the columns of the NED-to-body rotation R), so
+    # this matrix is R^T and takes the body velocity to NED
+    body_to_ned = np.array([equations.ned_to_body(x0[PHI], x0[THETA], x0[PSI], *e)
+                            for e in np.eye(3)])
+    velocity_ned = body_to_ned @ x0[:3]
+    gusts = wind.gusts(n, manoeuvre.dt, velocity_ned, rng)
+    truth = _latched(airframe, coefficients, manoeuvre, backend, const,
+                     wind.exogenous(constants(airframe), gusts))
+    return truth._replace(wind=np.array(wind.steady_ned_mps) + gusts)
+
+
+def _relay_loop(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
+                backend: str, const: Constants) -> Truth:
+    """The relay loop closed inside the truth integration (module docstring)."""
+    law = manoeuvre.fin_law(airframe.delta_max_rad)
     rate = (None if manoeuvre.evaluation == "continuous" else
             manoeuvre.control_rate_hz or manoeuvre.sample_rate_hz)
     substeps = manoeuvre.truth_substeps
     n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
     h = manoeuvre.dt / substeps
-    loop = RelayLoop(law, as_vector(coefficients), constants(airframe),
+    loop = RelayLoop(law, as_vector(coefficients), const,
                      np.array(manoeuvre.initial_state), h, (n - 1) * substeps,
                      control_rate_hz=rate, backend=backend)
     states = loop.run(every=substeps)
@@ -189,7 +255,8 @@ def simulate(
     noise : NoiseModel, optional
         Sensor noise and position error; default :class:`~aeroid.flights.NoNoise`.
     rng : numpy.random.Generator or int, optional
-        Source of every random draw (normalised once with ``default_rng``).
+        Source of every random draw (normalised once with ``default_rng``): the
+        manoeuvre's Dryden gusts first, then the sensor noise.
     backend : {"auto", "numba", "numpy"}
         Integration backend (:func:`aeroid.model.propagate`).
     tables : MachTables, optional
@@ -203,11 +270,21 @@ def simulate(
         Recorded window; its airframe carries the estimator's copy of the sensor
         positions, ``metadata`` the truth (coefficients, positions), noise and seed.
     """
-    coefficients = (as_vector(coefficients) if tables is None
-                    else _parameters(coefficients, tables))
-    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend, tables=tables)
-    return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng,
-                         tables=tables)
+    if tables is not None:
+        coefficients = _parameters(coefficients, tables)
+        truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend, tables=tables)
+        return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng,
+                             tables=tables)
+    coefficients = as_vector(coefficients)
+    if manoeuvre.wind is None or not manoeuvre.wind.turbulent:
+        truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend)
+        return record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=rng)
+    seed = rng if isinstance(rng, int | np.integer) else None
+    generator = np.random.default_rng(rng)  # one stream: the gusts, then the sensor noise
+    truth = simulate_truth(airframe, coefficients, manoeuvre, backend=backend, rng=generator)
+    flight = record_flight(airframe, coefficients, manoeuvre, truth, noise, rng=generator)
+    flight.metadata["seed"] = None if seed is None else int(seed)
+    return flight
 
 
 def _parameters(parameters: np.ndarray, tables: MachTables) -> np.ndarray:
@@ -256,13 +333,17 @@ def record_flight(
     given = coefficients
     coefficients = (as_vector(coefficients) if tables is None
                     else tables.coefficient_array(_parameters(given, tables), states))
-    accel = accelerometers(states, delta, coefficients, constants(airframe),
+    const = _recorded_constants(airframe, manoeuvre, truth, k0)
+    accel = accelerometers(states, delta, coefficients, const,
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
     channels.update({name: accel[:, j] for j, name in enumerate(ACCEL_CHANNELS)})
     channels.update({name: states[:, j] for j, name in enumerate(STATE_CHANNELS)})
     channels["delta"] = delta
     channels = noise.corrupt(channels, rng)
+    if manoeuvre.wind is not None:  # the air-relative angles (in still air: derived)
+        channels["alpha"], channels["beta"] = air_angles(
+            *equations.air_velocity(as_state(states), const))
     positions = noise.perturb_positions(airframe.accel_positions, rng)
     sd = noise.position_sd(positions)  # the estimators are told how uncertain they are
     seen = airframe.replace(accel1_position_m=tuple(positions[0]),
@@ -273,9 +354,9 @@ def record_flight(
         "seed": None if seed is None else int(seed),
         "true_coefficients": as_dict(coefficients) if tables is None else None,
         "true_accel_positions_m": airframe.accel_positions.tolist(),
-        "manoeuvre": _manoeuvre_metadata(manoeuvre),
-        "actuator": _actuator_metadata(manoeuvre, airframe),
-        **_switch_metadata(truth, float(t[0]), float(t[-1])),
+        "manoeuvre": manoeuvre_metadata(manoeuvre),
+        "actuator": actuator_metadata(manoeuvre, airframe),
+        **switch_metadata(truth, float(t[0]), float(t[-1])),
     }
     if tables is not None:
         parameters = _parameters(given, tables).tolist()
@@ -283,40 +364,22 @@ def record_flight(
                                                strict=True))
         metadata["true_tables"] = {**tables.to_table(),
                                    "speed_of_sound_mps": tables.speed_of_sound_mps}
+    if manoeuvre.wind is not None:
+        metadata["wind"] = manoeuvre.wind.describe()
     return make_flight(channels, seen, metadata)
 
 
-def _manoeuvre_metadata(manoeuvre: Manoeuvre) -> dict[str, float | list[float]]:
-    """The manoeuvre's numbers (the sidecar accepts numbers and lists of numbers here)."""
-    out: dict[str, float | list[float]] = {
-        key: value for key in ("command_amplitude", "command_phase_deg")
-        if isinstance(value := getattr(manoeuvre, key), float)}
-    out.update(sample_rate_hz=manoeuvre.sample_rate_hz, window_s=list(manoeuvre.window_s))
-    return out
-
-
-def _actuator_metadata(manoeuvre: Manoeuvre, airframe: Airframe) -> dict[str, object]:
-    """The true fin law (the ``[fin_law]`` table's form) and how it was evaluated."""
-    table: dict[str, object] = dict(manoeuvre.fin_law(airframe.delta_max_rad).to_table())
-    table["evaluation"] = manoeuvre.evaluation
-    if manoeuvre.control_rate_hz is not None:
-        table["control_rate_Hz"] = manoeuvre.control_rate_hz
-    return table
-
-
-def _switch_metadata(truth: Truth, start: float, end: float) -> dict[str, dict[str, list]]:
-    """The true deflection's knots and the commanded switches within ``[start, end]``."""
-    sched = truth.schedule
-    inside = (sched.times > start) & (sched.times < end)
-    times = [start, *sched.times[inside].tolist(), end]
-    values = [float(sched.at(start)), *sched.values[inside].tolist(), float(sched.before(end))]
-    if float(sched.at(end)) != values[-1]:  # a jump at the last sample
-        times.append(end)
-        values.append(float(sched.at(end)))
-    commands = (truth.command_t >= start) & (truth.command_t <= end)
-    return {"delta_knots": {"t": times, "delta": values},
-            "command_switches": {"t": truth.command_t[commands].tolist(),
-                                 "delta": truth.command_delta[commands].tolist()}}
+def _recorded_constants(airframe: Airframe, manoeuvre: Manoeuvre, truth: Truth,
+                        k0: int) -> Constants:
+    """The model constants at the recorded samples: the wind per sample where there is one."""
+    const = constants(airframe)
+    if manoeuvre.wind is None:
+        return const
+    if truth.wind is None:
+        raise AirframeError("record_flight: the manoeuvre has a wind but the truth none "
+                            "(simulate it with simulate_truth)")
+    wind = truth.wind[k0:]
+    return const._replace(wind_n=wind[:, 0], wind_e=wind[:, 1], wind_d=wind[:, 2])
 
 
 def simulate_scenario(scenario: Scenario, noise: NoiseModel | None = None, *,

@@ -110,7 +110,8 @@ AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "hold", "prior_
 #: The fin of an airframe (its field ``fin``): the moving ON-OFF fin, or none.
 FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
-SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise")
+SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise",
+                   "wind")
 
 
 def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",

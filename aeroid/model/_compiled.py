@@ -211,7 +211,7 @@ if HAVE_NUMBA:
         return decorate
 
     for _fn in eq.ELEMENT_WISE:
-        _register(_fn, _fast_atan2 if _fn is eq.atan2 else _fn)
+        _register(_fn, _fast_atan2 if _fn is eq.atan2 else eq.KERNEL_HOOKS.get(_fn, _fn))
     for _fn in (eq.outputs, from_array, coefficients_from_array, axpy, rk4_combine,
                 inputs.with_exogenous, inputs.lerp):
         _register(_fn, _fn)

@@ -18,10 +18,14 @@ without copying an equation: :func:`atan2` (numba evaluates ``atan(y/x)`` for
 take as arguments (:class:`Trig`) so a kernel can get it by the addition theorem instead
 of calling sin/cos.
 
-Model (notes, "Model"): body axes, flat non-rotating earth, no wind, cruciform airframe
+Model (notes, "Model"): body axes, flat non-rotating earth, cruciform airframe
 with no products of inertia, thrust on body +x through the c.g.; the lateral coefficients
 follow the symmetry ties of eq. 1 and the side force has no fin term (one fin pair acts in
 pitch only). Eq. 5 has no ``(Iy - Iz) q r`` term: the paper's model, exact for Iy = Iz.
+The air may move (issue 26): the loads see the air-relative velocity, the body velocity
+minus the wind (NED components, :class:`Constants` ``wind_n, wind_e, wind_d``) rotated into
+body axes by the attitude (:func:`air_velocity`); the states stay inertial. Zero wind is
+the paper's still air, to the bit (a third hook: the kernels skip the rotation then).
 
 Adding a coefficient or an input is one change here (and its name in
 :mod:`aeroid.model._coefficients` or :class:`Constants`); README, "How to add a
@@ -73,7 +77,9 @@ class Constants(NamedTuple):
 
     ``rho`` air density [kg/m^3], ``area`` reference area S [m^2], ``diameter`` reference
     length D [m], ``mass`` [kg], principal inertias ``ix, iy, iz`` [kg m^2], ``thrust`` [N]
-    along body +x, ``gravity`` [m/s^2].
+    along body +x, ``gravity`` [m/s^2]; the wind ``wind_n, wind_e, wind_d`` [m/s], the
+    air's velocity over the ground in north-east-down axes (default 0: still air; given
+    per sample, a gust: :data:`aeroid.model.EXOGENOUS`).
     """
 
     rho: Scalar
@@ -85,6 +91,9 @@ class Constants(NamedTuple):
     iz: Scalar
     thrust: Scalar
     gravity: Scalar
+    wind_n: Scalar = 0.0
+    wind_e: Scalar = 0.0
+    wind_d: Scalar = 0.0
 
 
 class Loads(NamedTuple):
@@ -126,6 +135,41 @@ def air_data(u: Scalar, v: Scalar, w: Scalar) -> tuple[Scalar, Scalar, Scalar]:
     return speed, atan2(w, u), np.arcsin(v / speed)
 
 
+def ned_to_body(phi: Scalar, theta: Scalar, psi: Scalar, north: Scalar, east: Scalar,
+                down: Scalar) -> tuple[Scalar, Scalar, Scalar]:
+    """Return a north-east-down vector in body axes (yaw ``psi``, pitch, roll: 3-2-1 Euler).
+
+    The rows of the direction-cosine matrix ``[[c th c psi, c th s psi, -s th], ...]``
+    applied as the three elementary rotations in turn.
+    """
+    spsi, cpsi = np.sin(psi), np.cos(psi)
+    sth, cth = np.sin(theta), np.cos(theta)
+    sphi, cphi = np.sin(phi), np.cos(phi)
+    x1 = cpsi * north + spsi * east  # after the yaw rotation
+    y1 = cpsi * east - spsi * north
+    z2 = sth * x1 + cth * down  # after the pitch rotation
+    return cth * x1 - sth * down, cphi * y1 + sphi * z2, cphi * z2 - sphi * y1
+
+
+def wind_body(x: State, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
+    """Return the wind in body axes [m/s] (a hook: the kernels give zeros in still air)."""
+    return ned_to_body(x.phi, x.theta, x.psi, const.wind_n, const.wind_e, const.wind_d)
+
+
+def still_air_wind_body(x: State, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
+    """:func:`wind_body` for the compiled kernels (:data:`KERNEL_HOOKS`): in still air the
+    zeros the rotation would give, without six sin/cos per RK4 stage (numba only: a branch)."""
+    if const.wind_n == 0.0 and const.wind_e == 0.0 and const.wind_d == 0.0:
+        return 0.0, 0.0, 0.0
+    return ned_to_body(x.phi, x.theta, x.psi, const.wind_n, const.wind_e, const.wind_d)
+
+
+def air_velocity(x: State, const: Constants) -> tuple[Scalar, Scalar, Scalar]:
+    """Return the air-relative velocity in body axes [m/s]: ``(u, v, w)`` minus the wind."""
+    wx, wy, wz = wind_body(x, const)
+    return x.u - wx, x.v - wy, x.w - wz
+
+
 def trig(x: State) -> Trig:
     """Return the attitude trigonometry of state ``x`` with sin and cos."""
     return Trig(np.sin(x.phi), np.cos(x.phi), np.sin(x.theta), np.cos(x.theta))
@@ -139,11 +183,13 @@ def aerodynamic_loads(x: State, c: Coefficients, delta: Scalar, const: Constants
     ``M_X = Q S D (Cl0 + Clp D/(2V) p)``;
     ``M_Y = Q S D (Cma alpha + Cmd delta + Cmq D/(2V) q)``;
     ``M_Z = Q S D (-Cma beta + Cmq D/(2V) r)``, with ``Q = rho V^2 / 2`` and ``delta`` the
-    fin deflection [rad]. Every load is linear in the coefficients.
+    fin deflection [rad]. Every load is linear in the coefficients. ``V``, alpha and
+    beta are the air-relative ones (:func:`air_velocity`; the inertial ones in still air).
     """
-    speed, alpha, beta = air_data(x.u, x.v, x.w)
+    ua, va, wa = air_velocity(x, const)
+    speed, alpha, beta = air_data(ua, va, wa)
     # Q S, with V^2 from the components (not the rounded square root)
-    qs = 0.5 * const.rho * const.area * (x.u * x.u + x.v * x.v + x.w * x.w)
+    qs = 0.5 * const.rho * const.area * (ua * ua + va * va + wa * wa)
     qsd = qs * const.diameter
     rate_scale = 0.5 * const.diameter / speed  # D / (2 V)
     return Loads(
@@ -250,8 +296,11 @@ def outputs(out: Any, x: State, f: Loads, const: Constants, positions: Any) -> A
     return out
 
 
+#: The compiled kernels' implementation of some functions above (the same values).
+KERNEL_HOOKS: dict[Any, Any] = {wind_body: still_air_wind_body}
 #: The element-wise functions above, in dependency order (the compiled layer registers
 #: each as a numba overload of itself, and :func:`outputs` too; :func:`atan2` gets its
-#: fast implementation there).
-ELEMENT_WISE = (atan2, air_data, trig, aerodynamic_loads, angular_acceleration,
-                specific_force, derivative, state_derivative, accelerometer, rate_gyros)
+#: fast implementation there, :func:`wind_body` its still-air shortcut).
+ELEMENT_WISE = (atan2, air_data, ned_to_body, wind_body, air_velocity, trig, aerodynamic_loads,
+                angular_acceleration, specific_force, derivative, state_derivative, accelerometer,
+                rate_gyros)

@@ -47,6 +47,7 @@ from aeroid.model._inputs import Record
 from aeroid.model._integrate import propagate
 from aeroid.model._sensitivity import DEFAULT_REL_STEP
 from aeroid.model._tables import MachTables
+from aeroid.model._wind import with_wind_symbols
 
 
 class ForwardModel:
@@ -187,7 +188,7 @@ class ForwardModel:
 def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                     x0_free: tuple[int, ...] = (), position_free: tuple[int, ...] = (),
                     compiled: bool = False, n_pieces: int = 1, varying: bool = False,
-                    tables: MachTables | None = None
+                    tables: MachTables | None = None, wind_free: bool = False
                     ) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record (both triads, rates) and its Jacobian.
 
@@ -195,12 +196,14 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     ``len(x0_free)`` are offsets of those state components (indices into the state,
     increasing) from the given initial state (``x0 = x0_given + p * scale``); the last
     ``len(position_free)`` are offsets of those position components (indices into the
-    flattened positions ``[x1, y1, z1, x2, y2, z2]``) from the given positions.
+    flattened positions ``[x1, y1, z1, x2, y2, z2]``) from the given positions; with
+    ``wind_free``, three more: a steady wind (north, east, down) [m/s] added to the
+    constants' wind (or to each sample's, with ``varying``), ``wind = p * scale``.
 
     Inputs besides the parameters: the deflection at every sample (the outputs see it),
     the schedule's pieces per interval (``n_pieces`` per interval, rows ``end``,
     ``start``, ``stop``: :meth:`aeroid.model.Schedule.segments`) and, with ``varying``,
-    the exogenous table (7 rows, one column per sample).
+    the exogenous table (len(EXOGENOUS) rows, one column per sample).
 
     With ``tables`` (:class:`aeroid.model.MachTables`), the first parameters are the
     tables' (:meth:`~aeroid.model.MachTables.parameter_names`: constants and table
@@ -218,7 +221,7 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     Returns
     -------
     simulate : Function ``(p, scale, x0_given (9), delta (1, n), pieces (3 S, n - 1),
-        exo (7 or 0, n), pos (6)) -> Y (n, 9)``
+        exo (len(EXOGENOUS) or 0, n), pos (6)) -> Y (n, 9)``
     jacobian : Function ``(same) -> (Y (n, 9), dY (9, n n_p))``
         Columns ``k n_p .. (k + 1) n_p`` of ``dY`` are ``dy_k / dp``.
     is_compiled : bool
@@ -227,20 +230,21 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     """
     return _symbolic_record(inputs.normalised(const, varying), float(dt), int(substeps),
                             int(n_samples), tuple(x0_free), tuple(position_free),
-                            bool(compiled), int(n_pieces), bool(varying), tables)
+                            bool(compiled), int(n_pieces), bool(varying), tables,
+                            bool(wind_free))
 
 
 @functools.lru_cache(maxsize=16)
 def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                      x0_free: tuple[int, ...], position_free: tuple[int, ...],
                      compiled: bool, n_pieces: int, varying: bool,
-                     tables: MachTables | None = None
+                     tables: MachTables | None = None, wind_free: bool = False
                      ) -> tuple[ca.Function, ca.Function, bool]:
     n_pos = 6
     # the coefficient parameters: the 9 coefficients, or the tables' constants and points
     N_COEFFICIENTS = _symbolic.n_theta(tables)
-    n_x0, n_free_pos = len(x0_free), len(position_free)
-    n_p = N_COEFFICIENTS + n_x0 + n_free_pos
+    n_x0, n_free_pos, n_wind = len(x0_free), len(position_free), 3 * int(wind_free)
+    n_p = N_COEFFICIENTS + n_x0 + n_free_pos + n_wind
     # one interval with sensitivities (SX)
     x = ca.SX.sym("x", N_STATE)
     sens = ca.SX.sym("S", N_STATE, n_p)
@@ -251,17 +255,22 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     theta = p9 * scale9
     dtheta = ca.horzcat(ca.SX.eye(N_COEFFICIENTS), ca.SX.zeros(N_COEFFICIENTS,
                                                                n_p - N_COEFFICIENTS))
-    x_next = _symbolic.interval_step_symbolic(x, theta, sym, const, dt, substeps, tables)
-    s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
+    pw, sw = ca.SX.sym("pw", n_wind), ca.SX.sym("sw", n_wind)  # wind parameters, scales
+    dwind = ca.horzcat(ca.SX.zeros(n_wind, n_p - n_wind), ca.SX.eye(n_wind))
+    const_w, sym_w, wind_row = with_wind_symbols(const, sym, pw * sw)
+    x_next = _symbolic.interval_step_symbolic(x, theta, sym_w, const_w, dt, substeps,
+                                                tables)
+    s_next = ca.jtimes(x_next, ca.vertcat(x, p9, pw), ca.vertcat(sens, dtheta, dwind))
     # symbol names unique per configuration: several compiled libraries may be loaded in
     # one process
     tag = (f"p{n_p}x{''.join(map(str, x0_free)) or 'n'}"
            f"r{''.join(map(str, position_free)) or 'n'}s{substeps}S{n_pieces}"
-           f"{'v' if varying else 'c'}h"
+           f"{'v' if varying else 'c'}{'w' if wind_free else ''}h"
            f"{hashlib.sha256(repr((tuple(const), dt, n_samples)).encode()).hexdigest()[:8]}"
            + ("" if tables is None else
               f"t{hashlib.sha256(repr(tables).encode()).hexdigest()[:8]}"))
-    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, *sym], [x_next, s_next])
+    step = ca.Function(f"step_sens_{tag}", [x, sens, p9, scale9, pw, sw, *sym],
+                       [x_next, s_next])
     # outputs with sensitivities (SX)
     d = ca.SX.sym("delta")
     exo = ca.SX.sym("exo", n_exo)
@@ -269,16 +278,18 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     scale_pos = ca.SX.sym("scale_pos", n_pos)
     pos0 = ca.SX.sym("pos", n_pos)
     pos = pos0 + ppos * scale_pos
-    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const, exo),
+    y = _symbolic.measurement(x, d, theta, pos, _symbolic.sample_constants(const_w,
+                                                                           exo + wind_row),
                               tables)
     dpos = ca.SX.zeros(n_pos, n_p)
     for j, component in enumerate(position_free):
         dpos[component, N_COEFFICIENTS + n_x0 + j] = 1.0
-    dy = ca.jtimes(y, ca.vertcat(x, p9, ppos), ca.vertcat(sens, dtheta, dpos))
-    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, d, exo, pos0, ppos, scale_pos],
-                      [y, dy])
-    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, d, exo, pos0, ppos, scale_pos], [y])
-    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, *sym], [x_next])
+    dy = ca.jtimes(y, ca.vertcat(x, p9, pw, ppos), ca.vertcat(sens, dtheta, dwind, dpos))
+    out = ca.Function(f"out_sens_{tag}", [x, sens, p9, scale9, pw, sw, d, exo, pos0, ppos,
+                                          scale_pos], [y, dy])
+    out_plain = ca.Function(f"out_{tag}", [x, p9, scale9, pw, sw, d, exo, pos0, ppos,
+                                           scale_pos], [y])
+    step_plain = ca.Function(f"step_{tag}", [x, p9, scale9, pw, sw, *sym], [x_next])
     is_compiled = False
     if compiled:
         built = _symbolic.compile_functions([step, out, step_plain, out_plain],
@@ -296,6 +307,7 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     exo_table = ca.MX.sym("exo", n_exo, n_samples)
     pos_given = ca.MX.sym("pos", n_pos)
     pm, sm = p[:N_COEFFICIENTS], scale[:N_COEFFICIENTS]
+    wm = [p[n_p - n_wind:], scale[n_p - n_wind:]]  # the wind parameters (empty without)
     ppos_parts, spos_parts = [ca.MX(0.0)] * n_pos, [ca.MX(0.0)] * n_pos
     for j, component in enumerate(position_free):
         ppos_parts[component] = p[N_COEFFICIENTS + n_x0 + j]
@@ -317,20 +329,21 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
         return ca.repmat(v, 1, k)
 
     interval_inputs = [pieces, exo_table[:, :m], exo_table[:, 1:]]
-    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m), *interval_inputs)
+    xs = step_plain.mapaccum("record", m)(x0, rep(pm, m), rep(sm, m),
+                                          *[rep(v, m) for v in wm], *interval_inputs)
     states = ca.horzcat(x0, xs)
     sample_inputs = [delta, exo_table, rep(pos_given, n_samples), rep(ppos_m, n_samples),
                      rep(spos_m, n_samples)]
     Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples),
-                                 *sample_inputs)
+                                 *[rep(v, n_samples) for v in wm], *sample_inputs)
     record_inputs = [p, scale, x0_given, delta, pieces, exo_table, pos_given]
     simulate = ca.Function("oe_simulate", record_inputs, [ca.densify(Y.T)])
     xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m),
-                                                *interval_inputs)
+                                                *[rep(v, m) for v in wm], *interval_inputs)
     states = ca.horzcat(x0, xs)
     sens_all = ca.horzcat(s0, ss)  # 9 x (n_samples n_p), block k = S_k
     Y, dY = out.map(n_samples)(states, sens_all, rep(pm, n_samples), rep(sm, n_samples),
-                               *sample_inputs)
+                               *[rep(v, n_samples) for v in wm], *sample_inputs)
     # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
     jacobian = ca.Function("oe_jacobian", record_inputs, [ca.densify(Y.T), ca.densify(dY)])
     return simulate, jacobian, is_compiled

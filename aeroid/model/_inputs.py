@@ -21,9 +21,9 @@ the deflection at its start and end; an RK4 step is split at every knot, not
 approximated. The deflection at a sample instant (what the accelerometers see then) is
 the right-continuous value (:meth:`Schedule.at`).
 
-Exogenous quantities (:data:`EXOGENOUS`): air density, mass, thrust, inertias and
-gravity may be given per sample; the integrators interpolate them linearly in time
-between samples (:func:`exogenous_table`).
+Exogenous quantities (:data:`EXOGENOUS`): air density, mass, thrust, inertias,
+gravity and the wind (a gust: the air's NED velocity per sample) may be given per
+sample; the integrators interpolate them linearly in time between samples (:func:`exogenous_table`).
 """
 
 from __future__ import annotations
@@ -38,7 +38,10 @@ import numpy as np
 from aeroid.model._equations import Constants
 
 #: Constants that may vary per sample, in the column order of an exogenous table.
-EXOGENOUS: tuple[str, ...] = ("rho", "mass", "thrust", "ix", "iy", "iz", "gravity")
+EXOGENOUS: tuple[str, ...] = ("rho", "mass", "thrust", "ix", "iy", "iz", "gravity",
+                              "wind_n", "wind_e", "wind_d")
+#: Exogenous quantities of any sign (the others must be positive).
+SIGNED: tuple[str, ...] = ("thrust", "gravity", "wind_n", "wind_e", "wind_d")
 #: Relative tolerance on a uniform time base (as the flight validation's).
 TIME_RTOL = 1e-6
 #: A knot closer than this fraction of the sample interval to a sample instant is taken
@@ -223,7 +226,7 @@ class Record:
         Fin deflection at the sample instants [rad] (what the accelerometers see).
     pieces : Pieces
         The deflection between samples, per interval (:meth:`Schedule.segments`).
-    exogenous : ndarray, shape (n, 7), or None
+    exogenous : ndarray, shape (n, len(EXOGENOUS)), or None
         Exogenous quantities at the samples (:data:`EXOGENOUS` columns), interpolated
         linearly in time; None: the model constants hold.
     """
@@ -276,7 +279,7 @@ class Record:
 
     def symbolic_inputs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return the arrays the CasADi record takes: delta (1, n), pieces (3 S, n - 1),
-        exogenous (7 or 0, n)."""
+        exogenous (len(EXOGENOUS) or 0, n)."""
         pieces = np.vstack([self.pieces.end.T, self.pieces.start.T, self.pieces.stop.T])
         exo = (self.exogenous.T if self.exogenous is not None
                else np.zeros((0, self.n_samples)))
@@ -293,7 +296,7 @@ def _samples(t: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def exogenous_table(const: Constants, n_samples: int,
                     per_sample: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
-    """Return the exogenous quantities at every sample, shape (n_samples, 7).
+    """Return the exogenous quantities at every sample, shape (n_samples, len(EXOGENOUS)).
 
     Columns :data:`EXOGENOUS`; a quantity given in ``per_sample`` (an array of n values)
     replaces the constant of ``const``.
@@ -301,8 +304,8 @@ def exogenous_table(const: Constants, n_samples: int,
     Raises
     ------
     ValueError
-        For an unknown name, a wrong length, or a non-finite or non-positive value (zero
-        thrust and any gravity are allowed).
+        For an unknown name, a wrong length, or a non-finite or non-positive value (any
+        thrust, gravity and wind are allowed).
     """
     table = np.tile(np.array([float(getattr(const, name)) for name in EXOGENOUS]),
                     (n_samples, 1))
@@ -315,7 +318,7 @@ def exogenous_table(const: Constants, n_samples: int,
                              f"{n_samples} samples")
         if not np.all(np.isfinite(values)):
             raise ValueError(f"exogenous input {name!r} has non-finite values")
-        if name not in ("thrust", "gravity") and np.any(values <= 0):
+        if name not in SIGNED and np.any(values <= 0):
             raise ValueError(f"exogenous input {name!r} must be positive")
         table[:, EXOGENOUS.index(name)] = values
     return table

@@ -139,7 +139,7 @@ def propagate(state0: np.ndarray, coefficients: np.ndarray, delta: np.ndarray | 
     backend : {"auto", "numba", "numpy"}
         ``auto`` takes numba when it is installed.
     exogenous : ndarray, shape (n_samples, len(EXOGENOUS)), optional
-        Air density, mass, thrust, inertias and gravity at every sample
+        Air density, mass, thrust, inertias, gravity and wind at every sample
         (:data:`aeroid.model.EXOGENOUS` columns, :func:`aeroid.model.exogenous_table`),
         interpolated linearly in time within each interval; default the constants.
     parallel : bool or None
