@@ -5,11 +5,10 @@ Written into every simulated flight's sidecar by :func:`aeroid.flights.record_fl
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from aeroid.flights._scenario import Manoeuvre
-    from aeroid.flights._simulate import Truth
     from aeroid.model import Airframe
 
 
@@ -31,8 +30,11 @@ def actuator_metadata(manoeuvre: Manoeuvre, airframe: Airframe) -> dict[str, obj
     return table
 
 
-def switch_metadata(truth: Truth, start: float, end: float) -> dict[str, dict[str, list]]:
-    """The true deflection's knots and the commanded switches within ``[start, end]``."""
+def switch_metadata(truth: Any, start: float, end: float) -> dict[str, dict[str, list]]:
+    """The true deflection's knots and the commanded switches within ``[start, end]``.
+
+    ``truth``: an :class:`aeroid.flights.Truth`.
+    """
     sched = truth.schedule
     inside = (sched.times > start) & (sched.times < end)
     times = [start, *sched.times[inside].tolist(), end]
