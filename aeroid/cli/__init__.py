@@ -170,6 +170,9 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
                         "{channel = \"p\", unit = \"deg/s\"}}")
     p.add_argument("--degrees", action="store_true",
                    help="angles in deg, rates in deg/s (columns without a unit in the map)")
+    p.add_argument("--mass-sd", type=float, metavar="KG",
+                   help="standard deviation of the airframe's mass [kg] (replaces the file's "
+                        "mass_sd_kg): its share enters the standard errors")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:

@@ -13,6 +13,7 @@ fit ends. It is shown only when stderr is a terminal, and never with ``--quiet``
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import math
@@ -20,14 +21,14 @@ import sys
 import textwrap
 from typing import Any
 
-from aeroid.errors import EstimatorError, UsageError
+from aeroid.errors import AirframeError, EstimatorError, UsageError
 from aeroid.estimation import ProgressEvent, available, get_estimator, load_errors, make_estimator
 from aeroid.flights import read_column_map, read_flight
 from aeroid.model import load_airframe
 
 __all__ = ["ProgressBar", "estimate", "method_names", "methods", "methods_table",
            "option_text", "parse_options", "progress_wanted", "read_column_map",
-           "split_options"]
+           "split_options", "with_mass_sd"]
 
 #: Width of wrapped option descriptions in ``aeroid methods --options``.
 TEXT_WIDTH = 88
@@ -142,8 +143,32 @@ def split_options(methods: list[str], options: dict[str, str]) -> dict[str, dict
 def _read(args: argparse.Namespace) -> Any:
     airframe = load_airframe(args.airframe) if getattr(args, "airframe", None) else None
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
-    return read_flight(args.flight, airframe=airframe, columns=columns,
-                       degrees=bool(getattr(args, "degrees", False)))
+    flight = read_flight(args.flight, airframe=airframe, columns=columns,
+                         degrees=bool(getattr(args, "degrees", False)))
+    return with_mass_sd(flight, getattr(args, "mass_sd", None))
+
+
+def with_mass_sd(flight: Any, mass_sd: float | None) -> Any:
+    """Return ``flight`` with its airframe's ``mass_sd_kg`` set to ``--mass-sd`` (None: as is).
+
+    The replacement is said in one line (logger ``aeroid``, INFO).
+
+    Raises
+    ------
+    AirframeError
+        ``--mass-sd: ...`` for a value that is not in [0, mass_kg).
+    """
+    if mass_sd is None:
+        return flight
+    try:
+        airframe = flight.airframe.replace(mass_sd_kg=mass_sd)
+    except AirframeError as exc:
+        raise AirframeError(f"--mass-sd: {exc}") from None
+    old = flight.airframe.mass_sd_kg
+    logging.getLogger("aeroid").info(
+        f"--mass-sd: mass {airframe.mass_kg:g} +- {mass_sd:g} kg"
+        + (f" (the airframe's mass_sd_kg {old:g} replaced)" if old else ""))
+    return dataclasses.replace(flight, airframe=airframe)
 
 
 def _fit(estimator: Any, flight: Any, args: argparse.Namespace, label: str) -> Any:

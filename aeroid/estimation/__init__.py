@@ -12,12 +12,19 @@ type), ``_predict`` (what a result's model says of a flight, its table and JSON 
 ``_reconstruct``, ``_regression`` (its regressors in time blocks), ``_objectives``,
 ``_floor``, ``_gyro_floor`` (what the p gyro alone tells of Cl0, Clp), ``_whiteness``
 and ``_identifiability`` (what the fit check tests beyond the residuals' size),
+``_consider`` (an uncertain mass's share of the covariance, by re-fits),
 ``_polish`` (from a swarm's best point to the optimum of its objective),
 ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``, ``_ebm``,
 ``_sebm``, which import none of one another.
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
+from aeroid.estimation._consider import (
+    ConsiderCovariance,
+    add_consider,
+    consider_covariance,
+    exact_mass_note,
+)
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._fitcheck import data_floor
 from aeroid.estimation._floor import (
@@ -94,6 +101,10 @@ from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, sw
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
 
 __all__ = [
+    "ConsiderCovariance",
+    "add_consider",
+    "consider_covariance",
+    "exact_mass_note",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

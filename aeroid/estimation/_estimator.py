@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
+from aeroid.estimation._consider import add_consider, check_consider
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
@@ -104,6 +105,7 @@ class Estimator(abc.ABC):
                 f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); this "
                 "method cannot leave them out of its fit (output-error, ekf and ukf can)")
         choice = self.input_choice(flight)
+        check_consider(flight, self.name or type(self).__name__)
         try:
             generator = np.random.default_rng(rng)
         except (TypeError, ValueError) as exc:
@@ -141,7 +143,7 @@ class Estimator(abc.ABC):
                       "its standard errors leave their uncertainty out",)
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
-        return result
+        return add_consider(self, flight, result, rng=generator)  # uncertain mass, if any
 
     def deflection_input(self) -> str | None:
         """Return the ``input`` option of a method that integrates the model, else None."""

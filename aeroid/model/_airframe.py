@@ -68,6 +68,9 @@ DELTA_MAX_WARN_DEG = 1.0
 #: and the angular acceleration of eq. 29 is rank-deficient; closer than 1 mm their
 #: difference is far below any accelerometer's noise.
 MIN_SENSOR_SEPARATION_M = 1e-3
+#: Each mass constant -> the attribute of its standard deviation (0: taken as exact).
+MASS_SD_FIELDS = {"mass_kg": "mass_sd_kg", "ix_kgm2": "ix_sd_kgm2", "iy_kgm2": "iy_sd_kgm2",
+                  "iz_kgm2": "iz_sd_kgm2"}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,6 +87,11 @@ class Airframe:
         Mass [kg].
     ix_kgm2, iy_kgm2, iz_kgm2 : float
         Principal moments of inertia [kg m^2]; no products of inertia.
+    mass_sd_kg, ix_sd_kgm2, iy_sd_kgm2, iz_sd_kgm2 : float
+        Standard deviation of the mass [kg] and of each inertia [kg m^2] (default 0:
+        taken as exact; below the value itself). A positive one is a consider parameter:
+        :meth:`aeroid.estimation.Estimator.fit` adds its share to the coefficients'
+        covariance (:func:`aeroid.estimation.consider_covariance`).
     thrust_n : float
         Thrust [N] along body +x through the c.g., known to every estimator; >= 0.
     delta_max_deg : float
@@ -124,6 +132,10 @@ class Airframe:
     accel2_position_m: tuple[float, float, float]
     accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     accel2_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mass_sd_kg: float = 0.0
+    ix_sd_kgm2: float = 0.0
+    iy_sd_kgm2: float = 0.0
+    iz_sd_kgm2: float = 0.0
     length_m: float | None = None
     altitude_m: float | None = None
     given_density_kgm3: float | None = None
@@ -155,6 +167,7 @@ class Airframe:
             if name.endswith("_sd_m") and any(v < 0 for v in vec):
                 raise AirframeError(f"airframe: {name} must be >= 0 [m], got {list(vec)}")
             object.__setattr__(self, name, vec)
+        self._check_mass_sd()
         self._check_atmosphere()
         self._check_ranges()
         if self.prior is not None:
@@ -163,6 +176,14 @@ class Airframe:
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
                                 f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
+
+    def _check_mass_sd(self) -> None:
+        for name, sd_name in MASS_SD_FIELDS.items():
+            sd, value = getattr(self, sd_name), getattr(self, name)
+            if not (is_number(sd) and math.isfinite(sd) and 0 <= sd < value):
+                raise AirframeError(f"airframe: {sd_name} must be a number in [0, {name} = "
+                                    f"{value:g}), got {sd!r}")
+            object.__setattr__(self, sd_name, float(sd))
 
     def _check_atmosphere(self) -> None:
         stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
@@ -264,6 +285,12 @@ class Airframe:
         """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
         return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
 
+    @property
+    def mass_sd(self) -> dict[str, float]:
+        """The uncertain mass constants: attribute (``mass_kg``, ...) -> sd (> 0 only)."""
+        return {name: getattr(self, sd) for name, sd in MASS_SD_FIELDS.items()
+                if getattr(self, sd) > 0}
+
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), (N_COEFFICIENTS,)."""
         return nominal() if self.prior is None else np.array(self.prior)
@@ -280,6 +307,8 @@ class Airframe:
             value = getattr(self, attr)
             if key.endswith("_sd_m") and not any(value):
                 continue  # known positions: the default, left out of the file
+            if attr in MASS_SD_FIELDS.values() and value == 0:
+                continue  # exact mass constants: the default, left out of the file
             if value is not None:
                 table[key] = list(value) if isinstance(value, tuple) else value
         atmos = {key: getattr(self, attr) for key, attr in ATMOSPHERE_KEYS.items()
@@ -350,5 +379,5 @@ def reference_airframe() -> Airframe:
 
 
 __all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
-           "Airframe", "LIMITS", "SCENARIO_TABLES", "dumps_toml", "load_airframe",
+           "Airframe", "LIMITS", "MASS_SD_FIELDS", "SCENARIO_TABLES", "dumps_toml", "load_airframe",
            "read_toml", "reference_airframe", "reference_scenario_data", "save_airframe"]
