@@ -19,12 +19,12 @@ F = m a), and the largest step divides the optimiser's own tolerance least. The 
 method's own fit with only the constant changed (same prior, same options, one common
 seed for both), so ``S`` is the derivative of the very estimator that made the estimate
 and what does not depend on the constant cancels in the difference. Each uncertain
-constant costs two fits: on the reference flight (``benchmarks/bench_consider.py``)
-1.6 s for output-error, 5.7 s for the EKF, 1.2 s for equation-error. A warm start
-(``warm_start=True``: the prior replaced by the estimate) was measured and is not the
-default: it was no faster for the EKF and equation-error and 28x slower for output-error
-(43 s), which scales its parameters by the prior (a poorly determined estimate near zero,
-such as Cl0 on that flight, makes a bad scale).
+constant costs two fits: on the reference flight (``benchmarks/bench_consider.py``,
+mass only) 2.2 s for output-error (its fit 0.8 s), 3.1 s for the EKF (fit 1.7 s), 1.2 s
+for equation-error (fit 0.6 s; every re-fit also runs the fit check). A warm start
+(``warm_start=True``: the airframe's prior replaced by the estimate) was measured and is
+not the default: no faster (2.9, 3.4 and 1.2 s), and it would change what the prior
+means to a method (the PSO methods' box is centred on it).
 
 A flight with a per-sample channel of the constant (``mass``, ``ix``, ...) is refused:
 the sd is the airframe constant's, which such a flight does not use.
