@@ -100,6 +100,7 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
         fields are the sample times [s], shape (n,), the true states at the samples,
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
+    airframe = manoeuvre.flown(airframe)  # the true mass (Manoeuvre.mass_scale)
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     if manoeuvre.evaluation == "latched" and law.delay_s == 0 and law.rate_limit_dps is None:
         return _latched(airframe, coefficients, manoeuvre, backend)
@@ -186,7 +187,7 @@ def record_flight(
         truth = Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
     k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
-    accel = accelerometers(states, delta, coefficients, constants(airframe),
+    accel = accelerometers(states, delta, coefficients, constants(manoeuvre.flown(airframe)),
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
     channels.update({name: accel[:, j] for j, name in enumerate(ACCEL_CHANNELS)})
@@ -207,6 +208,8 @@ def record_flight(
         "actuator": _actuator_metadata(manoeuvre, airframe),
         **_switch_metadata(truth, float(t[0]), float(t[-1])),
     }
+    if manoeuvre.mass_scale != 1.0:
+        metadata["true_mass_kg"] = manoeuvre.flown(airframe).mass_kg
     return make_flight(channels, seen, metadata)
 
 
