@@ -14,7 +14,8 @@ below the command line:
 
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
 report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
-``_reconstruction`` (a reconstruction's report).
+``_reconstruction`` (a reconstruction's report), ``_reference_curve`` (a fitted drag
+against a design tool's Cd curve).
 """
 
 from aeroid.report._compare import (
@@ -45,8 +46,22 @@ from aeroid.report._reconstruction import (
     reconstruction_figures,
     write_reconstruction_report,
 )
+from aeroid.report._reference_curve import (
+    ReferenceCurve,
+    cd_from_cx,
+    conversion_note,
+    flight_mach,
+    read_reference_curve,
+    reference_curve_figure,
+)
 
 __all__ = [
+    "ReferenceCurve",
+    "cd_from_cx",
+    "conversion_note",
+    "flight_mach",
+    "read_reference_curve",
+    "reference_curve_figure",
     "BAND_SD",
     "FORMATS",
     "RECONSTRUCTION_REPORT",
