@@ -20,11 +20,12 @@ method's own fit with only the constant changed (same prior, same options, one c
 seed for both), so ``S`` is the derivative of the very estimator that made the estimate
 and what does not depend on the constant cancels in the difference. Each uncertain
 constant costs two fits: on the reference flight (``benchmarks/bench_consider.py``,
-mass only) 2.2 s for output-error (its fit 0.8 s), 3.1 s for the EKF (fit 1.7 s), 1.2 s
-for equation-error (fit 0.6 s; every re-fit also runs the fit check). A warm start
-(``warm_start=True``: the airframe's prior replaced by the estimate) was measured and is
-not the default: no faster (2.9, 3.4 and 1.2 s), and it would change what the prior
-means to a method (the PSO methods' box is centred on it).
+mass only, ``benchmarks/results/consider.md``) 0.27 s for output-error (its fit 0.13 s),
+1.7 s for the EKF (fit 1.1 s), 0.21 s for equation-error (fit 0.21 s; every re-fit also
+runs the fit check); an earlier run on a busier machine measured 2.2, 3.1 and 1.2 s. A
+warm start (``warm_start=True``: the airframe's prior replaced by the estimate) was
+measured and is not the default: slower in both runs (0.52, 2.4 and 0.49 s), and it would
+change what the prior means to a method (the PSO methods' box is centred on it).
 
 A flight with a per-sample channel of the constant (``mass``, ``ix``, ...) is refused:
 the sd is the airframe constant's, which such a flight does not use.

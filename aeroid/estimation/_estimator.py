@@ -78,6 +78,11 @@ class Estimator(abc.ABC):
             progress: ProgressCallback | None = None) -> EstimationResult:
         """Validate ``flight``, run the method, time it; never raise for a numerical failure.
 
+        An airframe with a mass or inertia sd (``mass_sd_kg``, ...) makes two more fits
+        per uncertain constant: the result's ``stderr`` and ``covariance`` then include
+        its share and ``result.consider`` keeps the method's own
+        (:func:`aeroid.estimation.add_consider`).
+
         Parameters
         ----------
         flight : Flight
