@@ -223,3 +223,19 @@ def test_cli_mass_sd_widens_and_bad_value_is_one_line(noisy_coast, tmp_path, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1] == ("aeroid: error: --mass-sd: airframe: mass_sd_kg must be a number in "
                        "[0, mass_kg = 70), got -1.0")
+
+
+def test_method_without_covariance_keeps_none_and_says_so(coast_scenario):
+    """A PSO method has no covariance: stderr stays None, a warning says the share alone
+    is in result.consider. Its S comes from two stochastic re-fits with one common seed:
+    the Cx share is within 10 % of the closed form |Cx| sd / m (measured 2 %)."""
+    flight = simulate_scenario(coast_scenario, PaperNoise(), rng=0)
+    flight = _with(flight, mass_sd_kg=2.1)
+    result = make_estimator("ebm-pso", {"n_iterations": 50}).fit(flight, rng=0)
+    assert result.success and result.stderr is None and result.covariance is None
+    assert result.warnings[-1] == ("ebm-pso gives no covariance: the mass uncertainty's "
+                                   "share of the standard errors alone is in result.consider")
+    cx = NAMES.index("Cx")
+    assert result.consider.stderr_share[cx] == pytest.approx(
+        abs(result.theta[cx]) * 2.1 / 70.0, rel=0.1)
+    assert result.consider.stderr_without is None
