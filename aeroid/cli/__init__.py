@@ -180,6 +180,9 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
                    help="hold a coefficient at a value, not estimated (repeatable)")
     p.add_argument("--prior", action="append", default=[], metavar="NAME=MEAN:SD",
                    help="a Gaussian prior on a coefficient, sd > 0 (repeatable)")
+    p.add_argument("--mass-sd", type=float, metavar="KG",
+                   help="standard deviation of the airframe's mass [kg] (replaces the file's "
+                        "mass_sd_kg): its share enters the standard errors")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:

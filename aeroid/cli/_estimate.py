@@ -13,6 +13,7 @@ fit ends. It is shown only when stderr is a terminal, and never with ``--quiet``
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import math
@@ -21,7 +22,7 @@ import textwrap
 from typing import Any
 
 from aeroid.cli._windows import read_windows, window_notes, window_table, windows_json
-from aeroid.errors import EstimatorError, UsageError
+from aeroid.errors import AirframeError, EstimatorError, UsageError
 from aeroid.estimation import (
     CoefficientSpec,
     ProgressEvent,
@@ -35,7 +36,7 @@ from aeroid.model import load_airframe
 
 __all__ = ["ProgressBar", "estimate", "method_names", "methods", "methods_table",
            "option_text", "parse_options", "progress_wanted", "read_column_map",
-           "split_options"]
+           "split_options", "with_mass_sd"]
 
 #: Width of wrapped option descriptions in ``aeroid methods --options``.
 TEXT_WIDTH = 88
@@ -150,8 +151,9 @@ def split_options(methods: list[str], options: dict[str, str]) -> dict[str, dict
 def _read(args: argparse.Namespace, path: Any = None) -> Any:
     airframe = load_airframe(args.airframe) if getattr(args, "airframe", None) else None
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
-    return read_flight(args.flight if path is None else path, airframe=airframe,
-                       columns=columns, degrees=bool(getattr(args, "degrees", False)))
+    flight = read_flight(args.flight if path is None else path, airframe=airframe,
+                         columns=columns, degrees=bool(getattr(args, "degrees", False)))
+    return with_mass_sd(flight, getattr(args, "mass_sd", None))
 
 
 def holds_from_args(args: argparse.Namespace) -> CoefficientSpec:
@@ -165,6 +167,29 @@ def holds_from_args(args: argparse.Namespace) -> CoefficientSpec:
     """
     return CoefficientSpec.parse(getattr(args, "hold", None) or (),
                                  getattr(args, "prior", None) or ())
+
+
+def with_mass_sd(flight: Any, mass_sd: float | None) -> Any:
+    """Return ``flight`` with its airframe's ``mass_sd_kg`` set to ``--mass-sd`` (None: as is).
+
+    The replacement is said in one line (logger ``aeroid``, INFO).
+
+    Raises
+    ------
+    AirframeError
+        ``--mass-sd: ...`` for a value that is not in [0, mass_kg).
+    """
+    if mass_sd is None:
+        return flight
+    try:
+        airframe = flight.airframe.replace(mass_sd_kg=mass_sd)
+    except AirframeError as exc:
+        raise AirframeError(f"--mass-sd: {exc}") from None
+    old = flight.airframe.mass_sd_kg
+    logging.getLogger("aeroid").info(
+        f"--mass-sd: mass {airframe.mass_kg:g} +- {mass_sd:g} kg"
+        + (f" (the airframe's mass_sd_kg {old:g} replaced)" if old else ""))
+    return dataclasses.replace(flight, airframe=airframe)
 
 
 def _fit(estimator: Any, flight: Any, args: argparse.Namespace, label: str) -> Any:

@@ -13,6 +13,7 @@ model says of a flight, its table and JSON info),
 ``_reconstruct``, ``_regression`` (its regressors in time blocks), ``_objectives``,
 ``_floor``, ``_gyro_floor`` (what the p gyro alone tells of Cl0, Clp), ``_whiteness``
 and ``_identifiability`` (what the fit check tests beyond the residuals' size),
+``_consider`` (an uncertain mass's share of the covariance, by re-fits),
 ``_polish`` (from a swarm's best point to the optimum of its objective),
 ``_pso_methods`` (what the paper's methods share), and the methods ``_eam``, ``_ebm``,
 ``_sebm``, which import none of one another. ``_windows``: what :meth:`Estimator.fit`
@@ -20,6 +21,12 @@ does with several windows (:class:`aeroid.flights.Windows`).
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
+from aeroid.estimation._consider import (
+    ConsiderCovariance,
+    add_consider,
+    consider_covariance,
+    exact_mass_note,
+)
 from aeroid.estimation._estimator import Estimator, prior_bounds
 from aeroid.estimation._fitcheck import data_floor, data_noise_levels
 from aeroid.estimation._floor import (
@@ -118,6 +125,10 @@ __all__ = [
     "floor_with_holds",
     "free_cost",
     "holds_of",
+    "ConsiderCovariance",
+    "add_consider",
+    "consider_covariance",
+    "exact_mass_note",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

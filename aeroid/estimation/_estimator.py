@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
+from aeroid.estimation._consider import add_consider, check_consider
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
 from aeroid.estimation._holds import CoefficientSpec, airframe_holds
 from aeroid.estimation._holds_fit import apply_holds, check_free
@@ -105,6 +106,11 @@ class Estimator(abc.ABC):
             holds: CoefficientSpec | Mapping[str, Any] | None = None) -> EstimationResult:
         """Validate ``flight``, run the method, time it; never raise for a numerical failure.
 
+        An airframe with a mass or inertia sd (``mass_sd_kg``, ...) makes two more fits
+        per uncertain constant: the result's ``stderr`` and ``covariance`` then include
+        its share and ``result.consider`` keeps the method's own
+        (:func:`aeroid.estimation.add_consider`).
+
         Parameters
         ----------
         flight : Flight or Windows
@@ -179,6 +185,7 @@ class Estimator(abc.ABC):
             if any(n not in spec.held and n not in spec.priors for n in finding.names):
                 logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
         choice = self.input_choice(flight)
+        check_consider(flight, self.name or type(self).__name__)
         try:
             generator = np.random.default_rng(rng)
         except (TypeError, ValueError) as exc:
@@ -225,7 +232,7 @@ class Estimator(abc.ABC):
                       "its standard errors leave their uncertainty out",)
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
-        return result
+        return add_consider(self, flight, result, rng=generator)  # uncertain mass, if any
 
     def deflection_input(self) -> str | None:
         """Return the ``input`` option of a method that integrates the model, else None."""

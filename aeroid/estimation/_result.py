@@ -51,7 +51,8 @@ class EstimationResult:
     theta : ndarray, shape (9,)
         Estimates (NaN where the method failed).
     stderr, covariance : ndarray or None
-        Standard errors (9,) and covariance (9, 9) when the method has them.
+        Standard errors (9,) and covariance (9, 9) when the method has them; with
+        :attr:`consider`, they include the uncertain mass constants' share.
     cost : float
         Final cost of the method's own objective; NaN for methods without one (the
         Kalman filters).
@@ -89,6 +90,10 @@ class EstimationResult:
     priors : dict of str -> (float, float)
         Coefficients estimated with a Gaussian prior ``(mean, sd)``: their standard
         errors and covariance include the prior's information.
+    consider : ConsiderCovariance or None
+        The airframe's uncertain mass constants (consider parameters), their sensitivity
+        and share of the covariance, and the method's own standard errors without them
+        (:mod:`aeroid.estimation._consider`); None when every constant was exact.
     """
 
     estimator: str
@@ -109,6 +114,7 @@ class EstimationResult:
     noise_model: str | None = None
     held: dict[str, float] = field(default_factory=dict)
     priors: dict[str, tuple[float, float]] = field(default_factory=dict)
+    consider: Any = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "theta", np.asarray(self.theta, dtype=float).reshape(-1))
@@ -213,6 +219,10 @@ class EstimationResult:
                 lines.append(f"whiteness: {len(tests)} channels tested, smallest p {p:.2g} "
                              f"(limit {check['white_limit']:.2g})")
         head = f"{'coef':>5} {'estimate':>14} {'std err':>12}"
+        plain = None if self.consider is None else self.consider.stderr_without
+        if self.consider is not None:
+            lines.append(self.consider.describe())
+            head += f" {'w/o mass sd':>12}" if plain is not None else ""
         if truth is not None:
             head += f" {'truth':>12} {'error %':>9}"
         lines.append(head)
@@ -221,6 +231,7 @@ class EstimationResult:
             se = "" if self.stderr is None else f"{self.stderr[j]:.4g}"
             se = "held" if name in self.held else se
             row = f"{name:>5} {self.theta[j]:>14.6g} {se:>12}"
+            row += f" {plain[j]:>12.4g}" if plain is not None else ""
             if truth is not None and errors is not None:
                 row += f" {truth[j]:>12.6g} {errors[j]:>9.3f}"
             if name in self.priors:
@@ -287,9 +298,11 @@ class EstimationResult:
         compiled = self.info.get("compiled") if isinstance(self.info, dict) else None
         if compiled is not None:
             out["compiled"] = bool(compiled)
-        from aeroid.estimation._predict import json_safe_info
+        from aeroid.estimation._predict import json_safe, json_safe_info
 
         out["info"] = json_safe_info(self)
+        if self.consider is not None:
+            out["consider"] = json_safe(self.consider.to_json_dict())
         return out
 
 

@@ -43,6 +43,11 @@ sound is that of the airframe's ``[tables] temperature_K`` or ISA at ``[atmosphe
 altitude_m``. The scenario's ``coefficients`` are then the tables' parameters
 (:meth:`~aeroid.model.MachTables.parameter_names`) and ``tables`` the tables. The
 airframe's own ``[tables]`` is what the flights tell the fits (like ``[fin_law]``).
+
+``[initial_state] mass_scale`` (optional, default 1) flies the truth with the airframe's
+``mass_kg`` times this factor while the flights' airframe keeps ``mass_kg``: a coast
+mass with residual propellant the airframe file does not know of (say it with the
+file's ``mass_sd_kg``).
 """
 
 from __future__ import annotations
@@ -87,6 +92,10 @@ EVALUATIONS = ("latched", "continuous", "control_rate")
 FIN_LAW_DEFAULTS = {"delay_s": 0.0, "rate_limit_dps": None, "evaluation": "latched",
                     "control_rate_hz": None}
 
+#: Plausible true mass / the airframe's mass_kg (``[initial_state] mass_scale``): a
+#: residual propellant is a few percent; beyond a factor 2 the file's mass is a typo.
+MASS_SCALE_RANGE = (0.5, 2.0)
+
 _STATE_KEYS = ("u_mps", "v_mps", "w_mps", "p_radps", "q_radps", "r_radps",
                "phi_deg", "theta_deg", "psi_deg")
 
@@ -124,6 +133,10 @@ class Manoeuvre:
         control_rate_hz`` from t = 0.
     wind : Wind or None
         The air the flight crosses (steady wind, Dryden turbulence); None: still air.
+    mass_scale : float
+        The true mass over the airframe's ``mass_kg`` (default 1; in
+        :data:`MASS_SCALE_RANGE`): the truth is flown with it, the flights' airframe
+        keeps ``mass_kg`` (:meth:`flown`).
     """
 
     command_amplitude: Profile = 0.5
@@ -137,6 +150,7 @@ class Manoeuvre:
     evaluation: str = "latched"
     control_rate_hz: float | None = None
     wind: Wind | None = None
+    mass_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if self.wind is not None and not isinstance(self.wind, Wind):
@@ -171,6 +185,12 @@ class Manoeuvre:
         if not rate > 0:
             raise AirframeError("manoeuvre: sample_rate_hz must be positive")
         object.__setattr__(self, "sample_rate_hz", rate)
+        scale = fileform.number(self.mass_scale, "manoeuvre: mass_scale")
+        if not MASS_SCALE_RANGE[0] <= scale <= MASS_SCALE_RANGE[1]:
+            raise AirframeError(f"manoeuvre: mass_scale must be in {MASS_SCALE_RANGE[0]:g}.."
+                                f"{MASS_SCALE_RANGE[1]:g} (true mass / the airframe's "
+                                f"mass_kg), got {scale:g}")
+        object.__setattr__(self, "mass_scale", scale)
         substeps = fileform.integer(self.truth_substeps, "manoeuvre: truth_substeps")
         if substeps < 1:
             raise AirframeError("manoeuvre: truth_substeps must be >= 1")
@@ -185,6 +205,12 @@ class Manoeuvre:
         """Sample interval [s]."""
         return 1.0 / self.sample_rate_hz
 
+    def flown(self, airframe: Airframe) -> Airframe:
+        """Return the airframe the truth is flown with: ``mass_kg`` times :attr:`mass_scale`."""
+        if self.mass_scale == 1.0:
+            return airframe
+        return airframe.replace(mass_kg=airframe.mass_kg * self.mass_scale)
+
     def fin_law(self, delta_max_rad: float) -> FinLaw:
         """Return the manoeuvre's fin law for a fin throw ``delta_max_rad`` [rad]."""
         return FinLaw(delta_max_rad=delta_max_rad, command_amplitude=self.command_amplitude,
@@ -198,6 +224,8 @@ class Manoeuvre:
         existed (:data:`FIN_LAW_DEFAULTS`): study fingerprints made from it stay valid.
         """
         fields = dataclasses.asdict(self)
+        if fields["mass_scale"] == 1.0:  # as before the key existed (fingerprints)
+            del fields["mass_scale"]
         return {k: v for k, v in fields.items()
                 if (k not in FIN_LAW_DEFAULTS or v != FIN_LAW_DEFAULTS[k])
                 and not (k == "wind" and v is None)}  # still air: as before the wind
@@ -242,13 +270,17 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
     act = fileform.check_table(data.get("actuator", {}), f"{source}: [actuator]")
     fileform.check_keys(act, ACTUATOR_KEYS, f"{source}: [actuator]")
     init = fileform.check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
-    fileform.check_keys(init, _STATE_KEYS, f"{source}: [initial_state]", required=_STATE_KEYS)
+    fileform.check_keys(init, (*_STATE_KEYS, "mass_scale"), f"{source}: [initial_state]",
+                        required=_STATE_KEYS)
     state = [fileform.number(init[k], f"{source}: [initial_state] {k}") for k in _STATE_KEYS]
     state = [math.radians(x) if k.endswith("_deg") else x for k, x in zip(_STATE_KEYS, state,
                                                                            strict=True)]
     rec = fileform.check_table(data.get("recording", {}), f"{source}: [recording]")
     fileform.check_keys(rec, RECORDING_KEYS, f"{source}: [recording]")
     options = _actuator_options(act, f"{source}: [actuator]")
+    if "mass_scale" in init:
+        options["mass_scale"] = fileform.number(init["mass_scale"],
+                                                f"{source}: [initial_state] mass_scale")
     if "sample_rate_Hz" in rec:
         options["sample_rate_hz"] = fileform.number(rec["sample_rate_Hz"],
                                            f"{source}: [recording] sample_rate_Hz")
@@ -340,5 +372,5 @@ def reference_scenario() -> Scenario:
     return load_scenario(None)
 
 
-__all__ = ["EVALUATIONS", "FIN_LAW_DEFAULTS", "Manoeuvre", "Scenario", "load_scenario",
-           "reference_scenario", "STATE_NAMES"]
+__all__ = ["EVALUATIONS", "FIN_LAW_DEFAULTS", "MASS_SCALE_RANGE", "Manoeuvre", "Scenario",
+           "load_scenario", "reference_scenario", "STATE_NAMES"]

@@ -171,6 +171,7 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
         fields are the sample times [s], shape (n,), the true states at the samples,
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
+    airframe = manoeuvre.flown(airframe)  # the true mass (Manoeuvre.mass_scale)
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     plain = (manoeuvre.evaluation == "latched" and law.delay_s == 0
              and law.rate_limit_dps is None)
@@ -333,7 +334,7 @@ def record_flight(
     given = coefficients
     coefficients = (as_vector(coefficients) if tables is None
                     else tables.coefficient_array(_parameters(given, tables), states))
-    const = _recorded_constants(airframe, manoeuvre, truth, k0)
+    const = _recorded_constants(manoeuvre.flown(airframe), manoeuvre, truth, k0)
     accel = accelerometers(states, delta, coefficients, const,
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
@@ -366,6 +367,8 @@ def record_flight(
                                    "speed_of_sound_mps": tables.speed_of_sound_mps}
     if manoeuvre.wind is not None:
         metadata["wind"] = manoeuvre.wind.describe()
+    if manoeuvre.mass_scale != 1.0:
+        metadata["true_mass_kg"] = manoeuvre.flown(airframe).mass_kg
     return make_flight(channels, seen, metadata)
 
 

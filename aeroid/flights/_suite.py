@@ -237,7 +237,8 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     position = cumulative_trapezoid(ned_velocity, truth.t, axis=0, initial=0.0)
     k0 = int(round(manoeuvre.window_s[0] * suite.imu_rate_hz))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
-    specific = accelerometers(states, delta, coefficients, constants(airframe),
+    specific = accelerometers(states, delta, coefficients,
+                              constants(manoeuvre.flown(airframe)),
                               airframe.accel_positions).reshape(-1, 2, 3)
     imu_sampling = (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
                     f"{sampled.truth_substeps} RK4 substeps, relay {sampled.evaluation}"

@@ -19,6 +19,7 @@ from aeroid.model import _tables as tables
 from aeroid.model._actuator import FIN_LAW_KEYS, FinLaw, Profile, RelayActuator, Track, profile
 from aeroid.model._airframe import LIMITS as AIRFRAME_LIMITS
 from aeroid.model._airframe import (
+    MASS_SD_FIELDS,
     SCENARIO_TABLES,
     Airframe,
     dumps_toml,
@@ -102,7 +103,7 @@ __all__ = [
     "exogenous_table", "with_exogenous", "kernels_cached",
     "CompileClock", "compile_clock", "compiling",
     "FM_NAMES", "G0", "HAVE_NUMBA", "LABELS", "NAMES", "NOMINAL", "N_COEFFICIENTS", "N_STATE",
-    "PHI", "PSI", "STATE_NAMES", "THETA", "Airframe", "Constants", "P", "Q", "R",
+    "PHI", "PSI", "STATE_NAMES", "THETA", "MASS_SD_FIELDS", "Airframe", "Constants", "P", "Q", "R",
     "RelayActuator", "U", "V", "W", "accelerometers", "aero_forces_moments", "air_data",
     "as_dict", "as_vector", "constants", "derivative_from_forces", "dumps_toml",
     "lateral_from_pitch", "load_airframe", "nominal", "propagate",

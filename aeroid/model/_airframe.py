@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -28,17 +27,16 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.errors import AeroidWarning, AirframeError
+from aeroid.errors import AirframeError
 from aeroid.model import _atmosphere as atmosphere
 from aeroid.model._actuator import FinLaw
+from aeroid.model._airframe_checks import check_atmosphere, check_ranges
 from aeroid.model._airframe_form import (
     AIRFRAME_KEYS,
     AIRFRAME_TABLES,
     ATMOSPHERE_CHANNELS,
     ATMOSPHERE_KEYS,
-    DELTA_MAX_WARN_DEG,
     LIMITS,
-    MIN_SENSOR_SEPARATION_M,
     SCENARIO_TABLES,
     airframe_fields,
     check_fin,
@@ -55,6 +53,10 @@ from aeroid.model._fileform import (
 )
 from aeroid.model._tables import MachTables, TableSpec
 
+#: Each mass constant -> the attribute of its standard deviation (0: taken as exact).
+MASS_SD_FIELDS = {"mass_kg": "mass_sd_kg", "ix_kgm2": "ix_sd_kgm2", "iy_kgm2": "iy_sd_kgm2",
+                  "iz_kgm2": "iz_sd_kgm2"}
+
 
 @dataclass(frozen=True, kw_only=True)
 class Airframe:
@@ -70,6 +72,11 @@ class Airframe:
         Mass [kg].
     ix_kgm2, iy_kgm2, iz_kgm2 : float
         Principal moments of inertia [kg m^2]; no products of inertia.
+    mass_sd_kg, ix_sd_kgm2, iy_sd_kgm2, iz_sd_kgm2 : float
+        Standard deviation of the mass [kg] and of each inertia [kg m^2] (default 0:
+        taken as exact; below the value itself). A positive one is a consider parameter:
+        :meth:`aeroid.estimation.Estimator.fit` adds its share to the coefficients'
+        covariance (:func:`aeroid.estimation.consider_covariance`).
     thrust_n : float
         Thrust [N] along body +x through the c.g., known to every estimator; >= 0.
     delta_max_deg : float or None
@@ -122,6 +129,10 @@ class Airframe:
     accel2_position_m: tuple[float, float, float]
     accel1_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     accel2_position_sd_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mass_sd_kg: float = 0.0
+    ix_sd_kgm2: float = 0.0
+    iy_sd_kgm2: float = 0.0
+    iz_sd_kgm2: float = 0.0
     length_m: float | None = None
     altitude_m: float | None = None
     given_density_kgm3: float | None = None
@@ -163,8 +174,9 @@ class Airframe:
             if name.endswith("_sd_m") and any(v < 0 for v in vec):
                 raise AirframeError(f"airframe: {name} must be >= 0 [m], got {list(vec)}")
             object.__setattr__(self, name, vec)
-        self._check_atmosphere()
-        self._check_ranges()
+        self._check_mass_sd()
+        check_atmosphere(self)
+        check_ranges(self)
         if self.prior is not None:
             object.__setattr__(self, "prior", prior_tuple(self.prior))
         if self.tables is not None and not isinstance(self.tables, TableSpec):
@@ -178,61 +190,13 @@ class Airframe:
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
                                 f"{self.delta_max_rad:g} (delta_max_deg), got {self.fin_law!r}")
 
-    def _check_atmosphere(self) -> None:
-        stated = [k for k, a in ATMOSPHERE_KEYS.items() if getattr(self, a) is not None]
-        if len(stated) != 1:
-            raise AirframeError(
-                "airframe: state the atmosphere with exactly one of altitude_m, density_kgm3 "
-                f"or per_sample (got {', '.join(stated) or 'none'})")
-        for key in ("altitude_m", "density_kgm3"):
-            value = getattr(self, ATMOSPHERE_KEYS[key])
-            if value is None:
-                continue
-            if not (is_number(value) and math.isfinite(value)):
-                raise AirframeError(f"airframe: {key} must be a finite number, got {value!r}")
-            low, high = LIMITS[key]
-            if not low <= value <= high:
-                raise AirframeError(f"airframe: {key} {value:g} is outside {low:g}..{high:g}"
-                                    + (" (give density_kgm3 above 20 km)"
-                                       if key == "altitude_m" else ""))
-            object.__setattr__(self, ATMOSPHERE_KEYS[key], float(value))
-        channel = self.atmosphere_channel
-        if channel is not None and channel not in ATMOSPHERE_CHANNELS:
-            raise AirframeError(f"airframe: per_sample must be one of "
-                                f"{', '.join(map(repr, ATMOSPHERE_CHANNELS))}, got {channel!r}")
-
-    def _check_ranges(self) -> None:
-        for name in ("diameter_m", "length_m"):
-            value = getattr(self, name)
-            low, high = LIMITS[name]
-            if value is not None and not low <= value <= high:
-                raise AirframeError(f"airframe: {name} {value:g} is outside {low:g}..{high:g} "
-                                    "(metres?)")
-        if self.thrust_n < 0:
-            raise AirframeError(f"airframe: thrust_n must be >= 0 (thrust acts along body +x; "
-                                f"a coasting airframe has 0), got {self.thrust_n:g}")
-        low, high = LIMITS["delta_max_deg"]
-        if self.delta_max_deg is None:
-            pass  # a passive fin (_check_fin)
-        elif not low < self.delta_max_deg <= high:
-            raise AirframeError(f"airframe: delta_max_deg must be in ({low:g}, {high:g}] deg, "
-                                f"got {self.delta_max_deg:g}")
-        if self.delta_max_deg is not None and self.delta_max_deg < DELTA_MAX_WARN_DEG:
-            warnings.warn(f"airframe: delta_max_deg {self.delta_max_deg:g} deg is very small "
-                          f"(radians? {self.delta_max_deg:g} rad = "
-                          f"{math.degrees(self.delta_max_deg):.3g} deg)",
-                          AeroidWarning, stacklevel=4)
-        gap = float(np.linalg.norm(np.subtract(self.accel1_position_m, self.accel2_position_m)))
-        if gap < MIN_SENSOR_SEPARATION_M:
-            raise AirframeError(
-                f"airframe: accelerometer triads {gap:.3g} m apart (need at least "
-                f"{MIN_SENSOR_SEPARATION_M:g} m: at one point the angular acceleration of "
-                f"eq. 29 is rank-deficient)")
-        if self.length_m is not None:
-            for name in ("accel1_position_m", "accel2_position_m"):
-                if float(np.linalg.norm(getattr(self, name))) > self.length_m:
-                    raise AirframeError(f"airframe: {name} {list(getattr(self, name))} is "
-                                        f"farther from the c.g. than length_m {self.length_m:g}")
+    def _check_mass_sd(self) -> None:
+        for name, sd_name in MASS_SD_FIELDS.items():
+            sd, value = getattr(self, sd_name), getattr(self, name)
+            if not (is_number(sd) and math.isfinite(sd) and 0 <= sd < value):
+                raise AirframeError(f"airframe: {sd_name} must be a number in [0, {name} = "
+                                    f"{value:g}), got {sd!r}")
+            object.__setattr__(self, sd_name, float(sd))
 
     # Derived quantities -------------------------------------------------------------
     @property
@@ -295,6 +259,11 @@ class Airframe:
         range; the speed of sound from ``[tables] temperature_K`` or ISA at the altitude.
         """
         return None if self.tables is None else self.tables.resolve(self.altitude_m, states)
+    @property
+    def mass_sd(self) -> dict[str, float]:
+        """The uncertain mass constants: attribute (``mass_kg``, ...) -> sd (> 0 only)."""
+        return {name: getattr(self, sd) for name, sd in MASS_SD_FIELDS.items()
+                if getattr(self, sd) > 0}
 
     def prior_vector(self) -> np.ndarray:
         """Return the prior coefficients (nominal values when none is given), (N_COEFFICIENTS,)."""
@@ -312,6 +281,8 @@ class Airframe:
             value = getattr(self, attr)
             if key.endswith("_sd_m") and not any(value):
                 continue  # known positions: the default, left out of the file
+            if attr in MASS_SD_FIELDS.values() and value == 0:
+                continue  # exact mass constants: the default, left out of the file
             if value is not None:
                 table[key] = list(value) if isinstance(value, tuple) else value
         atmos = {key: getattr(self, attr) for key, attr in ATMOSPHERE_KEYS.items()
@@ -387,5 +358,5 @@ def reference_airframe() -> Airframe:
 
 
 __all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
-           "Airframe", "LIMITS", "SCENARIO_TABLES", "dumps_toml", "load_airframe",
+           "Airframe", "LIMITS", "MASS_SD_FIELDS", "SCENARIO_TABLES", "dumps_toml", "load_airframe",
            "read_toml", "reference_airframe", "reference_scenario_data", "save_airframe"]

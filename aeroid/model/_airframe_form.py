@@ -7,6 +7,8 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     diameter_m = 0.127                      # reference diameter D; S = pi D^2 / 4
     length_m = 2.79                         # optional, informative (used in no equation)
     mass_kg = 70.0
+    mass_sd_kg = 2.0                        # optional sd of mass_kg (also Ix_sd_kgm2, ...):
+                                            # a consider parameter (aeroid.estimation)
     Ix_kgm2 = 0.18
     Iy_kgm2 = 40.0
     Iz_kgm2 = 40.0
@@ -73,12 +75,20 @@ AIRFRAME_KEYS = {
     "accel1_position_sd_m": "accel1_position_sd_m",
     "accel2_position_sd_m": "accel2_position_sd_m",
     "fin": "fin",
+    "mass_sd_kg": "mass_sd_kg",
+    "Ix_sd_kgm2": "ix_sd_kgm2",
+    "Iy_sd_kgm2": "iy_sd_kgm2",
+    "Iz_sd_kgm2": "iz_sd_kgm2",
 }
-#: ``length_m`` appears in no equation, so it may be left out; the positions' standard
-#: deviations default to 0 (known positions); ``fin`` to ``"relay"``, whose
-#: ``delta_max_deg`` the airframe itself requires (a passive fin has none).
+#: File key of each mass constant's standard deviation (optional, default 0: exact).
+MASS_SD_KEYS = {"mass_kg": "mass_sd_kg", "Ix_kgm2": "Ix_sd_kgm2", "Iy_kgm2": "Iy_sd_kgm2",
+                "Iz_kgm2": "Iz_sd_kgm2"}
+#: ``length_m`` appears in no equation, so it may be left out; the positions' and the
+#: mass constants' standard deviations default to 0 (known positions, exact mass);
+#: ``fin`` to ``"relay"``, whose ``delta_max_deg`` the airframe itself requires (a
+#: passive fin has none).
 OPTIONAL_AIRFRAME_KEYS = ("length_m", "accel1_position_sd_m", "accel2_position_sd_m", "fin",
-                          "delta_max_deg")
+                          "delta_max_deg", *MASS_SD_KEYS.values())
 #: File key -> attribute of ``[atmosphere]`` (exactly one is given).
 ATMOSPHERE_KEYS = {"altitude_m": "altitude_m", "density_kgm3": "given_density_kgm3",
                    "per_sample": "atmosphere_channel"}
@@ -206,7 +216,7 @@ def prior_tuple(prior: Any) -> tuple[float, ...]:
 __all__ = ["AIRFRAME_KEYS", "AIRFRAME_TABLES", "FIN_KINDS", "check_fin", "check_holds",
            "coefficient_pairs", "ATMOSPHERE_CHANNELS", "ATMOSPHERE_KEYS",
            "OPTIONAL_AIRFRAME_KEYS", "SCENARIO_TABLES", "airframe_fields", "prior_tuple",
-           "DELTA_MAX_WARN_DEG", "LIMITS", "MIN_SENSOR_SEPARATION_M"]
+           "DELTA_MAX_WARN_DEG", "LIMITS", "MIN_SENSOR_SEPARATION_M", "MASS_SD_KEYS"]
 
 
 def check_fin(fin: Any, delta_max_deg: Any, fin_law: Any) -> None:

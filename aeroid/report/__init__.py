@@ -16,7 +16,8 @@ Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one f
 report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
 ``_reconstruction`` (a reconstruction's report), ``_windows`` (a fit of several windows:
 :func:`write_windows_report`, one set of model panels per window), ``_tables`` (fitted
-coefficient tables in Mach: CSV, JSBSim fragment, figure).
+coefficient tables in Mach: CSV, JSBSim fragment, figure), ``_reference_curve`` (a
+fitted drag against a design tool's Cd curve).
 """
 
 from aeroid.report._compare import (
@@ -47,6 +48,14 @@ from aeroid.report._reconstruction import (
     reconstruction_figures,
     write_reconstruction_report,
 )
+from aeroid.report._reference_curve import (
+    ReferenceCurve,
+    cd_from_cx,
+    conversion_note,
+    flight_mach,
+    read_reference_curve,
+    reference_curve_figure,
+)
 from aeroid.report._tables import (
     FittedTable,
     fitted_tables,
@@ -62,6 +71,12 @@ __all__ = [
     "jsbsim_fragment",
     "tables_csv",
     "tables_figure",
+    "ReferenceCurve",
+    "cd_from_cx",
+    "conversion_note",
+    "flight_mach",
+    "read_reference_curve",
+    "reference_curve_figure",
     "BAND_SD",
     "FORMATS",
     "RECONSTRUCTION_REPORT",

@@ -28,6 +28,7 @@ from aeroid.estimation import (
     correlation,
     data_floor,
     estimate_noise_sd,
+    exact_mass_note,
     holds_of,
     switch_free_samples,
 )
@@ -206,6 +207,7 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
              f"{result.wall_time_s:.3g} s.", "", "## Warnings and notes", ""]
     found = [f"- warning: {_number(w)}" for w in result.warnings]
     found += [f"- {_number(n)}" for n in notes]
+    found += _mass_lines(result, flight)
     lines += (found or ["none"]) + [""]
     frame = _with_holds(result.to_frame(flight, floor=floor), result)
     header, rows = _coefficient_rows(frame)
@@ -244,6 +246,21 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
         lines += [f"![{_caption(stem)}]({stem}.png)", ""]
     lines += _details(result)
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _mass_lines(result: EstimationResult, flight: Flight) -> list[str]:
+    """The mass constants taken as exact (an assumption) and the consider parameters."""
+    exact = exact_mass_note(flight.airframe)
+    lines = [f"- assumption: {_number(exact)}"] if exact else []
+    consider = result.consider
+    if consider is not None:
+        line = f"- {_number(consider.describe())}"
+        if consider.stderr_without is not None:
+            line += "; std err without them: " + ", ".join(
+                f"{n} {_number(v)}" for n, v in zip(result.names, consider.stderr_without,
+                                                     strict=True))
+        lines.append(line)
+    return lines
 
 
 def _imu_error_lines(info: Mapping[str, Any]) -> list[str]:
