@@ -62,7 +62,7 @@ def equation_error_start(flight: Flight, first: np.ndarray, scale: np.ndarray,
     n = len(aeroid.NAMES)
     try:
         est = aeroid.make_estimator("equation-error", EQUATION_ERROR_OPTIONS)
-        theta = np.asarray(est.run(flight, rng).theta, dtype=float)
+        theta = np.asarray(est.point(flight), dtype=float)  # type: ignore[attr-defined]
     except Exception as exc:  # failure is data: the fit goes on from its other starts
         text = " ".join(str(exc).split())
         return Start("equation-error", None, text)

@@ -228,6 +228,12 @@ class EquationErrorEstimator(Estimator):
         return dataclasses.replace(result, covariance=cov,
                                    stderr=np.sqrt(np.abs(np.diag(cov))), info=info)
 
+    def point(self, flight: Flight) -> np.ndarray:
+        """Return the estimate alone, shape (N_COEFFICIENTS,): the positions as given, no
+        covariance beyond plain least squares, no fit check, no floor (a start for another
+        method; the same point as :meth:`run` with ``positions = "known"``)."""
+        return self._solve(flight, theta_only=True).theta
+
     def _solve(self, flight: Flight, *, theta_only: bool = False) -> EstimationResult:
         """One solve at the airframe's positions (``theta_only``: the estimate alone, its
         covariance plain least squares and no gyro-only floor, for the sensitivities)."""
