@@ -41,10 +41,10 @@ EDGE_MARGIN = 1e-9
 #: piece, each piece's CasADi graph started from the previous one's last state and
 #: sensitivity (:func:`aeroid.model.symbolic_record` with ``chained``), so the graph, its
 #: build and its memory are those of one piece whatever the record's length (a 20 000
-#: sample record's graph: 3.1 s and +500 MB peak whole, 0.15 s and +18 MB in pieces,
-#: measured). The numbers are the whole record's (the same operations;
-#: tests/unit/test_oe_long.py). The last piece is padded with the last interval's
-#: inputs (20 000 samples: 21 pieces, 5 % more work; benchmarks/bench_oe_long.py).
+#: sample record's graph: 4.4-5.7 s and +440 MB whole, 0.14-0.41 s and +0-3 MB in
+#: pieces; benchmarks/results/oe_long.md). The numbers are the whole record's (the same
+#: operations; tests/unit/test_oe_long.py). The last piece is padded with the last
+#: interval's inputs (20 000 samples: 21 pieces, 5 % more work).
 PIECE_SAMPLES = 1000
 
 
