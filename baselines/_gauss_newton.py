@@ -242,6 +242,22 @@ def _across(p: np.ndarray, step: np.ndarray, region: SmoothRegion) -> np.ndarray
     return across
 
 
+def _trial(prob: Problem, p: np.ndarray, with_jacobian: bool
+           ) -> tuple[np.ndarray, np.ndarray | None]:
+    """A trial point's residuals, and with ``with_jacobian`` its Jacobian (else None).
+
+    While steps are taken at their first trial (the Gauss-Newton end of the damping),
+    the trial is evaluated with its Jacobian, which its acceptance then needs: one model
+    evaluation per iteration instead of two (the Jacobian's outputs are those of
+    :meth:`OutputModel.outputs`: the same graph with the sensitivities beside it). After
+    a rejection the trials are evaluated without it (a rejected Jacobian costs ~5x the
+    outputs: benchmarks/bench_oe_long.py).
+    """
+    if with_jacobian:
+        return prob.residuals_jacobian(p)
+    return prob.residuals(p), None
+
+
 @dataclass(frozen=True)
 class Fit:
     """One Gauss-Newton run: final parameters, residuals, Jacobian, R and its history."""
@@ -291,6 +307,9 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
         raise FloatingPointError("the model diverges at the starting point")
     r_diag = prob.noise(e)
     damping = 1e-3
+    # the last step was taken at its first trial: the next trial is evaluated with its
+    # Jacobian, which an accepted trial then needs (:func:`_trial`)
+    first_try = False
     history_p = [p.copy()]
     history_cost = [_nll(e, r_diag) + prob.prior_terms(p)[0]]
     converged, message, it = False, "", 0
@@ -334,21 +353,25 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
             continue
         diag = np.diag(M).copy()
         diag[diag <= 0] = 1.0
+        tries, J_new = 0, None
         while True:
             try:
                 step = np.linalg.solve(M + damping * np.diag(diag), g)
             except np.linalg.LinAlgError:
                 step = np.full_like(p, np.nan)
             if np.all(np.isfinite(step)):
-                e_new = prob.residuals(p + step)
+                e_new, J_new = _trial(prob, p + step, first_try and tries == 0)
+                tries += 1
                 n_eval += 1
                 new_cost = _cost(e_new, r_diag) + prob.prior_terms(p + step)[0]
                 if new_cost <= cost * (1.0 + COST_RTOL):
                     break
+                J_new = None
                 held = (None if region is None else
                         held_step(M + damping * np.diag(diag), g, p, step, region))
                 if held is not None:  # the crossing raised the cost: stop at the edge
                     e_new = prob.residuals(p + held[0])
+                    tries += 1
                     n_eval += 1
                     new_cost = _cost(e_new, r_diag) + prob.prior_terms(p + held[0])[0]
                     if new_cost <= cost * (1.0 + COST_RTOL):
@@ -375,8 +398,12 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
                                 and np.max(np.abs(gauss_newton_step)) < STALL_STEP)
         damping = max(damping / 10.0, 1e-12)
         p = p + step
-        e, J = prob.residuals_jacobian(p)
-        n_eval += 1
+        first_try = tries == 1
+        if J_new is not None:  # the accepted trial's own Jacobian
+            e, J = e_new, J_new
+        else:
+            e, J = prob.residuals_jacobian(p)
+            n_eval += 1
         r_new = prob.noise(e)
         settled = bool(np.max(np.abs(r_new / r_diag - 1.0)) < R_SETTLED_RTOL)
         r_diag = r_new

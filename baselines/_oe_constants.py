@@ -19,10 +19,12 @@ POSITION_NAMES = ("rx1", "ry1", "rz1", "rx2", "ry2", "rz2")
 #: Largest actuator delay accepted [s] (a starting value or a fixed delay): a tenth of a
 #: second is far beyond any fin actuator and beyond the fits' record lengths' sense.
 MAX_DELAY_S = 0.1
-#: Longest record fitted whole: the C model is built for the record's length and its
-#: Jacobian holds every sample. Measured on the reference airframe (Gaussian IMU): 5 001
-#: samples 7 s and +66 MB, 20 001 samples 19 s and +510 MB (model build and compile
-#: included); 50 000 samples would take ~1.5 GB. A longer log: fit windows of it.
+#: Longest record fitted whole: the Jacobian holds every sample (the model is evaluated
+#: in pieces of :data:`baselines._oe_record.PIECE_SAMPLES`). Measured on the reference
+#: airframe (Gaussian IMU, benchmarks/results/oe_long.md): 20 000 samples 1.9 s CPU per
+#: warm fit, +70 MB at the first fit; 50 000 samples 7.0 s CPU, +169 MB (~2.5 kB per
+#: sample; before the pieces, 20 001 samples took 19 s and +510 MB with the model's
+#: build). A longer log: fit windows of it.
 MAX_SAMPLES = 50_000
 
 __all__ = ["MAX_DELAY_S", "MAX_SAMPLES", "POSITION_NAMES", "R_FLOOR_REL", "X0_NAMES",

@@ -38,6 +38,15 @@ DELAY_STEP_S = 1e-6
 #: knot time + delay is ~1e-16 s; the record's knot snapping, 1e-9 of an interval, moves
 #: no sample value).
 EDGE_MARGIN = 1e-9
+#: Samples per piece of a long record: a record longer than this is evaluated piece by
+#: piece, each piece's CasADi graph started from the previous one's last state and
+#: sensitivity (:func:`aeroid.model.symbolic_record` with ``chained``), so the graph, its
+#: build and its memory are those of one piece whatever the record's length (a 20 000
+#: sample record's graph: 4.4-5.7 s and +440 MB whole, 0.14-0.41 s and +0-3 MB in
+#: pieces; benchmarks/results/oe_long.md). The numbers are the whole record's (the same
+#: operations; tests/unit/test_oe_long.py). The last piece is padded with the last
+#: interval's inputs (20 000 samples: 21 pieces, 5 % more work).
+PIECE_SAMPLES = 1000
 
 
 class RecordModel:
@@ -63,7 +72,8 @@ class RecordModel:
                  x0_free: tuple[int, ...], position_free: tuple[int, ...], compiled: bool,
                  x0: np.ndarray, scale: np.ndarray, delay_s: float,
                  estimate_delay: bool, imu_errors: str = "none",
-                 tables: MachTables | None = None, wind_free: bool = False) -> None:
+                 tables: MachTables | None = None, wind_free: bool = False,
+                 piece_samples: int = PIECE_SAMPLES) -> None:
         self.const = model_constants(flight)
         self.mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
         self.schedule = schedule(flight, input)
@@ -91,9 +101,14 @@ class RecordModel:
         times, values = self.schedule.times, self.schedule.values
         jumps = (np.diff(times) == 0.0) & (np.diff(values) != 0.0)
         self.switches = np.unique(times[1:][jumps])  # knots where the deflection jumps
+        if piece_samples < 2:
+            raise ValueError(f"record model: piece_samples must be >= 2, got {piece_samples}")
+        self.piece_samples = int(piece_samples)
+        self.chained = self.t.size > self.piece_samples
         self._graphs: dict[int, tuple[Buffered, Buffered]] = {}
         self._last: tuple[float, Record] | None = None
         self.compiled = False
+        self._inputs: tuple[np.ndarray, ...] = ()  # a chained record's padded inputs
         self._buffers(self.record(self.delay_s))  # build (and compile) the graph now
 
     # the record for a delay ----------------------------------------------------------
@@ -158,29 +173,74 @@ class RecordModel:
             n_pieces = min(fitting)
         else:
             n_pieces = record.n_pieces
+            n = self.piece_samples if self.chained else record.n_samples
             simulate, jacobian, self.compiled = symbolic_record(
-                self.const, record.dt, self.substeps, record.n_samples, self.x0_free,
+                self.const, record.dt, self.substeps, n, self.x0_free,
                 self.position_free, self.compiled_requested, n_pieces,
-                record.exogenous is not None, tables=self.tables, wind_free=self.wind_free)
+                record.exogenous is not None, tables=self.tables, wind_free=self.wind_free,
+                chained=self.chained)
             d, pieces, exo = record.symbolic_inputs()
-            inputs = [np.zeros(self.n_graph), self.scale[:self.n_graph], self.x0, d, pieces,
-                      exo, self.pos]
+            inputs = [np.zeros(self.n_graph), self.scale[:self.n_graph], self.x0, d[:, :n],
+                      pieces[:, :n - 1], exo[:, :n], self.pos]
+            inputs += [self.x0, np.zeros((self.x0.size, self.n_graph))] if self.chained else []
             self._graphs[n_pieces] = (Buffered(simulate, inputs), Buffered(jacobian, inputs))
         sim, jac = self._graphs[n_pieces]
-        d, pieces, _ = _padded(record, n_pieces).symbolic_inputs()
+        d, pieces, exo = _padded(record, n_pieces).symbolic_inputs()
         if delta is not None:
             d = np.asarray(delta, dtype=float)[None, :]
+        if self.chained:  # set piece by piece (:meth:`_chained`)
+            self._inputs = _pad_columns(d, pieces, exo, self.piece_samples)
+            return sim, jac
         for buffered in (sim, jac):
             buffered.set(3, d)
             buffered.set(4, pieces)
         return sim, jac
 
+    def _chained(self, buffered: Buffered, p: np.ndarray, jacobian: bool
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The record piece by piece: ``y`` (n, m) and, with ``jacobian``, ``dy/dp``.
+
+        ``dy/dp`` of the graph's parameters, shape (m, n, n_graph).
+
+        Piece ``c`` covers samples ``c (L - 1) .. c (L - 1) + L - 1`` (``L`` =
+        :attr:`piece_samples`; consecutive pieces share a sample), starting from the
+        state and sensitivity the previous piece ended with; the first from the initial
+        state with its free offsets, as the whole record's graph.
+        """
+        m, n, n_g, size = len(OUTPUT_CHANNELS), self.t.size, self.n_graph, self.piece_samples
+        d, pieces, exo = self._inputs
+        x = self.x0.copy()
+        sens = np.zeros((x.size, n_g))
+        for j, i in enumerate(self.x0_free):
+            k = len(NAMES) + j
+            x[i] = x[i] + p[k] * self.scale[k]
+            sens[i, k] = self.scale[k]
+        y = np.empty((n, m))
+        J = np.empty((m, n, n_g)) if jacobian else None
+        for a in range(0, n - 1, size - 1):
+            buffered.set(3, d[:, a:a + size])
+            buffered.set(4, pieces[:, a:a + size - 1])
+            buffered.set(5, exo[:, a:a + size])
+            buffered.set(7, x)
+            buffered.set(8, sens)
+            out = buffered(p[:n_g])
+            v = min(size, n - a)  # samples of the record in this piece
+            y[a:a + v] = out[0].reshape(m, size).T[:v]
+            x = out[-2 if jacobian else -1].copy()
+            if J is not None:
+                J[:, a:a + v] = out[1].reshape(size, n_g, m).transpose(2, 0, 1)[:, :v]
+                sens = out[-1].reshape(n_g, -1).T.copy()
+        return y, J
+
     # OutputModel -------------------------------------------------------------------
     def outputs(self, p: np.ndarray) -> np.ndarray:
         """Return ``y(p)``, shape (n, m)."""
         sim, _ = self._buffers(self.record(self.tau(p)))
-        (y,) = sim(p[:self.n_graph])
-        y = y.reshape(len(OUTPUT_CHANNELS), -1).T.copy()
+        if self.chained:
+            y = self._chained(sim, p, jacobian=False)[0]
+        else:
+            (y,) = sim(p[:self.n_graph])
+            y = y.reshape(len(OUTPUT_CHANNELS), -1).T.copy()
         if not self.n_imu:
             return y
         b, s = self.sensor(p)
@@ -191,11 +251,14 @@ class RecordModel:
         tau = self.tau(p)
         record = self.record(tau)
         _, jac = self._buffers(record)
-        y, dy = jac(p[:self.n_graph])
-        n = self.t.size
-        y = y.reshape(len(OUTPUT_CHANNELS), n).T.copy()
-        # dY (m, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) m + j
-        J = dy.reshape(n, -1, len(OUTPUT_CHANNELS)).transpose(2, 0, 1).copy()
+        if self.chained:
+            y, J = self._chained(jac, p, jacobian=True)
+        else:
+            y, dy = jac(p[:self.n_graph])
+            n = self.t.size
+            y = y.reshape(len(OUTPUT_CHANNELS), n).T.copy()
+            # dY (m, n n_p) column-major: entry (j, k n_p + i) at (k n_p + i) m + j
+            J = dy.reshape(n, -1, len(OUTPUT_CHANNELS)).transpose(2, 0, 1).copy()
         if self.estimate_delay:
             J = np.concatenate([J, self._delay_column(p, tau, record)], axis=2)
         if not self.n_imu:
@@ -238,6 +301,9 @@ class RecordModel:
         columns = []
         for offset in (h, -h) if central else (0.0, sign * h, 2.0 * sign * h):
             sim, _ = self._buffers(self.record(tau + offset), record.delta)
+            if self.chained:
+                columns.append(self._chained(sim, p, jacobian=False)[0])
+                continue
             (ys,) = sim(p[:self.n_graph])
             columns.append(ys.reshape(len(OUTPUT_CHANNELS), n).T.copy())  # buffer is reused
         self._buffers(record)  # restore the inputs of the current delay
@@ -261,3 +327,19 @@ def _padded(record: Record, n_pieces: int) -> Record:
                                       np.concatenate([start, pad], axis=1),
                                       np.concatenate([stop, pad], axis=1)),
                   record.exogenous)
+
+
+def _pad_columns(d: np.ndarray, pieces: np.ndarray, exo: np.ndarray, size: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The record's inputs with their last column repeated to fill the last piece.
+
+    Pieces of ``size`` samples sharing one sample start every ``size - 1``; the samples
+    after the record's last are integrated on its last interval's schedule and dropped.
+    """
+    n = d.shape[1]
+    last = (n - 2) // (size - 1) * (size - 1)  # first sample of the last piece
+    extra = last + size - n
+
+    def pad(a: np.ndarray) -> np.ndarray:
+        return np.concatenate([a, np.repeat(a[:, -1:], extra, axis=1)], axis=1)
+    return pad(d), pad(pieces), pad(exo)

@@ -61,9 +61,13 @@ def equation_error_start(flight: Flight, first: np.ndarray, scale: np.ndarray,
     """Return the start at equation-error's estimate (the rest of ``first`` kept)."""
     try:
         est = aeroid.make_estimator("equation-error", EQUATION_ERROR_OPTIONS)
-        result = est.run(flight, rng)
-        theta = np.asarray(result.theta, dtype=float)
-        n = len(result.names)  # the coefficients, or with [tables] their parameters
+        if getattr(flight.airframe, "tables", None) is not None:  # run dispatches tables
+            result = est.run(flight, rng)
+            theta = np.asarray(result.theta, dtype=float)
+            n = len(result.names)  # the tables' parameters
+        else:  # the estimate alone (no fit check, floor or robust covariance)
+            theta = np.asarray(est.point(flight), dtype=float)  # type: ignore[attr-defined]
+            n = theta.size
     except Exception as exc:  # failure is data: the fit goes on from its other starts
         text = " ".join(str(exc).split())
         return Start("equation-error", None, text)

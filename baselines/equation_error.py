@@ -246,6 +246,12 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         return run_windows(self, windows, rng, affine_accelerations=affine_accelerations,
                            roll_floor=roll_floor)
 
+    def point(self, flight: Flight) -> np.ndarray:
+        """Return the estimate alone, shape (N_COEFFICIENTS,): the positions as given, no
+        covariance beyond plain least squares, no fit check, no floor (a start for another
+        method; the same point as :meth:`run` with ``positions = "known"``)."""
+        return self._solve(flight, theta_only=True).theta
+
     def _solve(self, flight: Flight, *, theta_only: bool = False,
                holds: Any = None) -> EstimationResult:
         """One solve at the airframe's positions (``theta_only``: the estimate alone, its

@@ -305,7 +305,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         if flight.n_samples > MAX_SAMPLES:
             raise aeroid.EstimatorError(
                 f"output-error: {flight.n_samples} samples; it fits at most {MAX_SAMPLES} "
-                "at once (the model and its Jacobian grow with the record: ~25 kB per "
+                "at once (its Jacobian grows with the record: ~2.5 kB per "
                 "sample); fit windows of the log")
         if self.estimate_wind and _tables_fit.flight_tables(flight) is not None:
             raise aeroid.EstimatorError("output-error: estimate_wind with coefficient tables "

@@ -188,8 +188,8 @@ class ForwardModel:
 def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                     x0_free: tuple[int, ...] = (), position_free: tuple[int, ...] = (),
                     compiled: bool = False, n_pieces: int = 1, varying: bool = False,
-                    tables: MachTables | None = None, wind_free: bool = False
-                    ) -> tuple[ca.Function, ca.Function, bool]:
+                    tables: MachTables | None = None, wind_free: bool = False,
+                    chained: bool = False) -> tuple[ca.Function, ca.Function, bool]:
     """Return the CasADi output model of a record (both triads, rates) and its Jacobian.
 
     Parameters ``p`` (order one): ``theta = p[:9] * scale[:9]``; the next
@@ -227,18 +227,26 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     is_compiled : bool
         With ``compiled``, the per-step SX functions are compiled to C
         (:func:`aeroid.model._symbolic.compile_functions`); False when that failed.
+
+    With ``chained`` the record is one piece of a longer one (a long record evaluated
+    piece by piece, memory and graph of one piece): both functions take two more inputs,
+    the state ``x_start`` (9) and its sensitivity ``S_start`` (9, n_p) at the first
+    sample (they replace ``x0_given`` with its free offsets and their sensitivity, so
+    ``x0_given`` is unused), and return two more outputs, the state (9) and, for
+    ``jacobian``, its sensitivity (9, n_p) at the last sample, to start the next piece.
     """
     return _symbolic_record(inputs.normalised(const, varying), float(dt), int(substeps),
                             int(n_samples), tuple(x0_free), tuple(position_free),
                             bool(compiled), int(n_pieces), bool(varying), tables,
-                            bool(wind_free))
+                            bool(wind_free), bool(chained))
 
 
 @functools.lru_cache(maxsize=16)
 def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
                      x0_free: tuple[int, ...], position_free: tuple[int, ...],
                      compiled: bool, n_pieces: int, varying: bool,
-                     tables: MachTables | None = None, wind_free: bool = False
+                     tables: MachTables | None = None, wind_free: bool = False,
+                     chained: bool = False
                      ) -> tuple[ca.Function, ca.Function, bool]:
     n_pos = 6
     # the coefficient parameters: the 9 coefficients, or the tables' constants and points
@@ -323,6 +331,9 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
         s0 = ca.horzcat(ca.MX.zeros(N_STATE, N_COEFFICIENTS),
                         ca.mtimes(ca.DM(select), ca.diag(scale[free])),
                         ca.MX.zeros(N_STATE, n_p - N_COEFFICIENTS - n_x0))
+    carry = [ca.MX.sym("x_start", N_STATE), ca.MX.sym("S_start", N_STATE, n_p)]
+    if chained:  # a piece of a longer record: starts where the previous piece ended
+        x0, s0 = carry
     m = n_samples - 1
 
     def rep(v: ca.MX, k: int) -> ca.MX:
@@ -337,7 +348,9 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     Y = out_plain.map(n_samples)(states, rep(pm, n_samples), rep(sm, n_samples),
                                  *[rep(v, n_samples) for v in wm], *sample_inputs)
     record_inputs = [p, scale, x0_given, delta, pieces, exo_table, pos_given]
-    simulate = ca.Function("oe_simulate", record_inputs, [ca.densify(Y.T)])
+    record_inputs += carry if chained else []
+    simulate = ca.Function("oe_simulate", record_inputs, [ca.densify(Y.T)] + (
+        [ca.densify(states[:, -1])] if chained else []))
     xs, ss = step.mapaccum("record_sens", m, 2)(x0, s0, rep(pm, m), rep(sm, m),
                                                 *[rep(v, m) for v in wm], *interval_inputs)
     states = ca.horzcat(x0, xs)
@@ -345,7 +358,8 @@ def _symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     Y, dY = out.map(n_samples)(states, sens_all, rep(pm, n_samples), rep(sm, n_samples),
                                *[rep(v, n_samples) for v in wm], *sample_inputs)
     # dY: 9 x (n_samples n_p), block k = dy_k/dp -> rows j * n + k of the Jacobian
-    jacobian = ca.Function("oe_jacobian", record_inputs, [ca.densify(Y.T), ca.densify(dY)])
+    jacobian = ca.Function("oe_jacobian", record_inputs, [ca.densify(Y.T), ca.densify(dY)] + (
+        [ca.densify(states[:, -1]), ca.densify(sens_all[:, -n_p:])] if chained else []))
     return simulate, jacobian, is_compiled
 
 
