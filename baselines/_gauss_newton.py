@@ -13,12 +13,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple, Protocol
+from typing import Protocol
 
 import numpy as np
 
 from aeroid import estimation
 from aeroid.estimation import report_progress
+from baselines._gn_region import (  # noqa: F401 - SmoothRegion re-exported: the models return it
+    SmoothRegion,
+    held_step,
+    step_across,
+)
 from baselines._noise_law import (  # noqa: F401 - re-exported: the solver's noise laws
     A_FLOOR_REL,
     LAW_MAX_ITERATIONS,
@@ -53,21 +58,6 @@ class OutputModel(Protocol):
     # optional: ``smooth_region(p) -> SmoothRegion`` for a model whose outputs are
     # piecewise smooth in some parameter, with ``edge_note`` (a phrase) saying what an
     # edge is (:func:`gauss_newton`)
-
-
-class SmoothRegion(NamedTuple):
-    """Where the outputs are smooth in the parameters around an iterate (scaled units).
-
-    A parameter on which the outputs are piecewise smooth (an actuator delay: a relay's
-    switch crossing a sample instant changes the deflection the accelerometers see there,
-    so the outputs jump) is smooth in ``[lo, hi]``; ``below`` and ``above`` are values just
-    across each edge. ``-inf``/``inf`` for a parameter smooth everywhere.
-    """
-
-    lo: np.ndarray
-    hi: np.ndarray
-    below: np.ndarray
-    above: np.ndarray
 
 
 #: Noise models of the measurement errors (:meth:`Problem.noise`).
@@ -209,39 +199,6 @@ def sandwich(cov: np.ndarray, J: np.ndarray, e: np.ndarray, var: np.ndarray) -> 
     return cov @ (g.T @ g) @ cov
 
 
-def held_step(system: np.ndarray, g: np.ndarray, p: np.ndarray, step: np.ndarray,
-              region: SmoothRegion) -> tuple[np.ndarray, np.ndarray] | None:
-    """Return ``step`` with the parameters it takes out of their smooth region held there.
-
-    Each such parameter moves to the edge it would cross; the others take the minimum of
-    the quadratic model ``-g.s + 1/2 s.system.s`` given those (the Gauss-Newton step of the
-    problem confined to the region). Returns the step and the mask of held parameters, or
-    None when ``step`` stays inside.
-    """
-    above, below = p + step > region.hi, p + step < region.lo
-    out = above | below
-    if not np.any(out):
-        return None
-    held = np.zeros_like(p)
-    held[above] = region.hi[above] - p[above]
-    held[below] = region.lo[below] - p[below]
-    free = ~out
-    try:
-        held[free] = np.linalg.solve(system[np.ix_(free, free)],
-                                     g[free] - system[np.ix_(free, out)] @ held[out])
-    except np.linalg.LinAlgError:
-        return None
-    return (held, out) if np.all(np.isfinite(held)) else None
-
-
-def _across(p: np.ndarray, step: np.ndarray, region: SmoothRegion) -> np.ndarray:
-    """``p`` with every parameter that ``step`` takes out of its region just across the edge."""
-    across = p.copy()
-    above, below = p + step > region.hi, p + step < region.lo
-    across[above], across[below] = region.above[above], region.below[below]
-    return across
-
-
 def _trial(prob: Problem, p: np.ndarray, with_jacobian: bool
            ) -> tuple[np.ndarray, np.ndarray | None]:
     """A trial point's residuals, and with ``with_jacobian`` its Jacobian (else None).
@@ -335,7 +292,7 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
                 if held is not None and np.max(np.abs(held[0]) / sd) < tol:
                     # the smooth piece's minimum lies across the edge: a minimum here
                     # when the cost jumps up across it
-                    across = _across(p, gauss_newton_step, region)
+                    across = step_across(p, gauss_newton_step, region)
                     n_eval += 1
                     at_edge = small = bool(_cost(prob.residuals(across), r_diag)
                                            + prob.prior_terms(across)[0] > cost)

@@ -212,7 +212,7 @@ class RecordModel:
         x = self.x0.copy()
         sens = np.zeros((x.size, n_g))
         for j, i in enumerate(self.x0_free):
-            k = len(NAMES) + j
+            k = self.n_theta + j  # after the coefficients (or the tables' parameters)
             x[i] = x[i] + p[k] * self.scale[k]
             sens[i, k] = self.scale[k]
         y = np.empty((n, m))

@@ -42,6 +42,7 @@ from aeroid.model._atmosphere import (
 )
 from aeroid.model._atmosphere import pressure as isa_pressure
 from aeroid.model._atmosphere import temperature as isa_temperature
+from aeroid.model._buffered import Buffered
 from aeroid.model._coefficients import (
     LABELS,
     N_COEFFICIENTS,
@@ -82,7 +83,7 @@ from aeroid.model._dynamics import (
     state_derivative,
 )
 from aeroid.model._equations import Coefficients, Loads, State, Trig
-from aeroid.model._forward import Buffered, ForwardModel, symbolic_record
+from aeroid.model._forward import ForwardModel, symbolic_record
 from aeroid.model._inputs import (
     EXOGENOUS,
     Pieces,
