@@ -191,7 +191,7 @@ def ee_full(theta: np.ndarray, cov: np.ndarray, free: np.ndarray,
 
 
 def ee_prior_rows(A: np.ndarray, b: np.ndarray, theta: np.ndarray, cov: np.ndarray,
-                  sigma2: float, cols: Any, holds: CoefficientSpec | None
+                  sigma2: float, cols: Any, holds: Any, names: tuple[str, ...] = NAMES
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Return a least-squares estimate and covariance with the priors on ``cols`` added.
 
@@ -203,16 +203,15 @@ def ee_prior_rows(A: np.ndarray, b: np.ndarray, theta: np.ndarray, cov: np.ndarr
     a regressor that is zero, the fin's without fin motion), the normal equations with
     the pseudo-observations, ``(A^T A / sigma2 + W) theta = A^T b / sigma2 + W mu``, and
     covariance ``inv(A^T A / sigma2 + W)``. Unchanged without priors on ``cols``.
+    ``names``: the parameter of each index (the nine coefficients, or with tables their
+    parameters, ``holds`` then a :class:`aeroid.estimation.TableHolds`).
     """
     cols = [int(c) for c in cols]
-    if holds is None or not any(NAMES[c] in holds.priors for c in cols):
+    if holds is None or not any(names[c] in holds.priors for c in cols):
         return theta, cov
-    local = CoefficientSpec(priors={NAMES[c]: holds.priors[NAMES[c]] for c in cols
-                                    if NAMES[c] in holds.priors})
-    mean, sd = local.prior_mean_sd()
-    w = np.where(np.isfinite(sd[cols]), 1.0 / np.where(np.isfinite(sd[cols]), sd[cols], 1.0)
-                 ** 2, 0.0)
-    mu = np.where(w > 0, mean[cols], 0.0)
+    pairs = [holds.priors.get(names[c]) for c in cols]
+    w = np.array([0.0 if pair is None else float(pair[1]) ** -2.0 for pair in pairs])
+    mu = np.array([0.0 if pair is None else float(pair[0]) for pair in pairs])
     if np.all(np.isfinite(cov)) and np.all(np.isfinite(theta)):
         rows = np.flatnonzero(w > 0)  # covariance form: a Kalman update by the priors
         CH = cov[:, rows]

@@ -31,6 +31,7 @@ from aeroid.flights import Flight
 from aeroid.model import NAMES, MachTables
 from aeroid.model import tables as mach_tables
 from baselines._ee_least_squares import SUBPROBLEMS, _correlation, _lstsq
+from baselines._held import ee_prior_rows
 from baselines._oe_record import RecordModel
 
 #: Initial-state components the floor's record model takes as nuisance parameters: the
@@ -100,10 +101,12 @@ def coefficient_layout(flight: Flight, pso_warm_start: bool = False
     return tables.parameter_names(), tables.expand(prior)
 
 
-def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]:
+def record_tables(info: dict[str, Any], model: Any, flight: Flight, holds: Any = None
+                  ) -> list[str]:
     """Output-error's result with tables: ``info['parameter_names']`` with the tables'
     names, ``info['tables']`` (the knots); returns the Mach notes (:func:`mach_notes`).
-    Nothing without tables."""
+    ``holds`` (:class:`aeroid.estimation.TableHolds`): the floor of the free parameters
+    with the priors. Nothing without tables."""
     if model.tables is None:
         return []
     rest = tuple(info["parameter_names"])[len(NAMES):]
@@ -112,7 +115,8 @@ def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]
     n = model.tables.n_parameters
     stderr = np.asarray(info["parameter_stderr"][:n], dtype=float)
     extra, low = floor_entries(model.tables.parameter_names(), stderr,
-                               data_table_floor(flight, np.asarray(info["parameters"][:n])))
+                               data_table_floor(flight, np.asarray(info["parameters"][:n]),
+                                                holds))
     info.update(extra)
     return list(mach_notes(flight, model.tables)) + list(low)
 
@@ -158,13 +162,16 @@ def subproblem_columns(tables: MachTables) -> tuple[tuple[str, int, list[int]], 
                  for label, row, cols in SUBPROBLEMS)
 
 
-def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroid.EstimationResult:
+def equation_error_tables(est: Any, flight: Flight, tables: MachTables, holds: Any = None
+                          ) -> aeroid.EstimationResult:
     """Equation-error's two-step fit of the tables' parameters (module docstring).
 
     ``est``: the :class:`baselines.equation_error.EquationErrorEstimator` (its
     ``smoothing``, ``covariance`` and ``positions`` options). The one-step form, the
     lateral rows and ``smoothing="both"`` (which smooths the regressors before the hat
-    functions would multiply them) are refused in one line.
+    functions would multiply them) are refused in one line. ``holds``
+    (:class:`aeroid.estimation.TableHolds`): held parameters' columns move to the left
+    side, priors are weighted pseudo-observations (:func:`baselines._held.ee_prior_rows`).
     """
     refused = [what for what, on in (("one_step", est.one_step),
                                      ("lateral_rows", est.lateral_rows),
@@ -172,7 +179,7 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroi
     if refused:
         raise EstimatorError(f"equation-error: with [tables] it fits the two-step form only; "
                              f"{', '.join(refused)} is not available with tables")
-    result = _solve(est, flight, tables, est.covariance)
+    result = _solve(est, flight, tables, est.covariance, holds=holds)
     sd = flight.airframe.accel_position_sd.ravel()
     free = np.flatnonzero(sd)
     if est.positions == "known" or free.size == 0:
@@ -187,7 +194,7 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroi
             moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
                                             accel2_position_m=tuple(pos[3:]))
             ends.append(_solve(est, dataclasses.replace(flight, airframe=moved), tables,
-                               "ols", theta_only=True).theta)
+                               "ols", theta_only=True, holds=holds).theta)
         G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
     cov = result.covariance + (G * sd[free] ** 2) @ G.T
     info = {**result.info, "position_sensitivity": G,
@@ -197,7 +204,7 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroi
 
 
 def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
-           theta_only: bool = False) -> aeroid.EstimationResult:
+           theta_only: bool = False, holds: Any = None) -> aeroid.EstimationResult:
     rec = rc.reconstruct(flight)
     y = rc.regression_target(rec, smoothing=est.smoothing)
     mach = tables.mach(flight.states())
@@ -211,10 +218,22 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
     corr = np.full((n_p, n_p), np.nan)
     sigma2, bandwidth, cost = {}, {}, 0.0
     problems = subproblem_columns(tables)
-    for label, row, cols in problems:
-        A = X[:, row, cols] / sd[row]
+    names = tables.parameter_names()
+    held = {} if holds is None else dict(holds.held)
+    for label, row, all_cols in problems:
+        A = X[:, row, all_cols] / sd[row]
         b = y[:, row] / sd[row]
+        local = [i for i, c in enumerate(all_cols) if names[c] in held]
+        if local:  # held terms to the left side
+            values = np.array([held[names[all_cols[i]]] for i in local])
+            b = b - A[:, local] @ values
+            theta[[all_cols[i] for i in local]] = values
+            A = np.delete(A, local, axis=1)
+        cols = [c for c in all_cols if names[c] not in held]
+        if not cols:
+            continue
         th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
+        th, cv = ee_prior_rows(A, b, th, cv, s2, cols, holds, names)
         theta[cols] = th
         cov[np.ix_(cols, cols)] = cv
         corr[np.ix_(cols, cols)] = _correlation(A)
@@ -229,7 +248,7 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
     if not theta_only:
         info.update(rc.regression_fit(rec, X, y, theta, tuple(p[1] for p in problems)))
         extra, low = floor_entries(tables.parameter_names(), np.sqrt(np.abs(np.diag(cov))),
-                                   data_table_floor(flight, theta))
+                                   data_table_floor(flight, theta, holds))
         info.update(extra)
     capped = [label for label, bw in bandwidth.items() if bw["capped"]]
     warnings = mach_notes(flight, tables) + low + tuple(
@@ -242,14 +261,17 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
 
 
 def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
-                substeps: int = 2, input: str = "hold") -> np.ndarray:  # noqa: A002
+                substeps: int = 2, input: str = "hold",  # noqa: A002
+                holds: Any = None) -> np.ndarray:
     """Return the Cramér-Rao floor of the tables' parameters, shape (n_parameters,).
 
     The output-error information ``sum_k J_k^T R^-1 J_k`` of the flight's record (both
     triads and the rates, :data:`aeroid.model.OUTPUT_CHANNELS`) at ``parameters`` (the
     tables' constants and points, e.g. the truth), with white noise of sd ``noise_sd``
     (one per output channel) and the initial rates as nuisance parameters; the square
-    root of the diagonal of its inverse, in the parameters' units.
+    root of the diagonal of its inverse, in the parameters' units. ``holds``
+    (:class:`aeroid.estimation.TableHolds`): the held parameters leave the information
+    (NaN: known) and the priors' ``1 / sd^2`` join it.
     """
     tables = flight_tables(flight)
     if tables is None:
@@ -268,11 +290,17 @@ def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
                                                   np.zeros(len(FLOOR_FREE_STATES))]))
     Jw = J / sd[:, None, None]
     F = np.einsum("mnp,mnq->pq", Jw, Jw)
-    cov = np.linalg.inv(F) * np.outer(scale, scale)
-    return np.sqrt(np.diag(cov))[:p.size]
+    keep = np.arange(F.shape[0])
+    if holds is not None and not holds.empty:
+        F[:p.size, :p.size] += np.diag(holds.prior_information() * scale[:p.size] ** 2)
+        keep = np.concatenate([holds.free_index, np.arange(p.size, F.shape[0])])
+    out = np.full(F.shape[0], np.nan)
+    out[keep] = np.sqrt(np.diag(np.linalg.inv(F[np.ix_(keep, keep)]))) * np.abs(scale[keep])
+    return out[:p.size]
 
 
-def data_table_floor(flight: Flight, theta: np.ndarray) -> np.ndarray | None:
+def data_table_floor(flight: Flight, theta: np.ndarray, holds: Any = None
+                     ) -> np.ndarray | None:
     """Return :func:`table_floor` at ``theta`` with each channel's noise level estimated
     from the data (:func:`aeroid.estimation.data_noise_levels`), or None on noise-free
     data (every channel below :data:`NOISE_FREE_FRACTION` of its RMS) or without a
@@ -284,16 +312,17 @@ def data_table_floor(flight: Flight, theta: np.ndarray) -> np.ndarray | None:
     if not np.any(sd > NOISE_FREE_FRACTION * rms) or not np.all(np.isfinite(theta)):
         return None
     try:
-        floor = table_floor(flight, theta, np.maximum(sd, RESOLUTION * rms))
+        floor = table_floor(flight, theta, np.maximum(sd, RESOLUTION * rms), holds=holds)
     except np.linalg.LinAlgError:
         return None
-    return floor if np.all(np.isfinite(floor)) else None
+    free = np.ones(floor.size, bool) if holds is None or holds.empty else holds.free_mask
+    return floor if np.all(np.isfinite(floor[free])) else None
 
 
 def floor_entries(names: tuple[str, ...], stderr: np.ndarray, floor: np.ndarray | None
                   ) -> tuple[dict[str, Any], tuple[str, ...]]:
-    """``info['table_floor']`` (name -> floor) and the warning of standard errors below
-    :data:`FLOOR_FRACTION` of it (none without a floor)."""
+    """``info['table_floor']`` (name -> floor; NaN for a held parameter) and the warning
+    of standard errors below :data:`FLOOR_FRACTION` of it (none without a floor)."""
     if floor is None:
         return {}, ()
     low = [f"{n} ({s:.3g} < {f:.3g})" for n, s, f in zip(names, stderr, floor, strict=True)
