@@ -47,6 +47,10 @@ RESOLUTION = 1e-5
 #: (a warning; the fit check's FLOOR_FRACTION for constant coefficients).
 FLOOR_FRACTION = 0.5
 
+#: Metadata key of a window whose knots were resolved over all windows
+#: (:func:`baselines._tables_windows.shared_tables`): another window may inform a point.
+SHARED_KEY = "tables_shared_over_windows"
+
 #: Time samples per block of the regressors (equation-error's).
 BLOCK_SAMPLES = rc.REGRESSION_BLOCK
 
@@ -69,7 +73,7 @@ def flight_tables(flight: Flight) -> MachTables | None:
     empty = [mach_tables.point_name(name, k) for name, knots in tables.knots
              for k, weight in zip(knots, mach_tables.basis(knots, mach).max(axis=0),
                                   strict=True) if weight == 0.0]
-    if empty:
+    if empty and not flight.metadata.get(SHARED_KEY):  # windows: checked over them all
         raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
                              f"spans Mach {mach.min():.4g}-{mach.max():.4g}); give knots "
                              "within it, or a knot count")
@@ -203,24 +207,23 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables, holds: A
                                info=info)
 
 
-def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
-           theta_only: bool = False, holds: Any = None) -> aeroid.EstimationResult:
-    rec = rc.reconstruct(flight)
-    y = rc.regression_target(rec, smoothing=est.smoothing)
-    mach = tables.mach(flight.states())
-    X = np.concatenate([expand_regressors(part, tables, mach[start:stop])
-                        for start, stop, part in rc.regressor_blocks(
-                            flight, smoothing=est.smoothing, window=rec.smoothing_window,
-                            block=BLOCK_SAMPLES)])
-    sd = rc.estimate_noise_sd(rec.fm)
+def solve_table_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, tables: MachTables,
+                            covariance: str, holds: Any = None) -> tuple:
+    """Solve the SEBM sub-problems over the tables' parameters (equation-error's).
+
+    ``X`` (n, rows, n_parameters) the expanded regressors (:func:`expand_regressors`),
+    ``y`` (n, rows) the loads, ``sd`` (rows,) their noise sd (the rows' weights);
+    ``holds`` (:class:`aeroid.estimation.TableHolds`): held columns to the left side,
+    priors as pseudo-observations. Returns ``theta, cov, corr, sigma2, cost, bandwidth``
+    (as :func:`baselines._ee_least_squares.solve_subproblems`).
+    """
     n_p = tables.n_parameters
     theta, cov = np.full(n_p, np.nan), np.zeros((n_p, n_p))
     corr = np.full((n_p, n_p), np.nan)
     sigma2, bandwidth, cost = {}, {}, 0.0
-    problems = subproblem_columns(tables)
     names = tables.parameter_names()
     held = {} if holds is None else dict(holds.held)
-    for label, row, all_cols in problems:
+    for label, row, all_cols in subproblem_columns(tables):
         A = X[:, row, all_cols] / sd[row]
         b = y[:, row] / sd[row]
         local = [i for i, c in enumerate(all_cols) if names[c] in held]
@@ -239,6 +242,21 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
         corr[np.ix_(cols, cols)] = _correlation(A)
         sigma2[label] = s2
         cost += s2 * max(A.shape[0] - len(cols), 1)
+    return theta, cov, corr, sigma2, cost, bandwidth
+
+
+def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
+           theta_only: bool = False, holds: Any = None) -> aeroid.EstimationResult:
+    rec = rc.reconstruct(flight)
+    y = rc.regression_target(rec, smoothing=est.smoothing)
+    mach = tables.mach(flight.states())
+    X = np.concatenate([expand_regressors(part, tables, mach[start:stop])
+                        for start, stop, part in rc.regressor_blocks(
+                            flight, smoothing=est.smoothing, window=rec.smoothing_window,
+                            block=BLOCK_SAMPLES)])
+    theta, cov, corr, sigma2, cost, bandwidth = solve_table_subproblems(
+        X, y, rc.estimate_noise_sd(rec.fm), tables, covariance, holds)
+    problems = subproblem_columns(tables)
     info: dict[str, Any] = {"sigma2": sigma2, "subproblems": [p[0] for p in problems],
                             "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth,
                             "correlation": corr, "tables": tables.to_table(),
@@ -332,6 +350,7 @@ def floor_entries(names: tuple[str, ...], stderr: np.ndarray, floor: np.ndarray 
                    f"Cramér-Rao floor for {', '.join(low)}",) if low else ())
 
 
-__all__ = ["FitsTables", "coefficient_layout", "data_table_floor", "equation_error_tables",
-           "expand_regressors", "flight_tables", "floor_entries", "mach_notes", "record_tables",
-           "subproblem_columns", "table_floor"]
+__all__ = ["SHARED_KEY", "FitsTables", "coefficient_layout", "data_table_floor",
+           "equation_error_tables", "expand_regressors", "flight_tables", "floor_entries",
+           "mach_notes", "record_tables", "solve_table_subproblems", "subproblem_columns",
+           "table_floor"]

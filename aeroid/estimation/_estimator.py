@@ -147,10 +147,6 @@ class Estimator(abc.ABC):
                 f"{', '.join(name for name, _ in tables.knots)} tables in Mach; this method "
                 "fits constant coefficients (output-error and equation-error fit tables); "
                 "remove [tables] to fit constants")
-        if tables is not None and isinstance(flight, Windows):
-            raise EstimatorError(
-                f"{self.name or type(self).__name__}: coefficient tables ([tables]) are fitted "
-                "on one flight; several windows cannot be combined with tables yet")
         if isinstance(flight, Windows):
             declared = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
             if not declared.empty:
