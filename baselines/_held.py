@@ -256,8 +256,9 @@ def ee_held_check(result: Any, free: Any, holds: CoefficientSpec | None) -> Any:
             or free.stderr is None:
         return result
     z = {}
+    names = list(result.names)  # the nine coefficients, or a table fit's parameters
     for name, value in holds.held.items():
-        j = NAMES.index(name)
+        j = names.index(name)
         se = float(np.hypot(free.stderr[j], HELD_RESOLUTION * abs(free.theta[j])))
         if np.isfinite(se) and se > 0 and np.isfinite(free.theta[j]):
             z[name] = (value - float(free.theta[j])) / se
@@ -267,7 +268,7 @@ def ee_held_check(result: Any, free: Any, holds: CoefficientSpec | None) -> Any:
     if not bad:
         return dataclasses.replace(result, info=info)
     text = ", ".join(f"{n} = {holds.held[n]:g} (the free fit: "
-                     f"{free.theta[NAMES.index(n)]:.6g} +- {free.stderr[NAMES.index(n)]:.3g}, "
+                     f"{free.theta[names.index(n)]:.6g} +- {free.stderr[names.index(n)]:.3g}, "
                      f"z = {v:.3g})" for n, v in bad.items())
     return dataclasses.replace(result, info=info, warnings=(*result.warnings, (
         f"this method's free fit contradicts the held value(s) {text}; |z| limit "

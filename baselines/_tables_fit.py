@@ -31,7 +31,7 @@ from aeroid.flights import Flight
 from aeroid.model import NAMES, MachTables
 from aeroid.model import tables as mach_tables
 from baselines._ee_least_squares import SUBPROBLEMS, _correlation, _lstsq
-from baselines._held import ee_prior_rows
+from baselines._held import ee_held_check, ee_prior_rows
 from baselines._oe_record import RecordModel
 
 #: Initial-state components the floor's record model takes as nuisance parameters: the
@@ -175,7 +175,9 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables, holds: A
     lateral rows and ``smoothing="both"`` (which smooths the regressors before the hat
     functions would multiply them) are refused in one line. ``holds``
     (:class:`aeroid.estimation.TableHolds`): held parameters' columns move to the left
-    side, priors are weighted pseudo-observations (:func:`baselines._held.ee_prior_rows`).
+    side, priors are weighted pseudo-observations (:func:`baselines._held.ee_prior_rows`),
+    and each held value is compared with the free fit's (:func:`baselines._held.ee_held_check`:
+    a warning).
     """
     refused = [what for what, on in (("one_step", est.one_step),
                                      ("lateral_rows", est.lateral_rows),
@@ -184,6 +186,8 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables, holds: A
         raise EstimatorError(f"equation-error: with [tables] it fits the two-step form only; "
                              f"{', '.join(refused)} is not available with tables")
     result = _solve(est, flight, tables, est.covariance, holds=holds)
+    if holds is not None and holds.held:  # the data against the held values (a warning)
+        result = ee_held_check(result, _solve(est, flight, tables, est.covariance), holds)
     sd = flight.airframe.accel_position_sd.ravel()
     free = np.flatnonzero(sd)
     if est.positions == "known" or free.size == 0:

@@ -235,3 +235,16 @@ def test_passive_fin_sweep_recovers_every_table_point(passive, method, caplog):
             # standard errors measure it
             se = result.stderr[result.names.index(name)]
             assert abs(value - truth[name]) < EE_MOMENT_SE * se, name
+
+
+def test_equation_error_warns_of_a_held_table_point_its_free_fit_contradicts(noisy):
+    """Equation-error's check of held values against its own free fit
+    (baselines._held.ee_held_check) with table points: Cx@M1.925 held 5 % off its truth
+    (the point's standard error is ~1e-4 of it) is named; held at the truth it is not."""
+    flight, truth = noisy
+    est = aeroid.make_estimator("equation-error")
+    wrong = est.fit(flight, holds=CoefficientSpec(held={"Cx@M1.925": 1.05 * truth["Cx@M1.925"]}))
+    assert any("contradicts the held value(s) Cx@M1.925" in w for w in wrong.warnings)
+    assert abs(wrong.info["held_check"]["Cx@M1.925"]) > 10
+    right = est.fit(flight, holds=CoefficientSpec(held={"Cx@M1.925": truth["Cx@M1.925"]}))
+    assert not any("contradicts" in w for w in right.warnings)
