@@ -32,6 +32,7 @@ from baselines._ee_least_squares import (
     _lstsq,
     solve_subproblems,
 )
+from baselines._tables_windows import equation_error_windows
 
 __all__ = ["run_windows"]
 
@@ -119,6 +120,8 @@ def _solve(est: Any, windows: Windows, tools: tuple[Callable, Callable], *,
            theta_only: bool = False) -> EstimationResult:
     covariance = "ols" if theta_only else est.covariance
     affine_accelerations, roll_floor = tools
+    if windows.airframe.tables is not None:  # shared table points: baselines._tables_windows
+        return equation_error_windows(est, windows, covariance, theta_only=theta_only)
     if est.one_step:
         theta, cov, corr, cost, info = _one_step(est, windows, covariance,
                                                  affine_accelerations)
@@ -146,7 +149,7 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, *,
     free = np.flatnonzero(sd)
     if est.positions == "known" or free.size == 0 or not result.success:
         return result
-    G = np.empty((aeroid.model.N_COEFFICIENTS, free.size))
+    G = np.empty((result.theta.size, free.size))  # the coefficients or the tables' parameters
     given = windows.airframe.accel_positions.ravel()
     for j, c in enumerate(free):
         ends = []

@@ -191,7 +191,7 @@ def ee_full(theta: np.ndarray, cov: np.ndarray, free: np.ndarray,
 
 
 def ee_prior_rows(A: np.ndarray, b: np.ndarray, theta: np.ndarray, cov: np.ndarray,
-                  sigma2: float, cols: Any, holds: CoefficientSpec | None
+                  sigma2: float, cols: Any, holds: Any, names: tuple[str, ...] = NAMES
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Return a least-squares estimate and covariance with the priors on ``cols`` added.
 
@@ -203,16 +203,15 @@ def ee_prior_rows(A: np.ndarray, b: np.ndarray, theta: np.ndarray, cov: np.ndarr
     a regressor that is zero, the fin's without fin motion), the normal equations with
     the pseudo-observations, ``(A^T A / sigma2 + W) theta = A^T b / sigma2 + W mu``, and
     covariance ``inv(A^T A / sigma2 + W)``. Unchanged without priors on ``cols``.
+    ``names``: the parameter of each index (the nine coefficients, or with tables their
+    parameters, ``holds`` then a :class:`aeroid.estimation.TableHolds`).
     """
     cols = [int(c) for c in cols]
-    if holds is None or not any(NAMES[c] in holds.priors for c in cols):
+    if holds is None or not any(names[c] in holds.priors for c in cols):
         return theta, cov
-    local = CoefficientSpec(priors={NAMES[c]: holds.priors[NAMES[c]] for c in cols
-                                    if NAMES[c] in holds.priors})
-    mean, sd = local.prior_mean_sd()
-    w = np.where(np.isfinite(sd[cols]), 1.0 / np.where(np.isfinite(sd[cols]), sd[cols], 1.0)
-                 ** 2, 0.0)
-    mu = np.where(w > 0, mean[cols], 0.0)
+    pairs = [holds.priors.get(names[c]) for c in cols]
+    w = np.array([0.0 if pair is None else float(pair[1]) ** -2.0 for pair in pairs])
+    mu = np.array([0.0 if pair is None else float(pair[0]) for pair in pairs])
     if np.all(np.isfinite(cov)) and np.all(np.isfinite(theta)):
         rows = np.flatnonzero(w > 0)  # covariance form: a Kalman update by the priors
         CH = cov[:, rows]
@@ -257,8 +256,9 @@ def ee_held_check(result: Any, free: Any, holds: CoefficientSpec | None) -> Any:
             or free.stderr is None:
         return result
     z = {}
+    names = list(result.names)  # the nine coefficients, or a table fit's parameters
     for name, value in holds.held.items():
-        j = NAMES.index(name)
+        j = names.index(name)
         se = float(np.hypot(free.stderr[j], HELD_RESOLUTION * abs(free.theta[j])))
         if np.isfinite(se) and se > 0 and np.isfinite(free.theta[j]):
             z[name] = (value - float(free.theta[j])) / se
@@ -268,7 +268,7 @@ def ee_held_check(result: Any, free: Any, holds: CoefficientSpec | None) -> Any:
     if not bad:
         return dataclasses.replace(result, info=info)
     text = ", ".join(f"{n} = {holds.held[n]:g} (the free fit: "
-                     f"{free.theta[NAMES.index(n)]:.6g} +- {free.stderr[NAMES.index(n)]:.3g}, "
+                     f"{free.theta[names.index(n)]:.6g} +- {free.stderr[names.index(n)]:.3g}, "
                      f"z = {v:.3g})" for n, v in bad.items())
     return dataclasses.replace(result, info=info, warnings=(*result.warnings, (
         f"this method's free fit contradicts the held value(s) {text}; |z| limit "

@@ -49,6 +49,8 @@ from baselines._oe_starts import (
     best_end,
     start_report,
 )
+from baselines._tables_fit import coefficient_layout, mach_notes
+from baselines._tables_windows import shared_tables
 
 __all__ = ["MAX_SAMPLES", "OutputErrorWindows", "WindowsLayout", "WindowsModel", "run_windows",
            "windows_problem"]
@@ -75,8 +77,7 @@ class WindowsLayout:
     """
 
     def __init__(self, n_windows: int, n_x0: int, n_pos: int, n_delay: int,
-                 n_imu: int) -> None:
-        n_c = aeroid.model.N_COEFFICIENTS
+                 n_imu: int, n_c: int = aeroid.model.N_COEFFICIENTS) -> None:
         self.n_shared = n_c + n_pos
         self.n_own = n_x0 + n_delay + n_imu
         self.n_x0, self.n_pos = n_x0, n_pos
@@ -147,7 +148,8 @@ def windows_problem(est: Any, windows: Windows) -> tuple[Problem, WindowsModel]:
     parts = [est.problem(flight, position_free) for flight in windows]
     models: list[RecordModel] = [prob.model for prob in parts]  # type: ignore[misc]
     layout = WindowsLayout(len(parts), len(est.x0_free()), len(position_free),
-                           int(est.estimate_delay), models[0].n_imu)
+                           int(est.estimate_delay), models[0].n_imu,
+                           len(coefficient_layout(windows.flights[0])[0]))
     scale = np.zeros(layout.size)
     weight = np.zeros(layout.size)
     for prob, model, idx in zip(parts, models, layout.index, strict=True):
@@ -175,7 +177,8 @@ def _local_names(est: Any, position_free: tuple[int, ...]) -> tuple[str, ...]:
 def _starts(est: Any, windows: Windows, model: WindowsModel, first: np.ndarray,
             rng: np.random.Generator) -> list[Start]:
     """The prior start, equation-error's over the windows, ``n_starts - 1`` random draws."""
-    n_c = aeroid.model.N_COEFFICIENTS
+    names, prior = coefficient_layout(windows.flights[0])  # with tables: their parameters
+    n_c = len(names)
     scale = model.scale
     starts = [Start("prior", first)]
     if est.equation_error_start:
@@ -189,7 +192,6 @@ def _starts(est: Any, windows: Windows, model: WindowsModel, first: np.ndarray,
             starts.append(Start("equation-error", p0))
         except Exception as exc:  # failure is data: the fit goes on from its other starts
             starts.append(Start("equation-error", None, " ".join(str(exc).split())))
-    prior = windows.airframe.prior_vector()
     for k in range(est.n_starts - 1):
         p = first.copy()
         p[:n_c] = prior * (1.0 + 0.2 * rng.standard_normal(n_c)) / scale[:n_c]
@@ -209,11 +211,14 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator) -> Estimat
     if windows.n_samples > MAX_SAMPLES:
         raise EstimatorError(f"{owner}: {windows.n_samples} samples over the windows; it fits "
                              f"at most {MAX_SAMPLES} at once")
+    if windows.airframe.tables is not None:  # shared points: baselines._tables_windows
+        windows, _ = shared_tables(windows)
     prob, model = windows_problem(est, windows)
     layout, scale = model.layout, model.scale
-    n_c = aeroid.model.N_COEFFICIENTS
+    _, prior = coefficient_layout(windows.flights[0])
+    n_c = prior.size
     first = np.zeros(layout.size)
-    first[:n_c] = windows.airframe.prior_vector() / scale[:n_c]
+    first[:n_c] = prior / scale[:n_c]
     if est.estimate_delay:
         for w in range(len(windows)):
             i = layout.own(w)[layout.n_x0]
@@ -253,11 +258,15 @@ def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best
             cov_phys: np.ndarray, cov: np.ndarray, n_starts: int) -> EstimationResult:
     """The result: shared coefficients, their covariance, each window's own parameters."""
     layout, scale = model.layout, model.scale
-    n_c = aeroid.model.N_COEFFICIENTS
+    n_9 = aeroid.model.N_COEFFICIENTS  # est.parameter_names' coefficients: the nine
+    coefficients = model.models[0].tables
+    shared = aeroid.NAMES if coefficients is None else coefficients.parameter_names()
+    n_c = len(shared)
     position_free = model.models[0].position_free
     local = _local_names(est, position_free)
-    names = list(aeroid.NAMES) + [est.parameter_names(position_free)[n_c + layout.n_x0 + j]
-                                  for j in range(layout.n_pos)]
+    window_names = (*shared, *est.parameter_names(position_free)[n_9:])
+    names = list(shared) + [est.parameter_names(position_free)[n_9 + layout.n_x0 + j]
+                            for j in range(layout.n_pos)]
     per_window, per_window_sd, window_imu = {}, {}, {}
     warnings: list[str] = []
     imu_names = imu_error_names(est.imu_errors)
@@ -272,7 +281,7 @@ def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best
         if imu_names:
             idx = layout.index[w]
             imu_info, found = imu_error_report(
-                est.parameter_names(position_free), imu_names, phys[idx], stderr_phys[idx],
+                window_names, imu_names, phys[idx], stderr_phys[idx],
                 cov_phys[np.ix_(idx, idx)])
             window_imu[name] = imu_info
             warnings += [f"window {name}: {text}" for text in found]
@@ -297,12 +306,17 @@ def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best
         "accel_position_stderr_m": position_sd.reshape(2, 3)}
     if window_imu:
         info["window_imu_errors"] = window_imu
+    if coefficients is not None:
+        info["tables"] = coefficients.to_table()
+        warnings += [f"window {name}: {note}" for name, flight in windows.items()
+                     for note in mach_notes(flight, flight.airframe.mach_tables())]
     start_info, found = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
-                                     failures)
+                                     failures, n_c)
     info.update(start_info)
     warnings = list(found) + warnings
     return EstimationResult(
-        estimator=est.name, theta=phys[:n_c], stderr=np.sqrt(np.abs(np.diag(cov))),
+        estimator=est.name, names=tuple(shared), theta=phys[:n_c],
+        stderr=np.sqrt(np.abs(np.diag(cov))),
         covariance=cov, cost=best.nll, success=best.converged, message=best.message,
         n_evaluations=sum(f.n_evaluations for f in fits),
         n_iterations=sum(f.n_iterations for f in fits), history=history, info=info,

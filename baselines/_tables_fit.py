@@ -31,6 +31,7 @@ from aeroid.flights import Flight
 from aeroid.model import NAMES, MachTables
 from aeroid.model import tables as mach_tables
 from baselines._ee_least_squares import SUBPROBLEMS, _correlation, _lstsq
+from baselines._held import ee_held_check, ee_prior_rows
 from baselines._oe_record import RecordModel
 
 #: Initial-state components the floor's record model takes as nuisance parameters: the
@@ -45,6 +46,10 @@ RESOLUTION = 1e-5
 #: Standard errors below this fraction of the table floor claim more than the data allow
 #: (a warning; the fit check's FLOOR_FRACTION for constant coefficients).
 FLOOR_FRACTION = 0.5
+
+#: Metadata key of a window whose knots were resolved over all windows
+#: (:func:`baselines._tables_windows.shared_tables`): another window may inform a point.
+SHARED_KEY = "tables_shared_over_windows"
 
 #: Time samples per block of the regressors (equation-error's).
 BLOCK_SAMPLES = rc.REGRESSION_BLOCK
@@ -68,7 +73,7 @@ def flight_tables(flight: Flight) -> MachTables | None:
     empty = [mach_tables.point_name(name, k) for name, knots in tables.knots
              for k, weight in zip(knots, mach_tables.basis(knots, mach).max(axis=0),
                                   strict=True) if weight == 0.0]
-    if empty:
+    if empty and not flight.metadata.get(SHARED_KEY):  # windows: checked over them all
         raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
                              f"spans Mach {mach.min():.4g}-{mach.max():.4g}); give knots "
                              "within it, or a knot count")
@@ -100,10 +105,12 @@ def coefficient_layout(flight: Flight, pso_warm_start: bool = False
     return tables.parameter_names(), tables.expand(prior)
 
 
-def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]:
+def record_tables(info: dict[str, Any], model: Any, flight: Flight, holds: Any = None
+                  ) -> list[str]:
     """Output-error's result with tables: ``info['parameter_names']`` with the tables'
     names, ``info['tables']`` (the knots); returns the Mach notes (:func:`mach_notes`).
-    Nothing without tables."""
+    ``holds`` (:class:`aeroid.estimation.TableHolds`): the floor of the free parameters
+    with the priors. Nothing without tables."""
     if model.tables is None:
         return []
     rest = tuple(info["parameter_names"])[len(NAMES):]
@@ -112,7 +119,8 @@ def record_tables(info: dict[str, Any], model: Any, flight: Flight) -> list[str]
     n = model.tables.n_parameters
     stderr = np.asarray(info["parameter_stderr"][:n], dtype=float)
     extra, low = floor_entries(model.tables.parameter_names(), stderr,
-                               data_table_floor(flight, np.asarray(info["parameters"][:n])))
+                               data_table_floor(flight, np.asarray(info["parameters"][:n]),
+                                                holds))
     info.update(extra)
     return list(mach_notes(flight, model.tables)) + list(low)
 
@@ -158,13 +166,18 @@ def subproblem_columns(tables: MachTables) -> tuple[tuple[str, int, list[int]], 
                  for label, row, cols in SUBPROBLEMS)
 
 
-def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroid.EstimationResult:
+def equation_error_tables(est: Any, flight: Flight, tables: MachTables, holds: Any = None
+                          ) -> aeroid.EstimationResult:
     """Equation-error's two-step fit of the tables' parameters (module docstring).
 
     ``est``: the :class:`baselines.equation_error.EquationErrorEstimator` (its
     ``smoothing``, ``covariance`` and ``positions`` options). The one-step form, the
     lateral rows and ``smoothing="both"`` (which smooths the regressors before the hat
-    functions would multiply them) are refused in one line.
+    functions would multiply them) are refused in one line. ``holds``
+    (:class:`aeroid.estimation.TableHolds`): held parameters' columns move to the left
+    side, priors are weighted pseudo-observations (:func:`baselines._held.ee_prior_rows`),
+    and each held value is compared with the free fit's (:func:`baselines._held.ee_held_check`:
+    a warning).
     """
     refused = [what for what, on in (("one_step", est.one_step),
                                      ("lateral_rows", est.lateral_rows),
@@ -172,7 +185,9 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroi
     if refused:
         raise EstimatorError(f"equation-error: with [tables] it fits the two-step form only; "
                              f"{', '.join(refused)} is not available with tables")
-    result = _solve(est, flight, tables, est.covariance)
+    result = _solve(est, flight, tables, est.covariance, holds=holds)
+    if holds is not None and holds.held:  # the data against the held values (a warning)
+        result = ee_held_check(result, _solve(est, flight, tables, est.covariance), holds)
     sd = flight.airframe.accel_position_sd.ravel()
     free = np.flatnonzero(sd)
     if est.positions == "known" or free.size == 0:
@@ -187,7 +202,7 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroi
             moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
                                             accel2_position_m=tuple(pos[3:]))
             ends.append(_solve(est, dataclasses.replace(flight, airframe=moved), tables,
-                               "ols", theta_only=True).theta)
+                               "ols", theta_only=True, holds=holds).theta)
         G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
     cov = result.covariance + (G * sd[free] ** 2) @ G.T
     info = {**result.info, "position_sensitivity": G,
@@ -196,8 +211,46 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables) -> aeroi
                                info=info)
 
 
+def solve_table_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, tables: MachTables,
+                            covariance: str, holds: Any = None) -> tuple:
+    """Solve the SEBM sub-problems over the tables' parameters (equation-error's).
+
+    ``X`` (n, rows, n_parameters) the expanded regressors (:func:`expand_regressors`),
+    ``y`` (n, rows) the loads, ``sd`` (rows,) their noise sd (the rows' weights);
+    ``holds`` (:class:`aeroid.estimation.TableHolds`): held columns to the left side,
+    priors as pseudo-observations. Returns ``theta, cov, corr, sigma2, cost, bandwidth``
+    (as :func:`baselines._ee_least_squares.solve_subproblems`).
+    """
+    n_p = tables.n_parameters
+    theta, cov = np.full(n_p, np.nan), np.zeros((n_p, n_p))
+    corr = np.full((n_p, n_p), np.nan)
+    sigma2, bandwidth, cost = {}, {}, 0.0
+    names = tables.parameter_names()
+    held = {} if holds is None else dict(holds.held)
+    for label, row, all_cols in subproblem_columns(tables):
+        A = X[:, row, all_cols] / sd[row]
+        b = y[:, row] / sd[row]
+        local = [i for i, c in enumerate(all_cols) if names[c] in held]
+        if local:  # held terms to the left side
+            values = np.array([held[names[all_cols[i]]] for i in local])
+            b = b - A[:, local] @ values
+            theta[[all_cols[i] for i in local]] = values
+            A = np.delete(A, local, axis=1)
+        cols = [c for c in all_cols if names[c] not in held]
+        if not cols:
+            continue
+        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
+        th, cv = ee_prior_rows(A, b, th, cv, s2, cols, holds, names)
+        theta[cols] = th
+        cov[np.ix_(cols, cols)] = cv
+        corr[np.ix_(cols, cols)] = _correlation(A)
+        sigma2[label] = s2
+        cost += s2 * max(A.shape[0] - len(cols), 1)
+    return theta, cov, corr, sigma2, cost, bandwidth
+
+
 def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
-           theta_only: bool = False) -> aeroid.EstimationResult:
+           theta_only: bool = False, holds: Any = None) -> aeroid.EstimationResult:
     rec = rc.reconstruct(flight)
     y = rc.regression_target(rec, smoothing=est.smoothing)
     mach = tables.mach(flight.states())
@@ -205,21 +258,9 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
                         for start, stop, part in rc.regressor_blocks(
                             flight, smoothing=est.smoothing, window=rec.smoothing_window,
                             block=BLOCK_SAMPLES)])
-    sd = rc.estimate_noise_sd(rec.fm)
-    n_p = tables.n_parameters
-    theta, cov = np.full(n_p, np.nan), np.zeros((n_p, n_p))
-    corr = np.full((n_p, n_p), np.nan)
-    sigma2, bandwidth, cost = {}, {}, 0.0
+    theta, cov, corr, sigma2, cost, bandwidth = solve_table_subproblems(
+        X, y, rc.estimate_noise_sd(rec.fm), tables, covariance, holds)
     problems = subproblem_columns(tables)
-    for label, row, cols in problems:
-        A = X[:, row, cols] / sd[row]
-        b = y[:, row] / sd[row]
-        th, cv, s2, bandwidth[label] = _lstsq(A, b, n_time=y.shape[0], covariance=covariance)
-        theta[cols] = th
-        cov[np.ix_(cols, cols)] = cv
-        corr[np.ix_(cols, cols)] = _correlation(A)
-        sigma2[label] = s2
-        cost += s2 * max(A.shape[0] - len(cols), 1)
     info: dict[str, Any] = {"sigma2": sigma2, "subproblems": [p[0] for p in problems],
                             "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth,
                             "correlation": corr, "tables": tables.to_table(),
@@ -229,7 +270,7 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
     if not theta_only:
         info.update(rc.regression_fit(rec, X, y, theta, tuple(p[1] for p in problems)))
         extra, low = floor_entries(tables.parameter_names(), np.sqrt(np.abs(np.diag(cov))),
-                                   data_table_floor(flight, theta))
+                                   data_table_floor(flight, theta, holds))
         info.update(extra)
     capped = [label for label, bw in bandwidth.items() if bw["capped"]]
     warnings = mach_notes(flight, tables) + low + tuple(
@@ -242,14 +283,17 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
 
 
 def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
-                substeps: int = 2, input: str = "hold") -> np.ndarray:  # noqa: A002
+                substeps: int = 2, input: str = "hold",  # noqa: A002
+                holds: Any = None) -> np.ndarray:
     """Return the Cramér-Rao floor of the tables' parameters, shape (n_parameters,).
 
     The output-error information ``sum_k J_k^T R^-1 J_k`` of the flight's record (both
     triads and the rates, :data:`aeroid.model.OUTPUT_CHANNELS`) at ``parameters`` (the
     tables' constants and points, e.g. the truth), with white noise of sd ``noise_sd``
     (one per output channel) and the initial rates as nuisance parameters; the square
-    root of the diagonal of its inverse, in the parameters' units.
+    root of the diagonal of its inverse, in the parameters' units. ``holds``
+    (:class:`aeroid.estimation.TableHolds`): the held parameters leave the information
+    (NaN: known) and the priors' ``1 / sd^2`` join it.
     """
     tables = flight_tables(flight)
     if tables is None:
@@ -268,11 +312,17 @@ def table_floor(flight: Flight, parameters: np.ndarray, noise_sd: np.ndarray, *,
                                                   np.zeros(len(FLOOR_FREE_STATES))]))
     Jw = J / sd[:, None, None]
     F = np.einsum("mnp,mnq->pq", Jw, Jw)
-    cov = np.linalg.inv(F) * np.outer(scale, scale)
-    return np.sqrt(np.diag(cov))[:p.size]
+    keep = np.arange(F.shape[0])
+    if holds is not None and not holds.empty:
+        F[:p.size, :p.size] += np.diag(holds.prior_information() * scale[:p.size] ** 2)
+        keep = np.concatenate([holds.free_index, np.arange(p.size, F.shape[0])])
+    out = np.full(F.shape[0], np.nan)
+    out[keep] = np.sqrt(np.diag(np.linalg.inv(F[np.ix_(keep, keep)]))) * np.abs(scale[keep])
+    return out[:p.size]
 
 
-def data_table_floor(flight: Flight, theta: np.ndarray) -> np.ndarray | None:
+def data_table_floor(flight: Flight, theta: np.ndarray, holds: Any = None
+                     ) -> np.ndarray | None:
     """Return :func:`table_floor` at ``theta`` with each channel's noise level estimated
     from the data (:func:`aeroid.estimation.data_noise_levels`), or None on noise-free
     data (every channel below :data:`NOISE_FREE_FRACTION` of its RMS) or without a
@@ -284,16 +334,17 @@ def data_table_floor(flight: Flight, theta: np.ndarray) -> np.ndarray | None:
     if not np.any(sd > NOISE_FREE_FRACTION * rms) or not np.all(np.isfinite(theta)):
         return None
     try:
-        floor = table_floor(flight, theta, np.maximum(sd, RESOLUTION * rms))
+        floor = table_floor(flight, theta, np.maximum(sd, RESOLUTION * rms), holds=holds)
     except np.linalg.LinAlgError:
         return None
-    return floor if np.all(np.isfinite(floor)) else None
+    free = np.ones(floor.size, bool) if holds is None or holds.empty else holds.free_mask
+    return floor if np.all(np.isfinite(floor[free])) else None
 
 
 def floor_entries(names: tuple[str, ...], stderr: np.ndarray, floor: np.ndarray | None
                   ) -> tuple[dict[str, Any], tuple[str, ...]]:
-    """``info['table_floor']`` (name -> floor) and the warning of standard errors below
-    :data:`FLOOR_FRACTION` of it (none without a floor)."""
+    """``info['table_floor']`` (name -> floor; NaN for a held parameter) and the warning
+    of standard errors below :data:`FLOOR_FRACTION` of it (none without a floor)."""
     if floor is None:
         return {}, ()
     low = [f"{n} ({s:.3g} < {f:.3g})" for n, s, f in zip(names, stderr, floor, strict=True)
@@ -303,6 +354,7 @@ def floor_entries(names: tuple[str, ...], stderr: np.ndarray, floor: np.ndarray 
                    f"Cramér-Rao floor for {', '.join(low)}",) if low else ())
 
 
-__all__ = ["FitsTables", "coefficient_layout", "data_table_floor", "equation_error_tables",
-           "expand_regressors", "flight_tables", "floor_entries", "mach_notes", "record_tables",
-           "subproblem_columns", "table_floor"]
+__all__ = ["SHARED_KEY", "FitsTables", "coefficient_layout", "data_table_floor",
+           "equation_error_tables", "expand_regressors", "flight_tables", "floor_entries",
+           "mach_notes", "record_tables", "solve_table_subproblems", "subproblem_columns",
+           "table_floor"]

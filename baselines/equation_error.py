@@ -212,7 +212,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
         tables = _tables_fit.flight_tables(flight)
         if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
-            return _tables_fit.equation_error_tables(self, flight, tables)
+            return _tables_fit.equation_error_tables(self, flight, tables, holds)
         result = self._solve(flight, holds=holds)
         if holds is not None and holds.held:  # the data against the held values
             result = _held.ee_held_check(result, self._solve(flight), holds)

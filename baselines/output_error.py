@@ -374,7 +374,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                 "fit_residuals": {name: best.e[:, j] for j, name in enumerate(OUTPUT_CHANNELS)}}
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
                                             failures, n_c)
-        warnings += _tables_fit.record_tables(info, model, flight)  # names, notes
+        warnings += _tables_fit.record_tables(info, model, flight, holds)  # names, notes
         info.update(start_info)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)

@@ -111,6 +111,7 @@ from aeroid.estimation._signals import (
     switch_free_samples,
     switch_free_windows,
 )
+from aeroid.estimation._table_holds import TableHolds, table_holds
 from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, switch_test
 
 # The paper's methods register themselves on import (after the registry exists).
@@ -118,6 +119,7 @@ from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort
 
 __all__ = [
     "CoefficientSpec",
+    "TableHolds",
     "FIN_TERMS",
     "airframe_holds",
     "apply_holds",
@@ -129,6 +131,7 @@ __all__ = [
     "add_consider",
     "consider_covariance",
     "exact_mass_note",
+    "table_holds",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

@@ -30,6 +30,7 @@ from aeroid.estimation._identifiability import record_findings, record_verdict
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
+from aeroid.estimation._table_holds import TableHolds, table_holds
 from aeroid.estimation._windows import fit_windows
 from aeroid.flights import Flight, InputChoice, Windows, check_input
 from aeroid.model import NAMES, Airframe
@@ -152,19 +153,12 @@ class Estimator(abc.ABC):
                 f"{', '.join(name for name, _ in tables.knots)} tables in Mach; this method "
                 "fits constant coefficients (output-error and equation-error fit tables); "
                 "remove [tables] to fit constants")
-        if tables is not None and (isinstance(flight, Windows) or not airframe_holds(
-                flight.airframe).merged(CoefficientSpec.coerce(holds)).empty):
-            raise EstimatorError(
-                f"{self.name or type(self).__name__}: coefficient tables ([tables]) are fitted "
-                "on one flight with every coefficient free; several windows, held "
-                "coefficients and priors (a passive fin's included) cannot be combined with "
-                "tables yet")
         if isinstance(flight, Windows):
-            spec = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
-            if not spec.empty:
+            declared = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
+            if not declared.empty:
                 raise EstimatorError(f"{self.name or type(self).__name__}: several windows "
                                      f"cannot hold coefficients or take priors yet "
-                                     f"({spec.describe()}); fit one window")
+                                     f"({declared.describe()}); fit one window")
             return fit_windows(self, flight, rng=rng, progress=progress)
         flight.validate()
         saturated = flight.metadata.get("saturated") or {}
@@ -173,16 +167,23 @@ class Estimator(abc.ABC):
                 f"{self.name}: the flight has {sum(len(k) for k in saturated.values())} "
                 f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); this "
                 "method cannot leave them out of its fit (output-error, ekf and ukf can)")
-        spec = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
+        given = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
         owner = self.name or type(self).__name__
+        if given.points and tables is None:
+            raise EstimatorError(f"{owner}: {', '.join(given.points)}: table points, and the "
+                                 "airframe has no [tables]")
+        if not given.empty and not self.supports_holds:
+            raise EstimatorError(f"{owner}: this method cannot hold coefficients or take "
+                                 f"priors ({given.describe()}); fit all nine free")
+        tabled = None if tables is None else flight.airframe.mach_tables(flight.states())
+        spec: CoefficientSpec | TableHolds = (  # with tables: their constants and points
+            given if tabled is None or given.empty else table_holds(given, tabled))
         if not spec.empty:
-            if not self.supports_holds:
-                raise EstimatorError(f"{owner}: this method cannot hold coefficients or take "
-                                     f"priors ({spec.describe()}); fit all nine free")
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
+        known = spec.covers() if isinstance(spec, TableHolds) else {**spec.held, **spec.priors}
         findings = record_findings(flight)  # what the record cannot determine, said first
         for finding in findings:
-            if any(n not in spec.held and n not in spec.priors for n in finding.names):
+            if any(n not in known for n in finding.names):
                 logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
         choice = self.input_choice(flight)
         check_consider(flight, self.name or type(self).__name__)
@@ -211,7 +212,7 @@ class Estimator(abc.ABC):
         levels = data_noise_levels(flight) if result.success else None  # one smoother pass
         result = check_free(result, spec,  # held coefficients are known: not checked
                             lambda r: apply_fit_check(r, flight, levels, self.options()))
-        failure, left = record_verdict(findings, spec.held, spec.priors)
+        failure, left = record_verdict(findings, known, {})
         if left and failure is not None:  # estimated freely though the record cannot tell
             result = dataclasses.replace(  # the cause first; the method's own failure kept
                 result, success=False, message=failure, info={**result.info,

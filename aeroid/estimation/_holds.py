@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.model import NAMES
+from aeroid.model import NAMES, tables
 
 __all__ = ["FIN_TERMS", "CoefficientSpec", "airframe_holds"]
 
@@ -49,10 +49,26 @@ def _number(text: Any, where: str) -> float:
 
 
 def _check_name(name: str, where: str) -> str:
+    base, sep, knot = name.partition(tables.POINT_SEPARATOR)
+    if sep:  # a table point, Cx@M1.4: matched to the flight's tables by the fit
+        try:
+            number = float(knot)
+        except ValueError:
+            number = math.nan
+        if base not in NAMES or not math.isfinite(number):
+            raise EstimatorError(f"{where}: {name!r} is no table point (NAME@M<Mach>, e.g. "
+                                 f"Cx@M1.4; coefficients: {', '.join(NAMES)})")
+        return tables.point_name(base, number)
     if name not in NAMES:
         raise EstimatorError(f"{where}: unknown coefficient {name!r} "
                              f"(coefficients: {', '.join(NAMES)})")
     return name
+
+
+def _order(name: str) -> tuple[int, float]:
+    """Sort key: a coefficient's place in NAMES, its table points after it by Mach."""
+    base, sep, knot = name.partition(tables.POINT_SEPARATOR)
+    return NAMES.index(base), float(knot) if sep else -math.inf
 
 
 @dataclass(frozen=True)
@@ -94,16 +110,15 @@ class CoefficientSpec:
             if not sd > 0:
                 raise EstimatorError(f"prior {n}: the sd must be > 0, got {sd:g} (hold the "
                                      f"coefficient instead: --hold {n}={mean:g})")
-            priors[str(n)] = (mean, sd)
-        both = [n for n in NAMES if n in held and n in priors]
+            priors[_check_name(str(n), "prior")] = (mean, sd)
+        both = [n for n in held if n in priors]
         if both:
             raise EstimatorError(f"{', '.join(both)}: both held and given a prior (choose one)")
         if not [n for n in NAMES if n not in held]:
             raise EstimatorError("every coefficient is held: nothing left to estimate")
-        order = {n: i for i, n in enumerate(NAMES)}
-        object.__setattr__(self, "held", dict(sorted(held.items(), key=lambda kv: order[kv[0]])))
+        object.__setattr__(self, "held", dict(sorted(held.items(), key=lambda kv: _order(kv[0]))))
         object.__setattr__(self, "priors",
-                           dict(sorted(priors.items(), key=lambda kv: order[kv[0]])))
+                           dict(sorted(priors.items(), key=lambda kv: _order(kv[0]))))
         object.__setattr__(self, "sources", {str(k): str(v) for k, v in
                                              dict(self.sources).items()})
 
@@ -128,7 +143,7 @@ class CoefficientSpec:
                 if not sep or not name:
                     form = "NAME=VALUE" if kind == "hold" else "NAME=MEAN:SD"
                     raise EstimatorError(f"--{kind} {item!r}: expected {form}")
-                _check_name(name, f"--{kind} {item}")
+                name = _check_name(name, f"--{kind} {item}")
                 if name in held or name in prior:
                     what = "held" if name in held else "given a prior"
                     raise EstimatorError(f"--{kind} {item}: {name} is already {what}")
@@ -192,7 +207,7 @@ class CoefficientSpec:
             One line naming the coefficient declared differently and where.
         """
         held, priors, sources = dict(self.held), dict(self.priors), dict(self.sources)
-        for name in NAMES:
+        for name in sorted({*NAMES, *other.held, *other.priors}, key=_order):
             mine = ("hold", self.held[name]) if name in self.held else (
                 ("prior", self.priors[name]) if name in self.priors else None)
             theirs = ("hold", other.held[name]) if name in other.held else (
@@ -210,6 +225,11 @@ class CoefficientSpec:
                 priors[name] = other.priors[name]
             sources.setdefault(name, other.sources.get(name, "?"))
         return CoefficientSpec(held=held, priors=priors, sources=sources)
+
+    @property
+    def points(self) -> tuple[str, ...]:
+        """The names of table points (``Cx@M1.4``) held or given a prior."""
+        return tuple(n for n in (*self.held, *self.priors) if n not in NAMES)
 
     # -- index sets ------------------------------------------------------------------
     @property
@@ -261,7 +281,8 @@ class CoefficientSpec:
         mean = np.full(len(NAMES), np.nan)
         sd = np.full(len(NAMES), np.nan)
         for name, (m, s) in self.priors.items():
-            mean[NAMES.index(name)], sd[NAMES.index(name)] = m, s
+            if name in NAMES:  # table points: aeroid.estimation.table_spec
+                mean[NAMES.index(name)], sd[NAMES.index(name)] = m, s
         return mean, sd
 
     def prior_information(self) -> np.ndarray:

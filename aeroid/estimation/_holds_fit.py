@@ -20,6 +20,7 @@ from aeroid.model import NAMES
 
 if TYPE_CHECKING:
     from aeroid.estimation._result import EstimationResult
+    from aeroid.estimation._table_holds import TableHolds
 
 __all__ = ["apply_holds", "check_free", "combine_with_prior", "floor_with_holds",
            "free_cost", "holds_of"]
@@ -130,7 +131,7 @@ def holds_of(result: EstimationResult) -> CoefficientSpec | None:
     return CoefficientSpec(held=result.held, priors=result.priors)
 
 
-def check_free(result: EstimationResult, spec: CoefficientSpec,
+def check_free(result: EstimationResult, spec: CoefficientSpec | TableHolds,
                check: Callable[[EstimationResult], EstimationResult]) -> EstimationResult:
     """Run a result check (the fit check) on the free coefficients only.
 
@@ -158,7 +159,8 @@ def check_free(result: EstimationResult, spec: CoefficientSpec,
                                warnings=checked.warnings, info=out_info)
 
 
-def apply_holds(result: EstimationResult, spec: CoefficientSpec) -> EstimationResult:
+def apply_holds(result: EstimationResult, spec: CoefficientSpec | TableHolds
+                ) -> EstimationResult:
     """Return ``result`` with the spec recorded and the held coefficients as held.
 
     Held coefficients: their value exactly, standard error NaN (none), zero covariance

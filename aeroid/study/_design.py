@@ -216,10 +216,6 @@ def _load_scenario(ref: Any, base_dir: Path, source: str) -> tuple[Scenario, dic
         path = Path(ref) if Path(ref).is_absolute() else base_dir / ref
         data = read_study_toml(path, f"{source}: [study] scenario")
         scenario = scenario_from_dict(data, source=str(path))
-        if scenario.tables is not None or scenario.airframe.tables is not None:
-            raise StudyError(f"{source}: [study] scenario {path} has coefficient tables in "
-                             "Mach; a study scores the nine constant coefficients "
-                             "(benchmarks/bench_mach_sweep.py measures table fits)")
         return scenario, data, str(path)
     except AirframeError as exc:
         raise StudyError(f"{source}: [study] scenario: {exc}") from None
@@ -308,6 +304,7 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
                          f"(skipped: {', '.join(skipped)})")
     windows = None if "windows" not in head else check_study_windows(
         head["windows"], scenario, estimators, source)
+    check_study_tables(scenario, estimators, noise, prior_offset, source)
     return Study(name=name.strip(), runs=head["runs"], seed=head["seed"], scenario=scenario,
                  noise=tuple(noise), estimators=tuple(estimators),
                  description=str(head.get("description", "")), scenario_ref=scenario_ref,
@@ -344,3 +341,32 @@ def check_study_windows(value: Any, scenario: Any, estimators: list[EstimatorSpe
 
 __all__ = ["EstimatorSpec", "NoiseCondition", "Study", "load_study", "loads_study",
            "quick_study_path", "study_from_dict"]
+
+
+def check_study_tables(scenario: Any, estimators: list[EstimatorSpec], noise: list[Any],
+                       prior_offset: Any, source: str) -> None:
+    """Refuse in one line what a study of coefficient tables cannot do.
+
+    A scenario whose true coefficients are tables needs the fits' ``[tables]`` (else
+    each fit would score constants against a truth that varies); the fits' tables
+    need estimators that fit them (``fits_tables``), no ``prior_offset`` (drawn per
+    constant coefficient) and no sensor-suite condition (its reconstruction does not
+    carry the truth's tables).
+    """
+    if scenario.airframe.tables is None:
+        if scenario.tables is not None:
+            raise StudyError(f"{source}: the scenario's true coefficients are tables in Mach "
+                             "and its airframe has no [tables]: give the fits' knots there")
+        return
+    where = f"{source}: [study] scenario with [tables]"
+    unable = [e.label for e in estimators if not getattr(e.estimator, "fits_tables", False)]
+    if unable:
+        raise StudyError(f"{where}: {', '.join(unable)} cannot fit tables (output-error and "
+                         "equation-error can)")
+    if prior_offset is not None:
+        raise StudyError(f"{where}: prior_offset draws one prior per constant coefficient; "
+                         "it is not available with tables")
+    suites = [n.label for n in noise if n.suite is not None]
+    if suites:
+        raise StudyError(f"{where}: sensor-suite condition(s) {', '.join(suites)} are not "
+                         "available with tables")

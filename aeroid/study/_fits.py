@@ -42,6 +42,7 @@ from aeroid.model import compile_clock
 from aeroid.study._provenance import code_id
 from aeroid.study._spec import Study
 from aeroid.study._suite import imu_error_fields, suite_flight
+from aeroid.study._tables import has_tables, parameter_names, parameter_truth
 
 HISTORY_RUN = 0
 #: ``EstimationResult.info`` arrays kept with the history (EBM reconstructions).
@@ -103,7 +104,7 @@ def scenario_truth(scenario: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if key not in _TRUTH_CACHE:
         _TRUTH_CACHE.clear()
         _TRUTH_CACHE[key] = simulate_truth(scenario.airframe, scenario.coefficient_vector,
-                                           scenario.manoeuvre)
+                                           scenario.manoeuvre, tables=scenario.tables)
     return _TRUTH_CACHE[key]
 
 
@@ -125,7 +126,7 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
     noise = study.noise[noise_index].model
     rng = np.random.default_rng(flight_seed(study.seed, run))
     return record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                         scenario_truth(scenario), noise, rng=rng)
+                         scenario_truth(scenario), noise, rng=rng, tables=scenario.tables)
 
 
 def _clean(x: Any) -> float | None:
@@ -151,7 +152,7 @@ def base_record(study: Study, task: Task, truth: Any = None) -> dict[str, Any]:
     """Return the record of a fit that produced nothing (``success: false``, no message)."""
     run, k_noise, k_est = task
     spec = study.estimators[k_est]
-    n = len(study.scenario.coefficients)
+    n = len(study.scenario.coefficients) if truth is None else len(truth)
     prior = run_prior(study, run)
     return {
         "run": run, "noise": study.noise[k_noise].label, "estimator": spec.label,
@@ -198,7 +199,13 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
         text = " ".join(str(exc).split())
         raise StudyError(f"run {run}, noise {study.noise[k_noise].label!r}: the flight "
                          f"simulation failed: {type(exc).__name__}: {text}") from None
-    record = base_record(study, task, flight.true_coefficients)
+    names = None
+    if has_tables(study):  # scored per parameter: aeroid/study/_tables.py
+        names = parameter_names(flight)
+        record = base_record(study, task, parameter_truth(study.scenario, names))
+        record["names"] = list(names)
+    else:
+        record = base_record(study, task, flight.true_coefficients)
     prior = run_prior(study, run)
     if prior is not None:
         flight = dataclasses.replace(flight, airframe=dataclasses.replace(
@@ -212,6 +219,9 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
         record.update(message=f"{type(exc).__name__}: {text}".rstrip(": "))
         return record, None
+    if names is not None and tuple(result.names) != names:  # knots over the windows
+        record.update(names=list(result.names),
+                      truth=_vector(parameter_truth(study.scenario, result.names)))
     record.update(theta=_vector(result.theta), stderr=_vector(result.stderr),
                   success=bool(result.success), message=str(result.message),
                   cost=_clean(result.cost), n_evaluations=int(result.n_evaluations),

@@ -149,12 +149,14 @@ def study_floors(study: Study) -> dict[str, Any]:
         fields of :func:`floors_of` or ``reason`` (why there is no floor, e.g. no noise).
     """
     from aeroid.study._fits import scenario_key
+    from aeroid.study._tables import TABLES_NO_FLOOR, has_tables
 
     flight = None
     conditions = []
     for cond in study.noise:
-        if cond.suite is not None:
-            conditions.append({"label": cond.label, "reason": SUITE_NO_FLOOR})
+        if cond.suite is not None or has_tables(study):
+            conditions.append({"label": cond.label, "reason": SUITE_NO_FLOOR if
+                               cond.suite is not None else TABLES_NO_FLOOR})
             continue
         key = (scenario_key(study.scenario), json.dumps(cond.model.to_dict(), sort_keys=True))
         if key not in _CACHE:

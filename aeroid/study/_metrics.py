@@ -54,7 +54,8 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
         ``theta`` (9,), ``stderr`` (9,) or None, ``success``, ``message``, ``cost``,
         ``n_evaluations``, ``n_iterations``, ``wall_time_s``; None means NaN).
     names : sequence of str
-        Coefficient names, in the order of ``truth`` and ``theta``.
+        Coefficient names, in the order of ``truth`` and ``theta``, for records without
+        their own ``names`` (a study of tables records each fit's parameter names).
 
     Returns
     -------
@@ -64,10 +65,12 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
         the fit failed or gave no finite standard error).
     """
     rows: list[dict[str, Any]] = []
-    n = len(names)
+    default = tuple(names)
     for r in records:
+        own = tuple(r.get("names") or default)  # a table fit's parameters (study/_tables)
+        n = len(own)
         truth, theta, stderr = (_array(r.get(k), n) for k in ("truth", "theta", "stderr"))
-        for j, name in enumerate(names):
+        for j, name in enumerate(own):
             rows.append({
                 "run": int(r["run"]), "noise": str(r["noise"]),
                 "estimator": str(r["estimator"]), "method": str(r.get("method", "")),

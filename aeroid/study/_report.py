@@ -47,6 +47,7 @@ from aeroid.study._store import (
     write_atomic,
 )
 from aeroid.study._suite import suite_lines
+from aeroid.study._tables import has_tables, write_tables_report
 
 #: Below this many runs the report is compact (no bias/spread/coverage table).
 COMPACT_RUNS = 10
@@ -367,6 +368,8 @@ def write_report(study: Study, out_dir: str | Path,
     out_dir = Path(out_dir)
     if records is None:
         records = read_results(out_dir / RESULTS_FILE)
+    if has_tables(study):  # scored per table point: aeroid/study/_tables.py
+        return write_tables_report(study, out_dir, records, command)
     noise_order = {n.label: k for k, n in enumerate(study.noise)}
     est_order = {e.label: k for k, e in enumerate(study.estimators)}
     records = sorted(records, key=lambda r: (int(r["run"]), noise_order.get(r["noise"], -1),

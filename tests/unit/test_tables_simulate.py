@@ -108,8 +108,11 @@ def test_tables_without_a_speed_of_sound_are_refused_on_load():
     assert scenario.tables.speed_of_sound_mps == pytest.approx((1.4 * 287.05287 * 255.7) ** 0.5)
 
 
-def test_a_study_refuses_a_scenario_with_tables_in_one_line(tmp_path):
+def test_a_study_of_tables_refuses_estimators_without_tables_in_one_line(tmp_path):
+    """A study of tables scores table fits (tests/integration/test_study_tables.py); a
+    method that fits constants only is refused on load, not per fit."""
     study = tmp_path / "s.toml"
-    study.write_text(f'[study]\nruns = 1\nseed = 1\nscenario = "{MACH_SWEEP}"\n')
-    with pytest.raises(aeroid.errors.StudyError, match="has coefficient tables in Mach"):
+    study.write_text(f'[study]\nruns = 1\nseed = 1\nscenario = "{MACH_SWEEP}"\n'
+                     '[[estimators]]\nlabel = "E"\nmethod = "ekf"\n')
+    with pytest.raises(aeroid.errors.StudyError, match=r"\[tables\]: E cannot fit tables"):
         aeroid.study.load_study(study)
