@@ -218,7 +218,8 @@ class EstimationResult:
                 p = min(min(t.values()) for t in tests.values())
                 lines.append(f"whiteness: {len(tests)} channels tested, smallest p {p:.2g} "
                              f"(limit {check['white_limit']:.2g})")
-        head = f"{'coef':>5} {'estimate':>14} {'std err':>12}"
+        w = max([5, *map(len, self.names)])  # table points: Cx@M1.925
+        head = f"{'coef':>{w}} {'estimate':>14} {'std err':>12}"
         plain = None if self.consider is None else self.consider.stderr_without
         if self.consider is not None:
             lines.append(self.consider.describe())
@@ -230,7 +231,7 @@ class EstimationResult:
         for j, name in enumerate(self.names):
             se = "" if self.stderr is None else f"{self.stderr[j]:.4g}"
             se = "held" if name in self.held else se
-            row = f"{name:>5} {self.theta[j]:>14.6g} {se:>12}"
+            row = f"{name:>{w}} {self.theta[j]:>14.6g} {se:>12}"
             row += f" {plain[j]:>12.4g}" if plain is not None else ""
             if truth is not None and errors is not None:
                 row += f" {truth[j]:>12.6g} {errors[j]:>9.3f}"
