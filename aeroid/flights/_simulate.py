@@ -89,9 +89,24 @@ def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
     return Truth(t, states, delta, Schedule.hold(t, delta), t[change], delta[change])
 
 
+def _passive(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
+             backend: str) -> Truth:
+    """A passive fin (``fin = "passive"``): no fin law, the deflection 0 throughout."""
+    n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
+    t = np.arange(n) * manoeuvre.dt
+    delta = np.zeros(n)
+    states = propagate(np.array(manoeuvre.initial_state), as_vector(coefficients)[None, :],
+                       delta[:-1], manoeuvre.dt, constants(airframe),
+                       substeps=manoeuvre.truth_substeps, backend=backend)[0]
+    return Truth(t, states, delta, Schedule.hold(t, delta), t[:0], delta[:0])
+
+
 def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
                    *, backend: str = "auto") -> Truth:
     """Integrate the closed relay loop from t = 0 to the end of the window.
+
+    A passive-fin airframe (``fin = "passive"``) has no relay: its deflection is 0 and
+    the manoeuvre's fin law is not used.
 
     Returns
     -------
@@ -100,6 +115,8 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
         fields are the sample times [s], shape (n,), the true states at the samples,
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
+    if airframe.fin == "passive":
+        return _passive(airframe, coefficients, manoeuvre, backend)
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     if manoeuvre.evaluation == "latched" and law.delay_s == 0 and law.rate_limit_dps is None:
         return _latched(airframe, coefficients, manoeuvre, backend)
@@ -221,6 +238,8 @@ def _manoeuvre_metadata(manoeuvre: Manoeuvre) -> dict[str, float | list[float]]:
 
 def _actuator_metadata(manoeuvre: Manoeuvre, airframe: Airframe) -> dict[str, object]:
     """The true fin law (the ``[fin_law]`` table's form) and how it was evaluated."""
+    if airframe.fin == "passive":
+        return {"fin": "passive"}
     table: dict[str, object] = dict(manoeuvre.fin_law(airframe.delta_max_rad).to_table())
     table["evaluation"] = manoeuvre.evaluation
     if manoeuvre.control_rate_hz is not None:
