@@ -211,3 +211,11 @@ def test_passive_fin_reconstruction_has_no_fin_group():
     relay = dataclasses.replace(sim.log, airframe=scenario.airframe)
     with pytest.raises(FlightError, match="no fin group"):
         reconstruct(relay).to_flight()
+
+
+def test_passive_scenario_refuses_an_actuator(tmp_path):
+    text = ROCKET.read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text + "\n[actuator]\ncommand_amplitude = 0.5\n")
+    with pytest.raises(AirframeError, match=r'bad.toml: \[actuator\] with a passive fin'):
+        load_scenario(bad)
