@@ -36,6 +36,9 @@ from aeroid.study._spec import NoiseCondition
 #: Keys of a suite ``[[noise]]`` entry besides the SensorSuite fields.
 SUITE_KEYS = ("label", "model", "imu")
 IMU_CHOICES = ("raw", "corrected")
+#: SensorSuite fields given as text or lists of names (the others are numbers).
+TEXT_FIELDS = ("imu_mounting",)
+NAME_LISTS = ("baro_channels", "gnss_channels", "offsets_s")
 #: The issue's check: every fitted IMU error within this many standard errors of the truth.
 Z_LIMIT = 3.0
 
@@ -70,11 +73,12 @@ def suite_condition(entry: Mapping[str, Any], label: str, scenario: Scenario,
         raise StudyError(f"{where}: imu must be one of {', '.join(IMU_CHOICES)}, got {imu!r}")
     options = {k: _tuples(v) for k, v in entry.items() if k in allowed}
     for key, value in options.items():
-        if isinstance(value, bool | str | Mapping):  # a tuple for baro_channels
+        if isinstance(value, bool | Mapping) or (isinstance(value, str)
+                                                 and key not in TEXT_FIELDS):
             raise StudyError(f"{where}: sensor-suite option {key} = {value!r} has the "
                              "wrong type")
     for key, value in options.items():  # rates, ranges and sd: finite numbers >= 0
-        if key in ("baro_channels", "offsets_s"):
+        if key in NAME_LISTS + TEXT_FIELDS:
             continue
         numbers = value if isinstance(value, tuple) else (value,)
         if not all(isinstance(v, int | float) and not isinstance(v, bool)

@@ -219,3 +219,20 @@ def test_passive_scenario_refuses_an_actuator(tmp_path):
     bad.write_text(text + "\n[actuator]\ncommand_amplitude = 0.5\n")
     with pytest.raises(AirframeError, match=r'bad.toml: \[actuator\] with a passive fin'):
         load_scenario(bad)
+
+
+def test_study_suite_takes_the_flight_computer_options(rocket):
+    from aeroid.errors import StudyError
+    from aeroid.study._suite import suite_condition
+
+    entry = {"model": "suite", "imu_rate_hz": 100.0, "fin_rate_hz": 0.0, "ins_rate_hz": 10.0,
+             "baro_rate_hz": 20.0, "imu_mounting": "x=-y, y=x, z=z",
+             "gnss_channels": ["pn", "pe", "pd"], "baro_channels": ["pressure", "temperature"],
+             "baro_board_temperature_k": 305.0}
+    suite = suite_condition(entry, "fc", rocket, "study").suite
+    assert suite.imu_mounting == "x=-y, y=x, z=z"
+    assert suite.gnss_channels == ("pn", "pe", "pd") and suite.baro_board_temperature_k == 305
+    with pytest.raises(StudyError, match="gnss_rate_hz = '10' has the wrong type"):
+        suite_condition({**entry, "gnss_rate_hz": "10"}, "fc", rocket, "study")
+    with pytest.raises(StudyError, match="imu_mounting / imu_angles_deg"):
+        suite_condition({**entry, "imu_mounting": "x=-y, y=x, z=-z"}, "fc", rocket, "study")
