@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from aeroid.errors import FlightError
+from aeroid.errors import AirframeError, FlightError
 
 #: What a baro group's ``temperature`` channel measures (``[groups.baro] temperature``).
 TEMPERATURE_SOURCES = ("air", "board")
@@ -48,3 +48,22 @@ def read_temperature_source(table: Mapping[str, Any], channels: Mapping[str, Any
         raise FlightError(f"{where}: temperature = {value!r} but the group has no "
                           "temperature column")
     return str(value)
+
+
+def check_flight_computer(gnss_channels: tuple[str, ...], baro_channels: tuple[str, ...],
+                          board_temperature_k: float | None) -> None:
+    """Check a simulated suite's GNSS channels and board temperature.
+
+    Raises
+    ------
+    AirframeError
+        One line: GNSS channels not in :data:`GNSS_CHANNELS`, or a board temperature
+        with a barometer that logs no temperature (it would be ignored).
+    """
+    if tuple(gnss_channels) not in GNSS_CHANNELS:
+        raise AirframeError(f"sensor suite: gnss_channels must be one of {GNSS_CHANNELS}, "
+                            f"got {gnss_channels}")
+    if board_temperature_k is not None and "temperature" not in baro_channels:
+        raise AirframeError(f"sensor suite: baro_board_temperature_k needs a temperature "
+                            f"channel (baro_channels = (\"pressure\", \"temperature\")), got "
+                            f"{baro_channels}")

@@ -45,7 +45,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from aeroid.errors import AirframeError, FlightError
-from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS
+from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS, check_flight_computer
 from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
@@ -133,8 +133,8 @@ class SensorSuite:
             raise AirframeError(f"sensor suite: baro_channels must be one of "
                                 f"{', '.join(map(str, BARO_CHANNELS))}, got "
                                 f"{self.baro_channels}")
-        if tuple(self.gnss_channels) not in GNSS_CHANNELS:
-            raise AirframeError(f"sensor suite: gnss_channels must be one of {GNSS_CHANNELS}")
+        check_flight_computer(self.gnss_channels, self.baro_channels,
+                              self.baro_board_temperature_k)
         unknown = sorted({g for g, _ in self.offsets_s} - set(GROUPS))
         if unknown:
             raise AirframeError(f"sensor suite: offsets_s names unknown group(s) {unknown}")
@@ -361,12 +361,13 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     groups = {"imu": mounted_group("imu", t.copy(), imu, sd_imu,
                                    float(dict(suite.offsets_s).get("imu", 0.0)),
                                    "simulated imu", mounting, ranges)}
-    if suite.baro_board_temperature_k is not None:  # a flight computer's own temperature
-        table["temperature"] = np.full(n, suite.baro_board_temperature_k)
+    baro = dict(table)  # the truth's air, or a flight computer's own (board) temperature
+    if suite.baro_board_temperature_k is not None:
+        baro["temperature"] = np.full(n, suite.baro_board_temperature_k)
     aiding = {"gnss": ({c: table[c] for c in suite.gnss_channels},
                        {**{c: suite.gnss_velocity_sd_mps for c in ("vn", "ve", "vd")},
                         **{c: suite.gnss_position_sd_m for c in ("pn", "pe", "pd")}}),
-              "baro": ({c: table[c] for c in suite.baro_channels},
+              "baro": ({c: baro[c] for c in suite.baro_channels},
                        {"altitude": suite.baro_altitude_sd_m,
                         "pressure": suite.baro_pressure_sd_pa,
                         "temperature": suite.baro_temperature_sd_k}),

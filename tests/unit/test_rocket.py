@@ -97,6 +97,8 @@ def test_board_temperature_is_not_the_air_density(board_log):
     baro = log["baro"]
     assert baro.temperature_of == "board"
     assert abs(np.mean(baro.channels["temperature"]) - 305.0) < 0.1  # the board's, not ISA
+    np.testing.assert_allclose(board_log.truth["temperature"],  # the truth keeps the air's
+                               isa_temperature(board_log.truth["altitude"]), rtol=1e-12)
     rec = reconstruct(log)
     assert rec.metadata["density"] == "isa"
     assert any('temperature = "board"' in n and "not used" in n for n in rec.notes)
@@ -145,7 +147,9 @@ def test_suite_refuses_bad_flight_computer_options():
     with pytest.raises(AirframeError, match="gnss_channels must be one of"):
         SensorSuite(gnss_channels=("vn", "pn"))
     with pytest.raises(AirframeError, match="baro_board_temperature_k must be a positive"):
-        SensorSuite(baro_board_temperature_k=-3.0)
+        SensorSuite(baro_channels=("pressure", "temperature"), baro_board_temperature_k=-3.0)
+    with pytest.raises(AirframeError, match="baro_board_temperature_k needs a temperature"):
+        SensorSuite(baro_board_temperature_k=305.0)  # the default baro logs an altitude
 
 
 # GNSS positions only -----------------------------------------------------------------
