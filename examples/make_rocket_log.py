@@ -17,7 +17,7 @@ flight computer (:class:`aeroid.flights.SensorSuite`):
 
 One CSV per group and ``rocket.toml`` describing them; its airframe
 ``rocket-airframe.toml`` is the rocket's with ``fin = "passive"`` and the design tool's
-prediction as ``[prior]`` (the starting point of every fit). Run from the repository
+prediction as ``[prior]`` (the scenario's; the starting point of every fit). Run from the repository
 root::
 
     python examples/make_rocket_log.py [FOLDER] [--seed N] [--wrong-mounting]
@@ -32,7 +32,6 @@ import argparse
 from pathlib import Path
 
 from aeroid.flights import SensorSuite, load_scenario, simulate_suite, write_suite_log
-from aeroid.model import NAMES
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "studies" / "scenarios" / "rocket_coast.toml"
@@ -47,9 +46,6 @@ FLIGHT_COMPUTER = dict(
     ins_attitude_sd_rad=0.01)
 #: A proper rotation that is not the board's: two signs flipped (180 deg about z).
 WRONG_MOUNTING = "x=y, y=-x, z=z"
-#: The design tool's prediction (OpenRocket-like: 10-20 % from the truth).
-PRIOR = {"Cx": -0.50, "Cza": -9.0, "Czd": 0.0, "Czq": -90.0, "Cl0": 0.022, "Clp": -7.0,
-         "Cma": -13.0, "Cmd": 0.0, "Cmq": -1300.0}
 
 
 def make_log(folder: Path, seed: int = SEED, wrong_mounting: bool = False,
@@ -59,9 +55,7 @@ def make_log(folder: Path, seed: int = SEED, wrong_mounting: bool = False,
     suite = SensorSuite(**FLIGHT_COMPUTER)
     sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                          suite, rng=seed)
-    log = sim.log
-    airframe = log.airframe.replace(prior=tuple(PRIOR[n] for n in NAMES))
-    log = type(log)(log.groups, airframe, log.metadata, log.source)
+    log = sim.log  # its airframe is the scenario's, with the design tool's [prior]
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "rocket.toml"
     written = write_suite_log(log, path)
