@@ -121,20 +121,35 @@ def suite_flight(scenario: Scenario, condition: NoiseCondition,
                              scenario.manoeuvre, condition.suite,
                              rng=np.random.default_rng(seed))
         flight = reconstruct(sim.log).to_flight(imu=condition.imu)
-        if condition.imu == "raw":  # a corrected IMU's errors are what the correction left
-            flight = dataclasses.replace(flight, metadata={
-                **flight.metadata, "suite_errors": true_errors(sim.errors)})
+        mounting = condition.suite.mounting() if condition.suite else None
+        truth = true_errors(sim.errors, None if mounting is None else mounting.rotation)
+        if condition.imu == "raw" and truth is not None:  # corrected: what the correction
+            flight = dataclasses.replace(flight, metadata={  # left; not scored
+                **flight.metadata, "suite_errors": truth})
         _LATEST.clear()
         _LATEST[key] = flight
     return _LATEST[key]
 
 
-def true_errors(errors: Mapping[str, np.ndarray]) -> dict[str, float]:
-    """Return the drawn IMU errors by the estimators' names (``b``/``s`` + channel)."""
+def true_errors(errors: Mapping[str, np.ndarray], rotation: np.ndarray | None = None
+                ) -> dict[str, float] | None:
+    """Return the drawn IMU errors by the estimators' names (``b``/``s`` + channel).
+
+    The errors are drawn per sensor axis; with a board mounting (``rotation`` ``C``, sensor
+    to body) the body reading is ``C (1 + S) C^T truth + C b``: an axis map (a signed
+    permutation) gives the body biases ``C b`` and scale factors ``|C| s``. A rotation that
+    mixes axes has no body-axis scale factors: None (not scored).
+    """
     from aeroid.model import OUTPUT_CHANNELS
 
-    values = np.concatenate([np.ravel(errors["accel_bias"]), np.ravel(errors["gyro_bias"]),
-                             np.ravel(errors["accel_scale"]), np.ravel(errors["gyro_scale"])])
+    c = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    if not np.allclose(np.abs(c).sum(axis=1), 1.0, atol=1e-12):
+        return None
+    parts = {k: np.asarray(v, dtype=float) for k, v in errors.items()}
+    bias = {k: parts[k] @ c.T for k in ("accel_bias", "gyro_bias")}  # rows: C b
+    scale = {k: parts[k] @ np.abs(c).T for k in ("accel_scale", "gyro_scale")}
+    values = np.concatenate([np.ravel(bias["accel_bias"]), np.ravel(bias["gyro_bias"]),
+                             np.ravel(scale["accel_scale"]), np.ravel(scale["gyro_scale"])])
     names = [f"{p}{c}" for p in ("b", "s") for c in OUTPUT_CHANNELS]
     return dict(zip(names, values.tolist(), strict=True))
 

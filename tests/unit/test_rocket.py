@@ -240,3 +240,22 @@ def test_study_suite_takes_the_flight_computer_options(rocket):
         suite_condition({**entry, "gnss_rate_hz": "10"}, "fc", rocket, "study")
     with pytest.raises(StudyError, match="imu_mounting / imu_angles_deg"):
         suite_condition({**entry, "imu_mounting": "x=-y, y=x, z=-z"}, "fc", rocket, "study")
+
+
+def test_study_scores_a_mounted_imu_in_body_axes():
+    # the suite draws its errors per sensor axis; the fits estimate the body axes': with
+    # the board's x=-y, y=x, z=z, body ax reads -(sensor ay): bias -b_y, scale s_y
+    from aeroid.flights import axis_map
+    from aeroid.study._suite import true_errors
+
+    rng = np.random.default_rng(0)
+    errors = {"accel_bias": rng.normal(size=(2, 3)), "accel_scale": rng.normal(size=(2, 3)),
+              "gyro_bias": rng.normal(size=3), "gyro_scale": rng.normal(size=3)}
+    board = true_errors(errors, axis_map("x=-y, y=x, z=z").rotation)
+    assert board["bax1"] == -errors["accel_bias"][0, 1]
+    assert board["bay2"] == errors["accel_bias"][1, 0]
+    assert board["sax1"] == errors["accel_scale"][0, 1]
+    assert board["bp"] == -errors["gyro_bias"][1] and board["sr"] == errors["gyro_scale"][2]
+    assert true_errors(errors)["bax1"] == errors["accel_bias"][0, 0]  # unmounted: as drawn
+    c = 2.0 ** -0.5
+    assert true_errors(errors, np.array([[c, -c, 0], [c, c, 0], [0, 0, 1.0]])) is None
