@@ -269,6 +269,9 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
     airframe = Airframe.from_dict(data, source=source, other_tables=SCENARIO_TABLES)
     act = fileform.check_table(data.get("actuator", {}), f"{source}: [actuator]")
     fileform.check_keys(act, ACTUATOR_KEYS, f"{source}: [actuator]")
+    if act and airframe.fin == "passive":
+        raise AirframeError(f'{source}: [actuator] with a passive fin (fin = "passive"): the '
+                            "fins do not move and the simulator flies no fin law; drop it")
     init = fileform.check_table(data.get("initial_state", {}), f"{source}: [initial_state]")
     fileform.check_keys(init, (*_STATE_KEYS, "mass_scale"), f"{source}: [initial_state]",
                         required=_STATE_KEYS)

@@ -23,6 +23,8 @@ def manoeuvre_metadata(manoeuvre: Manoeuvre) -> dict[str, float | list[float]]:
 
 def actuator_metadata(manoeuvre: Manoeuvre, airframe: Airframe) -> dict[str, object]:
     """The true fin law (the ``[fin_law]`` table's form) and how it was evaluated."""
+    if airframe.fin == "passive":
+        return {"fin": "passive"}
     table: dict[str, object] = dict(manoeuvre.fin_law(airframe.delta_max_rad).to_table())
     table["evaluation"] = manoeuvre.evaluation
     if manoeuvre.control_rate_hz is not None:

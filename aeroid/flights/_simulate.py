@@ -30,8 +30,6 @@ switch instants inside the truth takes constants only: refused in one line).
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
 from aeroid.errors import AirframeError
@@ -40,6 +38,7 @@ from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
 from aeroid.flights._sim_metadata import actuator_metadata, manoeuvre_metadata, switch_metadata
+from aeroid.flights._truth import Truth, passive_truth
 from aeroid.model import (
     PHI,
     PSI,
@@ -58,35 +57,6 @@ from aeroid.model import (
     rk4_step,
     state_derivative,
 )
-
-
-class Truth(NamedTuple):
-    """A simulated truth from t = 0 (:func:`simulate_truth`).
-
-    Attributes
-    ----------
-    t : ndarray, shape (n,)
-        Sample times ``k dt`` [s].
-    states : ndarray, shape (n, 9)
-        True states at the samples.
-    delta : ndarray, shape (n,)
-        Fin deflection at each sample [rad] (after a jump at the sample).
-    schedule : Schedule
-        The true fin deflection from t = 0.
-    command_t, command_delta : ndarray, shape (m,)
-        Commanded switch instants [s] (before the actuator delay) and the command after
-        each [rad].
-    wind : ndarray, shape (n, 3), or None
-        The wind at each sample, NED [m/s] (steady plus gusts); None: still air.
-    """
-
-    t: np.ndarray
-    states: np.ndarray
-    delta: np.ndarray
-    schedule: Schedule
-    command_t: np.ndarray
-    command_delta: np.ndarray
-    wind: np.ndarray | None = None
 
 
 def _latched(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoeuvre,
@@ -163,6 +133,8 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
     rate limit, in still air, is supported then (anything else: one-line error).
     ``rng``: the source of the manoeuvre's Dryden gusts (required with turbulence,
     unused otherwise).
+    A passive-fin airframe (``fin = "passive"``) has no relay: its deflection is 0 and
+    the manoeuvre's fin law is not used.
 
     Returns
     -------
@@ -172,6 +144,11 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
         shape (n, 9), and the fin deflection at each sample [rad], shape (n,).
     """
     airframe = manoeuvre.flown(airframe)  # the true mass (Manoeuvre.mass_scale)
+    if airframe.fin == "passive":
+        if tables is not None or manoeuvre.wind is not None:
+            raise AirframeError("simulate: a passive-fin airframe is simulated in still air "
+                                "with constant coefficients only (no tables, no wind)")
+        return passive_truth(airframe, coefficients, manoeuvre, backend)
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     plain = (manoeuvre.evaluation == "latched" and law.delay_s == 0
              and law.rate_limit_dps is None)

@@ -7,8 +7,10 @@ truth (the model has no position states): the NED velocity ``C_nb(phi, theta, ps
 w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
 The barometer reads pressure altitude ``h0 - down`` with ``h0`` the airframe's
 ``[atmosphere] altitude_m`` (or, ``baro_channels``, the ISA pressure and temperature of
-it); note that the model's dynamics hold the density of ``h0``
-constant, so an ISA density of the logged altitude differs from the truth's by the climb.
+it; ``baro_board_temperature_k``: a flight computer's own temperature, constant, instead
+of the air's); the model's dynamics hold the density of ``h0`` constant, so an ISA density
+of the logged altitude differs from the truth's by the climb. ``gnss_channels``: NED
+velocity and position, or position only.
 
 Sampling. Each group samples the truth at its own rate, every ``imu_rate / rate``-th IMU
 instant (so the rates must divide the IMU rate; a group's ``offset_s`` shifts its logged
@@ -25,12 +27,11 @@ positions (eq. 28) with the fin deflection at the sample. INS angles are wrapped
 (-pi, pi] after the noise.
 
 Board mounting (``imu_mounting``, ``imu_angles_deg``): the IMU reads in the board's axes,
-``v_sensor = C^T v_body`` with ``C`` the rotation from sensor to body axes
-(:mod:`aeroid.flights._mounting`), and its errors, noise and range are the sensor axes'
-(so the drawn ``errors`` are per sensor axis). Range (``accel_range_mps2``,
-``gyro_range_radps``): a reading is clipped to +-range, as a real IMU's full scale. The
-log's imu group then holds the body axes (the mounting applied, as on reading a file)
-with the readings as logged in ``sensor_channels`` and the saturated samples marked.
+``v_sensor = C^T v_body`` (``C`` from sensor to body axes, :mod:`._mounting`); its errors,
+noise and range are the sensor axes'. Range (``accel_range_mps2``, ``gyro_range_radps``):
+a reading is clipped to +-range. The log's imu group holds the body axes (the mounting
+applied, as on reading a file), the readings as logged in ``sensor_channels`` and the
+saturated samples marked.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from aeroid.errors import AirframeError, FlightError
+from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS, check_flight_computer
 from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
@@ -81,6 +83,8 @@ class SensorSuite:
 
     Ranges ``(low, high)`` are magnitudes drawn uniformly, with a random sign, once per
     flight for every axis; noise sd are per sample. A rate of 0 leaves the group out.
+    ``gnss_channels``: one of :data:`GNSS_CHANNELS`; ``baro_board_temperature_k``: the
+    temperature channel is the board's, constant at that value [K] (module docstring).
     """
 
     imu_rate_hz: float = 1000.0
@@ -106,6 +110,8 @@ class SensorSuite:
     imu_angles_deg: tuple[float, ...] = ()
     accel_range_mps2: float | None = None
     gyro_range_radps: float | None = None
+    gnss_channels: tuple[str, ...] = GNSS_CHANNELS[0]
+    baro_board_temperature_k: float | None = None
 
     def __post_init__(self) -> None:
         if not self.imu_rate_hz > 0:
@@ -127,11 +133,13 @@ class SensorSuite:
             raise AirframeError(f"sensor suite: baro_channels must be one of "
                                 f"{', '.join(map(str, BARO_CHANNELS))}, got "
                                 f"{self.baro_channels}")
+        check_flight_computer(self.gnss_channels, self.baro_channels,
+                              self.baro_board_temperature_k)
         unknown = sorted({g for g, _ in self.offsets_s} - set(GROUPS))
         if unknown:
             raise AirframeError(f"sensor suite: offsets_s names unknown group(s) {unknown}")
         self.mounting()  # refuses an improper one
-        for name in ("accel_range_mps2", "gyro_range_radps"):
+        for name in ("accel_range_mps2", "gyro_range_radps", "baro_board_temperature_k"):
             value = getattr(self, name)
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise AirframeError(f"sensor suite: {name} must be a positive number or "
@@ -149,12 +157,6 @@ class SensorSuite:
         """The IMU's stated ranges by the suite log's keys (``accel_range``, ``gyro_range``)."""
         given = {"accel_range": self.accel_range_mps2, "gyro_range": self.gyro_range_radps}
         return {k: float(v) for k, v in given.items() if v is not None}
-
-
-#: What a suite's barometer may log: a pressure altitude, or the static pressure with or
-#: without the air temperature (ISA of the true altitude).
-BARO_CHANNELS: tuple[tuple[str, ...], ...] = (("altitude",), ("pressure",),
-                                               ("pressure", "temperature"))
 
 
 class SuiteSimulation(NamedTuple):
@@ -260,8 +262,7 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     """Log a given truth trajectory through a sensor suite (module docstring).
 
     The sensor layer alone, shared by :func:`simulate_suite` and any other source of a
-    truth (another simulator): the errors and noise are drawn and the groups sampled
-    exactly as there.
+    truth (another simulator), drawing and sampling exactly as there.
 
     Parameters
     ----------
@@ -274,12 +275,9 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     specific_force : ndarray, shape (n, 2, 3)
         True specific force at each accelerometer triad's position [m/s^2].
     airframe : Airframe
-        Accelerometer positions; ``altitude_m`` is the barometer's altitude at the NED
-        origin (needed with a barometer).
-    suite : SensorSuite, optional
-        Default :class:`SensorSuite()`.
-    rng : numpy.random.Generator or int, optional
-        Source of every draw (sensor errors first, then the noise, group by group).
+        Accelerometer positions; ``altitude_m``: the barometer's altitude at the origin.
+    suite, rng
+        As :func:`simulate_suite`.
     position : ndarray, shape (n, 3), optional
         NED position [m]; default the NED velocity integrated by the trapezoid rule from
         the origin at ``t[0]``.
@@ -364,10 +362,13 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
     groups = {"imu": mounted_group("imu", t.copy(), imu, sd_imu,
                                    float(dict(suite.offsets_s).get("imu", 0.0)),
                                    "simulated imu", mounting, ranges)}
-    aiding = {"gnss": ({c: table[c] for c in GROUPS["gnss"]},
+    baro = dict(table)  # the truth's air, or a flight computer's own (board) temperature
+    if suite.baro_board_temperature_k is not None:
+        baro["temperature"] = np.full(n, suite.baro_board_temperature_k)
+    aiding = {"gnss": ({c: table[c] for c in suite.gnss_channels},
                        {**{c: suite.gnss_velocity_sd_mps for c in ("vn", "ve", "vd")},
                         **{c: suite.gnss_position_sd_m for c in ("pn", "pe", "pd")}}),
-              "baro": ({c: table[c] for c in suite.baro_channels},
+              "baro": ({c: baro[c] for c in suite.baro_channels},
                        {"altitude": suite.baro_altitude_sd_m,
                         "pressure": suite.baro_pressure_sd_pa,
                         "temperature": suite.baro_temperature_sd_k}),
@@ -395,5 +396,6 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
 def _group(name: str, t: np.ndarray, channels: dict[str, np.ndarray],
            noise_sd: dict[str, float], suite: SensorSuite) -> SensorGroup:
     offset = dict(suite.offsets_s).get(name, 0.0)
+    board = name == "baro" and suite.baro_board_temperature_k is not None
     return SensorGroup(name, t.copy(), channels, noise_sd, float(offset),
-                       f"simulated {name}")
+                       f"simulated {name}", temperature_of="board" if board else "air")

@@ -19,21 +19,22 @@ its CSV file, its time column and unit, a time offset, and a column map with uni
 
 The groups and their channels are :data:`GROUPS` (``imu``: two accelerometer triads and
 three gyros, body axes; ``gnss``: NED velocity and position from the origin, flat
-Earth; ``baro``: pressure altitude, or static pressure (Pa, hPa, mbar, psi) and air
-temperature (K, degC); ``ins``: Euler attitude, possibly wrapped; ``fin``:
-fin deflection). The ``imu`` group may state its mounting (a ``[groups.imu.mounting]``
-table: the rotation from the sensor's axes to the body's and the triads' positions) and
-its range (``accel_range`` [m/s^2], ``gyro_range`` [rad/s]): :mod:`._mounting`; the
-mounting is applied on reading, so the groups hold body axes, and the one-line notices
-(``SuiteLog.metadata["notes"]``) say what was applied and how many samples saturated.
-Units are converted to SI (radians) on reading (:data:`UNITS`). An
-optional ``[truth]`` table of numbers and lists (a simulator's sensor errors) is kept as
-metadata. Every bad input is a one-line :class:`~aeroid.errors.FlightError` naming the
-file and column.
+Earth; ``baro``: pressure altitude, or static pressure (Pa, hPa, mbar, psi) and a
+temperature (K, degC; the air's, or ``temperature = "board"``: :mod:`._flight_computer`);
+``ins``: Euler attitude, possibly wrapped; ``fin``: fin deflection). The ``imu`` group may
+state its mounting (a ``[groups.imu.mounting]`` table: the rotation from the sensor's
+axes to the body's and the triads' positions) and its range (``accel_range`` [m/s^2],
+``gyro_range`` [rad/s]): :mod:`._mounting`; the mounting is applied on reading, so the
+groups hold body axes, and the one-line notices (``SuiteLog.metadata["notes"]``) say what
+was applied and how many samples saturated. Units are converted to SI (radians) on
+reading (:data:`UNITS`). An optional ``[truth]`` table of numbers and lists (a
+simulator's sensor errors) is kept as metadata. Every bad input is a one-line
+:class:`~aeroid.errors.FlightError` naming the file and column.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Mapping
@@ -46,6 +47,7 @@ import pandas as pd
 
 from aeroid.errors import AeroidError, FlightError
 from aeroid.flights._columns import UNIT_FACTORS
+from aeroid.flights._flight_computer import BARO_KEYS, read_temperature_source
 from aeroid.flights._mounting import (
     RANGE_KEYS,
     TRIADS,
@@ -125,6 +127,8 @@ class SensorGroup:
         :func:`write_suite_log`.
     notes : tuple of str
         One line each: the mounting applied, the samples saturated per range.
+    temperature_of : {"air", "board"}
+        What a baro group's ``temperature`` measures (:mod:`._flight_computer`).
     """
 
     name: str
@@ -138,6 +142,7 @@ class SensorGroup:
     saturated: dict[str, np.ndarray] = field(default_factory=dict)
     sensor_channels: dict[str, np.ndarray] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    temperature_of: str = "air"
 
     @property
     def n_saturated(self) -> int:
@@ -217,7 +222,8 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
         raise FlightError(f"{where}: unknown group {name!r} (known: {', '.join(GROUPS)})")
     if not isinstance(table, Mapping):
         raise FlightError(f"{where} must be a table")
-    extra = sorted(set(table) - set(_GROUP_KEYS) - set(_IMU_KEYS if name == "imu" else ()))
+    extra = sorted(set(table) - set(_GROUP_KEYS) - set(_IMU_KEYS if name == "imu" else ())
+                   - set(BARO_KEYS if name == "baro" else ()))
     if name != "imu" and set(table) & set(_IMU_KEYS):
         raise FlightError(f"{where}: {', '.join(sorted(set(table) & set(_IMU_KEYS)))} "
                           "only in [groups.imu] (the other groups' values are not in a "
@@ -267,9 +273,10 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
             raise FlightError(f"{where}.noise_sd.{channel} must be a positive number (SI)")
         noise_sd[channel] = float(sd)
     mounting = read_mounting(table["mounting"], where) if "mounting" in table else None
-    ranges = read_ranges(table, where)
-    return mounted_group(name, t + float(offset), channels, noise_sd, float(offset), str(file),
-                         mounting, ranges)
+    group = mounted_group(name, t + float(offset), channels, noise_sd, float(offset),
+                          str(file), mounting, read_ranges(table, where))
+    return dataclasses.replace(group, temperature_of=read_temperature_source(
+        table if name == "baro" else {}, channels, where))
 
 
 def mounted_group(name: str, t: np.ndarray, sensor: dict[str, np.ndarray],
@@ -345,6 +352,7 @@ def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
         lines += [f"[groups.{name}]", f"file = {json.dumps(file.name)}", 'time = ["t", "s"]',
                   f"offset_s = {group.offset_s!r}"]
         lines += [f"{key} = {value!r}" for key, value in group.ranges.items()]
+        lines += [f'temperature = "{group.temperature_of}"'] * ("temperature" in logged)
         lines += ["", f"[groups.{name}.columns]"]
         lines += [f'{c} = ["{c}", "{SI_UNITS[c]}"]' for c in logged] + [""]
         if group.mounting is not None:
@@ -366,9 +374,8 @@ def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
 def _sensor_sd(group: SensorGroup) -> dict[str, float]:
     """The noise sd of the logged (sensor-axis) channels.
 
-    Unmounted, or mounted by an axis map (each body axis one sensor axis): the sd of the
-    body channel the sensor axis enters. A general rotation mixes them: its sd must be one
-    per triad to be written back (refused otherwise).
+    Unmounted, or mounted by an axis map: the sd of the body channel the sensor axis
+    enters. A general rotation mixes them: one sd per triad, else refused.
     """
     if group.mounting is None:
         return dict(group.noise_sd)

@@ -7,8 +7,10 @@ residual check is in the sensor's own unit), and the prior's altitude is the ISA
 altitude of the first sample. The density is ``rho = p / (R T)``: ``p`` the ISA pressure
 of the reconstructed altitude at each IMU sample, ``T`` the logged temperature linear
 between its samples (held beyond them); without a temperature channel, the ISA density
-of the pressure altitude (a note says which). :func:`flight_atmosphere` passes the
-density on to a reconstruction's flight.
+of the pressure altitude (a note says which). A temperature the log declares the board's
+(``[groups.baro] temperature = "board"``: a flight computer's barometer) is not the air's:
+the density is then the ISA density of the pressure altitude, and the note says why.
+:func:`flight_atmosphere` passes the density on to a reconstruction's flight.
 """
 
 from __future__ import annotations
@@ -73,6 +75,11 @@ def baro_density(log: SuiteLog, t: np.ndarray, altitude: np.ndarray,
                  notes: list[str]) -> np.ndarray | None:
     """Return ``p / (R T)`` at the IMU times ``t`` [kg/m^3], or None without a temperature."""
     group = log["baro"]
+    if group.temperature_of == "board":
+        notes.append('density: ISA at the reconstructed pressure altitude (the baro '
+                     'temperature is the board\'s, temperature = "board": not the air\'s, '
+                     'not used)')
+        return None
     if "temperature" not in group.channels:
         notes.append("density: ISA at the reconstructed pressure altitude (no baro "
                      "temperature)")
@@ -82,7 +89,8 @@ def baro_density(log: SuiteLog, t: np.ndarray, altitude: np.ndarray,
         raise FlightError(f"{group.source}: temperature must be above 0 K (min "
                           f"{float(np.min(group.channels['temperature'])):.6g} K)")
     notes.append("density: rho = p / (R T), p the ISA pressure of the reconstructed pressure "
-                 "altitude, T the baro temperature linear between its samples")
+                 "altitude, T the baro temperature (the outside air's; a board's says "
+                 'temperature = "board") linear between its samples')
     return isa_pressure(altitude) / (R_AIR * temperature)
 
 

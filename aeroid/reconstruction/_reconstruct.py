@@ -2,11 +2,10 @@
 
 :func:`reconstruct` runs the kinematic EKF and RTS smoother (:mod:`._filter`,
 :mod:`._kinematics`) driven by the log's IMU, aided by whatever of GNSS velocity and
-position, barometric altitude and INS attitude it holds (each channel used needs its
-``noise_sd`` in the log: nothing is assumed). The result's table is at the IMU's rate;
-:meth:`Reconstruction.to_flight` makes aeroid's single-rate :class:`~aeroid.flights.Flight`
-of it (corrected or raw IMU channels, reconstructed states, the fin held from its own
-clock).
+position (or position only: :mod:`._gnss`), barometric altitude and INS attitude it holds
+(each channel used needs its ``noise_sd``: nothing is assumed). The table is at the IMU's
+rate; :meth:`Reconstruction.to_flight` makes a single-rate :class:`~aeroid.flights.Flight`
+of it (corrected or raw IMU channels, reconstructed states, the fin from its own clock).
 """
 
 from __future__ import annotations
@@ -31,6 +30,7 @@ from aeroid.reconstruction._barometer import (
     flight_atmosphere,
 )
 from aeroid.reconstruction._filter import Aiding, run
+from aeroid.reconstruction._gnss import gnss_track_start
 from aeroid.reconstruction._kinematics import (
     ACCEL_BIAS,
     ACCEL_SCALE,
@@ -45,7 +45,7 @@ from aeroid.reconstruction._kinematics import (
     VEL,
     ned_velocity,
 )
-from aeroid.reconstruction._sensors import mounted_positions, saturated_samples
+from aeroid.reconstruction._sensors import held_fin, mounted_positions, saturated_samples
 
 Model = Callable[[np.ndarray], np.ndarray]
 #: Savitzky-Golay window [samples] and order of the gyro derivative (the lever-arm term).
@@ -71,9 +71,7 @@ class Reconstruction:
     table : pandas.DataFrame
         At the IMU's times: ``t``, every state of :data:`STATES` and its sd (``sd_NAME``),
         the corrected IMU channels ``ax1 ... r``, ``altitude`` and ``rho`` (with a
-        barometer: ``p / (R T)`` when it logs pressure and temperature, else the ISA
-        density of the reconstructed altitude; ``metadata['density']`` says which,
-        ``"barometer"`` or ``"isa"``).
+        barometer; ``metadata['density']``: ``"barometer"``, ``p / (R T)``, or ``"isa"``).
     covariance : ndarray, shape (n, N, N)
         Smoothed state covariance.
     nis : dict
@@ -141,12 +139,12 @@ class Reconstruction:
             raise FlightError(f"{where}: imu must be 'corrected' or 'raw', got {imu!r}")
         if imu == "raw" and self.raw_imu is None:
             raise FlightError(f"{where}: this reconstruction holds no raw IMU readings")
-        if self.fin is None:
+        if self.fin is None and self.airframe.fin != "passive":
             raise FlightError(f"{where}: no fin group: a Flight needs the fin deflection")
         tab = self.table
         channels = {c: tab[c].to_numpy() for c in ("t", *IMU_CHANNELS, "u", "v", "w", "phi",
                                                    "theta", "psi")}
-        channels["delta"] = _held(self.fin, tab["t"].to_numpy(), self.metadata)
+        channels["delta"], fin_note = held_fin(self.fin, tab["t"].to_numpy(), self.metadata)
         imu_note = "IMU: corrected by the reconstruction's biases and scale factors"
         if imu == "raw":
             assert self.raw_imu is not None  # checked above
@@ -155,20 +153,10 @@ class Reconstruction:
                         "output-error imu_errors)")
         airframe, density_note = flight_atmosphere(atmosphere, self.table, self.airframe,
                                                    self.metadata, channels)
-        notes = [*self.notes, imu_note, density_note]
+        notes = [*self.notes, imu_note, density_note, *([fin_note] if fin_note else [])]
         first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
         return make_flight(channels, airframe, {**self.metadata, "notes": notes,
                                                 "initial_state_sd": first_sd})
-
-
-def _held(fin: tuple[np.ndarray, np.ndarray], t: np.ndarray, meta: dict[str, Any]
-          ) -> np.ndarray:
-    ft, delta = fin
-    k = np.searchsorted(ft, t + 1e-9 * (t[1] - t[0]), side="right") - 1
-    if k[0] < 0:
-        raise FlightError(f"{meta.get('source', 'suite log')}: the fin log starts at "
-                          f"{ft[0]:.6g} s, after the IMU's first sample at {t[0]:.6g} s")
-    return delta[k]
 
 
 def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
@@ -232,7 +220,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     notes += [f"specific force at the c.g.: mean of the two triads at {lever.tolist()} m, "
              "lever-arm terms from the corrected gyros and their Savitzky-Golay derivative",
              "no wind state: u v w are over the ground (no air data in a suite log)"]
-    used: dict[str, int] = {}
+    used: dict[str, Any] = {}
     x0, p0 = _prior(log, t, imu, used, notes, accel_bias_sd, gyro_bias_sd, scale_sd,
                     initial_attitude, initial_velocity, initial_sd)
     aidings = _aidings(log, t, notes, used)
@@ -288,7 +276,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
                           tuple(notes), airframe, fin, meta, imu.copy(), innovation_tables)
 
 
-def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int]
+def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, Any]
              ) -> list[Aiding]:
     """Return the aiding sources, leaving out each sample that set the initial state."""
     dt = float(np.median(np.diff(t)))
@@ -322,8 +310,8 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, int
                          "not used")
         if name in used:
             inside[used[name]] = False
-            notes.append(f"{name}: the sample at {group.t[used[name]]:.6g} s set the initial "
-                         "state and is not used again")
+            notes.append(f"{name}: {np.size(used[name])} sample(s) near t[0] set the initial "
+                         "state and are not used again")
         full = models[name]
         out.append(Aiding(name, index[inside], lead[inside],
                           np.column_stack([group.channels[c] for c in present])[inside],
@@ -341,7 +329,7 @@ def _subset(full: Model, rows: list[int]) -> Model:
     return model
 
 
-def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
+def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, Any],
            notes: list[str], accel_bias_sd: float, gyro_bias_sd: float, scale_sd: float,
            initial_attitude: Any, initial_velocity: Any, initial_sd: tuple[float, float]
            ) -> tuple[np.ndarray, np.ndarray]:
@@ -372,17 +360,22 @@ def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, int],
         sd[ATT] = PRIOR_INFLATION * ins_sd + np.abs(imu[0, 6:]) * abs(lead)
     else:
         raise FlightError(f"{log.source}: no INS attitude: give initial_attitude")
+    track = (gnss_track_start(log, float(t[0]), used, notes) if initial_velocity is None
+             else None)
     if initial_velocity is not None:
         x0[VEL], sd[VEL] = initial_velocity, vel_sd
     elif (gnss_v := first("gnss", ("vn", "ve", "vd"))) is not None:
-        c = body_to_ned(*x0[ATT])
-        x0[VEL] = c.T @ gnss_v[0]
+        x0[VEL] = body_to_ned(*x0[ATT]).T @ gnss_v[0]
         sd[VEL] = (PRIOR_INFLATION * gnss_v[2] + np.linalg.norm(gnss_v[0]) * sd[ATT].max()
                    + 50.0 * abs(gnss_v[1]))  # 50 m/s^2: a bound on the change until t[0]
+    elif track is not None:  # GNSS positions only
+        x0[VEL] = body_to_ned(*x0[ATT]).T @ track.velocity
+        sd[VEL] = track.velocity_sd.max() + np.linalg.norm(track.velocity) * sd[ATT].max()
     else:
         raise FlightError(f"{log.source}: no GNSS velocity: give initial_velocity")
-    gnss_p = first("gnss", ("pn", "pe", "pd"))
-    if gnss_p is not None:
+    if initial_velocity is None and track is not None:
+        x0[POS], sd[POS] = track.position, track.position_sd
+    elif (gnss_p := first("gnss", ("pn", "pe", "pd"))) is not None:
         x0[POS] = gnss_p[0] - body_to_ned(*x0[ATT]) @ x0[VEL] * gnss_p[1]
         sd[POS] = PRIOR_INFLATION * gnss_p[2] + abs(gnss_p[1]) * sd[IX["u"]]
     else:

@@ -3,13 +3,17 @@
 :func:`mounted_positions`: the imu mounting's triad positions become the airframe's
 (eq. 28's positions, for the reconstruction's lever arm and the estimators' model);
 :func:`saturated_samples`: saturated IMU readings get a larger sd in the kinematics and
-are named for the estimators, which leave them out of their likelihood.
+are named for the estimators, which leave them out of their likelihood;
+:func:`held_fin`: the fin group held at the IMU's times (none with a passive fin).
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from aeroid.errors import FlightError
 from aeroid.flights import SensorGroup
 from aeroid.model import Airframe
 from aeroid.reconstruction._kinematics import IMU_CHANNELS
@@ -68,3 +72,30 @@ def saturated_samples(imu: SensorGroup, imu_sd: np.ndarray, notes: list[str]
                  "their sd; left out of the estimators' likelihood (flight metadata "
                  "'saturated')")
     return saturated, sd
+
+
+#: What :func:`held_fin` does without a fin group for a passive-fin airframe.
+PASSIVE_FIN_NOTE = ('fin: passive (airframe fin = "passive"), no fin group: the deflection '
+                    "is 0 and the fin terms Czd, Cmd are held at 0")
+
+
+def held_fin(fin: tuple[np.ndarray, np.ndarray] | None, t: np.ndarray, meta: dict[str, Any]
+             ) -> tuple[np.ndarray, str | None]:
+    """Return the fin deflection held from its own clock at ``t`` [rad] and a note, if any.
+
+    ``fin`` is the fin group's ``(t, delta)``; None (a passive fin, checked by the caller)
+    gives a deflection of 0 and :data:`PASSIVE_FIN_NOTE`.
+
+    Raises
+    ------
+    FlightError
+        The fin log starts after the IMU's first sample.
+    """
+    if fin is None:
+        return np.zeros(len(t)), PASSIVE_FIN_NOTE
+    ft, delta = fin
+    k = np.searchsorted(ft, t + 1e-9 * (t[1] - t[0]), side="right") - 1
+    if k[0] < 0:
+        raise FlightError(f"{meta.get('source', 'suite log')}: the fin log starts at "
+                          f"{ft[0]:.6g} s, after the IMU's first sample at {t[0]:.6g} s")
+    return delta[k], None

@@ -103,6 +103,7 @@ def _reduce_finite(group: pd.DataFrame) -> pd.Series:
     good = group[group["success"]]
     err = good["error"].to_numpy(dtype=float)
     truth = float(group["truth"].iloc[0])
+    scale = abs(truth) if truth != 0.0 else np.nan  # no relative measure of a zero truth
     n_good = len(good)
     covered = good["covered"].dropna()
     return pd.Series({
@@ -113,12 +114,12 @@ def _reduce_finite(group: pd.DataFrame) -> pd.Series:
         "success_rate": n_good / len(group) if len(group) else np.nan,
         "mean_estimate": good["estimate"].mean() if n_good else np.nan,
         "bias": err.mean() if n_good else np.nan,
-        "bias_pct": err.mean() / abs(truth) * 100.0 if n_good else np.nan,
+        "bias_pct": err.mean() / scale * 100.0 if n_good else np.nan,
         "sd": good["estimate"].std(ddof=1) if n_good > 1 else np.nan,
-        "sd_pct": good["estimate"].std(ddof=1) / abs(truth) * 100.0 if n_good > 1 else np.nan,
+        "sd_pct": good["estimate"].std(ddof=1) / scale * 100.0 if n_good > 1 else np.nan,
         "mean_abs_error_pct": good["rel_error_pct"].mean() if n_good else np.nan,
         "rmse": float(np.sqrt(np.mean(err**2))) if n_good else np.nan,
-        "rmse_pct": float(np.sqrt(np.mean(err**2))) / abs(truth) * 100.0 if n_good else np.nan,
+        "rmse_pct": float(np.sqrt(np.mean(err**2))) / scale * 100.0 if n_good else np.nan,
         "n_stderr": len(covered),
         "coverage": float(covered.astype(float).mean()) if len(covered) else np.nan,
         "median_wall_time_s": group["wall_time_s"].median(),

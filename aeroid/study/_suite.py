@@ -36,6 +36,9 @@ from aeroid.study._spec import NoiseCondition
 #: Keys of a suite ``[[noise]]`` entry besides the SensorSuite fields.
 SUITE_KEYS = ("label", "model", "imu")
 IMU_CHOICES = ("raw", "corrected")
+#: SensorSuite fields given as text or lists of names (the others are numbers).
+TEXT_FIELDS = ("imu_mounting",)
+NAME_LISTS = ("baro_channels", "gnss_channels", "offsets_s")
 #: The issue's check: every fitted IMU error within this many standard errors of the truth.
 Z_LIMIT = 3.0
 
@@ -70,11 +73,12 @@ def suite_condition(entry: Mapping[str, Any], label: str, scenario: Scenario,
         raise StudyError(f"{where}: imu must be one of {', '.join(IMU_CHOICES)}, got {imu!r}")
     options = {k: _tuples(v) for k, v in entry.items() if k in allowed}
     for key, value in options.items():
-        if isinstance(value, bool | str | Mapping):  # a tuple for baro_channels
+        if isinstance(value, bool | Mapping) or (isinstance(value, str)
+                                                 and key not in TEXT_FIELDS):
             raise StudyError(f"{where}: sensor-suite option {key} = {value!r} has the "
                              "wrong type")
     for key, value in options.items():  # rates, ranges and sd: finite numbers >= 0
-        if key in ("baro_channels", "offsets_s"):
+        if key in NAME_LISTS + TEXT_FIELDS:
             continue
         numbers = value if isinstance(value, tuple) else (value,)
         if not all(isinstance(v, int | float) and not isinstance(v, bool)
@@ -117,20 +121,35 @@ def suite_flight(scenario: Scenario, condition: NoiseCondition,
                              scenario.manoeuvre, condition.suite,
                              rng=np.random.default_rng(seed))
         flight = reconstruct(sim.log).to_flight(imu=condition.imu)
-        if condition.imu == "raw":  # a corrected IMU's errors are what the correction left
-            flight = dataclasses.replace(flight, metadata={
-                **flight.metadata, "suite_errors": true_errors(sim.errors)})
+        mounting = condition.suite.mounting() if condition.suite else None
+        truth = true_errors(sim.errors, None if mounting is None else mounting.rotation)
+        if condition.imu == "raw" and truth is not None:  # corrected: what the correction
+            flight = dataclasses.replace(flight, metadata={  # left; not scored
+                **flight.metadata, "suite_errors": truth})
         _LATEST.clear()
         _LATEST[key] = flight
     return _LATEST[key]
 
 
-def true_errors(errors: Mapping[str, np.ndarray]) -> dict[str, float]:
-    """Return the drawn IMU errors by the estimators' names (``b``/``s`` + channel)."""
+def true_errors(errors: Mapping[str, np.ndarray], rotation: np.ndarray | None = None
+                ) -> dict[str, float] | None:
+    """Return the drawn IMU errors by the estimators' names (``b``/``s`` + channel).
+
+    The errors are drawn per sensor axis; with a board mounting (``rotation`` ``C``, sensor
+    to body) the body reading is ``C (1 + S) C^T truth + C b``: an axis map (a signed
+    permutation) gives the body biases ``C b`` and scale factors ``|C| s``. A rotation that
+    mixes axes has no body-axis scale factors: None (not scored).
+    """
     from aeroid.model import OUTPUT_CHANNELS
 
-    values = np.concatenate([np.ravel(errors["accel_bias"]), np.ravel(errors["gyro_bias"]),
-                             np.ravel(errors["accel_scale"]), np.ravel(errors["gyro_scale"])])
+    c = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    if not np.allclose(np.abs(c).sum(axis=1), 1.0, atol=1e-12):
+        return None
+    parts = {k: np.asarray(v, dtype=float) for k, v in errors.items()}
+    bias = {k: parts[k] @ c.T for k in ("accel_bias", "gyro_bias")}  # rows: C b
+    scale = {k: parts[k] @ np.abs(c).T for k in ("accel_scale", "gyro_scale")}
+    values = np.concatenate([np.ravel(bias["accel_bias"]), np.ravel(bias["gyro_bias"]),
+                             np.ravel(scale["accel_scale"]), np.ravel(scale["gyro_scale"])])
     names = [f"{p}{c}" for p in ("b", "s") for c in OUTPUT_CHANNELS]
     return dict(zip(names, values.tolist(), strict=True))
 

@@ -99,3 +99,23 @@ def test_all_failed_group_gives_nan_accuracy():
     summary = metrics.summarize(metrics.tidy([_record(0, None, None, success=False)]))
     assert (summary["success_rate"] == 0).all()
     assert summary[["bias", "mean_abs_error_pct", "rmse", "coverage"]].isna().all().all()
+
+
+def test_a_zero_truth_has_no_relative_measures():
+    # a passive fin's Czd, Cmd are 0 in the truth and held at 0 (issue 25): the absolute
+    # figures stand, the relative ones are NaN (not a ZeroDivisionError in the report)
+    truth = TRUTH.copy()
+    truth[NAMES.index("Czd")] = 0.0
+    recs = []
+    for run, offset in enumerate((0.1, -0.3)):
+        rec = _record(run, offset * np.ones(len(NAMES)), 0.1 * np.ones(len(NAMES)))
+        theta = np.array(rec["theta"])
+        theta[NAMES.index("Czd")] = offset  # an error of `offset` on a zero truth
+        recs.append({**rec, "truth": truth.tolist(), "theta": theta.tolist()})
+    summary = metrics.summarize(metrics.tidy(recs)).set_index("coefficient")
+    czd = summary.loc["Czd"]
+    assert czd["bias"] == pytest.approx(-0.1, abs=EXACT_TOL)
+    assert czd["rmse"] == pytest.approx(math.sqrt((0.1**2 + 0.3**2) / 2), abs=EXACT_TOL)
+    for column in ("bias_pct", "sd_pct", "rmse_pct"):
+        assert math.isnan(czd[column]), column
+    assert summary.loc["Cx", "rmse_pct"] == pytest.approx(math.sqrt(0.05) * 100, rel=1e-9)
