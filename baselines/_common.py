@@ -375,3 +375,9 @@ class AugmentedFilterOptions(Estimator):
             covariance=cov, cost=math.nan, success=True, message="",
             n_evaluations=n_evaluations, n_iterations=len(t), history=history, info=info,
         )
+
+
+def pooled_sd(levels: list[np.ndarray], counts: list[int]) -> np.ndarray:
+    """``sqrt(sum n_w s_w^2 / sum n_w)`` per channel: noise levels pooled over windows."""
+    total = sum(n * np.asarray(s, dtype=float) ** 2 for s, n in zip(levels, counts, strict=True))
+    return np.sqrt(total / sum(counts))

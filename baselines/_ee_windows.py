@@ -25,6 +25,7 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows
+from baselines._common import pooled_sd
 from baselines._ee_least_squares import (
     LATERAL,
     SUBPROBLEMS,
@@ -35,12 +36,6 @@ from baselines._ee_least_squares import (
 from baselines._tables_windows import equation_error_windows
 
 __all__ = ["run_windows"]
-
-
-def _pooled(levels: list[np.ndarray], counts: list[int]) -> np.ndarray:
-    """``sqrt(sum n_w s_w^2 / sum n_w)`` per channel."""
-    total = sum(n * np.asarray(s, dtype=float) ** 2 for s, n in zip(levels, counts, strict=True))
-    return np.sqrt(total / sum(counts))
 
 
 def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool
@@ -59,7 +54,7 @@ def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool
                     yield (a + offset, b + offset, part) if w is None else (a, b, part)
             offset += flight.n_samples
 
-    sd = _pooled([rc.estimate_noise_sd(rec.fm) for rec in recs], [f.n_samples for f in windows])
+    sd = pooled_sd([rc.estimate_noise_sd(rec.fm) for rec in recs], [f.n_samples for f in windows])
     theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
         blocks(), y, sd, lateral_rows=est.lateral_rows, covariance=covariance)
     info: dict[str, Any] = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
@@ -76,7 +71,7 @@ def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool
         info["fit_signals"] = {k: np.concatenate([p["fit_signals"][k] for p in parts])
                                for k in parts[0]["fit_signals"]}
         info["fit_noise_sd"] = {
-            k: float(_pooled([np.array(p["fit_noise_sd"][k]) for p in parts],
+            k: float(pooled_sd([np.array(p["fit_noise_sd"][k]) for p in parts],
                              [f.n_samples for f in windows]))
             for k in parts[0]["fit_noise_sd"]}
     return theta, cov, corr, cost, info
@@ -100,7 +95,7 @@ def _one_step(est: Any, windows: Windows, covariance: str, affine_accelerations:
         meas_all.append(meas)
     A, target, meas = np.concatenate(As), np.concatenate(targets), np.concatenate(meas_all)
     n = A.shape[0]
-    sd = _pooled([rc.estimate_noise_sd(m) for m in meas_all], [f.n_samples for f in windows])
+    sd = pooled_sd([rc.estimate_noise_sd(m) for m in meas_all], [f.n_samples for f in windows])
     theta = cov = None
     for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
         Aw = (A / sd[None, :, None]).reshape(-1, A.shape[-1])

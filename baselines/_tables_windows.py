@@ -27,6 +27,7 @@ from aeroid.errors import EstimatorError
 from aeroid.flights import Windows
 from aeroid.model import MachTables, TableSpec
 from aeroid.model import tables as mach_tables
+from baselines._common import pooled_sd
 from baselines._tables_fit import (
     BLOCK_SAMPLES,
     SHARED_KEY,
@@ -80,7 +81,6 @@ def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
     of the windows (each at its own Mach) stacked, the tables' parameters shared; row
     weights pooled over the windows as :mod:`baselines._ee_windows` does.
     """
-    from baselines._ee_windows import _pooled
 
     refused = [what for what, on in (("one_step", est.one_step),
                                      ("lateral_rows", est.lateral_rows),
@@ -99,7 +99,7 @@ def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
                 flight, smoothing=est.smoothing, window=rec.smoothing_window,
                 block=BLOCK_SAMPLES)]))
     counts = [f.n_samples for f in windows]
-    sd = _pooled([rc.estimate_noise_sd(rec.fm) for rec in recs], counts)
+    sd = pooled_sd([rc.estimate_noise_sd(rec.fm) for rec in recs], counts)
     theta, cov, corr, sigma2, cost, bandwidth = solve_table_subproblems(
         np.concatenate(Xs), np.vstack(ys), sd, per[0], covariance)
     rows = tuple(p[1] for p in subproblem_columns(per[0]))
@@ -114,7 +114,7 @@ def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
                  for rec, X, y in zip(recs, Xs, ys, strict=True)]
         for key in ("fit_residuals", "fit_signals"):
             info[key] = {k: np.concatenate([p[key][k] for p in parts]) for k in parts[0][key]}
-        info["fit_noise_sd"] = {k: float(_pooled([np.array(p["fit_noise_sd"][k])
+        info["fit_noise_sd"] = {k: float(pooled_sd([np.array(p["fit_noise_sd"][k])
                                                   for p in parts], counts))
                                 for k in parts[0]["fit_noise_sd"]}
         warnings = tuple(f"window {name}: {note}" for (name, flight), tables in

@@ -46,6 +46,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from aeroid.errors import AirframeError, FlightError
 from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS, check_flight_computer
+from aeroid.flights._frames import body_to_ned, wrap_angle
 from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
@@ -178,21 +179,6 @@ class SuiteSimulation(NamedTuple):
     log: SuiteLog
     truth: dict[str, np.ndarray]
     errors: dict[str, np.ndarray]
-
-
-def body_to_ned(phi: np.ndarray, theta: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """Return the rotation matrices ``C_nb`` (..., 3, 3) of 3-2-1 Euler angles [rad]."""
-    sf, cf, st, ct, ss, cs = (np.sin(phi), np.cos(phi), np.sin(theta), np.cos(theta),
-                              np.sin(psi), np.cos(psi))
-    return np.stack([
-        np.stack([ct * cs, sf * st * cs - cf * ss, cf * st * cs + sf * ss], -1),
-        np.stack([ct * ss, sf * st * ss + cf * cs, cf * st * ss - sf * cs], -1),
-        np.stack([-st, sf * ct, cf * ct], -1)], -2)
-
-
-def wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Return ``angle`` [rad] wrapped to (-pi, pi]."""
-    return math.pi - np.mod(math.pi - np.asarray(angle, dtype=float), 2.0 * math.pi)
 
 
 def imu_manoeuvre(manoeuvre: Manoeuvre, imu_rate_hz: float) -> Manoeuvre:

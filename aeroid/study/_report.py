@@ -37,6 +37,7 @@ from aeroid.study._floors import (
     report_floors,
 )
 from aeroid.study._histories import read_history
+from aeroid.study._markdown import _count, _fmt, _table  # noqa: F401 - _fmt, _count: the report's
 from aeroid.study._paper import PAPER_METHODS, paper_condition, paper_errors, paper_results
 from aeroid.study._spec import Study
 from aeroid.study._store import (
@@ -67,39 +68,6 @@ FLOOR_OPTIONS: dict[str, Any] = {"noise_form": "homoscedastic",
 # --------------------------------------------------------------------------------------
 # Markdown
 # --------------------------------------------------------------------------------------
-def _fmt(x: Any, digits: int = 3) -> str:
-    if isinstance(x, float) and math.isinf(x):
-        return "inf" if x > 0 else "-inf"
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "n/a"
-    if isinstance(x, float | np.floating):
-        if x == 0:
-            return "0"
-        if float(x).is_integer() and 100 <= abs(x) < 1e7:
-            return str(int(x))
-        if abs(x) >= 1000 or abs(x) < 0.01:
-            return f"{x:.{digits}g}"
-        return f"{x:.{digits}g}" if abs(x) < 1 else f"{x:.{max(digits - 1, 1)}f}"
-    return str(x)
-
-
-def _count(x: Any) -> str:
-    """A count (or a median of counts): an integer, or one decimal for a half."""
-    if x is None or not math.isfinite(float(x)):
-        return "n/a"
-    return str(int(x)) if float(x).is_integer() else f"{float(x):.1f}"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[Any]],
-           counts: Sequence[int] = ()) -> list[str]:
-    """Markdown table; the columns whose indices are in ``counts`` print as integers."""
-    lines = ["| " + " | ".join(header) + " |",
-             "|" + "|".join("---:" if k else ":---" for k in range(len(header))) + "|"]
-    lines += ["| " + " | ".join(_count(v) if k in counts else _fmt(v)
-                                for k, v in enumerate(row)) + " |" for row in rows]
-    return lines
-
-
 def _code_line(out_dir: Path) -> str:
     """The code that computed the results, from ``study.json`` (or the running code)."""
     from aeroid.study._provenance import code_identity

@@ -81,7 +81,7 @@ def _coverage_rows(tidy: pd.DataFrame) -> list[list[Any]]:
 def write_tables_report(study: Study, out_dir: Path, records: Sequence[Mapping[str, Any]],
                         command: str = "") -> Path:
     """Write ``results.csv``, ``summary.csv`` and ``report.md`` of a study of tables."""
-    from aeroid.study._report import _table
+    from aeroid.study._markdown import _table
 
     tidy = metrics.tidy(records)
     summary = metrics.summarize(tidy)
