@@ -22,6 +22,7 @@ from scipy.signal import savgol_filter
 from aeroid.errors import FlightError
 from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
+from aeroid.reconstruction._aiding import flight_aiding, logged_aiding
 from aeroid.reconstruction._barometer import (
     ATMOSPHERES,
     baro_altitude,
@@ -45,7 +46,7 @@ from aeroid.reconstruction._kinematics import (
     VEL,
     ned_velocity,
 )
-from aeroid.reconstruction._sensors import mounted_positions, saturated_samples
+from aeroid.reconstruction._sensors import held_fin, mounted_positions, saturated_samples
 
 Model = Callable[[np.ndarray], np.ndarray]
 #: Savitzky-Golay window [samples] and order of the gyro derivative (the lever-arm term).
@@ -106,7 +107,8 @@ class Reconstruction:
     raw_imu: np.ndarray | None = None
     innovation_tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
-    def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected") -> Flight:
+    def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected",
+                  aiding: bool = False) -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
 
         Channels: the IMU readings (corrected by default), ``u v w phi theta psi``
@@ -132,6 +134,10 @@ class Reconstruction:
             factors; ``"raw"``: the readings as logged, for an estimator that fits the
             IMU's errors itself (output-error's ``imu_errors``); the reconstructed
             states then serve as its initial state.
+        aiding : bool
+            Also pass the log's GNSS velocity samples within the flight's times, as
+            logged and at their own times, in ``metadata["aiding"]`` (for output-error's
+            ``aiding = "gnss-velocity"``; :mod:`aeroid.reconstruction._aiding`).
         """
         where = self.metadata.get("source", "suite log")
         if atmosphere not in ATMOSPHERES:
@@ -146,7 +152,7 @@ class Reconstruction:
         tab = self.table
         channels = {c: tab[c].to_numpy() for c in ("t", *IMU_CHANNELS, "u", "v", "w", "phi",
                                                    "theta", "psi")}
-        channels["delta"] = _held(self.fin, tab["t"].to_numpy(), self.metadata)
+        channels["delta"] = held_fin(self.fin, tab["t"].to_numpy(), self.metadata)
         imu_note = "IMU: corrected by the reconstruction's biases and scale factors"
         if imu == "raw":
             assert self.raw_imu is not None  # checked above
@@ -157,18 +163,9 @@ class Reconstruction:
                                                    self.metadata, channels)
         notes = [*self.notes, imu_note, density_note]
         first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
-        return make_flight(channels, airframe, {**self.metadata, "notes": notes,
+        meta = flight_aiding(self.metadata, channels["t"], aiding, notes)
+        return make_flight(channels, airframe, {**meta, "notes": notes,
                                                 "initial_state_sd": first_sd})
-
-
-def _held(fin: tuple[np.ndarray, np.ndarray], t: np.ndarray, meta: dict[str, Any]
-          ) -> np.ndarray:
-    ft, delta = fin
-    k = np.searchsorted(ft, t + 1e-9 * (t[1] - t[0]), side="right") - 1
-    if k[0] < 0:
-        raise FlightError(f"{meta.get('source', 'suite log')}: the fin log starts at "
-                          f"{ft[0]:.6g} s, after the IMU's first sample at {t[0]:.6g} s")
-    return delta[k]
 
 
 def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
@@ -259,6 +256,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     meta: dict[str, Any] = {"source": source, "reconstruction": "kinematic EKF + RTS smoother"}
     if saturated:
         meta["saturated"] = saturated
+    meta.update(logged_aiding(log))
     if "baro" in log:
         table["altitude"] = table["alt0"] - table["pd"]
         table["sd_altitude"] = np.sqrt(np.clip(

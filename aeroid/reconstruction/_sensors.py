@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from aeroid.errors import FlightError
 from aeroid.flights import SensorGroup
 from aeroid.model import Airframe
 from aeroid.reconstruction._kinematics import IMU_CHANNELS
@@ -68,3 +69,13 @@ def saturated_samples(imu: SensorGroup, imu_sd: np.ndarray, notes: list[str]
                  "their sd; left out of the estimators' likelihood (flight metadata "
                  "'saturated')")
     return saturated, sd
+
+
+def held_fin(fin: tuple[np.ndarray, np.ndarray], t: np.ndarray, meta: dict) -> np.ndarray:
+    """The fin's deflection at times ``t``: its latest sample at or before each (a relay)."""
+    ft, delta = fin
+    k = np.searchsorted(ft, t + 1e-9 * (t[1] - t[0]), side="right") - 1
+    if k[0] < 0:
+        raise FlightError(f"{meta.get('source', 'suite log')}: the fin log starts at "
+                          f"{ft[0]:.6g} s, after the IMU's first sample at {t[0]:.6g} s")
+    return delta[k]
