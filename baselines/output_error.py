@@ -39,6 +39,16 @@ from baselines._gauss_newton import (
     posterior_information,
     sandwich,
 )
+from baselines._oe_aiding import AIDING, aided_problem, aiding_info, aiding_warnings, aiding_x0
+from baselines._oe_constants import (
+    MAX_DELAY_S,
+    MAX_SAMPLES,
+    POSITION_NAMES,
+    R_FLOOR_REL,
+    X0_NAMES,
+    X0_RATES,
+    X0_VELOCITIES,
+)
 from baselines._oe_record import RecordModel
 from baselines._oe_sensors import (
     HELD_VELOCITY_WARNING,
@@ -57,26 +67,6 @@ from baselines._oe_starts import (
 )
 from baselines._oe_windows import OutputErrorWindows
 
-#: Initial-state components that can be estimated: the rates p, q, r
-#: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
-#: The attitude (phi, theta) enters only through gravity and psi not at all, so they are
-#: taken from the first measured sample.
-X0_RATES = (3, 4, 5)
-X0_VELOCITIES = (0, 1, 2)
-X0_NAMES = ("u0", "v0", "w0", "p0", "q0", "r0")
-#: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
-#: finite on noise-free data, far below any real noise level.
-R_FLOOR_REL = 1e-24
-#: Names of the six accelerometer-position components.
-POSITION_NAMES = ("rx1", "ry1", "rz1", "rx2", "ry2", "rz2")
-#: Largest actuator delay accepted [s] (a starting value or a fixed delay): a tenth of a
-#: second is far beyond any fin actuator and beyond the fits' record lengths' sense.
-MAX_DELAY_S = 0.1
-#: Longest record fitted whole: the C model is built for the record's length and its
-#: Jacobian holds every sample. Measured on the reference airframe (Gaussian IMU): 5 001
-#: samples 7 s and +66 MB, 20 001 samples 19 s and +510 MB (model build and compile
-#: included); 50 000 samples would take ~1.5 GB. A longer log: fit windows of it.
-MAX_SAMPLES = 50_000
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(OutputErrorWindows, Estimator):
@@ -175,6 +165,10 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         For a raw IMU (``Reconstruction.to_flight(imu="raw")``). An axial bias trades
         against Cx; a warning names each pair correlated above 0.98
         (:func:`aeroid.estimation.nuisance_findings`).
+    aiding : {"none", "gnss-velocity"}
+        ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``:
+        ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
+        else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -218,6 +212,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
     pso_particles: int = 30
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
+    aiding: Literal["none", "gnss-velocity"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:
@@ -239,6 +234,8 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         if self.initial_velocity_prior == "flight" and not self.estimate_initial_velocity:
             raise ValueError("initial_velocity_prior = flight needs "
                              "estimate_initial_velocity = true")
+        if self.aiding not in AIDING:
+            raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
         if self.noise_model not in NOISE_MODELS:
             raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
                              f"got {self.noise_model!r}")
@@ -261,7 +258,7 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
     def x0_free(self) -> tuple[int, ...]:
         """State indices of the estimated initial-state components."""
         free = (X0_VELOCITIES if self.estimate_initial_velocity else ()) + (
-            X0_RATES if self.estimate_initial_state else ())
+            X0_RATES if self.estimate_initial_state else ()) + aiding_x0(self.aiding)
         return tuple(sorted(free))
 
     def position_free(self, flight: Flight) -> tuple[int, ...]:
@@ -298,11 +295,11 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
                             imu_errors=self.imu_errors)
-        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
-        return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
-                       prior_mean=np.zeros(scale.size) if has_prior else None,
-                       prior_weight=weight if has_prior else None)
+        return aided_problem(self.aiding, flight, Problem(
+            z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,
+            noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
+            prior_weight=weight if has_prior else None))
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -380,6 +377,8 @@ class OutputErrorEstimator(OutputErrorWindows, Estimator):
         start_info, warnings = start_report(labels, fits, k_best, stderr_phys / np.abs(scale),
                                             failures)
         info.update(start_info)
+        info.update(aiding_info(prob, best.e))
+        warnings += aiding_warnings(self.aiding, flight)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)
         info.update(position_report(self, model, phys, stderr_phys))
