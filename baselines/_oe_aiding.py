@@ -123,6 +123,22 @@ def aiding_samples(flight: Flight) -> AidingSamples:
     return AidingSamples(k, z, sd)
 
 
+def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``C_nb [u v w]`` of states ``x`` (k, >= 9) (k, 3) and its derivative in the first
+    nine state components (k, 3, 9): ``C_nb`` itself and, for the angles, the complex step
+    of :func:`~aeroid.flights.body_to_ned`."""
+    uvw = x[:, U:W + 1]
+    angles = x[:, [PHI, THETA, PSI]]
+    v = np.einsum("kij,kj->ki", body_to_ned(*angles.T), uvw)
+    dv = np.zeros((x.shape[0], 3, N_STATE))
+    dv[:, :, U:W + 1] = body_to_ned(*angles.T)
+    for j, i in enumerate((PHI, THETA, PSI)):
+        a = angles.astype(complex)
+        a[:, j] += 1j * COMPLEX_STEP
+        dv[:, :, i] = np.einsum("kij,kj->ki", body_to_ned(*a.T).imag / COMPLEX_STEP, uvw)
+    return v, dv
+
+
 class AidedModel:
     """The record model with the GNSS velocity outputs appended, shape (n, m + 3).
 
@@ -198,17 +214,7 @@ class AidedModel:
 
     def velocity(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """NED velocity at the aiding samples (n_a, 3) and its derivative (n_a, 3, 9)."""
-        x = xs[self.samples.index]
-        uvw = x[:, U:W + 1]
-        angles = x[:, [PHI, THETA, PSI]]
-        v = np.einsum("kij,kj->ki", body_to_ned(*angles.T), uvw)
-        dv = np.zeros((x.shape[0], 3, N_STATE))
-        dv[:, :, U:W + 1] = body_to_ned(*angles.T)
-        for j, i in enumerate((PHI, THETA, PSI)):
-            a = angles.astype(complex)
-            a[:, j] += 1j * COMPLEX_STEP
-            dv[:, :, i] = np.einsum("kij,kj->ki", body_to_ned(*a.T).imag / COMPLEX_STEP, uvw)
-        return v, dv
+        return ned_velocity(xs[self.samples.index])
 
     def _aiding(self, p: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         n, tau = self.base.t.size, self.base.tau(p)
@@ -311,9 +317,10 @@ def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
                                       strict=True))}}
 
 
-def aiding_warnings(aiding: str, flight: Flight) -> tuple[str, ...]:
+def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
+                    ) -> tuple[str, ...]:
     """A warning when the flight carries aiding samples the fit leaves out."""
     if aiding == "none" and isinstance(flight.metadata.get("aiding"), Mapping):
-        return ("output-error: the flight carries GNSS velocity samples (metadata aiding), "
+        return (f"{owner}: the flight carries GNSS velocity samples (metadata aiding), "
                 "not in this fit's likelihood (aiding = gnss-velocity puts them in)",)
     return ()
