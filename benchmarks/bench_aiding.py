@@ -17,6 +17,12 @@ with 0.1 m/s velocity sd, barometer, wrapped INS), reconstructed, and its
 - ``GNSS 50 ms late, undeclared`` and ``GNSS 200 ms late, undeclared``: the last fit with
   the GNSS times moved (known-wrong inputs: how often the fit check refuses them).
 
+With ``--filters``, instead: the EKF and the UKF (``imu_errors = "bias+scale"``, their
+initial sd from the reconstruction) without and with ``aiding``, and the EKF with the GNSS
+50 ms late (written to ``benchmarks/results/aiding_filters.md``)::
+
+    python benchmarks/bench_aiding.py --seeds 20 --filters
+
 Figures per fit: successes, mean |relative error| of the coefficients, Cx's relative
 error and standard error, the correlation of Cx with the axial biases ``bax1``, ``bax2``,
 the largest ``|error| / se`` over the coefficients, biases and scale factors. Printed and
@@ -59,6 +65,17 @@ FITS = {
 }
 
 
+FILTER_BASE = {"imu_errors": "bias+scale"}
+FILTERS = {
+    "EKF, IMU only": ("ekf", FILTER_BASE, 0.0),
+    "EKF, GNSS in": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "UKF, IMU only": ("ukf", FILTER_BASE, 0.0),
+    "UKF, GNSS in": ("ukf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "EKF, GNSS 50 ms late, undeclared": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"},
+                                         0.05),
+}
+
+
 def skewed(flight: Flight, late_s: float) -> Flight:
     """``flight`` whose GNSS samples are labelled ``late_s`` earlier than they were taken
     (an undeclared skew), those outside the flight left out."""
@@ -79,22 +96,29 @@ def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
     return dict(zip(names, values.tolist(), strict=True))
 
 
-def one_seed(seed: int) -> dict[str, dict[str, float]]:
-    """All fits of one seed: their figures by fit label."""
+def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
+    """All fits of one seed (output-error's, or with ``filters`` the EKF's and UKF's)."""
+    from aeroid.estimation import make_estimator
+
     scenario = reference_scenario()
     truth = scenario.coefficient_vector
     sim = simulate_suite(scenario.airframe, truth, scenario.manoeuvre, SensorSuite(), rng=seed)
     raw = reconstruct(sim.log).to_flight(imu="raw", aiding=True)
     errors = _errors_truth(sim.errors)
     out = {}
-    for label, (options, late) in FITS.items():
+    fits = ({k: (make_estimator(m, o), late) for k, (m, o, late) in FILTERS.items()}
+            if filters else {k: (OutputErrorEstimator(**o), late)
+                             for k, (o, late) in FITS.items()})
+    for label, (est, late) in fits.items():
         start = time.perf_counter()
-        res = OutputErrorEstimator(**options).fit(skewed(raw, late), rng=seed)
-        names = list(res.info["parameter_names"])
-        cov = res.info["parameter_covariance"]
-        sd = np.sqrt(np.diag(cov))
-        corr = {b: cov[0, names.index(b)] / (sd[0] * sd[names.index(b)])
-                for b in ("bax1", "bax2")}
+        res = est.fit(skewed(raw, late), rng=seed)
+        corr = {"bax1": np.nan, "bax2": np.nan}
+        if "parameter_covariance" in res.info:  # output-error's (the filters' P: not kept)
+            names = list(res.info["parameter_names"])
+            cov = res.info["parameter_covariance"]
+            sd = np.sqrt(np.diag(cov))
+            corr = {b: cov[0, names.index(b)] / (sd[0] * sd[names.index(b)])
+                    for b in ("bax1", "bax2")}
         z = {n: abs(v - errors[n]) / res.info["imu_error_stderr"][n]
              for n, v in res.info["imu_errors"].items()}
         out[label] = {"success": float(res.success), "wall_s": time.perf_counter() - start,
@@ -113,16 +137,20 @@ def main() -> None:
     """Run the seeds, print and write the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1")
+    parser.add_argument("--filters", action="store_true",
+                        help="the EKF and UKF instead of output-error")
     args = parser.parse_args()
+    labels = FILTERS if args.filters else FITS
     runs = []
     for seed in range(args.seeds):
-        runs.append(one_seed(seed))
+        runs.append(one_seed(seed, args.filters))
         print(f"seed {seed}: " + "; ".join(
             f"{k}: {'ok' if r['success'] else 'refused'} Cx se {100 * r['cx_se']:.3f} % corr "
             f"{r['corr2']:+.4f} max z {r['max_z']:.2f}/{r['bias_z']:.2f}/{r['scale_z']:.2f}"
             for k, r in runs[-1].items()), flush=True)
     lines = ["# GNSS velocity in output-error's likelihood", "",
-             f"`python benchmarks/bench_aiding.py --seeds {args.seeds}` on "
+             f"`python benchmarks/bench_aiding.py --seeds {args.seeds}"
+             f"{' --filters' if args.filters else ''}` on "
              f"{platform.processor() or platform.machine()}, Python "
              f"{platform.python_version()}, numpy {np.__version__}; reference window 5-6 s, "
              f"default suite, seeds 0-{args.seeds - 1}.", "",
@@ -130,7 +158,7 @@ def main() -> None:
              "corr(Cx, bax1) (median) | corr(Cx, bax2) (median) | max coefficient \\|z\\| | "
              "max bias \\|z\\| | max scale \\|z\\| | wall time per fit [s] (median) |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for label in FITS:
+    for label in labels:
         rows = [r[label] for r in runs]
         lines.append(
             f"| {label} | {int(sum(r['success'] for r in rows))} of {len(rows)} | "
@@ -142,11 +170,12 @@ def main() -> None:
             f"{max(r['max_z'] for r in rows):.2f} | {max(r['bias_z'] for r in rows):.2f} | "
             f"{max(r['scale_z'] for r in rows):.2f} | "
             f"{np.median([r['wall_s'] for r in rows]):.1f} |")
-    refused = [f"seed {s} {k}: {r[k]['message']}" for s, r in enumerate(runs) for k in FITS
+    refused = [f"seed {s} {k}: {r[k]['message']}" for s, r in enumerate(runs) for k in labels
                if not r[k]["success"]]
     lines += ["", "Refusals:", ""] + [f"- {line}" for line in refused or ["none"]]
     print("\n".join(lines))
-    out = ROOT / "benchmarks" / "results" / "aiding.md"
+    out = ROOT / "benchmarks" / "results" / ("aiding_filters.md" if args.filters
+                                             else "aiding.md")
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out}")
 
