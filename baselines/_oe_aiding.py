@@ -115,9 +115,9 @@ def aiding_samples(flight: Flight) -> AidingSamples:
         j = int(bad[0])
         raise aeroid.FlightError(
             f"{where}: GNSS sample at t = {t[j]:.9g} s is {1e3 * off[j]:+.6g} ms from the "
-            f"flight's nearest sample ({1e3 * dt:.6g} ms grid): output-error predicts an "
-            "aiding sample at a flight sample (nothing resampled); log it on the IMU's clock "
-            "or leave it out")
+            f"flight's nearest sample ({1e3 * dt:.6g} ms grid): an aiding sample is "
+            "predicted at a flight sample (nothing resampled); log it on the IMU's clock or "
+            "leave it out")
     if np.unique(k).size != k.size:
         raise aeroid.FlightError(f"{where}: two GNSS samples on one flight sample")
     return AidingSamples(k, z, sd)
@@ -159,7 +159,7 @@ class AidedModel:
         if self.varying:  # as the record: per-sample values replace these
             const = const._replace(**dict.fromkeys(EXOGENOUS, 0.0))
         self.const = const
-        self._graphs: dict[int, ca.Function] = {}
+        self._graphs: dict[int, tuple[ca.Function, ca.Function]] = {}
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.base, name)
