@@ -19,7 +19,14 @@ import numpy as np
 from aeroid.estimation import EstimationResult, nuisance_findings
 from aeroid.flights import IMU_ERROR_KINDS, Flight, imu_error_names, used_samples
 from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
-from baselines import _common, _kalman
+from baselines import _common, _kalman, _kalman_aiding
+from baselines._oe_aiding import (
+    AIDING,
+    AIDING_CHANNELS,
+    AidingSamples,
+    aiding_samples,
+    aiding_warnings,
+)
 
 PassRunner = Callable[[_kalman.DiscreteModel, _common.FilterSetup], _kalman.FilterOutput]
 
@@ -42,6 +49,10 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         Initial sd of those states [m/s^2, rad/s, -] (defaults 0.2, 0.005, 0.005: the
         reconstruction's priors, :func:`aeroid.reconstruction.reconstruct`). The initial
         rates' variance grows by what those errors do to the first gyro reading.
+    aiding : {"none", "gnss-velocity"}
+        ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``,
+        as output-error's ``aiding``) as three more measurements at their own samples, with
+        the log's stated sd (:mod:`baselines._kalman_aiding`); default ``"none"``.
     """
 
     leaves_out_saturated: ClassVar[bool] = True  # FilterSetup.mask
@@ -50,12 +61,15 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
     imu_accel_bias_sd_mps2: float = 0.2
     imu_gyro_bias_sd_radps: float = 0.005
     imu_scale_sd: float = 0.005
+    aiding: Literal["none", "gnss-velocity"] = "none"
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.imu_errors not in IMU_ERROR_KINDS:
             raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
                              f"{self.imu_errors!r}")
+        if self.aiding not in AIDING:
+            raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
         for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
@@ -88,7 +102,9 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
     def innovation_noise_law(self, out: _kalman.FilterOutput, setup: _common.FilterSetup
                              ) -> tuple[np.ndarray, np.ndarray]:
         """The shared refit, each channel on its innovations in the likelihood (the
-        others, saturated samples, are NaN: :func:`with_mask`)."""
+        others, saturated samples, are NaN: :func:`with_mask`); the GNSS channels' law
+        (``aiding``) stays the stated sd's."""
+        out = _kalman_aiding.first_channels(out, setup.zs.shape[1])
         if np.all(np.isfinite(out.innovation)):
             return super().innovation_noise_law(out, setup)
         laws = []
@@ -112,11 +128,18 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         names = self.imu_error_names()
         passes: list[_kalman.FilterOutput] = []
         mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
+        samples = aiding_samples(flight) if self.aiding != "none" else None
+        if samples is not None:
+            mask = _kalman_aiding.aided_mask(mask, flight.n_samples, len(OUTPUT_CHANNELS),
+                                             samples)
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             if names:
                 model = _kalman.with_sensor_errors(model, len(names))
+            if samples is not None:
+                model = _kalman_aiding.with_ned_velocity(model)
+                setup = _kalman_aiding.aided_setup(setup, samples)
             if mask is None:
                 out = run_filter(model, setup)
             else:  # saturated samples leave the likelihood
@@ -129,7 +152,12 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             # the fit check reads the innovations in the likelihood (saturated left out)
             kept = {c: e[np.isfinite(e)] for c, e in result.info["fit_residuals"].items()}
             result = dataclasses.replace(result, info={**result.info, "fit_residuals": kept})
+        if warned := aiding_warnings(self.aiding, flight, self.name):
+            result = dataclasses.replace(result, warnings=(*result.warnings, *warned))
         good = [out for out in passes if out.failed_at is None]
+        if samples is not None and good and "fit_residuals" in result.info:
+            result = dataclasses.replace(result, info={**result.info, **aiding_innovations(
+                good[-1], samples, flight.n_samples, result.info["fit_residuals"])})
         if not names or not good or not np.all(np.isfinite(result.theta)):
             return result
         last = good[-1]  # the pass the result is (run_passes keeps the last good one)
@@ -198,3 +226,18 @@ def masked_output(out: _kalman.FilterOutput, mask: np.ndarray) -> _kalman.Filter
     return dataclasses.replace(out, innovation=nan(out.innovation),
                                innovation_var=nan(out.innovation_var),
                                noise_var=nan(out.noise_var))
+
+
+def aiding_innovations(out: _kalman.FilterOutput, samples: AidingSamples, n: int,
+                       residuals: dict) -> dict:
+    """The GNSS innovations of the second half (as the IMU's) for the fit check, against
+    the stated sd, and ``info["aiding"]``."""
+    m = len(OUTPUT_CHANNELS)
+    k = samples.index[samples.index >= n // 2]
+    return {"fit_residuals": {**residuals, **{c: out.innovation[k, m + j]
+                                              for j, c in enumerate(AIDING_CHANNELS)}},
+            "fit_noise_sd": dict(zip(AIDING_CHANNELS, samples.sd.tolist(), strict=True)),
+            "fit_signals": {c: samples.z[:, j] - np.mean(samples.z[:, j])
+                            for j, c in enumerate(AIDING_CHANNELS)},
+            "aiding": {"channels": AIDING_CHANNELS, "n_samples": int(samples.index.size),
+                       "noise": "the log's stated sd (not estimated)"}}

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, flight_record
 from baselines import _common, _kalman
@@ -77,6 +78,9 @@ def run_windows(est: Any, windows: Windows, run_filter: PassRunner,
     ``run_filter(model, setup)`` is one forward pass of one window (EKF or UKF);
     ``evaluations_per_pass(model, n_samples)`` its model evaluations.
     """
+    if getattr(est, "aiding", "none") != "none":
+        raise EstimatorError(f"{est.name}: aiding = {est.aiding} is not available for several "
+                             "windows yet (one flight at a time); set aiding = none")
     names = est.imu_error_names()
     parts = []
     for flight in windows:

@@ -1,16 +1,19 @@
-"""Output-error's constants: the estimable initial-state components, limits and floors.
+"""Output-error's constants: estimable initial-state components, names, limits (private).
 
 Read by :mod:`baselines.output_error` (which re-exports them) and by the windows fit
 (:mod:`baselines._oe_windows`), which shares output-error's sample limit.
 """
 
+from aeroid.model import STATE_NAMES
+
 #: Initial-state components that can be estimated: the rates p, q, r
 #: (``estimate_initial_state``) and the velocities u, v, w (``estimate_initial_velocity``).
 #: The attitude (phi, theta) enters only through gravity and psi not at all, so they are
-#: taken from the first measured sample.
+#: taken from the first measured sample, except with GNSS velocity in the likelihood
+#: (``aiding``: :data:`baselines._oe_aiding.X0_ANGLES`).
 X0_RATES = (3, 4, 5)
 X0_VELOCITIES = (0, 1, 2)
-X0_NAMES = ("u0", "v0", "w0", "p0", "q0", "r0")
+X0_NAMES = tuple(f"{name}0" for name in STATE_NAMES)  # u0 ... psi0
 #: Floor of each R_jj as a fraction of the channel's mean square: keeps the weights
 #: finite on noise-free data, far below any real noise level.
 R_FLOOR_REL = 1e-24

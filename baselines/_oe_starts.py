@@ -157,11 +157,12 @@ def warm_start_point(est: Any, prob: Any, flight: Flight, rng: np.random.Generat
     record_model = prob.model
     model = ForwardModel(model_constants(flight), record_model.record(est.delay_s),
                          flight.airframe.accel_positions, substeps=est.substeps)
+    m = len(model.output_names)  # the IMU's outputs (aiding channels after them: not here)
 
     def cost(thetas: np.ndarray) -> np.ndarray:
-        ms = np.mean((prob.z[None] - model.outputs(record_model.x0, thetas)) ** 2, axis=1)
+        ms = np.mean((prob.z[None, :, :m] - model.outputs(record_model.x0, thetas)) ** 2, axis=1)
         with np.errstate(all="ignore"):
-            out = np.sum(np.log(np.maximum(ms, prob.r_floor)), axis=1)
+            out = np.sum(np.log(np.maximum(ms, prob.r_floor[:m])), axis=1)
         return np.where(np.isfinite(out), out, np.inf)
 
     res = minimize(cost, aeroid.prior_bounds(flight.airframe),

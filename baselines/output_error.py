@@ -20,7 +20,6 @@ Gaussian-noise flights the 95 % intervals covered the truth in 96 % of coefficie
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
@@ -28,19 +27,18 @@ import numpy as np
 
 import aeroid
 from aeroid.estimation import EstimationResult, Estimator
-from aeroid.flights import IMU_ERROR_KINDS, INPUTS, Flight, imu_error_names
+from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common, _held, _oe_wind, _tables_fit
 from baselines._gauss_newton import (
-    NOISE_MODELS,
     Fit,
     Problem,
     gauss_newton,
     posterior_information,
     sandwich,
 )
+from baselines._oe_aiding import aided_problem, aiding_info, aiding_warnings, aiding_x0
 from baselines._oe_constants import (
-    MAX_DELAY_S,
     MAX_SAMPLES,
     POSITION_NAMES,
     R_FLOOR_REL,
@@ -48,6 +46,7 @@ from baselines._oe_constants import (
     X0_RATES,
     X0_VELOCITIES,
 )
+from baselines._oe_options import check_options
 from baselines._oe_record import RecordModel
 from baselines._oe_sensors import (
     HELD_VELOCITY_WARNING,
@@ -165,6 +164,10 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         For a raw IMU (``Reconstruction.to_flight(imu="raw")``). An axial bias trades
         against Cx; a warning names each pair correlated above 0.98
         (:func:`aeroid.estimation.nuisance_findings`).
+    aiding : {"none", "gnss-velocity"}
+        ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``:
+        ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
+        else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -209,33 +212,11 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     pso_particles: int = 30
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
+    aiding: Literal["none", "gnss-velocity"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("substeps", "max_iterations", "n_starts", "pso_particles"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
-        if self.pso_iterations < 0:
-            raise ValueError(f"pso_iterations must be >= 0, got {self.pso_iterations}")
-        if not self.tol > 0:
-            raise ValueError(f"tol must be > 0, got {self.tol}")
-        if self.input not in INPUTS:
-            raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
-        if self.imu_errors not in IMU_ERROR_KINDS:
-            raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
-                             f"{self.imu_errors!r}")
-        if self.initial_velocity_prior not in ("none", "flight"):
-            raise ValueError("initial_velocity_prior must be none or flight, got "
-                             f"{self.initial_velocity_prior!r}")
-        if self.initial_velocity_prior == "flight" and not self.estimate_initial_velocity:
-            raise ValueError("initial_velocity_prior = flight needs "
-                             "estimate_initial_velocity = true")
-        if self.noise_model not in NOISE_MODELS:
-            raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
-                             f"got {self.noise_model!r}")
-        if not (math.isfinite(self.delay_s) and abs(self.delay_s) < MAX_DELAY_S):
-            raise ValueError(f"delay_s must be a number of seconds below {MAX_DELAY_S:g} in "
-                             f"magnitude, got {self.delay_s}")
+        check_options(self)  # one ValueError per bad option: baselines/_oe_options.py
 
     # ----------------------------------------------------------------------------------
     def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
@@ -252,7 +233,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     def x0_free(self) -> tuple[int, ...]:
         """State indices of the estimated initial-state components."""
         free = (X0_VELOCITIES if self.estimate_initial_velocity else ()) + (
-            X0_RATES if self.estimate_initial_state else ())
+            X0_RATES if self.estimate_initial_state else ()) + aiding_x0(self.aiding)
         return tuple(sorted(free))
 
     def position_free(self, flight: Flight) -> tuple[int, ...]:
@@ -290,11 +271,11 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
                             imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight),
                             wind_free=self.estimate_wind)
-        r_floor = R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
         has_prior = bool(np.any(weight > 0))
-        return Problem(z=z, model=model, r_floor=r_floor, noise_model=self.noise_model,
-                       prior_mean=np.zeros(scale.size) if has_prior else None,
-                       prior_weight=weight if has_prior else None)
+        return aided_problem(self.aiding, flight, Problem(
+            z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,
+            noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
+            prior_weight=weight if has_prior else None))
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -376,6 +357,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                                             failures, n_c)
         warnings += _tables_fit.record_tables(info, model, flight, holds)  # names, notes
         info.update(start_info)
+        info.update(aiding_info(prob, best.e))
+        warnings += aiding_warnings(self.aiding, flight)
         if "initial_state_sd" in flight.metadata and not self.estimate_initial_velocity:
             warnings.append(HELD_VELOCITY_WARNING)
         info.update(position_report(self, model, phys, stderr_phys))

@@ -38,3 +38,30 @@ def truth_errors(sim: Any) -> dict[str, float]:
     values = np.concatenate([e["accel_bias"].ravel(), e["gyro_bias"],
                              e["accel_scale"].ravel(), e["gyro_scale"]])
     return dict(zip(names, values.tolist(), strict=True))
+
+
+def gnss_aiding(sim: Any, flight: Flight, shift_s: float = 0.0, sd: float | None = None
+                ) -> Flight:
+    """``flight`` with the suite log's GNSS velocity as ``metadata["aiding"]`` (what
+    ``Reconstruction.to_flight(aiding=True)`` passes), its times moved by ``shift_s``
+    (an undeclared skew: the values stay those of the true times) and its stated sd
+    replaced by ``sd`` when given; samples outside the flight's times left out."""
+    gnss = sim.log["gnss"]
+    t = gnss.t + shift_s
+    inside = (t >= flight.t[0] - 1e-9) & (t <= flight.t[-1] + 1e-9)
+    stated = {c: float(sd if sd is not None else gnss.noise_sd[c]) for c in ("vn", "ve", "vd")}
+    aiding = {"gnss": {"t": t[inside], "sd": stated,
+                       **{c: gnss.channels[c][inside] for c in ("vn", "ve", "vd")}}}
+    return make_flight({c: flight[c] for c in flight.channels} | {"t": flight.t},
+                       flight.airframe, {**flight.metadata, "aiding": aiding})
+
+
+def suite_flight(seed: int = 1, **suite: Any) -> tuple[Any, Flight]:
+    """Return a default-suite simulation (noise on) and its flight (raw IMU, true states)."""
+    scenario = reference_scenario()
+    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                         SensorSuite(**suite), rng=seed)
+    imu = sim.log["imu"]
+    channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
+                **{c: sim.truth[c] for c in TRUE_STATES}, "delta": sim.truth["delta"]}
+    return sim, make_flight(channels, scenario.airframe, {})

@@ -48,6 +48,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--raw-imu", action="store_true",
                    help="the flight's IMU channels as logged, not corrected (for an "
                         "estimator that fits the IMU's errors: output-error's imu_errors)")
+    p.add_argument("--aiding", action="store_true",
+                   help="--flight's sidecar also carries the log's GNSS velocity samples at "
+                        "their own times (for output-error's aiding = gnss-velocity)")
 
 
 def reconstruct(args: argparse.Namespace) -> int:
@@ -59,8 +62,9 @@ def reconstruct(args: argparse.Namespace) -> int:
     for out in (args.output, args.flight):
         if out is not None and not out.parent.exists():
             raise UsageError(f"{out}: folder {out.parent} does not exist")
-    if args.raw_imu and args.flight is None:
-        raise UsageError("--raw-imu: it sets the IMU of --flight's file; give --flight")
+    for flag in ("raw_imu", "aiding"):
+        if getattr(args, flag) and args.flight is None:
+            raise UsageError(f"--{flag.replace('_', '-')}: it sets --flight's file; give --flight")
     if args.report is not None:  # before the filter: an unwritable folder is said at once
         from aeroid.report import make_directory
 
@@ -85,7 +89,7 @@ def reconstruct(args: argparse.Namespace) -> int:
     if args.flight is not None:
         atmosphere = "per-sample" if args.per_sample_density else "airframe"
         imu = "raw" if args.raw_imu else "corrected"
-        flight = result.to_flight(atmosphere=atmosphere, imu=imu)
+        flight = result.to_flight(atmosphere=atmosphere, imu=imu, aiding=args.aiding)
         sidecar = flight.write(args.flight)
         density = next(n for n in flight.metadata["notes"] if n.startswith("flight density"))
         print(f"wrote {args.flight} and {sidecar} ({density}; IMU: {imu})")

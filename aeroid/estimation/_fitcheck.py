@@ -229,20 +229,22 @@ def _standardized(residuals: Mapping[str, np.ndarray], variance: Any) -> dict[st
     """Return each channel's mean ``e^2 / R`` under the method's own noise model.
 
     ``variance``: ``info["R"]`` of the method, shape (n, m) (one variance per sample) or
-    (m,), columns in the order of ``residuals``; anything else gives no figures.
+    (m,), columns in the order of ``residuals``; anything else gives no figures. A channel
+    whose residual is not at R's rows (output-error's aiding channels, at their own
+    samples, with their sd given) gives none either.
     """
     if variance is None:
         return {}
     R = np.asarray(variance, dtype=float)
     names = tuple(residuals)
-    n = {np.asarray(e).shape[0] for e in residuals.values()}
     if R.ndim == 1:
         R = R[None, :]
-    if R.ndim != 2 or R.shape[1] != len(names) or len(n) != 1 or R.shape[0] not in (1, *n):
+    if R.ndim != 2 or R.shape[1] != len(names):
         return {}
     with np.errstate(divide="ignore", invalid="ignore"):
         return {name: float(np.mean(np.asarray(residuals[name], float) ** 2 / R[:, j]))
-                for j, name in enumerate(names)}
+                for j, name in enumerate(names)
+                if R.shape[0] in (1, np.asarray(residuals[name]).shape[0])}
 
 
 def _smoothed_residuals(info: Mapping[str, Any], options: Mapping[str, Any] | None) -> bool:

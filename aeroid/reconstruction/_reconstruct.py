@@ -21,6 +21,7 @@ from scipy.signal import savgol_filter
 from aeroid.errors import FlightError
 from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
+from aeroid.reconstruction._aiding import flight_aiding, logged_aiding
 from aeroid.reconstruction._barometer import (
     ATMOSPHERES,
     baro_altitude,
@@ -104,7 +105,8 @@ class Reconstruction:
     raw_imu: np.ndarray | None = None
     innovation_tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
-    def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected") -> Flight:
+    def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected",
+                  aiding: bool = False) -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
 
         Channels: the IMU readings (corrected by default), ``u v w phi theta psi``
@@ -130,6 +132,10 @@ class Reconstruction:
             factors; ``"raw"``: the readings as logged, for an estimator that fits the
             IMU's errors itself (output-error's ``imu_errors``); the reconstructed
             states then serve as its initial state.
+        aiding : bool
+            Also pass the log's GNSS velocity samples within the flight's times, as
+            logged and at their own times, in ``metadata["aiding"]`` (for output-error's
+            ``aiding = "gnss-velocity"``; :mod:`aeroid.reconstruction._aiding`).
         """
         where = self.metadata.get("source", "suite log")
         if atmosphere not in ATMOSPHERES:
@@ -155,7 +161,8 @@ class Reconstruction:
                                                    self.metadata, channels)
         notes = [*self.notes, imu_note, density_note, *([fin_note] if fin_note else [])]
         first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
-        return make_flight(channels, airframe, {**self.metadata, "notes": notes,
+        meta = flight_aiding(self.metadata, channels["t"], aiding, notes)
+        return make_flight(channels, airframe, {**meta, "notes": notes,
                                                 "initial_state_sd": first_sd})
 
 
@@ -247,6 +254,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     meta: dict[str, Any] = {"source": source, "reconstruction": "kinematic EKF + RTS smoother"}
     if saturated:
         meta["saturated"] = saturated
+    meta.update(logged_aiding(log))
     if "baro" in log:
         table["altitude"] = table["alt0"] - table["pd"]
         table["sd_altitude"] = np.sqrt(np.clip(

@@ -1,0 +1,331 @@
+"""Aiding sensors in output-error's likelihood: GNSS NED velocity at its own samples (private).
+
+``aiding = "gnss-velocity"`` adds the flight's GNSS velocity samples
+(``metadata["aiding"]["gnss"]``: :meth:`aeroid.reconstruction.Reconstruction.to_flight`
+with ``aiding=True``) as three more measured outputs ``vn ve vd`` of the record model:
+
+- **Prediction**: the model's body velocity rotated by its attitude,
+  ``v_ned = C_nb(phi, theta, psi) [u v w]`` (:func:`aeroid.flights.body_to_ned`), at the
+  flight sample of each GNSS time. The record's grid is the IMU's, so a GNSS time must be on
+  it (to :data:`GRID_RTOL` of the interval): one that is not is refused in one line
+  (nothing resampled, nothing interpolated).
+- **Sensitivities**: exact. The states and their forward sensitivities to the
+  coefficients and the free initial-state components are propagated through the model's
+  own RK4 interval step (:func:`aeroid.model.symbolic.interval_step_symbolic`, the step of
+  the record), ``S_{k+1} = dF/dx S_k + dF/dtheta``; the rotation's derivative by complex
+  step of :func:`~aeroid.flights.body_to_ned`. The delay's column is a difference of the
+  states like the record's (:data:`baselines._oe_record.DELAY_STEP_S`). Positions and IMU
+  errors do not move the states: zero columns.
+- **Likelihood**: the GNSS entries are in the mask only at their samples
+  (:class:`~baselines._gauss_newton.Problem`'s mask), their noise variance is the log's
+  stated sd squared (``metadata["aiding"]["gnss"]["sd"]``), **not estimated** (ten
+  samples a second would estimate it poorly); the IMU channels' variances are estimated
+  as before.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import casadi as ca
+import numpy as np
+
+import aeroid
+from aeroid.flights import Flight, body_to_ned
+from aeroid.model import (
+    EXOGENOUS,
+    N_COEFFICIENTS,
+    N_STATE,
+    OUTPUT_CHANNELS,
+    PHI,
+    PSI,
+    THETA,
+    U,
+    W,
+    symbolic,
+)
+from baselines._gauss_newton import Problem
+from baselines._oe_record import DELAY_STEP_S
+
+#: The option's values.
+AIDING = ("none", "gnss-velocity")
+#: The aiding outputs (NED velocity [m/s]), after the IMU's.
+AIDING_CHANNELS = ("vn", "ve", "vd")
+#: A GNSS time within this fraction of the sample interval of a flight sample is on it
+#: (times logged in ms or us round to 1e-9 s or better).
+GRID_RTOL = 1e-6
+#: Initial-state components estimated with aiding (no prior): pitch and heading. The
+#: GNSS velocity's direction in NED depends on them: the reconstruction's 0.3 mrad sd is
+#: 0.15 m/s at the reference flight's 500 m/s, more than the GNSS's 0.1 m/s sd; held at
+#: the reconstruction's, the ve residual was 1.6x its sd (seed 1). The roll angle moves
+#: the NED velocity only through v and w (~15 m/s: 5 mm/s per 0.3 mrad) and is held as
+#: before: freed too, it traded against the lateral biases and a noise-free fit crept
+#: (300 iterations, coefficients 3.5e-3 off).
+X0_ANGLES = (THETA, PSI)
+#: Complex step of the rotation's derivative [rad] (exact to rounding).
+COMPLEX_STEP = 1e-20
+
+
+class AidingSamples(NamedTuple):
+    """GNSS velocity samples on the flight's grid."""
+
+    index: np.ndarray   # (n_a,) flight sample of each
+    z: np.ndarray       # (n_a, 3) vn ve vd [m/s]
+    sd: np.ndarray      # (3,) stated white-noise sd [m/s]
+
+
+def aiding_x0(aiding: str) -> tuple[int, ...]:
+    """The initial-state components ``aiding`` frees (:data:`X0_ANGLES`, or none)."""
+    return X0_ANGLES if aiding != "none" else ()
+
+
+def aiding_samples(flight: Flight) -> AidingSamples:
+    """The flight's GNSS velocity samples (``metadata["aiding"]["gnss"]``), checked."""
+    where = flight.metadata.get("source", "flight")
+    aiding = flight.metadata.get("aiding")
+    gnss = aiding.get("gnss") if isinstance(aiding, Mapping) else None
+    if not isinstance(gnss, Mapping):
+        raise aeroid.FlightError(
+            f"{where}: aiding = gnss-velocity needs the GNSS velocity samples in "
+            "metadata['aiding']['gnss'] (t, vn, ve, vd, sd; Reconstruction.to_flight(imu="
+            "'raw', aiding=True) passes them); the flight has none")
+    try:
+        t = np.asarray(gnss["t"], dtype=float).reshape(-1)
+        z = np.column_stack([np.asarray(gnss[c], dtype=float).reshape(-1)
+                             for c in AIDING_CHANNELS])
+        sd = np.array([float(gnss["sd"][c]) for c in AIDING_CHANNELS])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise aeroid.FlightError(f"{where}: metadata aiding.gnss needs t, vn, ve, vd (numbers, "
+                                 f"one per sample) and sd of each: {exc}") from None
+    if z.shape[0] != t.size or t.size == 0 or not (np.all(np.isfinite(z))
+                                                   and np.all(np.isfinite(t))):
+        raise aeroid.FlightError(f"{where}: metadata aiding.gnss: {t.size} times for "
+                                 f"{z.shape[0]} velocity samples, or a value not finite")
+    if not np.all(sd > 0):
+        raise aeroid.FlightError(f"{where}: metadata aiding.gnss sd must be positive [m/s], "
+                                 f"got {dict(zip(AIDING_CHANNELS, sd.tolist(), strict=True))}")
+    dt, ft = flight.dt, flight.t
+    k = np.clip(np.rint((t - ft[0]) / dt).astype(int), 0, ft.size - 1)
+    off = t - ft[k]
+    bad = np.flatnonzero(np.abs(off) > GRID_RTOL * dt)
+    if bad.size:
+        j = int(bad[0])
+        raise aeroid.FlightError(
+            f"{where}: GNSS sample at t = {t[j]:.9g} s is {1e3 * off[j]:+.6g} ms from the "
+            f"flight's nearest sample ({1e3 * dt:.6g} ms grid): an aiding sample is "
+            "predicted at a flight sample (nothing resampled); log it on the IMU's clock or "
+            "leave it out")
+    if np.unique(k).size != k.size:
+        raise aeroid.FlightError(f"{where}: two GNSS samples on one flight sample")
+    return AidingSamples(k, z, sd)
+
+
+def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``C_nb [u v w]`` of states ``x`` (k, >= 9) (k, 3) and its derivative in the first
+    nine state components (k, 3, 9): ``C_nb`` itself and, for the angles, the complex step
+    of :func:`~aeroid.flights.body_to_ned`."""
+    uvw = x[:, U:W + 1]
+    angles = x[:, [PHI, THETA, PSI]]
+    v = np.einsum("kij,kj->ki", body_to_ned(*angles.T), uvw)
+    dv = np.zeros((x.shape[0], 3, N_STATE))
+    dv[:, :, U:W + 1] = body_to_ned(*angles.T)
+    for j, i in enumerate((PHI, THETA, PSI)):
+        a = angles.astype(complex)
+        a[:, j] += 1j * COMPLEX_STEP
+        dv[:, :, i] = np.einsum("kij,kj->ki", body_to_ned(*a.T).imag / COMPLEX_STEP, uvw)
+    return v, dv
+
+
+class AidedModel:
+    """The record model with the GNSS velocity outputs appended, shape (n, m + 3).
+
+    Everything else (scales, layout, the delay's smooth region) is the record model's.
+    """
+
+    def __init__(self, base: Any, samples: AidingSamples) -> None:
+        self.base, self.samples = base, samples
+        n, m = base.t.size, len(OUTPUT_CHANNELS)
+        mask = np.ones((n, m), bool) if base.mask is None else base.mask
+        aid = np.zeros((n, len(AIDING_CHANNELS)), bool)
+        aid[samples.index] = True
+        self.mask = np.hstack([mask, aid])
+        self.n_x0 = len(base.x0_free)
+        self.n_s = N_COEFFICIENTS + self.n_x0  # the parameters that move the states
+        self.varying = base.exogenous is not None
+        const = base.const
+        if self.varying:  # as the record: per-sample values replace these
+            const = const._replace(**dict.fromkeys(EXOGENOUS, 0.0))
+        self.const = const
+        self._graphs: dict[int, tuple[ca.Function, ca.Function]] = {}
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.base, name)
+
+    def _graph(self, n_pieces: int, sensitivities: bool = True) -> ca.Function:
+        """The states over the record (with their sensitivities), per-step functions
+        compiled to C like the record's when asked (``compile_model``)."""
+        if n_pieces not in self._graphs:
+            x = ca.SX.sym("x", N_STATE)
+            sens = ca.SX.sym("S", N_STATE, self.n_s)
+            p9, s9 = ca.SX.sym("p9", N_COEFFICIENTS), ca.SX.sym("s9", N_COEFFICIENTS)
+            sym = symbolic.interval_symbols(n_pieces, self.varying)
+            dtheta = ca.horzcat(ca.SX.eye(N_COEFFICIENTS),
+                                ca.SX.zeros(N_COEFFICIENTS, self.n_x0))
+            x_next = symbolic.interval_step_symbolic(x, p9 * s9, sym, self.const,
+                                                     float(self.base.t[1] - self.base.t[0]),
+                                                     self.base.substeps)
+            s_next = ca.jtimes(x_next, ca.vertcat(x, p9), ca.vertcat(sens, dtheta))
+            tag = hashlib.sha256(repr((tuple(self.const), self.base.t[1] - self.base.t[0],
+                                       self.base.substeps, self.n_s, n_pieces,
+                                       self.varying)).encode()).hexdigest()[:12]
+            steps = [ca.Function(f"aiding_step_{tag}", [x, sens, p9, s9, *sym],
+                                 [x_next, s_next]),
+                     ca.Function(f"aiding_plain_{tag}", [x, p9, s9, *sym], [x_next])]
+            if self.base.compiled_requested:
+                steps = symbolic.compile_functions(steps, f"aeroid_aiding_{tag}") or steps
+            m = self.base.t.size - 1
+            self._graphs[n_pieces] = (steps[0].mapaccum("aiding_record", m, 2),
+                                      steps[1].mapaccum("aiding_states", m))
+        return self._graphs[n_pieces][0 if sensitivities else 1]
+
+    def states(self, p: np.ndarray, tau: float, sensitivities: bool = True
+               ) -> tuple[np.ndarray, np.ndarray | None]:
+        """States (n, 9) and their sensitivities (9, n, n_s) (or None) at ``p``, delay ``tau``."""
+        base, n = self.base, self.base.t.size
+        record = base.record(tau)
+        _, pieces, exo = record.symbolic_inputs()
+        x0, s0 = base.x0.copy(), np.zeros((N_STATE, self.n_s))
+        free = slice(N_COEFFICIENTS, N_COEFFICIENTS + self.n_x0)
+        x0[list(base.x0_free)] += p[free] * base.scale[free]
+        s0[list(base.x0_free), range(N_COEFFICIENTS, self.n_s)] = base.scale[free]
+        m = n - 1
+        rep = [np.tile(v[:, None], (1, m)) for v in (p[:N_COEFFICIENTS],
+                                                      base.scale[:N_COEFFICIENTS])]
+        if not sensitivities:
+            xs = self._graph(record.n_pieces, False)(x0, *rep, pieces, exo[:, :m], exo[:, 1:])
+            return np.hstack([x0[:, None], np.asarray(xs)]).T, None
+        xs, ss = self._graph(record.n_pieces)(x0, s0, *rep, pieces, exo[:, :m], exo[:, 1:])
+        blocks = np.asarray(ss).reshape(N_STATE, m, self.n_s)  # block k: S_{k+1}
+        return (np.hstack([x0[:, None], np.asarray(xs)]).T,
+                np.concatenate([s0[:, None, :], blocks], axis=1))
+
+    def velocity(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """NED velocity at the aiding samples (n_a, 3) and its derivative (n_a, 3, 9)."""
+        return ned_velocity(xs[self.samples.index])
+
+    def _aiding(self, p: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        n, tau = self.base.t.size, self.base.tau(p)
+        xs, ss = self.states(p, tau, jacobian)
+        v, dv = self.velocity(xs)
+        y = np.zeros((n, len(AIDING_CHANNELS)))
+        y[self.samples.index] = v
+        if ss is None:
+            return y, None
+        J = np.zeros((len(AIDING_CHANNELS), n, p.size))
+        k = self.samples.index
+        J[:, k, :self.n_s] = np.einsum("kcx,xkp->ckp", dv, ss[:, k, :])
+        if self.base.estimate_delay:
+            J[:, k, self.base.n_graph] = self._delay_column(p, tau)
+        return y, J
+
+    def _delay_column(self, p: np.ndarray, tau: float) -> np.ndarray:
+        """d v_ned / d(scaled delay) at the aiding samples, (3, n_a): the record's rule
+        (:meth:`baselines._oe_record.RecordModel._delay_column`), central inside the
+        delay's smooth region, one-sided second order near its edge."""
+        region, i = self.base.smooth_region(p), self.base.n_graph
+        up = (region.hi[i] - p[i]) * self.base.delay_scale
+        down = (p[i] - region.lo[i]) * self.base.delay_scale
+        h, central = DELAY_STEP_S, min(up, down) >= DELAY_STEP_S
+        sign = 1.0 if up >= down else -1.0
+        if not central:
+            h = min(h, 0.5 * max(up, down))
+        offsets = (h, -h) if central else (0.0, sign * h, 2.0 * sign * h)
+        v = [self.velocity(self.states(p, tau + o, False)[0])[0] for o in offsets]
+        self.base.record(tau)  # the record model's current delay again
+        d = ((v[0] - v[1]) / (2.0 * h) if central
+             else sign * (4.0 * v[1] - 3.0 * v[0] - v[2]) / (2.0 * h))
+        return (d * self.base.delay_scale).T
+
+    # OutputModel -------------------------------------------------------------------
+    def outputs(self, p: np.ndarray) -> np.ndarray:
+        """Return ``y(p)``, shape (n, m + 3): the IMU's outputs, then ``vn ve vd``."""
+        return np.hstack([self.base.outputs(p), self._aiding(p, False)[0]])
+
+    def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``y(p)`` (n, m + 3) and ``dy/dp`` (m + 3, n, n_p)."""
+        y, J = self.base.outputs_jacobian(p)
+        ya, Ja = self._aiding(p, True)
+        return np.hstack([y, ya]), np.concatenate([J, Ja], axis=0)
+
+
+@dataclass(frozen=True)
+class AidedProblem(Problem):
+    """A :class:`~baselines._gauss_newton.Problem` whose aiding channels' variances are
+    given (``known_var``, NaN where estimated), at their samples; 1 elsewhere."""
+
+    known_var: np.ndarray | None = None
+
+    def noise(self, e: np.ndarray) -> np.ndarray:
+        """:meth:`Problem.noise`, the given variances in their channels."""
+        var = np.array(np.broadcast_to(super().noise(e), e.shape))
+        if self.known_var is None or self.mask is None:
+            return var
+        fixed = np.flatnonzero(np.isfinite(self.known_var))
+        var[:, fixed] = np.where(self.mask[:, fixed], self.known_var[fixed], 1.0)
+        return var
+
+
+def aided_problem(aiding: str, flight: Flight, prob: Problem) -> Problem:
+    """``prob`` with the aiding outputs of ``aiding`` (``"none"``: ``prob`` itself)."""
+    if aiding == "none":
+        return prob
+    base = prob.model
+    if getattr(base, "tables", None) is not None or getattr(base, "wind_free", False):
+        raise aeroid.EstimatorError(f"output-error: aiding = {aiding} with coefficient tables or "
+                                    "estimate_wind is not built (the aiding outputs integrate the "
+                                    "nine constant coefficients in still air)")
+    samples = aiding_samples(flight)
+    model = AidedModel(prob.model, samples)
+    z = np.zeros((flight.n_samples, len(AIDING_CHANNELS)))
+    z[samples.index] = samples.z
+    var = samples.sd ** 2
+    return AidedProblem(z=np.hstack([prob.z, z]), model=model,
+                        r_floor=np.concatenate([prob.r_floor, var]),
+                        noise_model=prob.noise_model, prior_mean=prob.prior_mean,
+                        prior_weight=prob.prior_weight,
+                        known_var=np.concatenate([np.full(prob.z.shape[1], np.nan), var]))
+
+
+def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
+    """``info`` entries of an aided fit: the aiding residuals for the fit check (their
+    yardstick the stated sd) and ``info["aiding"]``; empty for a fit without aiding."""
+    if not isinstance(prob, AidedProblem):
+        return {}
+    model: AidedModel = prob.model  # type: ignore[assignment]
+    k, m = model.samples.index, len(OUTPUT_CHANNELS)
+    residuals = {c: e[:, j] for j, c in enumerate(OUTPUT_CHANNELS)}
+    residuals.update({c: e[k, m + j] for j, c in enumerate(AIDING_CHANNELS)})
+    return {"fit_residuals": residuals,
+            # the resolution floor's yardstick: the velocity's change over the flight (its
+            # initial value is fitted), not its 500 m/s (1e-3 of that is 5x the GNSS's sd)
+            "fit_signals": {c: model.samples.z[:, j] - np.mean(model.samples.z[:, j])
+                            for j, c in enumerate(AIDING_CHANNELS)},
+            "fit_noise_sd": dict(zip(AIDING_CHANNELS, model.samples.sd.tolist(), strict=True)),
+            "aiding": {"channels": AIDING_CHANNELS, "n_samples": int(k.size),
+                       "times_s": model.base.t[k],
+                       "noise": "the log's stated sd (not estimated)",
+                       "note": "initial pitch and heading theta0 psi0 estimated (no prior)",
+                       "sd": dict(zip(AIDING_CHANNELS, model.samples.sd.tolist(),
+                                      strict=True))}}
+
+
+def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
+                    ) -> tuple[str, ...]:
+    """A warning when the flight carries aiding samples the fit leaves out."""
+    if aiding == "none" and isinstance(flight.metadata.get("aiding"), Mapping):
+        return (f"{owner}: the flight carries GNSS velocity samples (metadata aiding), "
+                "not in this fit's likelihood (aiding = gnss-velocity puts them in)",)
+    return ()

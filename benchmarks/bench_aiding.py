@@ -1,0 +1,187 @@
+"""Benchmark GNSS velocity in output-error's likelihood (``aiding = "gnss-velocity"``).
+
+Run by hand from the repository root (one process)::
+
+    python benchmarks/bench_aiding.py --seeds 10
+
+For each seed: the reference window (5-6 s) logged by the default
+:class:`~aeroid.flights.SensorSuite` (1000 Hz IMU with biases and scale factors, GNSS 10 Hz
+with 0.1 m/s velocity sd, barometer, wrapped INS), reconstructed, and its
+``to_flight(imu="raw", aiding=True)`` fitted by output-error with ``imu_errors =
+"bias+scale"`` and ``estimate_initial_velocity``:
+
+- ``IMU only, velocity prior``: ``initial_velocity_prior = "flight"`` (README's route);
+- ``GNSS in, velocity prior``: the same with ``aiding = "gnss-velocity"`` (the prior and
+  the GNSS share information: the reconstruction used the same GNSS samples);
+- ``GNSS in, velocity free``: ``aiding`` without the prior (no information counted twice);
+- ``GNSS 50 ms late, undeclared`` and ``GNSS 200 ms late, undeclared``: the last fit with
+  the GNSS times moved (known-wrong inputs: how often the fit check refuses them).
+
+With ``--filters``, instead: the EKF and the UKF (``imu_errors = "bias+scale"``, their
+initial sd from the reconstruction) without and with ``aiding``, and the EKF with the GNSS
+50 and 200 ms late (written to ``benchmarks/results/aiding_filters.md``)::
+
+    python benchmarks/bench_aiding.py --seeds 20 --filters
+
+Figures per fit: successes, mean |relative error| of the coefficients, Cx's relative
+error and standard error, the correlation of Cx with the axial biases ``bax1``, ``bax2``,
+the largest ``|error| / se`` over the coefficients, biases and scale factors. Printed and
+written to ``benchmarks/results/aiding.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from aeroid.flights import (  # noqa: E402
+    Flight,
+    SensorSuite,
+    make_flight,
+    reference_scenario,
+    simulate_suite,
+)
+from aeroid.model import OUTPUT_CHANNELS  # noqa: E402
+from aeroid.reconstruction import reconstruct  # noqa: E402
+from baselines.output_error import OutputErrorEstimator  # noqa: E402
+
+BASE = {"imu_errors": "bias+scale", "estimate_initial_velocity": True}
+FITS = {
+    "IMU only, velocity prior": ({**BASE, "initial_velocity_prior": "flight"}, 0.0),
+    "GNSS in, velocity prior": ({**BASE, "initial_velocity_prior": "flight",
+                                 "aiding": "gnss-velocity"}, 0.0),
+    "GNSS in, velocity free": ({**BASE, "aiding": "gnss-velocity"}, 0.0),
+    "GNSS 50 ms late, undeclared": ({**BASE, "aiding": "gnss-velocity"}, 0.05),
+    "GNSS 200 ms late, undeclared": ({**BASE, "aiding": "gnss-velocity"}, 0.2),
+}
+
+
+FILTER_BASE = {"imu_errors": "bias+scale"}
+FILTERS = {
+    "EKF, IMU only": ("ekf", FILTER_BASE, 0.0),
+    "EKF, GNSS in": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "UKF, IMU only": ("ukf", FILTER_BASE, 0.0),
+    "UKF, GNSS in": ("ukf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "EKF, GNSS 50 ms late, undeclared": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"},
+                                         0.05),
+    "EKF, GNSS 200 ms late, undeclared": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"},
+                                          0.2),
+}
+
+
+def skewed(flight: Flight, late_s: float) -> Flight:
+    """``flight`` whose GNSS samples are labelled ``late_s`` earlier than they were taken
+    (an undeclared skew), those outside the flight left out."""
+    if not late_s:
+        return flight
+    gnss = flight.metadata["aiding"]["gnss"]
+    t = np.asarray(gnss["t"]) - late_s
+    keep = t >= flight.t[0] - 1e-9
+    moved = {**gnss, "t": t[keep], **{c: np.asarray(gnss[c])[keep] for c in ("vn", "ve", "vd")}}
+    return make_flight({c: flight[c] for c in flight.channels}, flight.airframe,
+                       {**flight.metadata, "aiding": {"gnss": moved}})
+
+
+def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
+    values = np.concatenate([errors["accel_bias"].ravel(), errors["gyro_bias"],
+                             errors["accel_scale"].ravel(), errors["gyro_scale"]])
+    names = [f"{p}{c}" for p in ("b", "s") for c in OUTPUT_CHANNELS]
+    return dict(zip(names, values.tolist(), strict=True))
+
+
+def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
+    """All fits of one seed (output-error's, or with ``filters`` the EKF's and UKF's)."""
+    from aeroid.estimation import make_estimator
+
+    scenario = reference_scenario()
+    truth = scenario.coefficient_vector
+    sim = simulate_suite(scenario.airframe, truth, scenario.manoeuvre, SensorSuite(), rng=seed)
+    raw = reconstruct(sim.log).to_flight(imu="raw", aiding=True)
+    errors = _errors_truth(sim.errors)
+    out = {}
+    fits = ({k: (make_estimator(m, o), late) for k, (m, o, late) in FILTERS.items()}
+            if filters else {k: (OutputErrorEstimator(**o), late)
+                             for k, (o, late) in FITS.items()})
+    for label, (est, late) in fits.items():
+        start = time.perf_counter()
+        res = est.fit(skewed(raw, late), rng=seed)
+        corr = {"bax1": np.nan, "bax2": np.nan}
+        if "parameter_covariance" in res.info:  # output-error's (the filters' P: not kept)
+            names = list(res.info["parameter_names"])
+            cov = res.info["parameter_covariance"]
+            sd = np.sqrt(np.diag(cov))
+            corr = {b: cov[0, names.index(b)] / (sd[0] * sd[names.index(b)])
+                    for b in ("bax1", "bax2")}
+        z = {n: abs(v - errors[n]) / res.info["imu_error_stderr"][n]
+             for n, v in res.info["imu_errors"].items()}
+        out[label] = {"success": float(res.success), "wall_s": time.perf_counter() - start,
+                      "mean_rel": float(np.mean(np.abs(res.theta / truth - 1.0))),
+                      "cx_rel": float(res.theta[0] / truth[0] - 1.0),
+                      "cx_se": float(res.stderr[0] / abs(truth[0])),
+                      "corr1": corr["bax1"], "corr2": corr["bax2"],
+                      "max_z": float(np.max(np.abs(res.theta - truth) / res.stderr)),
+                      "bias_z": max(v for n, v in z.items() if n[0] == "b"),
+                      "scale_z": max(v for n, v in z.items() if n[0] == "s"),
+                      "message": res.message}
+    return out
+
+
+def main() -> None:
+    """Run the seeds, print and write the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1")
+    parser.add_argument("--filters", action="store_true",
+                        help="the EKF and UKF instead of output-error")
+    args = parser.parse_args()
+    labels = FILTERS if args.filters else FITS
+    runs = []
+    for seed in range(args.seeds):
+        runs.append(one_seed(seed, args.filters))
+        print(f"seed {seed}: " + "; ".join(
+            f"{k}: {'ok' if r['success'] else 'refused'} Cx se {100 * r['cx_se']:.3f} % corr "
+            f"{r['corr2']:+.4f} max z {r['max_z']:.2f}/{r['bias_z']:.2f}/{r['scale_z']:.2f}"
+            for k, r in runs[-1].items()), flush=True)
+    lines = [f"# GNSS velocity in {'the filters' if args.filters else 'output-error'}"
+             f"{chr(39) if args.filters else chr(39) + 's'} likelihood", "",
+             f"`python benchmarks/bench_aiding.py --seeds {args.seeds}"
+             f"{' --filters' if args.filters else ''}` on "
+             f"{platform.processor() or platform.machine()}, Python "
+             f"{platform.python_version()}, numpy {np.__version__}; reference window 5-6 s, "
+             f"default suite, seeds 0-{args.seeds - 1}.", "",
+             "| fit | succeeded | mean rel. error | Cx RMS rel. error | Cx rel. se (median) | "
+             "corr(Cx, bax1) (median) | corr(Cx, bax2) (median) | max coefficient \\|z\\| | "
+             "max bias \\|z\\| | max scale \\|z\\| | wall time per fit [s] (median) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for label in labels:
+        rows = [r[label] for r in runs]
+        lines.append(
+            f"| {label} | {int(sum(r['success'] for r in rows))} of {len(rows)} | "
+            f"{100 * np.mean([r['mean_rel'] for r in rows]):.3f} % | "
+            f"{100 * np.sqrt(np.mean([r['cx_rel'] ** 2 for r in rows])):.3f} % | "
+            f"{100 * np.median([r['cx_se'] for r in rows]):.3f} % | "
+            f"{np.median([r['corr1'] for r in rows]):+.4f} | "
+            f"{np.median([r['corr2'] for r in rows]):+.4f} | "
+            f"{max(r['max_z'] for r in rows):.2f} | {max(r['bias_z'] for r in rows):.2f} | "
+            f"{max(r['scale_z'] for r in rows):.2f} | "
+            f"{np.median([r['wall_s'] for r in rows]):.1f} |")
+    refused = [f"seed {s} {k}: {r[k]['message']}" for s, r in enumerate(runs) for k in labels
+               if not r[k]["success"]]
+    lines += ["", "Refusals:", ""] + [f"- {line}" for line in refused or ["none"]]
+    print("\n".join(lines))
+    out = ROOT / "benchmarks" / "results" / ("aiding_filters.md" if args.filters
+                                             else "aiding.md")
+    out.write_text("\n".join(lines) + "\n")
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
