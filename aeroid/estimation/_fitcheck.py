@@ -229,9 +229,8 @@ def _standardized(residuals: Mapping[str, np.ndarray], variance: Any) -> dict[st
     """Return each channel's mean ``e^2 / R`` under the method's own noise model.
 
     ``variance``: ``info["R"]`` of the method, shape (n, m) (one variance per sample) or
-    (m,), columns in the order of ``residuals``; anything else gives no figures. A channel
-    whose residual is not at R's rows (output-error's aiding channels, at their own
-    samples, with their sd given) gives none either.
+    (m,), columns in the order of ``residuals``; anything else, or a channel not at R's
+    rows (output-error's aiding channels, at their own samples), gives no figures.
     """
     if variance is None:
         return {}
