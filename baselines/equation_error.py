@@ -244,8 +244,9 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         result = self._solve(flight, holds=holds, wind=air.wind)
         if holds is not None and holds.held:  # the data against the held values
             result = _held.ee_held_check(result, self._solve(flight, wind=air.wind), holds)
-        result = dataclasses.replace(result, info={**result.info, "air_data": air.source,
-                                                   "air_data_note": air.note})
+        result = dataclasses.replace(
+            result, info={**result.info, "air_data": air.source, "air_data_note": air.note},
+            warnings=tuple(result.warnings) + ((air.warning,) if air.warning else ()))
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:

@@ -59,11 +59,13 @@ WIND_WINDOW_S = 0.1
 class AirData:
     """The aerodynamic angles a fit uses: ``source`` ``"measured"`` or ``"inertial"``,
     ``wind`` (n, 3) [m/s] NED per sample with the measured ones (else None), ``note``:
-    one line saying what was done and why."""
+    one line saying what was done and why; ``warning``: with the measured ones, the bias
+    the airspeed assumption leaves out of the standard errors (else None)."""
 
     source: str
     wind: np.ndarray | None
     note: str
+    warning: str | None = None
 
 
 def _inertial_angles(flight: Flight) -> tuple[np.ndarray, np.ndarray]:
@@ -146,10 +148,14 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
     window = wind_window(flight, window_s)
     smoothed = (f"the wind they imply smoothed over {window} samples in NED axes"
                 if window > 1 else "not smoothed")
+    speed = float(np.mean(np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w")))))
+    warning = (f"{owner}: airspeed taken as |u, v, w| (no airspeed channel): a wind along "
+               f"the path of 1 m/s biases every coefficient by about {200.0 / speed:.2g} %, "
+               "which the logged angles cannot see and the standard errors leave out")
     return AirData("measured", air_data_wind(flight, window_s),
                    f"{owner}: aerodynamic angles from the logged alpha, beta ({rms:.3g} deg "
                    f"RMS from the inertial ones; {smoothed}), airspeed |u, v, w| (no "
-                   "airspeed channel)")
+                   "airspeed channel)", warning)
 
 
 def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:

@@ -76,6 +76,11 @@ def test_measured_angles_recover_a_windy_flight_inertial_do_not(crosswind_flight
     assert len(notices) == 1 and "\n" not in notices[0]
     assert np.max(np.abs(measured.theta / truth - 1.0)) < MEASURED_RTOL
     assert not any("ignores" in w for w in measured.warnings)
+    # the airspeed assumption said with its size: 2 / V per m/s along the path
+    said = [w for w in measured.warnings if "airspeed taken as |u, v, w|" in w]
+    assert len(said) == 1
+    speed = np.mean(np.linalg.norm(f.states()[:, :3], axis=1))
+    assert f"{200.0 / speed:.2g} %" in said[0]
     inertial = EquationErrorEstimator(air_data="inertial").fit(f)
     assert inertial.info["air_data"] == "inertial"
     assert not inertial.success  # the fit check refuses the known-wrong angles
