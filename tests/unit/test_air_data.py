@@ -136,3 +136,18 @@ def test_other_methods_say_they_ignore_the_logged_angles(crosswind_flight,
     assert "logged alpha, beta" in warned[0]
     assert not [w for w in _Truthful().fit(clean_flight).warnings if "ignores" in w]
     assert not Estimator.uses_air_data and EquationErrorEstimator.uses_air_data
+
+
+def test_what_is_not_built_with_logged_angles_is_refused_in_one_line(crosswind_flight) -> None:
+    f = crosswind_flight
+    windows = aeroid.flights.Windows((f, f), ("a", "b"))
+    with pytest.raises(EstimatorError, match="several windows are not built") as err:
+        EquationErrorEstimator().fit(windows)
+    assert "\n" not in str(err.value)
+    assert EquationErrorEstimator(air_data="inertial").fit(windows).theta.shape == (
+        len(aeroid.NAMES),)
+    tables = aeroid.model.TableSpec((("Cx", (1.7,)),))
+    tabled = dataclasses.replace(f, airframe=f.airframe.replace(tables=tables))
+    with pytest.raises(EstimatorError, match=r"\[tables\] are not built") as err:
+        EquationErrorEstimator().fit(tabled)
+    assert "\n" not in str(err.value)
