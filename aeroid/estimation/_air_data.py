@@ -45,10 +45,11 @@ __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData"
 #: (:func:`has_air_data`), ``inertial`` takes the angles from ``u, v, w``, ``measured``
 #: uses the logged ones or refuses a flight without them.
 AIR_DATA_CHOICES: tuple[str, ...] = ("auto", "inertial", "measured")
-#: Logged angles within this of the inertial ones everywhere are the inertial ones (a
-#: reader derives them when the log has none; a CSV round trip keeps them to 1e-16 rad):
-#: far below a vane's resolution (0.1 deg = 1.7e-3 rad).
-ANGLE_TOLERANCE_RAD = 1e-9
+#: Logged angles within this of the inertial ones everywhere are the inertial ones: a
+#: reader derives them when the log has none, and a log written with 6 significant digits
+#: (or as float32) makes them differ by up to ~1e-6 rad; 1e-5 rad is 1/170 of a 0.1 deg
+#: vane's noise and a wind of 5 mm/s at 500 m/s.
+ANGLE_TOLERANCE_RAD = 1e-5
 #: Savitzky-Golay order of the implied wind's smoothing (module docstring).
 WIND_POLYORDER = 3
 #: Default smoothing of the implied wind [s] (module docstring: measured).
