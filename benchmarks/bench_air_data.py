@@ -117,6 +117,12 @@ def table(kinds: dict) -> str:
         out.append(f"| {kind} | {sum(r[0] for r in rows)}/{len(rows)} | {e:.3f} | "
                    f"{e / still:.2f} | {k:.3f} | {k / still_k:.2f} | "
                    f"{np.median([r[3] for r in rows]):.1f} |")
+    out += ["", "Mean |relative error| per coefficient [%]:", "",
+            "| air / angles | " + " | ".join(aeroid.NAMES) + " |",
+            "|---|" + "---|" * len(aeroid.NAMES)]
+    for kind, rows in kinds.items():
+        per = np.mean([r[1] for r in rows], axis=0)
+        out.append(f"| {kind} | " + " | ".join(f"{v:.2f}" for v in per) + " |")
     return "\n".join(out)
 
 
