@@ -71,7 +71,7 @@ class AirData:
 
 def _inertial_angles(flight: Flight) -> tuple[np.ndarray, np.ndarray]:
     u, v, w = (flight[c] for c in ("u", "v", "w"))
-    speed, alpha, beta = equations.air_data(u, v, w)
+    _, alpha, beta = equations.air_data(u, v, w)
     return alpha, beta
 
 
