@@ -79,6 +79,7 @@ the numbers are those of the one-shot array to the bit (tests/unit/test_blocked_
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
@@ -109,15 +110,20 @@ COLLINEAR_R = 0.99
 BLOCK_SAMPLES = rc.REGRESSION_BLOCK
 
 
-def affine_accelerations(flight: Flight, states: np.ndarray | None = None
-                         ) -> tuple[np.ndarray, np.ndarray]:
+def affine_accelerations(flight: Flight, states: np.ndarray | None = None,
+                         wind: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Return ``c (n, 9)`` and ``A (n, 9, 9)`` with ``[a1, a2, pdot, qdot, rdot] = c + A theta``.
 
     From :func:`aeroid.model.accelerometers` and :func:`aeroid.model.state_derivative` evaluated at
     ``theta = 0`` and at the nine unit vectors (both are affine in the coefficients).
+    ``wind`` (n, 3) [m/s] NED per sample replaces the constants' wind
+    (:func:`aeroid.estimation.air_data_wind`).
     """
+    const = aeroid.flights.sample_constants(flight)
+    if wind is not None:
+        const = const._replace(wind_n=wind[:, 0], wind_e=wind[:, 1], wind_d=wind[:, 2])
     const = aeroid.model.Constants(*(np.asarray(v, dtype=float)[:, None] if np.ndim(v) else v
-                                     for v in aeroid.flights.sample_constants(flight)))
+                                     for v in const))
     states = flight.states() if states is None else states
     delta = flight["delta"]
     n_c = aeroid.model.N_COEFFICIENTS
@@ -173,6 +179,13 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         effect on the estimate is added to the covariance (default ``consider``; module
         docstring; ``info["position_sensitivity"]`` holds ``G``), or they are taken as
         known. The estimate is the same either way.
+    air_data : {"auto", "inertial", "measured"}
+        Aerodynamic angles: the flight's logged alpha and beta where it has them
+        (default ``auto``; said in one line), those from u, v, w (``inertial``), or the
+        logged ones or a refusal (``measured``); :mod:`aeroid.estimation._air_data`.
+    air_data_window_s : float
+        Smoothing of the wind the logged angles imply, in north-east-down axes [s]
+        (default 0.1, measured: :mod:`aeroid.estimation._air_data`; 0: none).
 
     Notes
     -----
@@ -190,6 +203,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     name: ClassVar[str] = "equation-error"
     supports_windows: ClassVar[bool] = True  # run_windows: baselines._ee_windows
     supports_holds: ClassVar[bool] = True  # held to the left side, priors combined
+    uses_air_data: ClassVar[bool] = True  # option air_data
     description: ClassVar[str] = (
         "equation-error least squares (closed-form EBM step 2 or one step on the sensors)")
 
@@ -198,6 +212,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     lateral_rows: bool = False
     covariance: Literal["hac", "ols"] = "hac"
     positions: Literal["consider", "known"] = "consider"
+    air_data: Literal["auto", "inertial", "measured"] = "auto"
+    air_data_window_s: float = rc.WIND_WINDOW_S
 
     def __post_init__(self) -> None:
         if self.smoothing not in rc.SMOOTHING_CHOICES:
@@ -205,17 +221,32 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                              f"got {self.smoothing!r}")
         if self.positions not in ("consider", "known"):
             raise ValueError(f"positions must be 'consider' or 'known', got {self.positions!r}")
+        if self.air_data not in rc.AIR_DATA_CHOICES:
+            raise ValueError(f"air_data must be one of {', '.join(rc.AIR_DATA_CHOICES)}, "
+                             f"got {self.air_data!r}")
+        if not (np.isfinite(self.air_data_window_s) and self.air_data_window_s >= 0):
+            raise ValueError(f"air_data_window_s must be >= 0 [s], got {self.air_data_window_s}")
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
         """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
         the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
+        air = rc.resolve_air_data(flight, self.air_data, self.name,
+                                     self.air_data_window_s)
         tables = _tables_fit.flight_tables(flight)
         if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
+            if air.source == "measured":
+                raise aeroid.errors.EstimatorError(
+                    f"{self.name}: logged air-data angles with [tables] are not built; "
+                    "give air_data = 'inertial' to fit the angles from u, v, w")
             return _tables_fit.equation_error_tables(self, flight, tables, holds)
-        result = self._solve(flight, holds=holds)
+        logging.getLogger("aeroid").info(air.note)
+        result = self._solve(flight, holds=holds, wind=air.wind)
         if holds is not None and holds.held:  # the data against the held values
-            result = _held.ee_held_check(result, self._solve(flight), holds)
+            result = _held.ee_held_check(result, self._solve(flight, wind=air.wind), holds)
+        result = dataclasses.replace(
+            result, info={**result.info, "air_data": air.source, "air_data_note": air.note},
+            warnings=tuple(result.warnings) + ((air.warning,) if air.warning else ()))
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:
@@ -230,7 +261,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                 moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
                                                 accel2_position_m=tuple(pos[3:]))
                 ends.append(self._solve(dataclasses.replace(flight, airframe=moved),
-                                        theta_only=True, holds=holds).theta)
+                                        theta_only=True, holds=holds, wind=air.wind).theta)
             G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
         cov = result.covariance + (G * sd[free] ** 2) @ G.T
         info = {**result.info, "position_sensitivity": G,
@@ -243,6 +274,10 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         """Several windows: their regressions stacked (:mod:`baselines._ee_windows`)."""
         from baselines._ee_windows import run_windows
 
+        if self.air_data != "inertial" and any(rc.has_air_data(w) for w in windows.flights):
+            raise aeroid.errors.EstimatorError(
+                f"{self.name}: logged air-data angles with several windows are not built; "
+                "give air_data = 'inertial' to fit the angles from u, v, w")
         return run_windows(self, windows, rng, affine_accelerations=affine_accelerations,
                            roll_floor=roll_floor)
 
@@ -250,22 +285,24 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         """Return the estimate alone, shape (N_COEFFICIENTS,): the positions as given, no
         covariance beyond plain least squares, no fit check, no floor (a start for another
         method; the same point as :meth:`run` with ``positions = "known"``)."""
-        return self._solve(flight, theta_only=True).theta
+        air = rc.resolve_air_data(flight, self.air_data, self.name,
+                                     self.air_data_window_s)
+        return self._solve(flight, theta_only=True, wind=air.wind).theta
 
     def _solve(self, flight: Flight, *, theta_only: bool = False,
-               holds: Any = None) -> EstimationResult:
+               holds: Any = None, wind: np.ndarray | None = None) -> EstimationResult:
         """One solve at the airframe's positions (``theta_only``: the estimate alone, its
         covariance plain least squares and no gyro-only floor, for the sensitivities)."""
         covariance = "ols" if theta_only else self.covariance
         if self.one_step:
-            return self._one_step(flight, covariance, theta_only, holds)
+            return self._one_step(flight, covariance, theta_only, holds, wind)
         rec = rc.reconstruct(flight)
         y = rc.regression_target(rec, smoothing=self.smoothing)
         window = rec.smoothing_window
 
         def blocks():  # the regressors a time block at a time (rc.ebm_regression's X)
             return rc.regressor_blocks(flight, smoothing=self.smoothing, window=window,
-                                       block=BLOCK_SAMPLES)
+                                       block=BLOCK_SAMPLES, wind=wind)
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
@@ -281,8 +318,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         return self._result(flight, theta, cov, corr, cost, info, floor=not theta_only)
 
     def _one_step(self, flight: Flight, covariance: str, theta_only: bool,
-                  holds: Any = None) -> EstimationResult:
-        c, A = affine_accelerations(flight)
+                  holds: Any = None, wind: np.ndarray | None = None) -> EstimationResult:
+        c, A = affine_accelerations(flight, wind=wind)
         c, A, free = _held.ee_one_step(c, A, holds)  # held terms into c
         n = flight.n_samples
         meas = np.concatenate([flight.accelerations().reshape(n, 6),

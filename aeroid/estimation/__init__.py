@@ -21,6 +21,15 @@ does with several windows (:class:`aeroid.flights.Windows`).
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
 """
 
+from aeroid.estimation._air_data import (
+    AIR_DATA_CHOICES,
+    WIND_WINDOW_S,
+    AirData,
+    air_data_wind,
+    has_air_data,
+    ignored_air_data_warning,
+    resolve_air_data,
+)
 from aeroid.estimation._consider import (
     ConsiderCovariance,
     add_consider,
@@ -118,6 +127,13 @@ from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, sw
 from aeroid.estimation import _eam, _ebm, _sebm  # noqa: E402, F401, I001  isort: skip
 
 __all__ = [
+    "AIR_DATA_CHOICES",
+    "WIND_WINDOW_S",
+    "AirData",
+    "air_data_wind",
+    "has_air_data",
+    "ignored_air_data_warning",
+    "resolve_air_data",
     "CoefficientSpec",
     "TableHolds",
     "FIN_TERMS",

@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from aeroid.errors import AeroidError, EstimatorError
+from aeroid.estimation._air_data import ignored_air_data_warning
 from aeroid.estimation._consider import add_consider, check_consider
 from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floor_warnings
 from aeroid.estimation._holds import CoefficientSpec, airframe_holds
@@ -72,6 +73,9 @@ class Estimator(abc.ABC):
     #: (:meth:`run_windows`); :meth:`fit` of a :class:`aeroid.flights.Windows` refuses the
     #: others in one line.
     supports_windows: ClassVar[bool] = False
+    #: True for a method that uses a flight's logged air-data angles (its option
+    #: ``air_data``); :meth:`fit` warns in one line that every other one ignores them.
+    uses_air_data: ClassVar[bool] = False
     #: True for a method whose :meth:`run` takes ``holds=`` (a
     #: :class:`aeroid.estimation.CoefficientSpec` with something held or a prior): it
     #: estimates only the free coefficients and adds the priors' information. :meth:`fit`
@@ -231,6 +235,8 @@ class Estimator(abc.ABC):
             extra += (f"{self.name}: the flight's states are a reconstruction's, with sd "
                       "(metadata initial_state_sd); this method takes them as exact, so "
                       "its standard errors leave their uncertainty out",)
+        ignored = None if self.uses_air_data else ignored_air_data_warning(flight, owner)
+        extra += (ignored,) if ignored else ()
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
         return add_consider(self, flight, result, rng=generator)  # uncertain mass, if any

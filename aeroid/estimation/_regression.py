@@ -50,16 +50,20 @@ def regression_target(rec: Reconstruction, *, smoothing: str = "both",
 
 
 def regressor_blocks(flight: Flight, *, smoothing: str = "both", window: int = SMOOTHING_WINDOW,
-                     block: int | None = None) -> Iterator[tuple[int, int, np.ndarray]]:
+                     block: int | None = None, wind: np.ndarray | None = None
+                     ) -> Iterator[tuple[int, int, np.ndarray]]:
     """Yield the ``X`` of :func:`ebm_regression` a block of time samples at a time.
 
     Yields ``(start, stop, X[start:stop])``, ``X`` of shape (stop - start, 6, 9), blocks of
     ``block`` samples (default :data:`REGRESSION_BLOCK`) in time order; their
     concatenation is :func:`ebm_regression`'s ``X`` (same ``smoothing`` and ``window``,
     the reconstruction's ``smoothing_window`` there). Memory is that of one block, not of
-    the ``n x 6 x 9`` array. With ``smoothing="both"`` each block is computed with
-    ``window // 2`` samples of its neighbours on both sides and smoothed, so every kept
-    sample has the same SG window (interior) or the same end fit as the one-shot smoother.
+    the ``n x 6 x 9`` array. ``wind`` (n, 3) [m/s], north-east-down per sample, replaces
+    the model constants' wind (:func:`aeroid.estimation.air_data_wind`: the logged
+    air-data angles as the aerodynamic angles). With ``smoothing="both"`` each block is
+    computed with ``window // 2`` samples of its neighbours on both sides and smoothed, so
+    every kept sample has the same SG window (interior) or the same end fit as the one-shot
+    smoother.
     """
     if smoothing not in SMOOTHING_CHOICES:
         raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_CHOICES)}, "
@@ -74,6 +78,10 @@ def regressor_blocks(flight: Flight, *, smoothing: str = "both", window: int = S
         _check_window(window, min(SMOOTHING_POLYORDER, window - 1), n)
     halo = window // 2 if smoothed else 0
     const = sample_constants(flight)
+    if wind is not None:
+        wind = np.asarray(wind, dtype=float)
+        if wind.shape != (n, 3):
+            raise ValueError(f"wind must have shape ({n}, 3), got {wind.shape}")
     delta = flight.data["delta"].to_numpy(dtype=float)
     for start in range(0, n, block):
         stop = min(start + block, n)
@@ -81,6 +89,9 @@ def regressor_blocks(flight: Flight, *, smoothing: str = "both", window: int = S
         hi = min(n, max(stop + halo, lo + window)) if smoothed else stop
         states = flight.data.iloc[lo:hi][list(STATE_CHANNELS)].to_numpy(dtype=float)
         part = Constants(*(v[lo:hi] if np.ndim(v) else v for v in const))
+        if wind is not None:
+            part = part._replace(wind_n=wind[lo:hi, 0], wind_e=wind[lo:hi, 1],
+                                 wind_d=wind[lo:hi, 2])
         X = regressors(states, delta[lo:hi], part)
         if smoothed:
             X = smooth(X, window, min(SMOOTHING_POLYORDER, window - 1), axis=0)
