@@ -29,7 +29,7 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.model import NAMES, tables
 
-__all__ = ["FIN_TERMS", "CoefficientSpec", "airframe_holds"]
+__all__ = ["FIN_TERMS", "CoefficientSpec", "airframe_holds", "describe_holds", "holds_json"]
 
 #: The coefficients that multiply the fin deflection (aeroid/model/_equations.py: F_AZ's
 #: ``Czd delta`` and M_Y's ``Cmd delta``): held at zero for an airframe without a moving fin.
@@ -293,19 +293,30 @@ class CoefficientSpec:
     # -- reporting ---------------------------------------------------------------------
     def describe(self) -> str:
         """Return one line: what is held and what has a prior (empty when all are free)."""
-        parts = []
-        if self.held:
-            parts.append("held " + ", ".join(
-                f"{n} = {v:g} ({self.sources.get(n, 'given')})" for n, v in self.held.items()))
-        if self.priors:
-            parts.append("prior " + ", ".join(
-                f"{n} ~ N({m:g}, {s:g}^2)" for n, (m, s) in self.priors.items()))
-        return "; ".join(parts)
+        return describe_holds(self)
 
     def to_json(self) -> dict[str, Any]:
         """Return ``{"held": {name: value}, "priors": {name: {"mean", "sd"}}}``."""
-        return {"held": dict(self.held),
-                "priors": {n: {"mean": m, "sd": s} for n, (m, s) in self.priors.items()}}
+        return holds_json(self)
+
+
+def describe_holds(spec: Any) -> str:
+    """One line of ``spec``'s ``held`` (with ``sources``) and ``priors`` (empty when none);
+    :class:`CoefficientSpec` and the tables' :class:`aeroid.estimation.TableHolds`."""
+    parts = []
+    if spec.held:
+        parts.append("held " + ", ".join(
+            f"{n} = {v:g} ({spec.sources.get(n, 'given')})" for n, v in spec.held.items()))
+    if spec.priors:
+        parts.append("prior " + ", ".join(
+            f"{n} ~ N({m:g}, {s:g}^2)" for n, (m, s) in spec.priors.items()))
+    return "; ".join(parts)
+
+
+def holds_json(spec: Any) -> dict[str, Any]:
+    """``{"held": {name: value}, "priors": {name: {"mean", "sd"}}}`` of ``spec``."""
+    return {"held": dict(spec.held),
+            "priors": {n: {"mean": m, "sd": s} for n, (m, s) in spec.priors.items()}}
 
 
 def airframe_holds(airframe: Any) -> CoefficientSpec:

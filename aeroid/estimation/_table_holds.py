@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation._holds import CoefficientSpec
+from aeroid.estimation._holds import CoefficientSpec, describe_holds, holds_json
 from aeroid.model import MachTables, tables
 
 __all__ = ["TableHolds", "table_holds"]
@@ -136,19 +136,11 @@ class TableHolds:
 
     def describe(self) -> str:
         """Return one line: what is held and what has a prior (empty when all are free)."""
-        parts = []
-        if self.held:
-            parts.append("held " + ", ".join(
-                f"{n} = {v:g} ({self.sources.get(n, 'given')})" for n, v in self.held.items()))
-        if self.priors:
-            parts.append("prior " + ", ".join(
-                f"{n} ~ N({m:g}, {s:g}^2)" for n, (m, s) in self.priors.items()))
-        return "; ".join(parts)
+        return describe_holds(self)
 
     def to_json(self) -> dict[str, Any]:
         """Return ``{"held": {name: value}, "priors": {name: {"mean", "sd"}}}``."""
-        return {"held": dict(self.held),
-                "priors": {n: {"mean": m, "sd": s} for n, (m, s) in self.priors.items()}}
+        return holds_json(self)
 
 
 def _point(name: str, mach_tables: MachTables) -> str:
