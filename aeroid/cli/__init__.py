@@ -183,6 +183,14 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass-sd", type=float, metavar="KG",
                    help="standard deviation of the airframe's mass [kg] (replaces the file's "
                         "mass_sd_kg): its share enters the standard errors")
+    # a design tool's drag curve beside the fitted Cx (issue 25): aeroid/cli/_reference.py
+    p.add_argument("--reference-curve", type=Path, metavar="CSV",
+                   help="a reference drag curve (columns Mach, Cd) drawn beside the fitted "
+                        "Cx in the --report folder (drag_vs_reference.png); needs "
+                        "--reference-area")
+    p.add_argument("--reference-area", type=float, metavar="M2",
+                   help="the reference curve's own reference area [m^2]: Cd = -Cx "
+                        "S_aeroid / S_ref")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:
