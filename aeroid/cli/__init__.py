@@ -129,6 +129,8 @@ def _methods_epilog() -> str:
             "  aeroid estimate log.csv --airframe airframe.toml --columns map.toml \\\n"
             "      --degrees --method equation-error --json\n"
             "  aeroid estimate flight.csv --method output-error --report fit-report\n"
+            "  aeroid estimate flight.csv --method output-error --report drag \\\n"
+            "      --reference-curve design_cd.csv --reference-area 0.0129\n"
             "  aeroid estimate flight.csv --method all --option n_iterations=20\n\n"
             "methods ('aeroid methods --options NAME' lists a method's options):\n"
             + methods_table(indent="  ") + "\n\n"
