@@ -62,7 +62,8 @@ def check_reference(curve: Any, flight: Any) -> None:
         return
     from aeroid.report import conversion_note, mach_range, overlap_note
 
+    flight_range = mach_range(flight)  # a flight without a speed of sound: refused first
     logging.getLogger("aeroid").info(conversion_note(flight.airframe.area_m2, curve.area_m2))
-    note = overlap_note(mach_range(flight), curve)
+    note = overlap_note(flight_range, curve)
     if note:
         warnings.warn(note, AeroidWarning, stacklevel=2)

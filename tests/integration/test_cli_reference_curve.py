@@ -246,3 +246,16 @@ def test_several_methods_each_get_the_figure_and_the_note_is_said_once(logs, tmp
     for method in ("equation-error", "ebm-pso"):
         assert (tmp_path / method / "drag_vs_reference.png").is_file()
         assert "(drag_vs_reference.png)" in (tmp_path / method / "report.md").read_text()
+
+
+def test_a_flight_without_a_speed_of_sound_is_refused_before_the_fit(logs, tmp_path, capsys):
+    folder, flight = logs
+    dense = dataclasses.replace(flight, airframe=flight.airframe.replace(
+        altitude_m=None, given_density_kgm3=0.41))
+    dense.write(tmp_path / "dense.csv")
+    assert main(["estimate", str(tmp_path / "dense.csv"), "--method", "equation-error",
+                 "--report", str(tmp_path / "rep"), "--reference-curve",
+                 str(folder / "cd.csv"), "--reference-area", repr(S_REF)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("aeroid: error: Mach of the flight: its atmosphere is a density")
+    assert len(err) == 1  # nothing said before: no conversion note, no fit
