@@ -129,6 +129,8 @@ def _methods_epilog() -> str:
             "  aeroid estimate log.csv --airframe airframe.toml --columns map.toml \\\n"
             "      --degrees --method equation-error --json\n"
             "  aeroid estimate flight.csv --method output-error --report fit-report\n"
+            "  aeroid estimate flight.csv --method output-error --report drag \\\n"
+            "      --reference-curve design_cd.csv --reference-area 0.0129\n"
             "  aeroid estimate flight.csv --method all --option n_iterations=20\n\n"
             "methods ('aeroid methods --options NAME' lists a method's options):\n"
             + methods_table(indent="  ") + "\n\n"
@@ -183,6 +185,14 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass-sd", type=float, metavar="KG",
                    help="standard deviation of the airframe's mass [kg] (replaces the file's "
                         "mass_sd_kg): its share enters the standard errors")
+    # a design tool's drag curve beside the fitted Cx (issue 25): aeroid/cli/_reference.py
+    p.add_argument("--reference-curve", type=Path, metavar="CSV",
+                   help="a reference drag curve (columns Mach, Cd) drawn beside the fitted "
+                        "Cx in the --report folder (drag_vs_reference.png); needs "
+                        "--reference-area")
+    p.add_argument("--reference-area", type=float, metavar="M2",
+                   help="the reference curve's own reference area [m^2]: Cd = -Cx "
+                        "S_aeroid / S_ref")
 
 
 def _add_methods(sub: argparse._SubParsersAction) -> None:

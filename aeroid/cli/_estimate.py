@@ -21,6 +21,7 @@ import sys
 import textwrap
 from typing import Any
 
+from aeroid.cli._reference import check_reference, reference_from_args
 from aeroid.cli._windows import read_windows, window_notes, window_table, windows_json
 from aeroid.errors import AirframeError, EstimatorError, UsageError
 from aeroid.estimation import (
@@ -241,9 +242,12 @@ def estimate(args: argparse.Namespace) -> int:
     else:
         shares = split_options(names, options)
         estimators = {n: make_estimator(n, shares[n]) for n in names}
+    curve = reference_from_args(args)  # a bad curve file or area: before the log
     # a Flight, or Windows (several files, --windows)
     flight = read_windows(args, _read, estimators.values())
     several = hasattr(flight, "names")
+    check_reference(curve, flight)  # the conversion said, a missing overlap warned
+    drag = {} if curve is None else {"reference": curve}
     report = getattr(args, "report", None)
     fmt = getattr(args, "report_format", "md")
     if report is None and fmt != "md":
@@ -263,7 +267,7 @@ def estimate(args: argparse.Namespace) -> int:
 
             writer = write_windows_report if several else write_report
             path = writer(result, flight, report,
-                          notes=window_notes(flight, _report_notes, NO_PRIOR), fmt=fmt)
+                          notes=window_notes(flight, _report_notes, NO_PRIOR), fmt=fmt, **drag)
             print(f"aeroid: wrote {path}", file=sys.stderr)
         if json_output:
             out = result.to_json_dict()
@@ -298,7 +302,7 @@ def estimate(args: argparse.Namespace) -> int:
         reading = window_notes(flight, _report_notes, NO_PRIOR)
         for name, result in results.items():
             writer = write_windows_report if several else write_report
-            writer(result, flight, report / name, notes=reading, fmt=fmt)
+            writer(result, flight, report / name, notes=reading, fmt=fmt, **drag)
             links[name] = f"{name}/{report_name('report', fmt)}"
         text = comparison_markdown(table, notes, links)
         if fmt == "html":

@@ -44,6 +44,7 @@ from aeroid.report._figures import (
 )
 from aeroid.report._files import make_directory, write_figure_atomic, write_text_atomic
 from aeroid.report._html import html_page, report_name
+from aeroid.report._reference_curve import ReferenceCurve, reference_lines
 from aeroid.report._tables import has_tables, write_tables_report
 
 __all__ = ["REPORT_NAME", "report_figures", "report_markdown", "write_report"]
@@ -305,7 +306,8 @@ def _details(result: EstimationResult) -> list[str]:
 
 
 def write_report(result: EstimationResult, flight: Flight, directory: str | Path, *,
-                 notes: Sequence[str] = (), fmt: str = "md") -> Path:
+                 notes: Sequence[str] = (), fmt: str = "md",
+                 reference: ReferenceCurve | None = None) -> Path:
     """Write ``report.md`` (or ``report.html``) and its PNG figures into ``directory``;
     return the report's path.
 
@@ -313,7 +315,8 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     ``notes``: one-line notes to list with the warnings (what reading the log did, the
     flight's validation warnings). ``fmt``: ``md``, or ``html`` for the same markdown
     rendered as one self-contained page (:func:`aeroid.report.html_page`) linking the
-    same PNG files.
+    same PNG files. ``reference``: a design tool's drag curve, drawn beside the fitted
+    Cx (:func:`aeroid.report.reference_lines`: a figure, its data and a section).
 
     Raises
     ------
@@ -322,8 +325,10 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     """
     name = report_name(REPORT_NAME.rsplit(".", 1)[0], fmt)
     folder = make_directory(directory)
+    extra = [] if reference is None else reference_lines(result, flight, reference, folder)
     if has_tables(result.names):  # coefficient tables in Mach: aeroid/report/_tables.py
-        return write_tables_report(result, flight, folder, name, notes=notes, fmt=fmt)
+        return write_tables_report(result, flight, folder, name, notes=notes, fmt=fmt,
+                                   sections=extra)
     finite = bool(np.all(np.isfinite(result.theta)))
     prediction = result.predict(flight) if finite else None
     floor = None
@@ -334,6 +339,7 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     for stem, fig in figures.items():
         write_figure_atomic(fig, folder / f"{stem}.png", DPI)
     text = report_markdown(result, flight, list(figures), notes, prediction, floor)
+    text += "\n" + "\n".join(extra) if extra else ""
     if fmt == "html":
         source = flight.metadata.get("source", "flight")
         text = html_page(text, f"{result.estimator} on {source}")

@@ -11,7 +11,9 @@ drag, so at zero incidence (where the axial force is the drag)::
 says it in one line; :func:`reference_curve_figure` draws the fitted values, with their
 intervals, beside the curve: a constant Cx over the flight's Mach range (a band) or a
 table of Cx against Mach (points with error bars) take the same ``(mach, value, lo,
-hi)`` arrays.
+hi)`` arrays. :func:`reference_lines` writes the figure and its plotted data into a
+report folder and returns the report's lines (``aeroid estimate --report DIR
+--reference-curve CD.csv --reference-area M2``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -27,9 +30,12 @@ from matplotlib.figure import Figure
 from aeroid.errors import UsageError
 from aeroid.flights import Flight
 from aeroid.model import GAMMA, R_AIR, isa_temperature
+from aeroid.report._files import write_figure_atomic, write_text_atomic
+from aeroid.report._tables import DIGITS, DPI, POINT_SEPARATOR, Z95
 
-__all__ = ["ReferenceCurve", "cd_from_cx", "conversion_note", "flight_mach",
-           "read_reference_curve", "reference_curve_figure"]
+__all__ = ["REFERENCE_FILES", "ReferenceCurve", "cd_from_cx", "conversion_note",
+           "fitted_cx", "flight_mach", "mach_range", "overlap_note", "read_reference_curve",
+           "reference_curve_figure", "reference_lines"]
 
 #: Column names of a reference curve file (matched without case and surrounding blanks).
 CURVE_COLUMNS = ("mach", "cd")
@@ -207,3 +213,105 @@ def reference_curve_figure(mach: np.ndarray, value: np.ndarray, lo: np.ndarray,
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     return fig
+
+
+#: Files :func:`reference_lines` writes into a report folder: the figure and its data.
+REFERENCE_FILES = {"figure": "drag_vs_reference.png", "data": "drag_vs_reference.csv"}
+
+
+def mach_range(flight: Flight) -> tuple[float, float]:
+    """Return the flight's lowest and highest Mach number.
+
+    The model's own Mach (:meth:`aeroid.model.MachTables.mach`: the ``[tables]`` speed of
+    sound) for an airframe with ``[tables]``, else :func:`flight_mach`.
+
+    Raises
+    ------
+    UsageError
+        As :func:`flight_mach` (an atmosphere given as a density).
+    """
+    tables = flight.airframe.mach_tables(flight.states())
+    mach = flight_mach(flight) if tables is None else tables.mach(flight.states())
+    return float(np.min(mach)), float(np.max(mach))
+
+
+def overlap_note(flight_range: tuple[float, float], curve: ReferenceCurve) -> str | None:
+    """Return one line when the flight's Mach range and the curve's do not overlap."""
+    low, high = flight_range
+    if high >= curve.mach[0] and low <= curve.mach[-1]:
+        return None
+    return (f"reference curve {curve.source}: its Mach range {curve.mach[0]:g} .. "
+            f"{curve.mach[-1]:g} and the flight's {low:.3g} .. {high:.3g} do not overlap; "
+            f"the figure shows them side by side, nothing is compared at one Mach")
+
+
+def fitted_cx(result: Any, flight_range: tuple[float, float]
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
+    """Return ``(mach, value, lo, hi, label)`` of a result's Cx for the figure.
+
+    A Cx table (``Cx@M...`` names): its points at their knots; a constant Cx: its value
+    at the two ends of ``flight_range``. The interval is +- ``Z95`` standard errors
+    (95 %); a held Cx or one without a standard error has none (``lo = hi = value``),
+    and ``label`` says which.
+
+    Raises
+    ------
+    UsageError
+        When the result has no Cx (neither a constant nor a table) or it is not finite.
+    """
+    names = list(result.names)
+    stderr = (np.full(len(names), np.nan) if result.stderr is None
+              else np.asarray(result.stderr, dtype=float))
+    theta = np.asarray(result.theta, dtype=float)
+    points = [i for i, n in enumerate(names) if n.split(POINT_SEPARATOR)[0] == "Cx"]
+    if not points or not np.all(np.isfinite(theta[points])):
+        raise UsageError(f"reference curve: the {result.estimator} fit has no finite Cx "
+                         "to draw")
+    if names[points[0]] == "Cx":
+        mach = np.array(flight_range, dtype=float)
+        value, se = np.full(2, theta[points[0]]), np.full(2, stderr[points[0]])
+        held = "Cx" in result.held
+    else:
+        mach = np.array([float(names[i].split(POINT_SEPARATOR)[1]) for i in points])
+        order = np.argsort(mach)
+        mach, value, se = mach[order], theta[points][order], stderr[points][order]
+        held = all(names[i] in result.held or "Cx" in result.held for i in points)
+    if held or not np.all(np.isfinite(se)):
+        why = "held" if held else "no standard error"
+        return mach, value, value.copy(), value.copy(), f"{result.estimator} ({why}: no interval)"
+    return (mach, value, value - Z95 * se, value + Z95 * se,
+            f"{result.estimator}, +- {Z95:g} se (95 %)")
+
+
+def reference_lines(result: Any, flight: Flight, curve: ReferenceCurve,
+                    folder: Path) -> list[str]:
+    """Write :data:`REFERENCE_FILES` into ``folder``; return the report's markdown lines.
+
+    The figure is :func:`reference_curve_figure` of :func:`fitted_cx`; the CSV holds the
+    same arrays (``mach, cx, cx_lo, cx_hi, cd, cd_lo, cd_hi``) and the curve is not
+    repeated in it. The lines: a heading, the conversion, the overlap (when there is
+    none), the figure and the CSV; for a fit without a finite Cx (a failed method), no
+    files and a line saying so.
+    """
+    area = flight.airframe.area_m2
+    flight_range = mach_range(flight)
+    lines = ["## Drag against a reference curve", "",
+             f"Reference: `{curve.source}` (Mach {curve.mach[0]:g} .. {curve.mach[-1]:g}) "
+             f"on S_ref = {curve.area_m2:.6g} m^2; the flight's Mach {flight_range[0]:.3g} "
+             f".. {flight_range[1]:.3g}.", "", f"- {conversion_note(area, curve.area_m2)}"]
+    note = overlap_note(flight_range, curve)
+    lines += [f"- warning: {note}"] if note else []
+    try:
+        mach, value, lo, hi, label = fitted_cx(result, flight_range)
+    except UsageError as exc:  # a failed fit: its report is still written
+        return [*lines, f"- no figure: {exc}", ""]
+    fig = reference_curve_figure(mach, value, lo, hi, curve, area_m2=area, label=label)
+    write_figure_atomic(fig, folder / REFERENCE_FILES["figure"], DPI)
+    cd, cd_lo, cd_hi = cd_from_cx(value, lo, hi, area_m2=area, reference_area_m2=curve.area_m2)
+    frame = pd.DataFrame({"mach": mach, "cx": value, "cx_lo": lo, "cx_hi": hi, "cd": cd,
+                          "cd_lo": cd_lo, "cd_hi": cd_hi})
+    write_text_atomic(folder / REFERENCE_FILES["data"],
+                      frame.to_csv(index=False, float_format=f"%.{DIGITS}g"))
+    return lines + [
+        "", f"![drag against the reference curve]({REFERENCE_FILES['figure']})", "",
+        f"The plotted values: `{REFERENCE_FILES['data']}`.", ""]

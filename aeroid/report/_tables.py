@@ -160,12 +160,14 @@ def has_tables(names: Sequence[str]) -> bool:
 
 
 def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
-                        notes: Sequence[str] = (), fmt: str = "md") -> Path:
+                        notes: Sequence[str] = (), fmt: str = "md",
+                        sections: Sequence[str] = ()) -> Path:
     """Write the report of a fit with coefficient tables into ``folder``; return its page.
 
     ``result``: an :class:`aeroid.estimation.EstimationResult` whose names hold table
     points; ``name``: the page's file name (``report.md`` or ``report.html``). Writes
-    :data:`TABLE_FILES` (CSV, JSBSim fragment, figure) and the page.
+    :data:`TABLE_FILES` (CSV, JSBSim fragment, figure) and the page; ``sections``:
+    markdown lines added after the fit check (the drag against a reference curve).
     """
     given = result.info.get("table_floor") or {}  # name -> floor (the fits' info)
     floor = (np.array([given.get(n, np.nan) for n in result.names]) if given else None)
@@ -204,6 +206,7 @@ def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
         lines += [f"| {c} | {r:.3g} |" for c, r in check["ratio"].items()]
     else:
         lines += ["The method reports no residuals: no fit check."]
+    lines += ["", *sections]
     lines += ["", f"Files: `{TABLE_FILES['csv']}` (every point, its standard error and 95 % "
               f"interval), `{TABLE_FILES['jsbsim']}` (a JSBSim aerodynamics fragment: "
               "one `<function>` per table, indexed by `velocities/mach`).", ""]

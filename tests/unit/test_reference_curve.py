@@ -111,3 +111,37 @@ def test_figure_draws_the_converted_fit_beside_the_curve(tmp_path):
                                rtol=1e-12)
     with pytest.raises(UsageError, match="one length"):
         reference_curve_figure([0.5, 1.0], [-0.4], [-0.5], [-0.3], curve, area_m2=S_AEROID)
+
+
+def test_overlap_is_said_only_when_the_ranges_are_apart(tmp_path):
+    from aeroid.report import overlap_note
+
+    curve = read_reference_curve(_curve(tmp_path), area_m2=S_REF)  # Mach 0.2 .. 2.0
+    assert overlap_note((1.68, 1.69), curve) is None
+    assert overlap_note((2.0, 2.3), curve) is None  # touching at one Mach: compared there
+    assert overlap_note((0.0, 0.2), curve) is None
+    note = overlap_note((2.01, 2.3), curve)
+    assert note is not None and "\n" not in note
+    assert "0.2 .. 2 and the flight's 2.01 .. 2.3 do not overlap" in note
+
+
+def test_fitted_cx_of_a_table_a_held_table_and_no_cx():
+    from aeroid.estimation import EstimationResult
+    from aeroid.report import fitted_cx
+
+    names = ("Cx@M1.8", "Cx@M1.2", "Cza")  # the knots out of order: drawn sorted
+    theta, stderr = np.array([-0.8, -1.1, -11.8]), np.array([0.02, 0.01, 0.1])
+    result = EstimationResult(estimator="m", names=names, theta=theta, stderr=stderr)
+    mach, value, lo, hi, label = fitted_cx(result, (1.3, 1.7))
+    np.testing.assert_array_equal(mach, [1.2, 1.8])
+    np.testing.assert_array_equal(value, [-1.1, -0.8])
+    np.testing.assert_allclose(lo, [-1.1 - 1.96 * 0.01, -0.8 - 1.96 * 0.02], rtol=1e-15)
+    np.testing.assert_allclose(hi, [-1.1 + 1.96 * 0.01, -0.8 + 1.96 * 0.02], rtol=1e-15)
+    assert label == "m, +- 1.96 se (95 %)"
+    held = dataclasses.replace(result, stderr=np.array([np.nan, np.nan, 0.1]),
+                               held={"Cx@M1.8": -0.8, "Cx@M1.2": -1.1})
+    _, value, lo, hi, label = fitted_cx(held, (1.3, 1.7))
+    assert np.array_equal(lo, value) and np.array_equal(hi, value) and "held" in label
+    no_cx = EstimationResult(estimator="m", names=("Cza",), theta=np.array([-11.8]))
+    with pytest.raises(UsageError, match="the m fit has no finite Cx to draw"):
+        fitted_cx(no_cx, (1.3, 1.7))
