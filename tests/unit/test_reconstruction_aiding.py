@@ -90,3 +90,12 @@ def test_cli_aiding_flight_then_output_error_with_gnss(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     assert status == 0, result["message"]
     assert result["info"]["aiding"]["n_samples"] == 6  # 5.0, 5.1, ..., 5.5 s
+    ins = read_flight(flight).metadata["aiding"]["ins"]  # the sidecar keeps the INS too
+    np.testing.assert_allclose(ins["phi"], sim.log["ins"].channels["phi"], rtol=1e-15)
+    status = main(["estimate", str(flight), "--method", "output-error", "--json",
+                   "--option", "imu_errors=bias+scale",
+                   "--option", "estimate_initial_velocity=true",
+                   "--option", "aiding=gnss-velocity+ins-attitude"])
+    result = json.loads(capsys.readouterr().out)
+    assert status == 0, result["message"]
+    assert result["info"]["aiding"]["sources"]["ins"]["n_samples"] == 51  # 100 Hz, 5-5.5 s
