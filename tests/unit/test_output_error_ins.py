@@ -36,11 +36,13 @@ FD_RTOL = 1e-5
 #: ins_psi agree to 1e-5 of the peak).
 FD_ROUNDING_ATOL = 1e-8
 #: Noise-free suite, GNSS and INS: coefficients (relative), biases [SI], scale factors
-#: against the drawn truth (the GNSS-only bounds of test_output_error_aiding).
+#: against the drawn truth (the GNSS-only bounds of test_output_error_aiding); measured
+#: largest 9.4e-8, 8.5e-7 and 2.9e-8.
 COEFFICIENT_RTOL = 1e-6
 BIAS_ATOL = 1e-5
 SCALE_ATOL = 1e-6
-#: The fitted model's attitude against the simulator's noise-free, wrapped INS [rad].
+#: The fitted model's attitude against the simulator's noise-free, wrapped INS [rad]:
+#: measured largest residual RMS 7.1e-8 (ins_theta).
 ANGLE_ATOL = 1e-6
 #: Stated sd of the noise-free GNSS [m/s] and INS [rad] (small, so they weigh against a
 #: noise-free IMU; test_output_error_aiding's CLEAN_GNSS_SD).
