@@ -55,9 +55,8 @@ from aeroid.model import (
 from baselines._gauss_newton import Problem
 from baselines._oe_record import DELAY_STEP_S
 
-#: The option's values (the filters': :data:`AIDING`; output-error's: :data:`AIDING_OE`).
-AIDING = ("none", "gnss-velocity")
-AIDING_OE = (*AIDING, "gnss-velocity+ins-attitude")
+#: The option's values (output-error's and the EKF's and UKF's).
+AIDING = ("none", "gnss-velocity", "gnss-velocity+ins-attitude")
 #: Each aiding source: the option's word, the key in ``metadata["aiding"]``.
 SOURCES = {"gnss-velocity": "gnss", "ins-attitude": "ins"}
 #: Each source's channels in ``metadata["aiding"][source]``, the names of its residuals
@@ -391,6 +390,6 @@ def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
         return ()
     used = aiding_sources(aiding)
     return tuple(f"{owner}: the flight carries {LABELS[s]} samples (metadata aiding), not in "
-                 f"this fit's likelihood (output-error's aiding = "
-                 f"{'gnss-velocity' if s == 'gnss' else AIDING_OE[-1]} puts them in)"
+                 f"this fit's likelihood (aiding = "
+                 f"{'gnss-velocity' if s == 'gnss' else AIDING[-1]} puts them in)"
                  for s in CHANNELS if s in carried and s not in used)

@@ -7,7 +7,7 @@ from typing import Any
 
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS
 from baselines._gauss_newton import NOISE_MODELS
-from baselines._oe_aiding import AIDING_OE
+from baselines._oe_aiding import AIDING
 from baselines._oe_constants import MAX_DELAY_S
 
 
@@ -31,8 +31,8 @@ def check_options(self: Any) -> None:
     if self.initial_velocity_prior == "flight" and not self.estimate_initial_velocity:
         raise ValueError("initial_velocity_prior = flight needs "
                          "estimate_initial_velocity = true")
-    if self.aiding not in AIDING_OE:
-        raise ValueError(f"aiding must be one of {', '.join(AIDING_OE)}, got {self.aiding!r}")
+    if self.aiding not in AIDING:
+        raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
     if self.noise_model not in NOISE_MODELS:
         raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
                          f"got {self.noise_model!r}")

@@ -23,6 +23,9 @@ undeclared (written to ``benchmarks/results/aiding_ins.md``)::
 
     python benchmarks/bench_aiding.py --seeds 5 --ins
 
+(``--filters --ins``: the same comparison for the EKF and UKF, written to
+``benchmarks/results/aiding_filters_ins.md``.)
+
 With ``--filters``, instead: the EKF and the UKF (``imu_errors = "bias+scale"``, their
 initial sd from the reconstruction) without and with ``aiding``, and the EKF with the GNSS
 50 and 200 ms late (written to ``benchmarks/results/aiding_filters.md``)::
@@ -92,6 +95,16 @@ FILTERS = {
 }
 
 
+FILTER_BOTH = {**FILTER_BASE, "aiding": "gnss-velocity+ins-attitude"}
+INS_FILTERS = {
+    "EKF, GNSS in": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "EKF, GNSS + INS in": ("ekf", FILTER_BOTH, 0.0),
+    "UKF, GNSS in": ("ukf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "UKF, GNSS + INS in": ("ukf", FILTER_BOTH, 0.0),
+    "EKF, GNSS + INS, INS 50 ms late, undeclared": ("ekf", FILTER_BOTH, ("ins", 0.05)),
+}
+
+
 def skewed(flight: Flight, late: float | tuple[str, float]) -> Flight:
     """``flight`` whose GNSS (or ``(source, late_s)``: that source's) samples are labelled
     ``late_s`` earlier than they were taken (an undeclared skew), those outside the flight
@@ -128,7 +141,8 @@ def one_seed(seed: int, filters: bool = False, ins: bool = False
     raw = reconstruct(sim.log).to_flight(imu="raw", aiding=True)
     errors = _errors_truth(sim.errors)
     out = {}
-    fits = ({k: (make_estimator(m, o), late) for k, (m, o, late) in FILTERS.items()}
+    fits = ({k: (make_estimator(m, o), late)
+             for k, (m, o, late) in (INS_FILTERS if ins else FILTERS).items()}
             if filters else {k: (OutputErrorEstimator(**o), late)
                              for k, (o, late) in (INS_FITS if ins else FITS).items()})
     for label, (est, late) in fits.items():
@@ -168,7 +182,8 @@ def main() -> None:
     parser.add_argument("--ins", action="store_true",
                         help="output-error with GNSS velocity alone and with the INS attitude")
     args = parser.parse_args()
-    labels = FILTERS if args.filters else INS_FITS if args.ins else FITS
+    labels = ((INS_FILTERS if args.ins else FILTERS) if args.filters
+              else INS_FITS if args.ins else FITS)
     runs = []
     for seed in range(args.seeds):
         runs.append(one_seed(seed, args.filters, args.ins))
@@ -176,7 +191,7 @@ def main() -> None:
             f"{k}: {'ok' if r['success'] else 'refused'} Cx se {100 * r['cx_se']:.3f} % corr "
             f"{r['corr2']:+.4f} max z {r['max_z']:.2f}/{r['bias_z']:.2f}/{r['scale_z']:.2f}"
             for k, r in runs[-1].items()), flush=True)
-    flag = " --filters" if args.filters else " --ins" if args.ins else ""
+    flag = (" --filters" if args.filters else "") + (" --ins" if args.ins else "")
     lines = [f"# GNSS velocity{' and INS attitude' if args.ins else ''} in "
              f"{'the filters' if args.filters else 'output-error'}"
              f"{chr(39) if args.filters else chr(39) + 's'} likelihood", "",
@@ -207,8 +222,8 @@ def main() -> None:
                if not r[k]["success"]]
     lines += ["", "Refusals:", ""] + [f"- {line}" for line in refused or ["none"]]
     print("\n".join(lines))
-    out = ROOT / "benchmarks" / "results" / ("aiding_filters.md" if args.filters
-                                             else "aiding_ins.md" if args.ins else "aiding.md")
+    out = ROOT / "benchmarks" / "results" / (
+        "aiding" + ("_filters" if args.filters else "") + ("_ins" if args.ins else "") + ".md")
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out}")
 
