@@ -22,9 +22,10 @@ from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
 from baselines import _common, _kalman, _kalman_aiding
 from baselines._oe_aiding import (
     AIDING,
-    AIDING_CHANNELS,
+    RESIDUAL_NAMES,
     AidingSamples,
     aiding_samples,
+    aiding_sources,
     aiding_warnings,
 )
 
@@ -49,10 +50,11 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         Initial sd of those states [m/s^2, rad/s, -] (defaults 0.2, 0.005, 0.005: the
         reconstruction's priors, :func:`aeroid.reconstruction.reconstruct`). The initial
         rates' variance grows by what those errors do to the first gyro reading.
-    aiding : {"none", "gnss-velocity"}
+    aiding : {"none", "gnss-velocity", "gnss-velocity+ins-attitude"}
         ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``,
         as output-error's ``aiding``) as three more measurements at their own samples, with
         the log's stated sd (:mod:`baselines._kalman_aiding`); default ``"none"``.
+        ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
     """
 
     leaves_out_saturated: ClassVar[bool] = True  # FilterSetup.mask
@@ -61,7 +63,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
     imu_accel_bias_sd_mps2: float = 0.2
     imu_gyro_bias_sd_radps: float = 0.005
     imu_scale_sd: float = 0.005
-    aiding: Literal["none", "gnss-velocity"] = "none"
+    aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -69,7 +71,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
                              f"{self.imu_errors!r}")
         if self.aiding not in AIDING:
-            raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
+            raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got "
+                             f"{self.aiding!r}")
         for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
@@ -128,7 +131,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         names = self.imu_error_names()
         passes: list[_kalman.FilterOutput] = []
         mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
-        samples = aiding_samples(flight) if self.aiding != "none" else None
+        samples = tuple(aiding_samples(flight, s) for s in aiding_sources(self.aiding)) or None
         if samples is not None:
             mask = _kalman_aiding.aided_mask(mask, flight.n_samples, len(OUTPUT_CHANNELS),
                                              samples)
@@ -138,7 +141,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             if names:
                 model = _kalman.with_sensor_errors(model, len(names))
             if samples is not None:
-                model = _kalman_aiding.with_ned_velocity(model)
+                model = _kalman_aiding.with_aiding(model, samples)
                 setup = _kalman_aiding.aided_setup(setup, samples)
             if mask is None:
                 out = run_filter(model, setup)
@@ -228,16 +231,20 @@ def masked_output(out: _kalman.FilterOutput, mask: np.ndarray) -> _kalman.Filter
                                noise_var=nan(out.noise_var))
 
 
-def aiding_innovations(out: _kalman.FilterOutput, samples: AidingSamples, n: int,
+def aiding_innovations(out: _kalman.FilterOutput, samples: tuple[AidingSamples, ...], n: int,
                        residuals: dict) -> dict:
-    """The GNSS innovations of the second half (as the IMU's) for the fit check, against
+    """The aiding innovations of the second half (as the IMU's) for the fit check, against
     the stated sd, and ``info["aiding"]``."""
     m = len(OUTPUT_CHANNELS)
-    k = samples.index[samples.index >= n // 2]
-    return {"fit_residuals": {**residuals, **{c: out.innovation[k, m + j]
-                                              for j, c in enumerate(AIDING_CHANNELS)}},
-            "fit_noise_sd": dict(zip(AIDING_CHANNELS, samples.sd.tolist(), strict=True)),
-            "fit_signals": {c: samples.z[:, j] - np.mean(samples.z[:, j])
-                            for j, c in enumerate(AIDING_CHANNELS)},
-            "aiding": {"channels": AIDING_CHANNELS, "n_samples": int(samples.index.size),
+    residuals, signals, noise_sd, counts = dict(residuals), {}, {}, {}
+    for i, s in enumerate(samples):
+        k = s.index[s.index >= n // 2]
+        names = RESIDUAL_NAMES[s.source]
+        residuals.update({c: out.innovation[k, m + 3 * i + j] for j, c in enumerate(names)})
+        noise_sd.update(dict(zip(names, s.sd.tolist(), strict=True)))
+        signals.update({c: s.z[:, j] - np.mean(s.z[:, j]) for j, c in enumerate(names)})
+        counts[s.source] = int(s.index.size)
+    return {"fit_residuals": residuals, "fit_noise_sd": noise_sd, "fit_signals": signals,
+            "aiding": {"channels": tuple(noise_sd), "n_samples": sum(counts.values()),
+                       "n_samples_per_source": counts,
                        "noise": "the log's stated sd (not estimated)"}}

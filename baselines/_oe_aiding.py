@@ -1,8 +1,13 @@
-"""Aiding sensors in output-error's likelihood: GNSS NED velocity at its own samples (private).
+"""Aiding sensors in output-error's likelihood: GNSS velocity, INS attitude (private).
 
 ``aiding = "gnss-velocity"`` adds the flight's GNSS velocity samples
 (``metadata["aiding"]["gnss"]``: :meth:`aeroid.reconstruction.Reconstruction.to_flight`
-with ``aiding=True``) as three more measured outputs ``vn ve vd`` of the record model:
+with ``aiding=True``) as three more measured outputs ``vn ve vd`` of the record model;
+``"gnss-velocity+ins-attitude"`` also the INS's Euler angles (``metadata["aiding"]["ins"]``)
+as ``ins_phi ins_theta ins_psi`` at their own samples, the model's ``phi theta psi``
+compared on the circle (:func:`on_circle`: the residual wrapped to (-pi, pi], the logged
+roll is wrapped) with the log's stated sd [rad]. Each source is an :class:`AidingSamples`;
+the machinery below (mask, fixed variances, exact sensitivities) is the same for both:
 
 - **Prediction**: the model's body velocity rotated by its attitude,
   ``v_ned = C_nb(phi, theta, psi) [u v w]`` (:func:`aeroid.flights.body_to_ned`), at the
@@ -34,7 +39,7 @@ import casadi as ca
 import numpy as np
 
 import aeroid
-from aeroid.flights import Flight, body_to_ned
+from aeroid.flights import Flight, body_to_ned, wrap_angle
 from aeroid.model import (
     EXOGENOUS,
     N_COEFFICIENTS,
@@ -50,11 +55,19 @@ from aeroid.model import (
 from baselines._gauss_newton import Problem
 from baselines._oe_record import DELAY_STEP_S
 
-#: The option's values.
-AIDING = ("none", "gnss-velocity")
-#: The aiding outputs (NED velocity [m/s]), after the IMU's.
-AIDING_CHANNELS = ("vn", "ve", "vd")
-#: A GNSS time within this fraction of the sample interval of a flight sample is on it
+#: The option's values (output-error's and the EKF's and UKF's).
+AIDING = ("none", "gnss-velocity", "gnss-velocity+ins-attitude")
+#: Each aiding source: the option's word, the key in ``metadata["aiding"]``.
+SOURCES = {"gnss-velocity": "gnss", "ins-attitude": "ins"}
+#: Each source's channels in ``metadata["aiding"][source]``, the names of its residuals
+#: (the INS's prefixed: ``phi`` is also a flight channel), what it is, its unit.
+CHANNELS = {"gnss": ("vn", "ve", "vd"), "ins": ("phi", "theta", "psi")}
+RESIDUAL_NAMES = {"gnss": ("vn", "ve", "vd"), "ins": ("ins_phi", "ins_theta", "ins_psi")}
+LABELS = {"gnss": "GNSS velocity", "ins": "INS attitude"}
+UNITS = {"gnss": "m/s", "ins": "rad"}
+#: The GNSS aiding outputs (NED velocity [m/s]), after the IMU's.
+AIDING_CHANNELS = CHANNELS["gnss"]
+#: An aiding time within this fraction of the sample interval of a flight sample is on it
 #: (times logged in ms or us round to 1e-9 s or better).
 GRID_RTOL = 1e-6
 #: Initial-state components estimated with aiding (no prior): pitch and heading. The
@@ -65,48 +78,61 @@ GRID_RTOL = 1e-6
 #: before: freed too, it traded against the lateral biases and a noise-free fit crept
 #: (300 iterations, coefficients 3.5e-3 off).
 X0_ANGLES = (THETA, PSI)
+#: With the INS attitude in, all three initial angles are estimated: the INS measures
+#: the roll angle itself (held, the roll residual carries the reconstruction's error).
+ATTITUDE = (PHI, THETA, PSI)
 #: Complex step of the rotation's derivative [rad] (exact to rounding).
 COMPLEX_STEP = 1e-20
 
 
 class AidingSamples(NamedTuple):
-    """GNSS velocity samples on the flight's grid."""
+    """One aiding source's samples on the flight's grid."""
 
     index: np.ndarray   # (n_a,) flight sample of each
-    z: np.ndarray       # (n_a, 3) vn ve vd [m/s]
-    sd: np.ndarray      # (3,) stated white-noise sd [m/s]
+    z: np.ndarray       # (n_a, 3) vn ve vd [m/s] or phi theta psi [rad]
+    sd: np.ndarray      # (3,) stated white-noise sd [m/s] or [rad]
+    source: str = "gnss"  # a key of CHANNELS
+
+
+def aiding_sources(aiding: str) -> tuple[str, ...]:
+    """The sources of an option value: ``"gnss-velocity+ins-attitude"`` -> gnss, ins."""
+    return () if aiding == "none" else tuple(SOURCES[w] for w in aiding.split("+"))
 
 
 def aiding_x0(aiding: str) -> tuple[int, ...]:
-    """The initial-state components ``aiding`` frees (:data:`X0_ANGLES`, or none)."""
-    return X0_ANGLES if aiding != "none" else ()
+    """The initial-state components ``aiding`` frees (:data:`X0_ANGLES`, :data:`ATTITUDE`
+    with the INS, or none)."""
+    sources = aiding_sources(aiding)
+    return ATTITUDE if "ins" in sources else X0_ANGLES if sources else ()
 
 
-def aiding_samples(flight: Flight) -> AidingSamples:
-    """The flight's GNSS velocity samples (``metadata["aiding"]["gnss"]``), checked."""
+def aiding_samples(flight: Flight, source: str = "gnss") -> AidingSamples:
+    """The flight's samples of ``source`` (``metadata["aiding"][source]``), checked."""
     where = flight.metadata.get("source", "flight")
+    channels, label, unit = CHANNELS[source], LABELS[source], UNITS[source]
+    word = next(w for w, s in SOURCES.items() if s == source)
     aiding = flight.metadata.get("aiding")
-    gnss = aiding.get("gnss") if isinstance(aiding, Mapping) else None
-    if not isinstance(gnss, Mapping):
+    group = aiding.get(source) if isinstance(aiding, Mapping) else None
+    if not isinstance(group, Mapping):
         raise aeroid.FlightError(
-            f"{where}: aiding = gnss-velocity needs the GNSS velocity samples in "
-            "metadata['aiding']['gnss'] (t, vn, ve, vd, sd; Reconstruction.to_flight(imu="
-            "'raw', aiding=True) passes them); the flight has none")
+            f"{where}: aiding = {word} needs the {label} samples in "
+            f"metadata['aiding']['{source}'] (t, {', '.join(channels)}, sd; Reconstruction."
+            "to_flight(imu='raw', aiding=True) passes them); the flight has none")
     try:
-        t = np.asarray(gnss["t"], dtype=float).reshape(-1)
-        z = np.column_stack([np.asarray(gnss[c], dtype=float).reshape(-1)
-                             for c in AIDING_CHANNELS])
-        sd = np.array([float(gnss["sd"][c]) for c in AIDING_CHANNELS])
+        t = np.asarray(group["t"], dtype=float).reshape(-1)
+        z = np.column_stack([np.asarray(group[c], dtype=float).reshape(-1) for c in channels])
+        sd = np.array([float(group["sd"][c]) for c in channels])
     except (KeyError, TypeError, ValueError) as exc:
-        raise aeroid.FlightError(f"{where}: metadata aiding.gnss needs t, vn, ve, vd (numbers, "
-                                 f"one per sample) and sd of each: {exc}") from None
+        raise aeroid.FlightError(f"{where}: metadata aiding.{source} needs t, "
+                                 f"{', '.join(channels)} (numbers, one per sample) and sd of "
+                                 f"each: {exc}") from None
     if z.shape[0] != t.size or t.size == 0 or not (np.all(np.isfinite(z))
                                                    and np.all(np.isfinite(t))):
-        raise aeroid.FlightError(f"{where}: metadata aiding.gnss: {t.size} times for "
-                                 f"{z.shape[0]} velocity samples, or a value not finite")
+        raise aeroid.FlightError(f"{where}: metadata aiding.{source}: {t.size} times for "
+                                 f"{z.shape[0]} samples, or a value not finite")
     if not np.all(sd > 0):
-        raise aeroid.FlightError(f"{where}: metadata aiding.gnss sd must be positive [m/s], "
-                                 f"got {dict(zip(AIDING_CHANNELS, sd.tolist(), strict=True))}")
+        raise aeroid.FlightError(f"{where}: metadata aiding.{source} sd must be positive "
+                                 f"[{unit}], got {dict(zip(channels, sd.tolist(), strict=True))}")
     dt, ft = flight.dt, flight.t
     k = np.clip(np.rint((t - ft[0]) / dt).astype(int), 0, ft.size - 1)
     off = t - ft[k]
@@ -114,13 +140,13 @@ def aiding_samples(flight: Flight) -> AidingSamples:
     if bad.size:
         j = int(bad[0])
         raise aeroid.FlightError(
-            f"{where}: GNSS sample at t = {t[j]:.9g} s is {1e3 * off[j]:+.6g} ms from the "
-            f"flight's nearest sample ({1e3 * dt:.6g} ms grid): an aiding sample is "
+            f"{where}: {label.split()[0]} sample at t = {t[j]:.9g} s is {1e3 * off[j]:+.6g} ms "
+            f"from the flight's nearest sample ({1e3 * dt:.6g} ms grid): an aiding sample is "
             "predicted at a flight sample (nothing resampled); log it on the IMU's clock or "
             "leave it out")
     if np.unique(k).size != k.size:
-        raise aeroid.FlightError(f"{where}: two GNSS samples on one flight sample")
-    return AidingSamples(k, z, sd)
+        raise aeroid.FlightError(f"{where}: two {label.split()[0]} samples on one flight sample")
+    return AidingSamples(k, z, sd, source)
 
 
 def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -139,18 +165,36 @@ def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v, dv
 
 
+def predicted(source: str, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A source's prediction from states ``x`` (k, >= 9), (k, 3), and its derivative in
+    the first nine state components (k, 3, 9): :func:`ned_velocity`, or the attitude."""
+    if source == "gnss":
+        return ned_velocity(x)
+    dy = np.zeros((x.shape[0], 3, N_STATE))
+    dy[:, range(3), list(ATTITUDE)] = 1.0
+    return x[:, list(ATTITUDE)], dy
+
+
+def on_circle(samples: AidingSamples, y: np.ndarray) -> np.ndarray:
+    """The INS prediction ``y`` (n_a, 3) [rad] moved by whole turns to the branch nearest
+    its sample, ``z - wrap(z - y)``: the residual ``z - y`` is then ``wrap(z - y)`` in
+    (-pi, pi] and the derivative unchanged; other sources' ``y`` as they are."""
+    return samples.z - wrap_angle(samples.z - y) if samples.source == "ins" else y
+
+
 class AidedModel:
-    """The record model with the GNSS velocity outputs appended, shape (n, m + 3).
+    """The record model with each aiding source's outputs appended, shape (n, m + 3 n_src).
 
     Everything else (scales, layout, the delay's smooth region) is the record model's.
     """
 
-    def __init__(self, base: Any, samples: AidingSamples) -> None:
+    def __init__(self, base: Any, samples: tuple[AidingSamples, ...]) -> None:
         self.base, self.samples = base, samples
         n, m = base.t.size, len(OUTPUT_CHANNELS)
         mask = np.ones((n, m), bool) if base.mask is None else base.mask
-        aid = np.zeros((n, len(AIDING_CHANNELS)), bool)
-        aid[samples.index] = True
+        aid = np.zeros((n, 3 * len(samples)), bool)
+        for j, s in enumerate(samples):
+            aid[s.index, 3 * j:3 * j + 3] = True
         self.mask = np.hstack([mask, aid])
         self.n_x0 = len(base.x0_free)
         self.n_s = N_COEFFICIENTS + self.n_x0  # the parameters that move the states
@@ -212,29 +256,37 @@ class AidedModel:
         return (np.hstack([x0[:, None], np.asarray(xs)]).T,
                 np.concatenate([s0[:, None, :], blocks], axis=1))
 
-    def velocity(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """NED velocity at the aiding samples (n_a, 3) and its derivative (n_a, 3, 9)."""
-        return ned_velocity(xs[self.samples.index])
+    def predictions(self, xs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each source's prediction at its samples (n_a, 3), as the states give it (the INS
+        not yet on the circle), and its derivative (n_a, 3, 9)."""
+        return [predicted(s.source, xs[s.index]) for s in self.samples]
 
     def _aiding(self, p: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         n, tau = self.base.t.size, self.base.tau(p)
         xs, ss = self.states(p, tau, jacobian)
-        v, dv = self.velocity(xs)
-        y = np.zeros((n, len(AIDING_CHANNELS)))
-        y[self.samples.index] = v
-        if ss is None:
-            return y, None
-        J = np.zeros((len(AIDING_CHANNELS), n, p.size))
-        k = self.samples.index
-        J[:, k, :self.n_s] = np.einsum("kcx,xkp->ckp", dv, ss[:, k, :])
-        if self.base.estimate_delay:
-            J[:, k, self.base.n_graph] = self._delay_column(p, tau)
+        y = np.zeros((n, 3 * len(self.samples)))
+        J = None if ss is None else np.zeros((y.shape[1], n, p.size))
+        for j, (s, (v, dv)) in enumerate(zip(self.samples, self.predictions(xs), strict=True)):
+            y[s.index, 3 * j:3 * j + 3] = on_circle(s, v)
+            if J is not None and ss is not None:
+                J[3 * j:3 * j + 3, s.index, :self.n_s] = np.einsum("kcx,xkp->ckp", dv,
+                                                                    ss[:, s.index, :])
+        if J is not None and self.base.estimate_delay:
+            J[:, :, self.base.n_graph] = self._delay_column(p, tau)
         return y, J
 
+    def _raw(self, xs: np.ndarray) -> np.ndarray:
+        """The predictions at their samples as the states give them, (n, 3 n_src), 0 between."""
+        y = np.zeros((self.base.t.size, 3 * len(self.samples)))
+        for j, (s, (v, _)) in enumerate(zip(self.samples, self.predictions(xs), strict=True)):
+            y[s.index, 3 * j:3 * j + 3] = v
+        return y
+
     def _delay_column(self, p: np.ndarray, tau: float) -> np.ndarray:
-        """d v_ned / d(scaled delay) at the aiding samples, (3, n_a): the record's rule
+        """d y_aiding / d(scaled delay), (3 n_src, n), 0 between samples: the record's rule
         (:meth:`baselines._oe_record.RecordModel._delay_column`), central inside the
-        delay's smooth region, one-sided second order near its edge."""
+        delay's smooth region, one-sided second order near its edge (of the predictions
+        before :func:`on_circle`: continuous in the delay)."""
         region, i = self.base.smooth_region(p), self.base.n_graph
         up = (region.hi[i] - p[i]) * self.base.delay_scale
         down = (p[i] - region.lo[i]) * self.base.delay_scale
@@ -243,7 +295,7 @@ class AidedModel:
         if not central:
             h = min(h, 0.5 * max(up, down))
         offsets = (h, -h) if central else (0.0, sign * h, 2.0 * sign * h)
-        v = [self.velocity(self.states(p, tau + o, False)[0])[0] for o in offsets]
+        v = [self._raw(self.states(p, tau + o, False)[0]) for o in offsets]
         self.base.record(tau)  # the record model's current delay again
         d = ((v[0] - v[1]) / (2.0 * h) if central
              else sign * (4.0 * v[1] - 3.0 * v[0] - v[2]) / (2.0 * h))
@@ -251,11 +303,11 @@ class AidedModel:
 
     # OutputModel -------------------------------------------------------------------
     def outputs(self, p: np.ndarray) -> np.ndarray:
-        """Return ``y(p)``, shape (n, m + 3): the IMU's outputs, then ``vn ve vd``."""
+        """Return ``y(p)``, shape (n, m + 3 n_src): the IMU's outputs, then the sources'."""
         return np.hstack([self.base.outputs(p), self._aiding(p, False)[0]])
 
     def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``y(p)`` (n, m + 3) and ``dy/dp`` (m + 3, n, n_p)."""
+        """Return ``y(p)`` (n, m + 3 n_src) and ``dy/dp`` (m + 3 n_src, n, n_p)."""
         y, J = self.base.outputs_jacobian(p)
         ya, Ja = self._aiding(p, True)
         return np.hstack([y, ya]), np.concatenate([J, Ja], axis=0)
@@ -287,11 +339,12 @@ def aided_problem(aiding: str, flight: Flight, prob: Problem) -> Problem:
         raise aeroid.EstimatorError(f"output-error: aiding = {aiding} with coefficient tables or "
                                     "estimate_wind is not built (the aiding outputs integrate the "
                                     "nine constant coefficients in still air)")
-    samples = aiding_samples(flight)
+    samples = tuple(aiding_samples(flight, source) for source in aiding_sources(aiding))
     model = AidedModel(prob.model, samples)
-    z = np.zeros((flight.n_samples, len(AIDING_CHANNELS)))
-    z[samples.index] = samples.z
-    var = samples.sd ** 2
+    z = np.zeros((flight.n_samples, 3 * len(samples)))
+    for j, s in enumerate(samples):
+        z[s.index, 3 * j:3 * j + 3] = s.z
+    var = np.concatenate([s.sd ** 2 for s in samples])
     return AidedProblem(z=np.hstack([prob.z, z]), model=model,
                         r_floor=np.concatenate([prob.r_floor, var]),
                         noise_model=prob.noise_model, prior_mean=prob.prior_mean,
@@ -305,27 +358,38 @@ def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
     if not isinstance(prob, AidedProblem):
         return {}
     model: AidedModel = prob.model  # type: ignore[assignment]
-    k, m = model.samples.index, len(OUTPUT_CHANNELS)
+    m = len(OUTPUT_CHANNELS)
     residuals = {c: e[:, j] for j, c in enumerate(OUTPUT_CHANNELS)}
-    residuals.update({c: e[k, m + j] for j, c in enumerate(AIDING_CHANNELS)})
-    return {"fit_residuals": residuals,
-            # the resolution floor's yardstick: the velocity's change over the flight (its
-            # initial value is fitted), not its 500 m/s (1e-3 of that is 5x the GNSS's sd)
-            "fit_signals": {c: model.samples.z[:, j] - np.mean(model.samples.z[:, j])
-                            for j, c in enumerate(AIDING_CHANNELS)},
-            "fit_noise_sd": dict(zip(AIDING_CHANNELS, model.samples.sd.tolist(), strict=True)),
-            "aiding": {"channels": AIDING_CHANNELS, "n_samples": int(k.size),
-                       "times_s": model.base.t[k],
+    signals, noise_sd, per_source = {}, {}, {}
+    for i, s in enumerate(model.samples):
+        names = RESIDUAL_NAMES[s.source]
+        residuals.update({c: e[s.index, m + 3 * i + j] for j, c in enumerate(names)})
+        # the resolution floor's yardstick: the change over the flight (the initial
+        # value is fitted), not the GNSS's 500 m/s (1e-3 of that is 5x the GNSS's sd)
+        signals.update({c: s.z[:, j] - np.mean(s.z[:, j]) for j, c in enumerate(names)})
+        noise_sd.update(dict(zip(names, s.sd.tolist(), strict=True)))
+        per_source[s.source] = {"channels": names, "n_samples": int(s.index.size),
+                                "times_s": model.base.t[s.index],
+                                "sd": dict(zip(names, s.sd.tolist(), strict=True))}
+    freed = "phi0 theta0 psi0" if "ins" in per_source else "pitch and heading theta0 psi0"
+    return {"fit_residuals": residuals, "fit_signals": signals, "fit_noise_sd": noise_sd,
+            "aiding": {"channels": tuple(signals), "sources": per_source,
+                       "n_samples": sum(v["n_samples"] for v in per_source.values()),
+                       "times_s": model.base.t[model.samples[0].index],
                        "noise": "the log's stated sd (not estimated)",
-                       "note": "initial pitch and heading theta0 psi0 estimated (no prior)",
-                       "sd": dict(zip(AIDING_CHANNELS, model.samples.sd.tolist(),
-                                      strict=True))}}
+                       "wrapped": "INS angles compared on the circle (residual in (-pi, pi])"
+                       if "ins" in per_source else "none",
+                       "note": f"initial {freed} estimated (no prior)", "sd": noise_sd}}
 
 
 def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
                     ) -> tuple[str, ...]:
-    """A warning when the flight carries aiding samples the fit leaves out."""
-    if aiding == "none" and isinstance(flight.metadata.get("aiding"), Mapping):
-        return (f"{owner}: the flight carries GNSS velocity samples (metadata aiding), "
-                "not in this fit's likelihood (aiding = gnss-velocity puts them in)",)
-    return ()
+    """A warning per aiding source the flight carries and the fit leaves out."""
+    carried = flight.metadata.get("aiding")
+    if not isinstance(carried, Mapping):
+        return ()
+    used = aiding_sources(aiding)
+    return tuple(f"{owner}: the flight carries {LABELS[s]} samples (metadata aiding), not in "
+                 f"this fit's likelihood (aiding = "
+                 f"{'gnss-velocity' if s == 'gnss' else AIDING[-1]} puts them in)"
+                 for s in CHANNELS if s in carried and s not in used)

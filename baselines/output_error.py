@@ -164,10 +164,11 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         For a raw IMU (``Reconstruction.to_flight(imu="raw")``). An axial bias trades
         against Cx; a warning names each pair correlated above 0.98
         (:func:`aeroid.estimation.nuisance_findings`).
-    aiding : {"none", "gnss-velocity"}
+    aiding : {"none", "gnss-velocity", "gnss-velocity+ins-attitude"}
         ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``:
         ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
         else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
+        ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -212,7 +213,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     pso_particles: int = 30
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
-    aiding: Literal["none", "gnss-velocity"] = "none"
+    aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:

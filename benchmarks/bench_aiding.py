@@ -17,6 +17,15 @@ with 0.1 m/s velocity sd, barometer, wrapped INS), reconstructed, and its
 - ``GNSS 50 ms late, undeclared`` and ``GNSS 200 ms late, undeclared``: the last fit with
   the GNSS times moved (known-wrong inputs: how often the fit check refuses them).
 
+With ``--ins``, instead: GNSS velocity alone against GNSS velocity and the INS attitude
+(``aiding = "gnss-velocity+ins-attitude"``, velocity free), and the INS 50 ms late,
+undeclared (written to ``benchmarks/results/aiding_ins.md``)::
+
+    python benchmarks/bench_aiding.py --seeds 5 --ins
+
+(``--filters --ins``: the same comparison for the EKF and UKF, written to
+``benchmarks/results/aiding_filters_ins.md``.)
+
 With ``--filters``, instead: the EKF and the UKF (``imu_errors = "bias+scale"``, their
 initial sd from the reconstruction) without and with ``aiding``, and the EKF with the GNSS
 50 and 200 ms late (written to ``benchmarks/results/aiding_filters.md``)::
@@ -25,8 +34,9 @@ initial sd from the reconstruction) without and with ``aiding``, and the EKF wit
 
 Figures per fit: successes, mean |relative error| of the coefficients, Cx's relative
 error and standard error, the correlation of Cx with the axial biases ``bax1``, ``bax2``,
-the largest ``|error| / se`` over the coefficients, biases and scale factors. Printed and
-written to ``benchmarks/results/aiding.md``.
+the largest ``|error| / se`` over the coefficients, biases and scale factors, the
+median se of the accelerometer and gyro biases. Printed and written to
+``benchmarks/results/aiding.md``.
 """
 
 from __future__ import annotations
@@ -64,6 +74,13 @@ FITS = {
     "GNSS 200 ms late, undeclared": ({**BASE, "aiding": "gnss-velocity"}, 0.2),
 }
 
+BOTH = {**BASE, "aiding": "gnss-velocity+ins-attitude"}
+INS_FITS = {
+    "GNSS in, velocity free": ({**BASE, "aiding": "gnss-velocity"}, 0.0),
+    "GNSS + INS in, velocity free": (BOTH, 0.0),
+    "GNSS + INS, INS 50 ms late, undeclared": (BOTH, ("ins", 0.05)),
+}
+
 
 FILTER_BASE = {"imu_errors": "bias+scale"}
 FILTERS = {
@@ -78,17 +95,31 @@ FILTERS = {
 }
 
 
-def skewed(flight: Flight, late_s: float) -> Flight:
-    """``flight`` whose GNSS samples are labelled ``late_s`` earlier than they were taken
-    (an undeclared skew), those outside the flight left out."""
+FILTER_BOTH = {**FILTER_BASE, "aiding": "gnss-velocity+ins-attitude"}
+INS_FILTERS = {
+    "EKF, GNSS in": ("ekf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "EKF, GNSS + INS in": ("ekf", FILTER_BOTH, 0.0),
+    "UKF, GNSS in": ("ukf", {**FILTER_BASE, "aiding": "gnss-velocity"}, 0.0),
+    "UKF, GNSS + INS in": ("ukf", FILTER_BOTH, 0.0),
+    "EKF, GNSS + INS, INS 50 ms late, undeclared": ("ekf", FILTER_BOTH, ("ins", 0.05)),
+}
+
+
+def skewed(flight: Flight, late: float | tuple[str, float]) -> Flight:
+    """``flight`` whose GNSS (or ``(source, late_s)``: that source's) samples are labelled
+    ``late_s`` earlier than they were taken (an undeclared skew), those outside the flight
+    left out."""
+    source, late_s = late if isinstance(late, tuple) else ("gnss", late)
     if not late_s:
         return flight
-    gnss = flight.metadata["aiding"]["gnss"]
-    t = np.asarray(gnss["t"]) - late_s
+    group = flight.metadata["aiding"][source]
+    t = np.asarray(group["t"]) - late_s
     keep = t >= flight.t[0] - 1e-9
-    moved = {**gnss, "t": t[keep], **{c: np.asarray(gnss[c])[keep] for c in ("vn", "ve", "vd")}}
+    moved = {**group, "t": t[keep], **{c: np.asarray(v)[keep] for c, v in group.items()
+                                       if c not in ("t", "sd", "source")}}
     return make_flight({c: flight[c] for c in flight.channels}, flight.airframe,
-                       {**flight.metadata, "aiding": {"gnss": moved}})
+                       {**flight.metadata,
+                        "aiding": {**flight.metadata["aiding"], source: moved}})
 
 
 def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
@@ -98,8 +129,10 @@ def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
     return dict(zip(names, values.tolist(), strict=True))
 
 
-def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
-    """All fits of one seed (output-error's, or with ``filters`` the EKF's and UKF's)."""
+def one_seed(seed: int, filters: bool = False, ins: bool = False
+             ) -> dict[str, dict[str, float]]:
+    """All fits of one seed (output-error's, or with ``filters`` the EKF's and UKF's, with
+    ``ins`` output-error's with and without the INS)."""
     from aeroid.estimation import make_estimator
 
     scenario = reference_scenario()
@@ -108,9 +141,10 @@ def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
     raw = reconstruct(sim.log).to_flight(imu="raw", aiding=True)
     errors = _errors_truth(sim.errors)
     out = {}
-    fits = ({k: (make_estimator(m, o), late) for k, (m, o, late) in FILTERS.items()}
+    fits = ({k: (make_estimator(m, o), late)
+             for k, (m, o, late) in (INS_FILTERS if ins else FILTERS).items()}
             if filters else {k: (OutputErrorEstimator(**o), late)
-                             for k, (o, late) in FITS.items()})
+                             for k, (o, late) in (INS_FITS if ins else FITS).items()})
     for label, (est, late) in fits.items():
         start = time.perf_counter()
         res = est.fit(skewed(raw, late), rng=seed)
@@ -121,8 +155,8 @@ def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
             sd = np.sqrt(np.diag(cov))
             corr = {b: cov[0, names.index(b)] / (sd[0] * sd[names.index(b)])
                     for b in ("bax1", "bax2")}
-        z = {n: abs(v - errors[n]) / res.info["imu_error_stderr"][n]
-             for n, v in res.info["imu_errors"].items()}
+        bias_se = res.info["imu_error_stderr"]
+        z = {n: abs(v - errors[n]) / bias_se[n] for n, v in res.info["imu_errors"].items()}
         out[label] = {"success": float(res.success), "wall_s": time.perf_counter() - start,
                       "mean_rel": float(np.mean(np.abs(res.theta / truth - 1.0))),
                       "cx_rel": float(res.theta[0] / truth[0] - 1.0),
@@ -131,6 +165,10 @@ def one_seed(seed: int, filters: bool = False) -> dict[str, dict[str, float]]:
                       "max_z": float(np.max(np.abs(res.theta - truth) / res.stderr)),
                       "bias_z": max(v for n, v in z.items() if n[0] == "b"),
                       "scale_z": max(v for n, v in z.items() if n[0] == "s"),
+                      "accel_bias_se": float(np.median([v for n, v in bias_se.items()
+                                                        if n[0] == "b" and n[1] == "a"])),
+                      "gyro_bias_se": float(np.median([v for n, v in bias_se.items()
+                                                       if n in ("bp", "bq", "br")])),
                       "message": res.message}
     return out
 
@@ -141,26 +179,31 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1")
     parser.add_argument("--filters", action="store_true",
                         help="the EKF and UKF instead of output-error")
+    parser.add_argument("--ins", action="store_true",
+                        help="output-error with GNSS velocity alone and with the INS attitude")
     args = parser.parse_args()
-    labels = FILTERS if args.filters else FITS
+    labels = ((INS_FILTERS if args.ins else FILTERS) if args.filters
+              else INS_FITS if args.ins else FITS)
     runs = []
     for seed in range(args.seeds):
-        runs.append(one_seed(seed, args.filters))
+        runs.append(one_seed(seed, args.filters, args.ins))
         print(f"seed {seed}: " + "; ".join(
             f"{k}: {'ok' if r['success'] else 'refused'} Cx se {100 * r['cx_se']:.3f} % corr "
             f"{r['corr2']:+.4f} max z {r['max_z']:.2f}/{r['bias_z']:.2f}/{r['scale_z']:.2f}"
             for k, r in runs[-1].items()), flush=True)
-    lines = [f"# GNSS velocity in {'the filters' if args.filters else 'output-error'}"
+    flag = (" --filters" if args.filters else "") + (" --ins" if args.ins else "")
+    lines = [f"# GNSS velocity{' and INS attitude' if args.ins else ''} in "
+             f"{'the filters' if args.filters else 'output-error'}"
              f"{chr(39) if args.filters else chr(39) + 's'} likelihood", "",
-             f"`python benchmarks/bench_aiding.py --seeds {args.seeds}"
-             f"{' --filters' if args.filters else ''}` on "
+             f"`python benchmarks/bench_aiding.py --seeds {args.seeds}{flag}` on "
              f"{platform.processor() or platform.machine()}, Python "
              f"{platform.python_version()}, numpy {np.__version__}; reference window 5-6 s, "
              f"default suite, seeds 0-{args.seeds - 1}.", "",
              "| fit | succeeded | mean rel. error | Cx RMS rel. error | Cx rel. se (median) | "
              "corr(Cx, bax1) (median) | corr(Cx, bax2) (median) | max coefficient \\|z\\| | "
-             "max bias \\|z\\| | max scale \\|z\\| | wall time per fit [s] (median) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "max bias \\|z\\| | max scale \\|z\\| | accel bias se [m/s²] (median) | "
+             "gyro bias se [rad/s] (median) | wall time per fit [s] (median) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for label in labels:
         rows = [r[label] for r in runs]
         lines.append(
@@ -172,13 +215,15 @@ def main() -> None:
             f"{np.median([r['corr2'] for r in rows]):+.4f} | "
             f"{max(r['max_z'] for r in rows):.2f} | {max(r['bias_z'] for r in rows):.2f} | "
             f"{max(r['scale_z'] for r in rows):.2f} | "
+            f"{np.median([r['accel_bias_se'] for r in rows]):.3g} | "
+            f"{np.median([r['gyro_bias_se'] for r in rows]):.3g} | "
             f"{np.median([r['wall_s'] for r in rows]):.1f} |")
     refused = [f"seed {s} {k}: {r[k]['message']}" for s, r in enumerate(runs) for k in labels
                if not r[k]["success"]]
     lines += ["", "Refusals:", ""] + [f"- {line}" for line in refused or ["none"]]
     print("\n".join(lines))
-    out = ROOT / "benchmarks" / "results" / ("aiding_filters.md" if args.filters
-                                             else "aiding.md")
+    out = ROOT / "benchmarks" / "results" / (
+        "aiding" + ("_filters" if args.filters else "") + ("_ins" if args.ins else "") + ".md")
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out}")
 

@@ -65,3 +65,19 @@ def suite_flight(seed: int = 1, **suite: Any) -> tuple[Any, Flight]:
     channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
                 **{c: sim.truth[c] for c in TRUE_STATES}, "delta": sim.truth["delta"]}
     return sim, make_flight(channels, scenario.airframe, {})
+
+
+def ins_aiding(sim: Any, flight: Flight, shift_s: float = 0.0, sd: float | None = None
+               ) -> Flight:
+    """``flight`` with the suite log's INS attitude (wrapped, as logged) added to
+    ``metadata["aiding"]`` as ``"ins"``, as :func:`gnss_aiding` does the GNSS's."""
+    ins = sim.log["ins"]
+    t = ins.t + shift_s
+    inside = (t >= flight.t[0] - 1e-9) & (t <= flight.t[-1] + 1e-9)
+    angles = ("phi", "theta", "psi")
+    stated = {c: float(sd if sd is not None else ins.noise_sd[c]) for c in angles}
+    aiding = {**flight.metadata.get("aiding", {}),
+              "ins": {"t": t[inside], "sd": stated, **{c: ins.channels[c][inside]
+                                                       for c in angles}}}
+    return make_flight({c: flight[c] for c in flight.channels} | {"t": flight.t},
+                       flight.airframe, {**flight.metadata, "aiding": aiding})

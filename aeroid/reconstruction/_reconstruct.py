@@ -133,9 +133,9 @@ class Reconstruction:
             IMU's errors itself (output-error's ``imu_errors``); the reconstructed
             states then serve as its initial state.
         aiding : bool
-            Also pass the log's GNSS velocity samples within the flight's times, as
-            logged and at their own times, in ``metadata["aiding"]`` (for output-error's
-            ``aiding = "gnss-velocity"``; :mod:`aeroid.reconstruction._aiding`).
+            Also pass the log's GNSS velocity and INS attitude samples within the flight's
+            times, as logged and at their own times, in ``metadata["aiding"]`` (output-error's
+            ``aiding``; :mod:`aeroid.reconstruction._aiding`).
         """
         where = self.metadata.get("source", "suite log")
         if atmosphere not in ATMOSPHERES:

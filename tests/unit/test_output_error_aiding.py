@@ -72,7 +72,7 @@ def test_aiding_jacobian_equals_central_differences(clean):
         p[names.index(name)] = value
     _, J = model.outputs_jacobian(p)
     m = len(OUTPUT_CHANNELS)
-    rows = model.samples.index
+    rows = model.samples[0].index
     assert rows.size == 11
     for i, name in enumerate(names):
         step = np.zeros_like(p)

@@ -1,4 +1,5 @@
-"""``Reconstruction.to_flight(aiding=True)`` passes the log's GNSS velocity as logged."""
+"""``Reconstruction.to_flight(aiding=True)`` passes the log's GNSS velocity and INS attitude
+as logged."""
 
 from __future__ import annotations
 
@@ -29,6 +30,20 @@ def test_to_flight_passes_the_gnss_velocity_samples_as_logged(rec_and_log):
         assert gnss["sd"][c] == log["gnss"].noise_sd[c]
     assert any(n.startswith("aiding: 11 GNSS velocity samples") for n in flight.metadata["notes"])
     assert "aiding_log" not in flight.metadata
+
+
+def test_to_flight_passes_the_ins_attitude_samples_as_logged(rec_and_log):
+    rec, log = rec_and_log
+    flight = rec.to_flight(imu="raw", aiding=True)
+    ins = flight.metadata["aiding"]["ins"]
+    inside = (log["ins"].t >= flight.t[0]) & (log["ins"].t <= flight.t[-1])
+    np.testing.assert_array_equal(ins["t"], log["ins"].t[inside])
+    for c in ("phi", "theta", "psi"):
+        np.testing.assert_array_equal(ins[c], log["ins"].channels[c][inside])  # wrapped
+        assert ins["sd"][c] == log["ins"].noise_sd[c]
+    assert np.max(np.abs(ins["phi"])) <= np.pi
+    assert any(n.startswith(f"aiding: {int(inside.sum())} INS attitude samples")
+               for n in flight.metadata["notes"])
 
 
 def test_to_flight_without_aiding_carries_none(rec_and_log):
@@ -75,3 +90,12 @@ def test_cli_aiding_flight_then_output_error_with_gnss(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     assert status == 0, result["message"]
     assert result["info"]["aiding"]["n_samples"] == 6  # 5.0, 5.1, ..., 5.5 s
+    ins = read_flight(flight).metadata["aiding"]["ins"]  # the sidecar keeps the INS too
+    np.testing.assert_allclose(ins["phi"], sim.log["ins"].channels["phi"], rtol=1e-15)
+    status = main(["estimate", str(flight), "--method", "output-error", "--json",
+                   "--option", "imu_errors=bias+scale",
+                   "--option", "estimate_initial_velocity=true",
+                   "--option", "aiding=gnss-velocity+ins-attitude"])
+    result = json.loads(capsys.readouterr().out)
+    assert status == 0, result["message"]
+    assert result["info"]["aiding"]["sources"]["ins"]["n_samples"] == 51  # 100 Hz, 5-5.5 s
