@@ -8,6 +8,8 @@ blocks (the method and its measurements are documented there).
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -174,3 +176,33 @@ def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
         cost += s2 * max(A.shape[0] - len(cols), 1)
         del A, b
     return theta, cov, corr, sigma2, cost, bandwidth
+
+
+def with_position_consider(result: Any, given: np.ndarray, sd: np.ndarray,
+                           theta_at: Callable[[np.ndarray], np.ndarray]) -> Any:
+    """``result`` with the uncertain accelerometer positions as consider parameters.
+
+    ``given`` and ``sd``: the six position components [m] and their sds (> 0: uncertain);
+    ``theta_at(positions)``: the estimate re-solved at other positions. The sensitivity
+    ``G`` is the central difference at +-1 sd; the covariance gains ``G diag(sd^2) G^T``
+    (``info['position_sensitivity']``, ``info['position_components']``).
+    """
+    free = np.flatnonzero(sd)
+    G = np.empty((np.size(result.theta), free.size))
+    for j, c in enumerate(free):
+        ends = []
+        for sign in (1.0, -1.0):
+            pos = np.array(given, dtype=float)
+            pos[c] += sign * sd[c]
+            ends.append(np.asarray(theta_at(pos), dtype=float))
+        G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
+    cov = result.covariance + (G * sd[free] ** 2) @ G.T
+    info = {**result.info, "position_sensitivity": G,
+            "position_components": [int(c) for c in free]}
+    return dataclasses.replace(result, covariance=cov, stderr=np.sqrt(np.abs(np.diag(cov))),
+                               info=info)
+
+
+def moved_positions(airframe: Any, pos: np.ndarray) -> Any:
+    """``airframe`` with its two triads at ``pos`` (six components [m])."""
+    return airframe.replace(accel1_position_m=tuple(pos[:3]), accel2_position_m=tuple(pos[3:]))

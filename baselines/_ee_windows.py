@@ -31,7 +31,9 @@ from baselines._ee_least_squares import (
     SUBPROBLEMS,
     _correlation,
     _lstsq,
+    moved_positions,
     solve_subproblems,
+    with_position_consider,
 )
 from baselines._tables_windows import equation_error_windows
 
@@ -144,20 +146,8 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, *,
     free = np.flatnonzero(sd)
     if est.positions == "known" or free.size == 0 or not result.success:
         return result
-    G = np.empty((result.theta.size, free.size))  # the coefficients or the tables' parameters
-    given = windows.airframe.accel_positions.ravel()
-    for j, c in enumerate(free):
-        ends = []
-        for sign in (1.0, -1.0):
-            pos = given.copy()
-            pos[c] += sign * sd[c]
-            moved = Windows(tuple(dataclasses.replace(f, airframe=f.airframe.replace(
-                accel1_position_m=tuple(pos[:3]), accel2_position_m=tuple(pos[3:])))
-                for f in windows), windows.names)
-            ends.append(_solve(est, moved, tools, theta_only=True).theta)
-        G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
-    cov = result.covariance + (G * sd[free] ** 2) @ G.T
-    info = {**result.info, "position_sensitivity": G,
-            "position_components": [int(c) for c in free]}
-    return dataclasses.replace(result, covariance=cov, stderr=np.sqrt(np.abs(np.diag(cov))),
-                               info=info)
+    return with_position_consider(
+        result, windows.airframe.accel_positions.ravel(), sd,
+        lambda pos: _solve(est, Windows(tuple(
+            dataclasses.replace(f, airframe=moved_positions(f.airframe, pos))
+            for f in windows), windows.names), tools, theta_only=True).theta)

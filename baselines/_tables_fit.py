@@ -30,7 +30,13 @@ from aeroid.errors import EstimatorError
 from aeroid.flights import Flight
 from aeroid.model import NAMES, MachTables
 from aeroid.model import tables as mach_tables
-from baselines._ee_least_squares import SUBPROBLEMS, _correlation, _lstsq
+from baselines._ee_least_squares import (
+    SUBPROBLEMS,
+    _correlation,
+    _lstsq,
+    moved_positions,
+    with_position_consider,
+)
 from baselines._held import ee_held_check, ee_prior_rows
 from baselines._oe_record import RecordModel
 
@@ -192,23 +198,11 @@ def equation_error_tables(est: Any, flight: Flight, tables: MachTables, holds: A
     free = np.flatnonzero(sd)
     if est.positions == "known" or free.size == 0:
         return result
-    G = np.empty((tables.n_parameters, free.size))  # consider the uncertain positions
-    given = flight.airframe.accel_positions.ravel()
-    for j, c in enumerate(free):
-        ends = []
-        for sign in (1.0, -1.0):
-            pos = given.copy()
-            pos[c] += sign * sd[c]
-            moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
-                                            accel2_position_m=tuple(pos[3:]))
-            ends.append(_solve(est, dataclasses.replace(flight, airframe=moved), tables,
-                               "ols", theta_only=True, holds=holds).theta)
-        G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
-    cov = result.covariance + (G * sd[free] ** 2) @ G.T
-    info = {**result.info, "position_sensitivity": G,
-            "position_components": [int(c) for c in free]}
-    return dataclasses.replace(result, covariance=cov, stderr=np.sqrt(np.abs(np.diag(cov))),
-                               info=info)
+    return with_position_consider(  # consider the uncertain positions
+        result, flight.airframe.accel_positions.ravel(), sd,
+        lambda pos: _solve(est, dataclasses.replace(
+            flight, airframe=moved_positions(flight.airframe, pos)), tables, "ols",
+            theta_only=True, holds=holds).theta)
 
 
 def solve_table_subproblems(X: np.ndarray, y: np.ndarray, sd: np.ndarray, tables: MachTables,

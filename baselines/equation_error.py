@@ -95,7 +95,9 @@ from baselines._ee_least_squares import (  # the sub-problems' names are read fr
     SUBPROBLEMS,
     _correlation,
     _lstsq,
+    moved_positions,
     solve_subproblems,
+    with_position_consider,
 )
 
 __all__ = ["COLLINEAR_R", "LATERAL", "SUBPROBLEMS", "EquationErrorEstimator",
@@ -251,23 +253,11 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:
             return result
-        G = np.empty((aeroid.model.N_COEFFICIENTS, free.size))
-        given = flight.airframe.accel_positions.ravel()
-        for j, c in enumerate(free):
-            ends = []
-            for sign in (1.0, -1.0):
-                pos = given.copy()
-                pos[c] += sign * sd[c]
-                moved = flight.airframe.replace(accel1_position_m=tuple(pos[:3]),
-                                                accel2_position_m=tuple(pos[3:]))
-                ends.append(self._solve(dataclasses.replace(flight, airframe=moved),
-                                        theta_only=True, holds=holds, wind=air.wind).theta)
-            G[:, j] = (ends[0] - ends[1]) / (2.0 * sd[c])
-        cov = result.covariance + (G * sd[free] ** 2) @ G.T
-        info = {**result.info, "position_sensitivity": G,
-                "position_components": [int(c) for c in free]}
-        return dataclasses.replace(result, covariance=cov,
-                                   stderr=np.sqrt(np.abs(np.diag(cov))), info=info)
+        return with_position_consider(
+            result, flight.airframe.accel_positions.ravel(), sd,
+            lambda pos: self._solve(
+                dataclasses.replace(flight, airframe=moved_positions(flight.airframe, pos)),
+                theta_only=True, holds=holds, wind=air.wind).theta)
 
     def run_windows(self, windows: aeroid.flights.Windows, rng: np.random.Generator
                     ) -> EstimationResult:
