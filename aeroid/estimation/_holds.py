@@ -29,7 +29,8 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.model import NAMES, tables
 
-__all__ = ["FIN_TERMS", "CoefficientSpec", "airframe_holds", "describe_holds", "holds_json"]
+__all__ = ["FIN_TERMS", "CoefficientSpec", "HeldIndexes", "airframe_holds", "describe_holds",
+           "holds_json"]
 
 #: The coefficients that multiply the fin deflection (aeroid/model/_equations.py: F_AZ's
 #: ``Czd delta`` and M_Y's ``Cmd delta``): held at zero for an airframe without a moving fin.
@@ -71,8 +72,40 @@ def _order(name: str) -> tuple[int, float]:
     return NAMES.index(base), float(knot) if sep else -math.inf
 
 
+class HeldIndexes:
+    """Where the held parameters sit among a spec's parameters (:meth:`parameter_order`):
+    shared by :class:`CoefficientSpec` (the nine coefficients) and the tables'
+    :class:`aeroid.estimation.TableHolds` (the tables' parameters)."""
+
+    held: Mapping[str, float]
+
+    def parameter_order(self) -> tuple[str, ...]:
+        """The parameters the indexes refer to, in order."""
+        raise NotImplementedError
+
+    @property
+    def free_mask(self) -> np.ndarray:
+        """Bool array over :meth:`parameter_order`: True where the parameter is estimated."""
+        return np.array([n not in self.held for n in self.parameter_order()])
+
+    @property
+    def free_index(self) -> np.ndarray:
+        """Indices into :meth:`parameter_order` of the estimated parameters."""
+        return np.flatnonzero(self.free_mask)
+
+    @property
+    def held_index(self) -> np.ndarray:
+        """Indices into :meth:`parameter_order` of the held parameters."""
+        return np.flatnonzero(~self.free_mask)
+
+    @property
+    def free_names(self) -> tuple[str, ...]:
+        """Names of the estimated parameters, in :meth:`parameter_order`."""
+        return tuple(n for n in self.parameter_order() if n not in self.held)
+
+
 @dataclass(frozen=True)
-class CoefficientSpec:
+class CoefficientSpec(HeldIndexes):
     """Which coefficients are held (at what value) and which have a Gaussian prior.
 
     Attributes
@@ -237,26 +270,6 @@ class CoefficientSpec:
         """True when every coefficient is free without a prior."""
         return not self.held and not self.priors
 
-    @property
-    def free_mask(self) -> np.ndarray:
-        """Bool array over :data:`NAMES`: True where the coefficient is estimated."""
-        return np.array([n not in self.held for n in NAMES])
-
-    @property
-    def free_index(self) -> np.ndarray:
-        """Indices into :data:`NAMES` of the estimated coefficients."""
-        return np.flatnonzero(self.free_mask)
-
-    @property
-    def held_index(self) -> np.ndarray:
-        """Indices into :data:`NAMES` of the held coefficients."""
-        return np.flatnonzero(~self.free_mask)
-
-    @property
-    def free_names(self) -> tuple[str, ...]:
-        """Names of the estimated coefficients, in :data:`NAMES` order."""
-        return tuple(n for n in NAMES if n not in self.held)
-
     def held_values(self) -> np.ndarray:
         """Values of the held coefficients, in :attr:`held_index` order."""
         return np.array([self.held[NAMES[j]] for j in self.held_index], dtype=float)
@@ -289,6 +302,10 @@ class CoefficientSpec:
         """Return ``1 / sd^2`` over :data:`NAMES` (0 where there is no prior)."""
         _, sd = self.prior_mean_sd()
         return np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0) ** 2, 0.0)
+
+    def parameter_order(self) -> tuple[str, ...]:
+        """The nine coefficients, :data:`NAMES`."""
+        return NAMES
 
     # -- reporting ---------------------------------------------------------------------
     def describe(self) -> str:

@@ -33,7 +33,12 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import EstimatorError
-from aeroid.estimation._holds import CoefficientSpec, describe_holds, holds_json
+from aeroid.estimation._holds import (
+    CoefficientSpec,
+    HeldIndexes,
+    describe_holds,
+    holds_json,
+)
 from aeroid.model import MachTables, tables
 
 __all__ = ["TableHolds", "table_holds"]
@@ -44,7 +49,7 @@ KNOT_MATCH = 1e-6
 
 
 @dataclass(frozen=True)
-class TableHolds:
+class TableHolds(HeldIndexes):
     """Held and prior parameters of a table fit (module docstring).
 
     Attributes
@@ -65,30 +70,14 @@ class TableHolds:
     priors: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     sources: Mapping[str, str] = field(default_factory=dict)
 
+    def parameter_order(self) -> tuple[str, ...]:
+        """The tables' parameters, :attr:`names`."""
+        return tuple(self.names)
+
     @property
     def empty(self) -> bool:
         """True when every parameter is free without a prior."""
         return not self.held and not self.priors
-
-    @property
-    def free_mask(self) -> np.ndarray:
-        """Bool array over :attr:`names`: True where the parameter is estimated."""
-        return np.array([n not in self.held for n in self.names])
-
-    @property
-    def free_index(self) -> np.ndarray:
-        """Indices into :attr:`names` of the estimated parameters."""
-        return np.flatnonzero(self.free_mask)
-
-    @property
-    def held_index(self) -> np.ndarray:
-        """Indices into :attr:`names` of the held parameters."""
-        return np.flatnonzero(~self.free_mask)
-
-    @property
-    def free_names(self) -> tuple[str, ...]:
-        """Names of the estimated parameters."""
-        return tuple(n for n in self.names if n not in self.held)
 
     def held_values(self) -> np.ndarray:
         """Values of the held parameters, in :attr:`held_index` order."""
