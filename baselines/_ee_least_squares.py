@@ -178,6 +178,25 @@ def solve_subproblems(X, y: np.ndarray, sd: np.ndarray, *,
     return theta, cov, corr, sigma2, cost, bandwidth
 
 
+
+def one_step_target(flight: Any, c: np.ndarray, A: np.ndarray, smoothing: str
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The one-step regression's measurements, target and regressors of ``flight``.
+
+    ``c`` and ``A``: the accelerations' affine form ``c + A theta`` (both triads and the
+    rate derivatives). Returns ``meas`` (n, outputs), ``target = meas - c`` and ``A``,
+    smoothed as ``smoothing`` says (``forces``: the target; ``both``: the regressors too).
+    """
+    n = flight.n_samples
+    meas = np.concatenate([flight.accelerations().reshape(n, 6),
+                           rc.rate_derivatives(flight)], axis=1)
+    target = meas - c
+    if smoothing in ("forces", "both"):
+        target = rc.smooth(target)
+    if smoothing == "both":
+        A = rc.smooth(A, axis=0)
+    return meas, target, A
+
 def with_position_consider(result: Any, given: np.ndarray, sd: np.ndarray,
                            theta_at: Callable[[np.ndarray], np.ndarray]) -> Any:
     """``result`` with the uncertain accelerometer positions as consider parameters.

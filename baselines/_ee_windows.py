@@ -32,6 +32,7 @@ from baselines._ee_least_squares import (
     _correlation,
     _lstsq,
     moved_positions,
+    one_step_target,
     solve_subproblems,
     with_position_consider,
 )
@@ -84,14 +85,7 @@ def _one_step(est: Any, windows: Windows, covariance: str, affine_accelerations:
     As, targets, meas_all = [], [], []
     for flight in windows:
         c, A = affine_accelerations(flight)
-        n = flight.n_samples
-        meas = np.concatenate([flight.accelerations().reshape(n, 6),
-                               rc.rate_derivatives(flight)], axis=1)
-        target = meas - c
-        if est.smoothing in ("forces", "both"):
-            target = rc.smooth(target)
-        if est.smoothing == "both":
-            A = rc.smooth(A, axis=0)
+        meas, target, A = one_step_target(flight, c, A, est.smoothing)
         As.append(A)
         targets.append(target)
         meas_all.append(meas)

@@ -96,6 +96,7 @@ from baselines._ee_least_squares import (  # the sub-problems' names are read fr
     _correlation,
     _lstsq,
     moved_positions,
+    one_step_target,
     solve_subproblems,
     with_position_consider,
 )
@@ -312,13 +313,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         c, A = affine_accelerations(flight, wind=wind)
         c, A, free = _held.ee_one_step(c, A, holds)  # held terms into c
         n = flight.n_samples
-        meas = np.concatenate([flight.accelerations().reshape(n, 6),
-                               rc.rate_derivatives(flight)], axis=1)
-        target = meas - c
-        if self.smoothing in ("forces", "both"):
-            target = rc.smooth(target)
-        if self.smoothing == "both":
-            A = rc.smooth(A, axis=0)
+        meas, target, A = one_step_target(flight, c, A, self.smoothing)
         sd = rc.estimate_noise_sd(meas)
         theta = cov = None
         for _ in range(2):  # pass 1: a priori channel sds; pass 2: residual sds
