@@ -78,6 +78,7 @@ class HeldIndexes:
     :class:`aeroid.estimation.TableHolds` (the tables' parameters)."""
 
     held: Mapping[str, float]
+    priors: Mapping[str, tuple[float, float]]
 
     def parameter_order(self) -> tuple[str, ...]:
         """The parameters the indexes refer to, in order."""
@@ -102,6 +103,41 @@ class HeldIndexes:
     def free_names(self) -> tuple[str, ...]:
         """Names of the estimated parameters, in :meth:`parameter_order`."""
         return tuple(n for n in self.parameter_order() if n not in self.held)
+
+    def held_values(self) -> np.ndarray:
+        """Values of the held parameters, in :attr:`held_index` order."""
+        order = self.parameter_order()
+        return np.array([self.held[order[j]] for j in self.held_index], dtype=float)
+
+    def expand(self, free_values: np.ndarray) -> np.ndarray:
+        """Return full parameter vectors (..., n) from free ones (..., n_free)."""
+        free_values = np.asarray(free_values, dtype=float)
+        out = np.empty((*free_values.shape[:-1], len(self.parameter_order())))
+        out[..., self.free_index] = free_values
+        out[..., self.held_index] = self.held_values()
+        return out
+
+    def with_held(self, theta: np.ndarray) -> np.ndarray:
+        """Return a copy of full vectors ``theta`` (..., n) with the held values put in."""
+        out = np.array(theta, dtype=float, copy=True)
+        out[..., self.held_index] = self.held_values()
+        return out
+
+    def prior_mean_sd(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return the prior's mean and sd over :meth:`parameter_order` (NaN where none;
+        a prior on a name outside it - a table point of the nine's spec - is left out)."""
+        order = self.parameter_order()
+        mean = np.full(len(order), np.nan)
+        sd = np.full(len(order), np.nan)
+        for name, (m, s) in self.priors.items():
+            if name in order:
+                mean[order.index(name)], sd[order.index(name)] = m, s
+        return mean, sd
+
+    def prior_information(self) -> np.ndarray:
+        """Return ``1 / sd^2`` over :meth:`parameter_order` (0 where there is no prior)."""
+        _, sd = self.prior_mean_sd()
+        return np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0) ** 2, 0.0)
 
 
 @dataclass(frozen=True)
@@ -269,39 +305,6 @@ class CoefficientSpec(HeldIndexes):
     def empty(self) -> bool:
         """True when every coefficient is free without a prior."""
         return not self.held and not self.priors
-
-    def held_values(self) -> np.ndarray:
-        """Values of the held coefficients, in :attr:`held_index` order."""
-        return np.array([self.held[NAMES[j]] for j in self.held_index], dtype=float)
-
-    def expand(self, free_values: np.ndarray) -> np.ndarray:
-        """Return full coefficient vectors (..., N) from free ones (..., n_free)."""
-        free_values = np.asarray(free_values, dtype=float)
-        out = np.empty((*free_values.shape[:-1], len(NAMES)))
-        out[..., self.free_index] = free_values
-        out[..., self.held_index] = self.held_values()
-        return out
-
-    def with_held(self, theta: np.ndarray) -> np.ndarray:
-        """Return a copy of full vectors ``theta`` (..., N) with the held values put in."""
-        out = np.array(theta, dtype=float, copy=True)
-        out[..., self.held_index] = self.held_values()
-        return out
-
-    # -- the prior ---------------------------------------------------------------------
-    def prior_mean_sd(self) -> tuple[np.ndarray, np.ndarray]:
-        """Return the prior's mean and sd over :data:`NAMES` (NaN where none)."""
-        mean = np.full(len(NAMES), np.nan)
-        sd = np.full(len(NAMES), np.nan)
-        for name, (m, s) in self.priors.items():
-            if name in NAMES:  # table points: aeroid.estimation.table_spec
-                mean[NAMES.index(name)], sd[NAMES.index(name)] = m, s
-        return mean, sd
-
-    def prior_information(self) -> np.ndarray:
-        """Return ``1 / sd^2`` over :data:`NAMES` (0 where there is no prior)."""
-        _, sd = self.prior_mean_sd()
-        return np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0) ** 2, 0.0)
 
     def parameter_order(self) -> tuple[str, ...]:
         """The nine coefficients, :data:`NAMES`."""

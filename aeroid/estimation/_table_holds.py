@@ -30,8 +30,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from aeroid.errors import EstimatorError
 from aeroid.estimation._holds import (
     CoefficientSpec,
@@ -78,37 +76,6 @@ class TableHolds(HeldIndexes):
     def empty(self) -> bool:
         """True when every parameter is free without a prior."""
         return not self.held and not self.priors
-
-    def held_values(self) -> np.ndarray:
-        """Values of the held parameters, in :attr:`held_index` order."""
-        return np.array([self.held[self.names[j]] for j in self.held_index], dtype=float)
-
-    def expand(self, free_values: np.ndarray) -> np.ndarray:
-        """Return full parameter vectors (..., n) from free ones (..., n_free)."""
-        free_values = np.asarray(free_values, dtype=float)
-        out = np.empty((*free_values.shape[:-1], len(self.names)))
-        out[..., self.free_index] = free_values
-        out[..., self.held_index] = self.held_values()
-        return out
-
-    def with_held(self, theta: np.ndarray) -> np.ndarray:
-        """Return a copy of full vectors ``theta`` (..., n) with the held values put in."""
-        out = np.array(theta, dtype=float, copy=True)
-        out[..., self.held_index] = self.held_values()
-        return out
-
-    def prior_mean_sd(self) -> tuple[np.ndarray, np.ndarray]:
-        """Return the prior's mean and sd over :attr:`names` (NaN where none)."""
-        mean = np.full(len(self.names), np.nan)
-        sd = np.full(len(self.names), np.nan)
-        for name, (m, s) in self.priors.items():
-            mean[self.names.index(name)], sd[self.names.index(name)] = m, s
-        return mean, sd
-
-    def prior_information(self) -> np.ndarray:
-        """Return ``1 / sd^2`` over :attr:`names` (0 where there is no prior)."""
-        _, sd = self.prior_mean_sd()
-        return np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0) ** 2, 0.0)
 
     def covers(self) -> dict[str, str]:
         """Coefficient (or parameter) name -> "held"/"prior" for what the spec determines:
