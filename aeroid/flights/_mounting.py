@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import FlightError
+from aeroid.flights._frames import body_to_ned
 
 #: The IMU's triads: (sensor-axis channel of x, y, z) each, rotated alike.
 TRIADS: tuple[tuple[str, str, str], ...] = (("ax1", "ay1", "az1"), ("ax2", "ay2", "az2"),
@@ -151,12 +152,7 @@ def euler_mounting(angles_deg: Any, where: str = "mounting") -> Mounting:
     values = _numbers(angles_deg, 3, where, "angles_deg")
     roll, pitch, yaw = np.radians(values)
     # the body_to_ned matrix of aeroid's attitude, here of the sensor relative to the body
-    # (written out: aeroid.flights._suite imports this module)
-    sf, cf, st, ct, ss, cs = (math.sin(roll), math.cos(roll), math.sin(pitch),
-                              math.cos(pitch), math.sin(yaw), math.cos(yaw))
-    rotation = np.array([[ct * cs, sf * st * cs - cf * ss, cf * st * cs + sf * ss],
-                         [ct * ss, sf * st * ss + cf * cs, cf * st * ss - sf * cs],
-                         [-st, sf * ct, cf * ct]])
+    rotation = np.array(body_to_ned(roll, pitch, yaw), dtype=float)
     rotation[np.abs(rotation) < ZERO_ENTRY] = 0.0
     description = (f"3-2-1 angles roll {values[0]:g}, pitch {values[1]:g}, yaw {values[2]:g} "
                    "deg (sensor axes from body axes: yaw about z, pitch about the new y, "
