@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from suite_flights import gnss_aiding, suite_flight
 
 import aeroid
 from aeroid.flights import NoNoise, Wind, flight_record, model_constants, simulate
@@ -124,7 +125,12 @@ def test_the_option_is_named_and_refused_where_not_done(capsys, windy_clean) -> 
     for method in ("ekf", "ukf"):
         assert main(["methods", "--options", method]) == 0
         assert "  estimate_wind : bool = false\n" in capsys.readouterr().out
-    est = aeroid.make_estimator("ekf", {"estimate_wind": True})
-    with pytest.raises(aeroid.EstimatorError, match="estimate_wind with several windows"):
-        est.run_windows(aeroid.flights.Windows((windy_clean, windy_clean), ("a", "b")),
-                        np.random.default_rng(0))
+    for method in ("ekf", "ukf"):
+        est = aeroid.make_estimator(method, {"estimate_wind": True})
+        with pytest.raises(aeroid.EstimatorError, match="estimate_wind with several windows"):
+            est.fit(aeroid.flights.Windows((windy_clean, dataclasses.replace(windy_clean)),
+                                           ("a", "b")), rng=0)
+    sim, flight = suite_flight(seed=1)
+    aided = aeroid.make_estimator("ekf", {"estimate_wind": True, "aiding": "gnss-velocity"})
+    with pytest.raises(aeroid.EstimatorError, match="estimate_wind with aiding"):
+        aided.fit(gnss_aiding(sim, flight), rng=0)
