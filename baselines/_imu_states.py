@@ -55,7 +55,10 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         the log's stated sd (:mod:`baselines._kalman_aiding`); default ``"none"``.
     estimate_wind : bool
         Also carry a steady wind (north, east, down [m/s]) as three constant states
-        (default False: still air), started at 0 with ``wind_sd_mps`` as sd; reported in
+        (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
+        passes where the last ended, with the coefficients); on noisy flights the
+        along-path component is not reliable (measured:
+        ``benchmarks/results/wind_filters.md``); reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
         with a one-line notice (:mod:`baselines._kalman_wind`).
     wind_sd_mps : float

@@ -3,7 +3,8 @@
 ``estimate_wind`` (:class:`baselines._imu_states.ImuFilterOptions`): the filter's state
 becomes ``[x, theta, d, w]``, ``w`` the wind's north, east and down components [m/s] (the
 air's velocity over the ground), constant in the transition, started at 0 (still air)
-with :data:`WIND_SD_MPS` as sd, each pass afresh (as the IMU's errors). The loads see the
+with :data:`WIND_SD_MPS` as sd; later passes start it where the last ended, with the
+coefficients (:func:`carried`: their joint covariance, inflated). The loads see the
 air-relative velocity: the wind enters the model's constants or, with per-sample values,
 each sample's exogenous row through :func:`aeroid.model.with_wind_symbols` (output-error's
 own symbols, the rotation written once in :mod:`aeroid.model`); the Jacobians are exact
