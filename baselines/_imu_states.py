@@ -17,9 +17,9 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from aeroid.estimation import EstimationResult, nuisance_findings
-from aeroid.flights import IMU_ERROR_KINDS, Flight, imu_error_names, used_samples
+from aeroid.flights import IMU_ERROR_KINDS, Flight, flight_record, imu_error_names, used_samples
 from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
-from baselines import _common, _kalman, _kalman_aiding
+from baselines import _common, _kalman, _kalman_aiding, _kalman_wind
 from baselines._oe_aiding import (
     AIDING,
     RESIDUAL_NAMES,
@@ -55,6 +55,16 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         as output-error's ``aiding``) as three more measurements at their own samples, with
         the log's stated sd (:mod:`baselines._kalman_aiding`); default ``"none"``.
         ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
+    estimate_wind : bool
+        Also carry a steady wind (north, east, down [m/s]) as three constant states
+        (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
+        passes where the last ended, with the coefficients); on noisy flights the
+        along-path component is not reliable (measured:
+        ``benchmarks/results/wind_filters.md``); reported in
+        ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
+        with a one-line notice (:mod:`baselines._kalman_wind`).
+    wind_sd_mps : float
+        Initial sd of each wind component [m/s] (default 10).
     """
 
     leaves_out_saturated: ClassVar[bool] = True  # FilterSetup.mask
@@ -64,6 +74,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
     imu_gyro_bias_sd_radps: float = 0.005
     imu_scale_sd: float = 0.005
     aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
+    estimate_wind: bool = False
+    wind_sd_mps: float = _kalman_wind.WIND_SD_MPS
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -71,9 +83,11 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
                              f"{self.imu_errors!r}")
         if self.aiding not in AIDING:
-            raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got "
-                             f"{self.aiding!r}")
-        for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd"):
+            raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
+        if not isinstance(self.estimate_wind, bool):
+            raise ValueError(f"estimate_wind must be true or false, got {self.estimate_wind!r}")
+        for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd",
+                     "wind_sd_mps"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
 
@@ -82,8 +96,11 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         return imu_error_names(self.imu_errors)
 
     def setup(self, flight: Flight) -> _common.FilterSetup:
-        """The shared start, with the IMU-error states appended (``imu_errors``)."""
+        """The shared start, with the wind states (``estimate_wind``) and the IMU-error
+        states (``imu_errors``) appended."""
         setup = super().setup(flight)
+        if self.estimate_wind:
+            setup = _kalman_wind.wind_setup(setup, self.wind_sd_mps)
         names = self.imu_error_names()
         if not names:
             return setup
@@ -133,11 +150,23 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         mask = used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
         samples = tuple(aiding_samples(flight, s) for s in aiding_sources(self.aiding)) or None
         if samples is not None:
+            _kalman_wind.refuse_with(self, "aiding = gnss-velocity")
+        wind: list[_kalman.DiscreteModel] = []  # the model with the wind states, built once
+        wind_first = _common.COEFFICIENTS.stop + len(self.position_free(flight))
+        if samples is not None:
             mask = _kalman_aiding.aided_mask(mask, flight.n_samples, len(OUTPUT_CHANNELS),
                                              samples)
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
+            if self.estimate_wind:  # in place of the still-air model
+                if not wind:
+                    wind.append(_kalman_wind.wind_model(
+                        flight, self.substeps, flight_record(flight, self.input, self.delay_s),
+                        setup.position_free))
+                model = wind[0]
+                if passes and passes[-1].failed_at is None:  # carried as the coefficients
+                    setup = _kalman_wind.carried(setup, passes[-1], wind_first)
             if names:
                 model = _kalman.with_sensor_errors(model, len(names))
             if samples is not None:
@@ -161,9 +190,15 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         if samples is not None and good and "fit_residuals" in result.info:
             result = dataclasses.replace(result, info={**result.info, **aiding_innovations(
                 good[-1], samples, flight.n_samples, result.info["fit_residuals"])})
-        if not names or not good or not np.all(np.isfinite(result.theta)):
+        if not good or not np.all(np.isfinite(result.theta)):
             return result
         last = good[-1]  # the pass the result is (run_passes keeps the last good one)
+        if self.estimate_wind:
+            found, notice = _kalman_wind.wind_report(last, wind_first)
+            result = dataclasses.replace(result, info={**result.info, **found},
+                                         warnings=(*result.warnings, notice))
+        if not names:
+            return result
         k = len(names)
         x, P = last.x[-1], last.P
         info = dict(result.info)

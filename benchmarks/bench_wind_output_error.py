@@ -1,9 +1,14 @@
-"""Output-error in a steady wind (issue 26): the wind as parameters against still air.
+"""Output-error (and the filters) in a steady wind (issue 26): the wind estimated against still air.
 
 Run by hand from the repository root (one process, the fits in turn: ``--jobs 1``)::
 
     python benchmarks/bench_wind_output_error.py                 # 6 seeds, writes results
     python benchmarks/bench_wind_output_error.py --seeds 2 --no-write
+    python benchmarks/bench_wind_output_error.py --methods output-error ekf --seeds 6
+
+``--methods``: the estimators to run (default output-error; ``ekf`` and ``ukf`` carry the
+wind as three constant states, :mod:`baselines._kalman_wind`); with any other than
+output-error alone the results go to ``results/wind_filters.md``.
 
 Per seed ``k`` (``rng = k``): the reference scenario's flight with Gaussian IMU noise
 (:class:`aeroid.flights.GaussianNoise` defaults: 0.05 m/s^2, 0.005 rad/s) in still air,
@@ -44,23 +49,26 @@ import aeroid  # noqa: E402
 from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "wind_output_error.md"
+RESULTS_FILTERS = Path(__file__).parent / "results" / "wind_filters.md"
 WITHIN_SE = 3.0
 
 
-def run(seeds: int, wind: tuple[float, float, float]) -> tuple[dict, list[str]]:
+def run(seeds: int, wind: tuple[float, float, float], methods: tuple[str, ...] = (
+        "output-error",)) -> tuple[dict, list[str]]:
     """Fit every kind on every seed; return per-kind rows and the per-run lines."""
     s = reference_scenario()
     truth = s.coefficient_vector
     windy = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=wind))
     noise = make_noise("gaussian")
-    kinds = {("still", False): [], ("still", True): [], ("wind", False): [],
-             ("wind", True): []}
+    kinds: dict = {(m, air, on): [] for m in methods
+                   for air, on in (("still", False), ("still", True), ("wind", False),
+                                   ("wind", True))}
     lines = []
     for seed in range(1, seeds + 1):
         flights = {"still": simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed),
                    "wind": simulate(s.airframe, truth, windy, noise, rng=seed)}
-        for (air, on), rows in kinds.items():
-            est = aeroid.make_estimator("output-error", {"estimate_wind": on})
+        for (method, air, on), rows in kinds.items():
+            est = aeroid.make_estimator(method, {"estimate_wind": on})
             start = time.perf_counter()
             r = est.fit(flights[air], rng=seed)
             wall = time.perf_counter() - start
@@ -76,7 +84,8 @@ def run(seeds: int, wind: tuple[float, float, float]) -> tuple[dict, list[str]]:
             rows.append({"success": r.success, "rel": rel, "zmax": float(np.max(z)),
                          "se": 100.0 * float(np.mean(r.stderr / np.abs(truth))),
                          "within": bool(np.all(z < WITHIN_SE)), "wall": wall})
-            lines.append(f"seed {seed} {air:5s} {'on ' if on else 'off'} success={r.success} "
+            lines.append(f"seed {seed} {method} {air:5s} {'on ' if on else 'off'} "
+                         f"success={r.success} "
                          f"mean|err|={rel:.3f}% max z={np.max(z):.2f} {wall:.1f}s{extra}"
                          + ("" if r.success else f" [{r.message[:90]}]"))
             print(lines[-1], flush=True)
@@ -85,15 +94,15 @@ def run(seeds: int, wind: tuple[float, float, float]) -> tuple[dict, list[str]]:
 
 def table(kinds: dict) -> str:
     """The summary table (markdown)."""
-    base = np.mean([row["rel"] for row in kinds[("still", False)]])
-    base_se = np.mean([row["se"] for row in kinds[("still", False)]])
-    out = ["| flight / estimate_wind | success | mean abs rel error [%] | x still/off "
+    out = ["| method: flight / estimate_wind | success | mean abs rel error [%] | x still/off "
            "| mean rel se [%] | x still/off | max err/se | all within 3 se | wall [s] (median) |",
            "|---|---|---|---|---|---|---|---|---|"]
-    for (air, on), rows in kinds.items():
+    for (method, air, on), rows in kinds.items():
+        base = np.mean([row["rel"] for row in kinds[(method, "still", False)]])
+        base_se = np.mean([row["se"] for row in kinds[(method, "still", False)]])
         rel = np.mean([row["rel"] for row in rows])
         se = np.mean([row["se"] for row in rows])
-        out.append(f"| {air} / {'on' if on else 'off'} | "
+        out.append(f"| {method}: {air} / {'on' if on else 'off'} | "
                    f"{sum(row['success'] for row in rows)}/{len(rows)} | {rel:.3f} | "
                    f"{rel / base:.2f} | {se:.3f} | {se / base_se:.2f} | "
                    f"{max(row['zmax'] for row in rows):.2f} | "
@@ -107,19 +116,22 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--wind", type=float, nargs=3, default=(3.0, 4.0, 0.0),
                         metavar=("NORTH", "EAST", "DOWN"))
+    parser.add_argument("--methods", nargs="+", default=["output-error"])
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
-    kinds, lines = run(args.seeds, tuple(args.wind))
+    kinds, lines = run(args.seeds, tuple(args.wind), tuple(args.methods))
+    results = RESULTS if args.methods == ["output-error"] else RESULTS_FILTERS
     text = table(kinds)
     print(text)
     if not args.no_write:
-        RESULTS.parent.mkdir(exist_ok=True)
-        RESULTS.write_text(
-            f"# Output-error in a steady wind ({dt.date.today()})\n\n"
-            f"`python benchmarks/bench_wind_output_error.py --seeds {args.seeds} --wind "
+        results.parent.mkdir(exist_ok=True)
+        results.write_text(
+            f"# {', '.join(args.methods)} in a steady wind ({dt.date.today()})\n\n"
+            f"`python benchmarks/bench_wind_output_error.py --methods {' '.join(args.methods)}"
+            f" --seeds {args.seeds} --wind "
             f"{' '.join(f'{w:g}' for w in args.wind)}` (one process, fits in turn)\n\n"
             f"{text}\n\nPer run:\n\n```\n" + "\n".join(lines) + "\n```\n")
-        print(f"wrote {RESULTS}")
+        print(f"wrote {results}")
 
 
 if __name__ == "__main__":

@@ -95,7 +95,7 @@ from aeroid.model._inputs import (
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
 from aeroid.model._sensitivity import DEFAULT_REL_STEP, SENSITIVITY_BLOCK_BYTES
 from aeroid.model._tables import MachTables, TableSpec
-from aeroid.model._wind import with_steady_wind
+from aeroid.model._wind import with_steady_wind, with_wind_symbols
 
 __all__ = [
     "ACCEL_CHANNELS", "OUTPUT_CHANNELS", "RATE_CHANNELS", "Coefficients", "Loads", "State",
@@ -116,5 +116,5 @@ __all__ = [
     "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
     "pressure_altitude",
     "MachTables", "TableSpec", "tables",
-    "with_steady_wind",
+    "with_steady_wind", "with_wind_symbols",
 ]
