@@ -42,6 +42,7 @@ import numpy as np
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation._result import EstimationResult
+from aeroid.flights import Windows
 from aeroid.model import MASS_SD_FIELDS
 
 if TYPE_CHECKING:
@@ -141,16 +142,22 @@ def check_consider(flight: Flight, owner: str) -> None:
                 f"the sd of a constant {name} (drop the channel) or no sd")
 
 
-def _refit(estimator: Any, flight: Flight, theta: np.ndarray | None, changes: dict[str, Any],
-           seed: int) -> EstimationResult:
+def _refit(estimator: Any, flight: Flight | Windows, theta: np.ndarray | None, name: str,
+           step: float, seed: int) -> EstimationResult:
+    """Re-fit with the constant ``name`` moved by ``step`` (in each window, from its own value)."""
     exact = {sd: 0.0 for sd in MASS_SD_FIELDS.values()}
-    if theta is not None:  # the warm start
-        changes = {**changes, "prior": tuple(float(v) for v in theta)}
-    airframe = flight.airframe.replace(**exact, **changes)
-    return estimator.fit(dataclasses.replace(flight, airframe=airframe), rng=seed)
+    prior = {} if theta is None else {"prior": tuple(float(v) for v in theta)}  # warm start
+
+    def moved(part: Flight) -> Flight:
+        changes = {name: getattr(part.airframe, name) + step, **prior}
+        return dataclasses.replace(part, airframe=part.airframe.replace(**exact, **changes))
+
+    if isinstance(flight, Windows):
+        return estimator.fit(Windows(tuple(moved(f) for f in flight), flight.names), rng=seed)
+    return estimator.fit(moved(flight), rng=seed)
 
 
-def consider_covariance(estimator: Any, flight: Flight, result: EstimationResult, *,
+def consider_covariance(estimator: Any, flight: Flight | Windows, result: EstimationResult, *,
                         rng: np.random.Generator | int | None = None,
                         warm_start: bool = False) -> ConsiderCovariance:
     """Return the consider covariance of ``result`` for the flight airframe's uncertain constants.
@@ -159,8 +166,11 @@ def consider_covariance(estimator: Any, flight: Flight, result: EstimationResult
     ----------
     estimator : Estimator
         The method that made ``result`` (its :meth:`fit` makes the re-fits).
-    flight : Flight
+    flight : Flight or Windows
         The flight fitted; ``flight.airframe.mass_sd`` names the constants (may be empty).
+        Several windows: each window's constant is moved by the sd from its own value
+        (their sd agree: :func:`aeroid.estimation._windows.check_windows`); ``values``
+        are the first window's.
     result : EstimationResult
         The fit, with finite ``theta``.
     rng : Generator, int or None
@@ -190,8 +200,8 @@ def consider_covariance(estimator: Any, flight: Flight, result: EstimationResult
         ends = []
         for sign in (1.0, -1.0):
             value = float(values[k] + sign * steps[k])
-            fit = _refit(estimator, flight, theta if warm_start else None, {name: value},
-                         seed)
+            fit = _refit(estimator, flight, theta if warm_start else None, name,
+                         sign * steps[k], seed)
             if not np.all(np.isfinite(fit.theta)):
                 raise EstimatorError(f"{estimator.name}: the re-fit at {name} = {value:.6g} "
                                      f"for its sd failed: {fit.message}")
@@ -207,7 +217,7 @@ def consider_covariance(estimator: Any, flight: Flight, result: EstimationResult
         refit_messages=tuple(messages))
 
 
-def add_consider(estimator: Any, flight: Flight, result: EstimationResult, *,
+def add_consider(estimator: Any, flight: Flight | Windows, result: EstimationResult, *,
                  rng: np.random.Generator | int | None = None) -> EstimationResult:
     """Return ``result`` with the airframe's uncertain constants in its standard errors.
 

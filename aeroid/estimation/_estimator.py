@@ -32,7 +32,12 @@ from aeroid.estimation._options import OptionInfo, coerce, describe_options, par
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
 from aeroid.estimation._table_holds import TableHolds, table_holds
-from aeroid.estimation._windows import fit_windows
+from aeroid.estimation._windows import (
+    check_windows,
+    common_findings,
+    pooled_noise_levels,
+    windows_info,
+)
 from aeroid.flights import Flight, InputChoice, Windows, check_input
 from aeroid.model import NAMES, Airframe
 
@@ -121,7 +126,10 @@ class Estimator(abc.ABC):
         flight : Flight or Windows
             Several windows (:class:`aeroid.flights.Windows`) are fitted together with
             shared coefficients by a method with ``supports_windows``
-            (:func:`aeroid.estimation._windows.fit_windows`); the others refuse.
+            (:meth:`run_windows`); the others refuse. Every window is checked as a
+            flight is; the fit check judges the stacked residuals
+            (:mod:`aeroid.estimation._windows`); a coefficient is named as not
+            identifiable when no window determines it.
         rng : Generator, int or None
             Source of the method's random draws (``np.random.default_rng(rng)``).
         progress : callable or None
@@ -150,57 +158,67 @@ class Estimator(abc.ABC):
             Any other bad input the method finds (e.g. a swarm too large for the flight);
             every other exception inside the method gives ``success=False``.
         """
+        owner = self.name or type(self).__name__
+        windows = flight if isinstance(flight, Windows) else None
+        parts = dict(windows.items()) if windows is not None else {"": flight}
         tables = getattr(flight.airframe, "tables", None)
         if tables is not None and not self.fits_tables:
             raise EstimatorError(
-                f"{self.name or type(self).__name__}: the airframe's [tables] makes "
+                f"{owner}: the airframe's [tables] makes "
                 f"{', '.join(name for name, _ in tables.knots)} tables in Mach; this method "
                 "fits constant coefficients (output-error and equation-error fit tables); "
                 "remove [tables] to fit constants")
-        if isinstance(flight, Windows):
-            declared = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
-            if not declared.empty:
-                raise EstimatorError(f"{self.name or type(self).__name__}: several windows "
-                                     f"cannot hold coefficients or take priors yet "
-                                     f"({declared.describe()}); fit one window")
-            return fit_windows(self, flight, rng=rng, progress=progress)
-        flight.validate()
-        saturated = flight.metadata.get("saturated") or {}
-        if saturated and not self.leaves_out_saturated:
-            raise EstimatorError(
-                f"{self.name}: the flight has {sum(len(k) for k in saturated.values())} "
-                f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); this "
-                "method cannot leave them out of its fit (output-error, ekf and ukf can)")
         given = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
-        owner = self.name or type(self).__name__
+        if windows is not None:
+            check_windows(self, windows, given)
+        saturated = {}
+        for name, part in parts.items():
+            part.validate()
+            saturated = part.metadata.get("saturated") or {}
+            if saturated and windows is not None:
+                raise EstimatorError(
+                    f"{owner}: window {name!r} has saturated samples (metadata "
+                    "'saturated'); several windows cannot leave them out yet: fit that "
+                    "window alone")
+            if saturated and not self.leaves_out_saturated:
+                raise EstimatorError(
+                    f"{owner}: the flight has {sum(len(k) for k in saturated.values())} "
+                    f"saturated sample(s) in {', '.join(saturated)} (metadata 'saturated'); "
+                    "this method cannot leave them out of its fit (output-error, ekf and ukf "
+                    "can)")
         if given.points and tables is None:
             raise EstimatorError(f"{owner}: {', '.join(given.points)}: table points, and the "
                                  "airframe has no [tables]")
         if not given.empty and not self.supports_holds:
             raise EstimatorError(f"{owner}: this method cannot hold coefficients or take "
                                  f"priors ({given.describe()}); fit all nine free")
-        tabled = None if tables is None else flight.airframe.mach_tables(flight.states())
-        spec: CoefficientSpec | TableHolds = (  # with tables: their constants and points
-            given if tabled is None or given.empty else table_holds(given, tabled))
+        spec: CoefficientSpec | TableHolds = given  # with tables: their constants and points
+        if tables is not None and not given.empty:
+            spec = table_holds(given, flight.airframe.mach_tables(flight.states()))
         if not spec.empty:
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
         known = spec.covers() if isinstance(spec, TableHolds) else {**spec.held, **spec.priors}
-        findings = record_findings(flight)  # what the record cannot determine, said first
-        for finding in findings:
+        findings = common_findings([record_findings(p) for p in parts.values()])
+        for finding in findings:  # what the record cannot determine, said first
             if any(n not in known for n in finding.names):
                 logging.getLogger("aeroid").info(f"{owner}: {finding.text()}")
-        choice = self.input_choice(flight)
-        check_consider(flight, self.name or type(self).__name__)
+        choices = {name: self.input_choice(part) for name, part in parts.items()}
+        for part in parts.values():
+            check_consider(part, owner)
         try:
             generator = np.random.default_rng(rng)
         except (TypeError, ValueError) as exc:
-            raise EstimatorError(f"{self.name or type(self).__name__}: bad seed {rng!r}: "
+            raise EstimatorError(f"{owner}: bad seed {rng!r}: "
                                  f"{' '.join(str(exc).split())}") from None
         start = time.perf_counter()
         try:
             with np.errstate(all="ignore"), progress_listener(progress):
-                result = (self.run(flight, generator) if spec.empty else
-                          self.run(flight, generator, holds=spec))  # type: ignore[call-arg]
+                if windows is not None:
+                    result = self.run_windows(windows, generator)
+                elif spec.empty:
+                    result = self.run(flight, generator)
+                else:
+                    result = self.run(flight, generator, holds=spec)  # type: ignore[call-arg]
         except AeroidError:
             raise  # bad input found by the method (data, options): a user error, one line
         except Exception as exc:  # failure is data (module docstring)
@@ -210,12 +228,18 @@ class Estimator(abc.ABC):
         if result.success and not np.all(np.isfinite(result.theta)):
             result = dataclasses.replace(result, success=False,
                                          message=result.message or "non-finite estimate")
-        result = dataclasses.replace(result, input=None if choice is None else choice.input,
+        used = sorted({c.input for c in choices.values() if c is not None})
+        result = dataclasses.replace(result, input=",".join(used) or None,
                                      noise_model=self.noise_model_used())
         result = apply_holds(result, spec)
-        levels = data_noise_levels(flight) if result.success else None  # one smoother pass
+        if windows is not None:
+            levels = pooled_noise_levels(windows) if result.success else None
+            checked = windows.joined()
+        else:  # one smoother pass
+            levels = data_noise_levels(flight) if result.success else None
+            checked = flight
         result = check_free(result, spec,  # held coefficients are known: not checked
-                            lambda r: apply_fit_check(r, flight, levels, self.options()))
+                            lambda r: apply_fit_check(r, checked, levels, self.options()))
         failure, left = record_verdict(findings, known, {})
         if left and failure is not None:  # estimated freely though the record cannot tell
             result = dataclasses.replace(  # the cause first; the method's own failure kept
@@ -224,19 +248,28 @@ class Estimator(abc.ABC):
                 warnings=(*result.warnings, *([] if result.success else [result.message])))
         info = dict(result.info)
         info.setdefault("options", self.options())
-        if choice is not None:
-            info.update(choice.as_info())
-        if saturated:  # left out of the likelihood by this method (leaves_out_saturated)
-            info["saturated_left_out"] = {c: len(k) for c, k in saturated.items()}
+        extra: tuple[str, ...] = ()
+        if windows is not None:
+            info.update(windows_info(windows, choices))
+        else:
+            choice = choices[""]
+            if choice is not None:
+                info.update(choice.as_info())
+            if saturated:  # left out of the likelihood by this method (leaves_out_saturated)
+                info["saturated_left_out"] = {c: len(k) for c, k in saturated.items()}
+            extra += floor_warnings(result, flight, levels)
         result = dataclasses.replace(result, wall_time_s=elapsed, info=info)
-        extra = (choice.warnings if choice is not None else ()) + floor_warnings(
-            result, flight, levels)
-        if "initial_state_sd" in flight.metadata and not self.uses_state_sd:
-            extra += (f"{self.name}: the flight's states are a reconstruction's, with sd "
-                      "(metadata initial_state_sd); this method takes them as exact, so "
-                      "its standard errors leave their uncertainty out",)
-        ignored = None if self.uses_air_data else ignored_air_data_warning(flight, owner)
-        extra += (ignored,) if ignored else ()
+        for choice in choices.values():
+            extra += tuple(w for w in (choice.warnings if choice else ()) if w not in extra)
+        if (any("initial_state_sd" in p.metadata for p in parts.values())
+                and not self.uses_state_sd):
+            extra += (f"{owner}: the {'windows' if windows else 'flight'}'s states are a "
+                      "reconstruction's, with sd (metadata initial_state_sd); this method "
+                      "takes them as exact, so its standard errors leave their uncertainty "
+                      "out",)
+        for part in parts.values():
+            ignored = None if self.uses_air_data else ignored_air_data_warning(part, owner)
+            extra += (ignored,) if ignored and ignored not in extra else ()
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
         return add_consider(self, flight, result, rng=generator)  # uncertain mass, if any

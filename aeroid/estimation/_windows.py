@@ -1,7 +1,9 @@
-"""Several windows in one fit: what :meth:`Estimator.fit` does with a :class:`Windows`.
+"""Several windows in one fit: what :meth:`Estimator.fit` does differently with a :class:`Windows`.
 
-Each window is validated and its deflection input resolved and checked as a single
-flight's is; the method's :meth:`Estimator.run_windows` fits the windows with shared
+:meth:`Estimator.fit` takes one path for a flight and for windows. Each window is
+validated, checked for its input, its consider constants, its air data and what its
+record cannot determine as a single flight is; the method's
+:meth:`Estimator.run_windows` fits the windows with shared
 coefficients; the fit check then judges the stacked residuals against the windows'
 noise levels (each window's levels from its own samples, pooled as a mean square
 weighted by the samples) on the windows joined one after the other
@@ -15,19 +17,18 @@ methods, pyswarms) refuses in one line.
 
 from __future__ import annotations
 
-import dataclasses
-import time
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from aeroid.errors import AeroidError, EstimatorError
-from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels
-from aeroid.estimation._progress import ProgressCallback, progress_listener
-from aeroid.estimation._result import EstimationResult, failed_result
+from aeroid.errors import EstimatorError
+from aeroid.estimation._fitcheck import data_noise_levels
+from aeroid.estimation._identifiability import RecordFinding
 from aeroid.flights import Windows
 
-__all__ = ["FLOOR_CHECK_NOTE", "fit_windows", "pooled_noise_levels"]
+__all__ = ["FLOOR_CHECK_NOTE", "check_windows", "common_findings", "pooled_noise_levels",
+           "windows_info"]
 
 #: What ``info['floor_check']`` says of a fit of several windows.
 FLOOR_CHECK_NOTE = ("not computed for several windows (the floor's record would integrate "
@@ -49,70 +50,58 @@ def pooled_noise_levels(windows: Windows) -> dict[str, float]:
     return {name: float(np.sqrt(totals[name] / counts[name])) for name in totals}
 
 
-def fit_windows(estimator: Any, windows: Windows, *, rng: Any = None,
-                progress: ProgressCallback | None = None) -> EstimationResult:
-    """Validate every window, run ``estimator.run_windows``, time it, check the fit.
+def check_windows(estimator: Any, windows: Windows, holds: Any) -> None:
+    """Refuse, in one line, what :meth:`Estimator.fit` cannot do with several windows.
+
+    A method without ``supports_windows``; held coefficients or priors (``holds``, the
+    airframes' and the caller's merged); windows whose airframes state different mass
+    uncertainties (the consider re-fits move each window's constant by one sd).
 
     Raises
     ------
     EstimatorError
-        A method that cannot fit several windows, or a bad ``rng``.
-    FlightError
-        An invalid window (its message names the window's source).
     """
     owner = estimator.name or type(estimator).__name__
     if not getattr(estimator, "supports_windows", False):
         raise EstimatorError(f"{owner}: fits one flight at a time; it cannot fit several "
                              "windows (methods that can: output-error, ekf, ukf, "
                              "equation-error)")
-    choices = []
+    if not holds.empty:
+        raise EstimatorError(f"{owner}: several windows cannot hold coefficients or take "
+                             f"priors yet ({holds.describe()}); fit one window")
+    def said(sd: Mapping[str, float]) -> str:
+        return ", ".join(f"{k} sd {v:g}" for k, v in sd.items()) or "none"
+
+    first = windows.airframe.mass_sd
     for name, flight in windows.items():
-        flight.validate()
-        if flight.metadata.get("saturated"):
-            raise EstimatorError(f"{owner}: window {name!r} has saturated samples (metadata "
-                                 "'saturated'); several windows cannot leave them out yet: "
-                                 "fit that window alone")
-        choices.append(estimator.input_choice(flight))
-    try:
-        generator = np.random.default_rng(rng)
-    except (TypeError, ValueError) as exc:
-        raise EstimatorError(f"{owner}: bad seed {rng!r}: {' '.join(str(exc).split())}"
-                             ) from None
-    start = time.perf_counter()
-    try:
-        with np.errstate(all="ignore"), progress_listener(progress):
-            result = estimator.run_windows(windows, generator)
-    except AeroidError:
-        raise
-    except Exception as exc:  # failure is data
-        text = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-        result = failed_result(estimator.name, f"{type(exc).__name__}: {text}".rstrip(": "))
-    elapsed = time.perf_counter() - start
-    if result.success and not np.all(np.isfinite(result.theta)):
-        result = dataclasses.replace(result, success=False,
-                                     message=result.message or "non-finite estimate")
-    used = {c.input for c in choices if c is not None}
-    result = dataclasses.replace(
-        result, input=None if not used else ",".join(sorted(used)),
-        noise_model=estimator.noise_model_used())
-    levels = pooled_noise_levels(windows) if result.success else None
-    result = apply_fit_check(result, windows.joined(), levels, estimator.options())
-    info = dict(result.info)
-    info.setdefault("options", estimator.options())
-    info["windows"] = list(windows.names)
-    info["window_bounds"] = windows.bounds()
-    info["floor_check"] = FLOOR_CHECK_NOTE
-    for name, choice in zip(windows.names, choices, strict=True):
-        if choice is not None:
-            info.setdefault("window_input", {})[name] = choice.as_info()
-    extra: tuple[str, ...] = ()
-    for choice in choices:
-        if choice is not None:
-            extra += tuple(w for w in choice.warnings if w not in extra)
-    if any("initial_state_sd" in f.metadata for f in windows) and not estimator.uses_state_sd:
-        extra += (f"{owner}: the windows' states are a reconstruction's, with sd "
-                  "(metadata initial_state_sd); this method takes them as exact, so "
-                  "its standard errors leave their uncertainty out",)
-    result = dataclasses.replace(result, wall_time_s=elapsed, info=info,
-                                 warnings=tuple(result.warnings) + extra)
-    return result
+        if flight.airframe.mass_sd != first:
+            raise EstimatorError(
+                f"{owner}: window {name!r} states another mass uncertainty "
+                f"({said(flight.airframe.mass_sd)}) than {windows.names[0]!r} "
+                f"({said(first)}); give the windows the same sd")
+
+
+def common_findings(findings: Sequence[Sequence[RecordFinding]]) -> tuple[RecordFinding, ...]:
+    """Return the findings of the first record whose coefficients every record leaves undetermined.
+
+    One flight: its own findings. Several windows: a coefficient is not identifiable only
+    when no window determines it (a window with fin motion determines the fin terms for
+    all, since they are shared).
+    """
+    first, *others = findings
+    kept = []
+    for finding in first:
+        if all(any(set(finding.names) <= set(o.names) for o in other) for other in others):
+            kept.append(finding)
+    return tuple(kept)
+
+
+def windows_info(windows: Windows, choices: Mapping[str, Any]) -> dict[str, Any]:
+    """The result's ``info`` entries of a fit of several windows (module docstring)."""
+    info: dict[str, Any] = {"windows": list(windows.names),
+                            "window_bounds": windows.bounds(),
+                            "floor_check": FLOOR_CHECK_NOTE}
+    inputs = {name: c.as_info() for name, c in choices.items() if c is not None}
+    if inputs:
+        info["window_input"] = inputs
+    return info
