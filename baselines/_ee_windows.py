@@ -25,6 +25,7 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows
+from baselines import _held
 from baselines._common import pooled_sd
 from baselines._ee_least_squares import (
     LATERAL,
@@ -41,8 +42,8 @@ from baselines._tables_windows import equation_error_windows
 __all__ = ["run_windows"]
 
 
-def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]:
+def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool,
+              holds: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]:
     recs = [rc.reconstruct(flight) for flight in windows]
     ys = [rc.regression_target(rec, smoothing=est.smoothing) for rec in recs]
     y = np.vstack(ys)
@@ -59,7 +60,8 @@ def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool
 
     sd = pooled_sd([rc.estimate_noise_sd(rec.fm) for rec in recs], [f.n_samples for f in windows])
     theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
-        blocks(), y, sd, lateral_rows=est.lateral_rows, covariance=covariance)
+        blocks(), y, sd, lateral_rows=est.lateral_rows, covariance=covariance,
+        held=_held.held_dict(holds), holds=holds)
     info: dict[str, Any] = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                             "reconstruction_rank": [rec.rank for rec in recs],
                             "hac_bandwidth": bandwidth}
@@ -80,11 +82,12 @@ def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool
     return theta, cov, corr, cost, info
 
 
-def _one_step(est: Any, windows: Windows, covariance: str, affine_accelerations: Callable
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]:
+def _one_step(est: Any, windows: Windows, covariance: str, affine_accelerations: Callable,
+              holds: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, dict]:
     As, targets, meas_all = [], [], []
     for flight in windows:
         c, A = affine_accelerations(flight)
+        c, A, free = _held.ee_one_step(c, A, holds)  # held terms into c
         meas, target, A = one_step_target(flight, c, A, est.smoothing)
         As.append(A)
         targets.append(target)
@@ -100,24 +103,27 @@ def _one_step(est: Any, windows: Windows, covariance: str, affine_accelerations:
         resid = target - np.einsum("noc,c->no", A, theta)
         sd = np.sqrt(np.mean(resid * resid, axis=0))
         sd = np.maximum(sd, 1e-12 * np.sqrt(np.mean(meas * meas, axis=0)) + 1e-300)
+    theta, cov = _held.ee_full(*_held.ee_prior_rows(Aw, bw, theta, cov, s2, free, holds),
+                               free, holds)
     info = {"sigma2": {"one_step": s2}, "channel_sd": sd, "subproblems": ["one_step"],
             "hac_bandwidth": {"one_step": bandwidth},
             "fit_residuals": {name: resid[:, j]
                               for j, name in enumerate(aeroid.model.ACCEL_CHANNELS)}}
-    return theta, cov, _correlation(Aw), s2 * max(Aw.shape[0] - Aw.shape[1], 1), info
+    corr = _held.ee_full_matrix(_correlation(Aw), free, np.nan)
+    return theta, cov, corr, s2 * max(Aw.shape[0] - Aw.shape[1], 1), info
 
 
 def _solve(est: Any, windows: Windows, tools: tuple[Callable, Callable], *,
-           theta_only: bool = False) -> EstimationResult:
+           theta_only: bool = False, holds: Any = None) -> EstimationResult:
     covariance = "ols" if theta_only else est.covariance
     affine_accelerations, roll_floor = tools
     if windows.airframe.tables is not None:  # shared table points: baselines._tables_windows
         return equation_error_windows(est, windows, covariance, theta_only=theta_only)
     if est.one_step:
         theta, cov, corr, cost, info = _one_step(est, windows, covariance,
-                                                 affine_accelerations)
+                                                 affine_accelerations, holds)
     else:
-        theta, cov, corr, cost, info = _two_step(est, windows, covariance, theta_only)
+        theta, cov, corr, cost, info = _two_step(est, windows, covariance, theta_only, holds)
     result = est._result(windows.flights[0], theta, cov, corr, cost, info, floor=False)
     if theta_only or not np.all(np.isfinite(theta)):
         return result
@@ -126,14 +132,21 @@ def _solve(est: Any, windows: Windows, tools: tuple[Callable, Callable], *,
 
 
 def run_windows(est: Any, windows: Windows, rng: np.random.Generator, *,
-                affine_accelerations: Callable, roll_floor: Callable) -> EstimationResult:
+                affine_accelerations: Callable, roll_floor: Callable,
+                holds: Any = None) -> EstimationResult:
     """Equation-error's ``run_windows``: the windows' regressions stacked (deterministic).
+
+    ``holds``: held terms to the left side and priors as pseudo-observations, in every
+    window's rows, as one flight's (:mod:`baselines._held`); held values compared with
+    the free fit of the windows (:func:`baselines._held.ee_held_check`).
 
     ``affine_accelerations`` and ``roll_floor``: :mod:`baselines.equation_error`'s (given
     by it: this module does not import it back).
     """
     tools = (affine_accelerations, roll_floor)
-    result = _solve(est, windows, tools)
+    result = _solve(est, windows, tools, holds=holds)
+    if holds is not None and holds.held:  # the data against the held values
+        result = _held.ee_held_check(result, _solve(est, windows, tools), holds)
     result.info["window_parameters"] = {name: {} for name in windows.names}
     result.info["window_parameter_stderr"] = {name: {} for name in windows.names}
     sd = windows.airframe.accel_position_sd.ravel()
@@ -144,4 +157,4 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, *,
         result, windows.airframe.accel_positions.ravel(), sd,
         lambda pos: _solve(est, Windows(tuple(
             dataclasses.replace(f, airframe=moved_positions(f.airframe, pos))
-            for f in windows), windows.names), tools, theta_only=True).theta)
+            for f in windows), windows.names), tools, theta_only=True, holds=holds).theta)

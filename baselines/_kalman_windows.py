@@ -30,7 +30,7 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, flight_record
-from baselines import _common, _kalman
+from baselines import _common, _held, _kalman
 from baselines._augmented import COEFFICIENTS, STATES, augmented_model
 
 __all__ = ["run_windows"]
@@ -71,13 +71,22 @@ def _joined(outs: list[_kalman.FilterOutput]) -> _kalman.FilterOutput:
 
 
 def run_windows(est: Any, windows: Windows, run_filter: PassRunner,
-                evaluations_per_pass: Callable[[_kalman.DiscreteModel, int], int]
-                ) -> EstimationResult:
+                evaluations_per_pass: Callable[[_kalman.DiscreteModel, int], int],
+                holds: Any = None) -> EstimationResult:
     """Run the filter's passes over the windows (module docstring) and return the result.
 
     ``run_filter(model, setup)`` is one forward pass of one window (EKF or UKF);
-    ``evaluations_per_pass(model, n_samples)`` its model evaluations.
+    ``evaluations_per_pass(model, n_samples)`` its model evaluations. ``holds``: held
+    coefficients leave each window's state and priors start theirs, as one flight's
+    (:func:`baselines._held.held_pass`); carried between windows at their held values.
     """
+    if holds is not None and not holds.empty:
+        plain = run_filter
+
+        def run_filter(model: _kalman.DiscreteModel, setup: _common.FilterSetup
+                       ) -> _kalman.FilterOutput:
+            return _held.held_pass(model, setup, holds, plain)
+
     if getattr(est, "aiding", "none") != "none":
         raise EstimatorError(f"{est.name}: aiding = {est.aiding} is not available for several "
                              "windows yet (one flight at a time); set aiding = none")
@@ -124,7 +133,7 @@ def run_windows(est: Any, windows: Windows, run_filter: PassRunner,
                             f"t = {at:.4f} s ({nxt[-1].reason}); the result is pass "
                             f"{n_passes - 1}'s")
             break
-        changes.append(float(np.max(np.abs(nxt[-1].x[-1, COEFFICIENTS]
+        changes.append(float(np.nanmax(np.abs(nxt[-1].x[-1, COEFFICIENTS]  # held: 0/0
                                            - outs[-1].x[-1, COEFFICIENTS])
                                     / nxt[-1].sd[-1, COEFFICIENTS])))
         outs, parts = nxt, nxt_parts

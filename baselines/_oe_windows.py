@@ -33,6 +33,7 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
+from baselines import _held
 from baselines._gauss_newton import (
     Fit,
     Problem,
@@ -63,9 +64,11 @@ class OutputErrorWindows:
     #: :meth:`aeroid.estimation.Estimator.fit` accepts :class:`aeroid.flights.Windows`.
     supports_windows: ClassVar[bool] = True
 
-    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
-        """Fit several windows with shared coefficients (module docstring)."""
-        return run_windows(self, windows, rng)
+    def run_windows(self, windows: Windows, rng: np.random.Generator, holds: Any = None
+                    ) -> EstimationResult:
+        """Fit several windows with shared coefficients (module docstring; ``holds``:
+        :mod:`baselines._held`, the coefficients lead the stacked vector as one flight's)."""
+        return run_windows(self, windows, rng, holds)
 
 
 class WindowsLayout:
@@ -199,8 +202,14 @@ def _starts(est: Any, windows: Windows, model: WindowsModel, first: np.ndarray,
     return starts
 
 
-def run_windows(est: Any, windows: Windows, rng: np.random.Generator) -> EstimationResult:
-    """Fit the windows with shared coefficients (output-error's ``run_windows``)."""
+def run_windows(est: Any, windows: Windows, rng: np.random.Generator, holds: Any = None
+                ) -> EstimationResult:
+    """Fit the windows with shared coefficients (output-error's ``run_windows``).
+
+    ``holds``: held coefficients and priors, applied to the stacked problem as to one
+    flight's (:func:`baselines._held.with_priors`, :func:`~baselines._held.held_fit`,
+    :func:`~baselines._held.held_inverse`): the coefficients lead both vectors.
+    """
     owner = est.name
     if est.pso_warm_start:
         raise EstimatorError(f"{owner}: pso_warm_start is not available for several windows; "
@@ -217,6 +226,7 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator) -> Estimat
     if windows.airframe.tables is not None:  # shared points: baselines._tables_windows
         windows, _ = shared_tables(windows)
     prob, model = windows_problem(est, windows)
+    prob = _held.with_priors(est, windows.flights[0], prob, holds)
     layout, scale = model.layout, model.scale
     _, prior = coefficient_layout(windows.flights[0])
     n_c = prior.size
@@ -233,7 +243,7 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator) -> Estimat
         try:
             if start.p0 is None:
                 raise FloatingPointError(start.failure)
-            fits.append(est.gauss_newton(prob, start.p0))
+            fits.append(_held.held_fit(est, prob, start.p0, holds))
             labels.append(start.label)
         except FloatingPointError as exc:
             failures.append(f"{start.label}: {exc}")
@@ -242,7 +252,7 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator) -> Estimat
     best = fits[k_best := best_end(fits)]
     M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
     try:
-        cov_p = np.linalg.inv(M)
+        cov_p = _held.held_inverse(M, holds)
     except np.linalg.LinAlgError:
         cov_p = np.full_like(M, np.nan)
     if est.covariance == "sandwich":

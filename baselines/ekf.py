@@ -65,7 +65,8 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
 
         return self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
 
-    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+    def run_windows(self, windows: Windows, rng: np.random.Generator, holds: Any = None
+                    ) -> EstimationResult:
         """Filter the windows in turn, carrying the coefficients (:mod:`baselines.
         _kalman_windows`; no random draws)."""
         from baselines._kalman_windows import run_windows
@@ -76,4 +77,4 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
             return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
                                    R_of=setup.R_of)
 
-        return run_windows(self, windows, one_pass, lambda _model, n: n)
+        return run_windows(self, windows, one_pass, lambda _model, n: n, holds)

@@ -260,8 +260,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                 dataclasses.replace(flight, airframe=moved_positions(flight.airframe, pos)),
                 theta_only=True, holds=holds, wind=air.wind).theta)
 
-    def run_windows(self, windows: aeroid.flights.Windows, rng: np.random.Generator
-                    ) -> EstimationResult:
+    def run_windows(self, windows: aeroid.flights.Windows, rng: np.random.Generator,
+                    holds: Any = None) -> EstimationResult:
         """Several windows: their regressions stacked (:mod:`baselines._ee_windows`)."""
         from baselines._ee_windows import run_windows
 
@@ -270,7 +270,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                 f"{self.name}: logged air-data angles with several windows are not built; "
                 "give air_data = 'inertial' to fit the angles from u, v, w")
         return run_windows(self, windows, rng, affine_accelerations=affine_accelerations,
-                           roll_floor=roll_floor)
+                           roll_floor=roll_floor, holds=holds)
 
     def point(self, flight: Flight) -> np.ndarray:
         """Return the estimate alone, shape (N_COEFFICIENTS,): the positions as given, no

@@ -77,7 +77,8 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         return self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)
 
-    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+    def run_windows(self, windows: Windows, rng: np.random.Generator, holds: Any = None
+                    ) -> EstimationResult:
         """Filter the windows in turn, carrying the coefficients (:mod:`baselines.
         _kalman_windows`; no random draws)."""
         from baselines._kalman_windows import run_windows
@@ -90,4 +91,4 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
                                    R_of=setup.R_of)
 
         return run_windows(self, windows, one_pass,
-                           lambda model, n: (2 * model.dim_x + 1) * n)
+                           lambda model, n: (2 * model.dim_x + 1) * n, holds)

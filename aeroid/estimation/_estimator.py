@@ -101,12 +101,15 @@ class Estimator(abc.ABC):
         with :func:`aeroid.estimation.report_progress`.
         """
 
-    def run_windows(self, windows: Windows, rng: np.random.Generator) -> EstimationResult:
+    def run_windows(self, windows: Windows, rng: np.random.Generator, holds: Any = None
+                    ) -> EstimationResult:
         """Estimate the coefficients shared by several validated windows (``supports_windows``).
 
         Each window keeps its own initial state, atmosphere and, where the method
         estimates them, IMU errors and fin delay (reported per window in
         ``info['window_parameters']`` and ``info['window_parameter_stderr']``).
+        ``holds`` as :meth:`run`'s (given only when something is held or has a prior, and
+        only to a method with ``supports_holds``).
         """
         raise EstimatorError(f"{self.name or type(self).__name__}: cannot fit several windows")
 
@@ -170,7 +173,7 @@ class Estimator(abc.ABC):
                 "remove [tables] to fit constants")
         given = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
         if windows is not None:
-            check_windows(self, windows, given)
+            check_windows(self, windows, given, tables is not None)
         saturated = {}
         for name, part in parts.items():
             part.validate()
@@ -213,8 +216,10 @@ class Estimator(abc.ABC):
         start = time.perf_counter()
         try:
             with np.errstate(all="ignore"), progress_listener(progress):
-                if windows is not None:
+                if windows is not None and spec.empty:
                     result = self.run_windows(windows, generator)
+                elif windows is not None:
+                    result = self.run_windows(windows, generator, holds=spec)
                 elif spec.empty:
                     result = self.run(flight, generator)
                 else:

@@ -109,5 +109,6 @@ def test_counted_knots_span_the_windows_and_a_point_no_window_informs_is_refused
         windows.flights[1], airframe=narrow.flights[1].airframe)), windows.names)
     with pytest.raises(EstimatorError, match=r"window '4.5-6.5' has other \[tables\] than"):
         aeroid.make_estimator("equation-error").fit(other)
-    with pytest.raises(EstimatorError, match="several windows cannot hold coefficients"):
+    with pytest.raises(EstimatorError,
+                       match=r"several windows with \[tables\] cannot hold coefficients"):
         aeroid.make_estimator("output-error").fit(windows, holds={"hold": {"Czd": -1.27}})

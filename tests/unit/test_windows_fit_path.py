@@ -95,3 +95,48 @@ def test_a_coefficient_is_not_identifiable_only_when_no_window_determines_it(noi
     assert common_findings([held, moving]) == ()
     assert common_findings([held, held]) == held
     assert common_findings([held]) == held
+
+
+# held coefficients and priors over several windows --------------------------------------
+#: One window fitted as Windows is the single flight's fit: the same problem, the same
+#: arithmetic (measured: equal to rounding, <= 1e-12 relative).
+SAME_RTOL = 1e-9
+#: Noise-free recovery over two windows (tests/unit/test_windows.py RECOVERY_RTOL).
+RECOVERY_RTOL = 1e-4
+
+
+def _holds(flight):
+    truth = flight.true_coefficients
+    cmd, cmq = NAMES.index("Cmd"), NAMES.index("Cmq")
+    return {"hold": {"Czd": float(truth[NAMES.index("Czd")])},
+            "prior": {"Cmd": (float(truth[cmd]) * 1.02, 0.05 * abs(float(truth[cmd]))),
+                      "Cmq": (float(truth[cmq]), 0.1 * abs(float(truth[cmq])))}}
+
+
+@pytest.mark.parametrize("method", ["output-error", "equation-error", "ekf"])
+def test_one_window_with_holds_is_the_single_flight_fit(noisy_windows, method):
+    flight = noisy_windows.flights[0]
+    holds = _holds(flight)
+    est = make_estimator(method, {})
+    one = est.fit(flight, rng=0, holds=holds)
+    win = est.fit(type(noisy_windows)((flight,), ("only",)), rng=0, holds=holds)
+    assert one.held == win.held == {"Czd": holds["hold"]["Czd"]}
+    assert set(win.priors) == {"Cmd", "Cmq"}
+    np.testing.assert_allclose(win.theta, one.theta, rtol=SAME_RTOL)
+    np.testing.assert_allclose(win.stderr, one.stderr, rtol=SAME_RTOL)
+
+
+def test_output_error_holds_over_two_noise_free_windows(clean_windows):
+    truth = clean_windows.true_coefficients
+    j = NAMES.index("Cmd")
+    free = [k for k in range(len(NAMES)) if k != j]
+    windows = type(clean_windows)(tuple(_with(f, mass_sd_kg=0.0) for f in clean_windows),
+                                  clean_windows.names)
+    result = make_estimator("output-error", {}).fit(
+        windows, rng=0, holds={"hold": {"Cmd": float(truth[j])}})
+    assert result.success, result.message
+    assert result.theta[j] == truth[j] and result.held == {"Cmd": float(truth[j])}
+    np.testing.assert_allclose(result.theta[free], truth[free], rtol=RECOVERY_RTOL)
+    wrong = make_estimator("output-error", {}).fit(
+        windows, rng=0, holds={"hold": {"Cmd": 1.2 * float(truth[j])}})
+    assert not wrong.success  # a held value 20 % off: the fit check refuses
