@@ -33,7 +33,7 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _held
+from baselines import _held, _oe_wind
 from baselines._gauss_newton import (
     Fit,
     Problem,
@@ -75,22 +75,23 @@ class WindowsLayout:
     """Where each window's local parameters sit in the stacked vector.
 
     A window's local vector (its :class:`RecordModel`'s) is ``[coefficients, x0 free,
-    positions, delay, IMU errors]``; the stacked one ``[coefficients, positions,
-    (x0 free, delay, IMU errors) per window]``.
+    positions, wind, delay, IMU errors]``; the stacked one ``[coefficients, positions,
+    (x0 free, wind, delay, IMU errors) per window]``: each window has its own steady
+    wind (``estimate_wind``; issue 26: "per window where there are several").
     """
 
     def __init__(self, n_windows: int, n_x0: int, n_pos: int, n_delay: int,
-                 n_imu: int, n_c: int = aeroid.model.N_COEFFICIENTS) -> None:
+                 n_imu: int, n_c: int = aeroid.model.N_COEFFICIENTS, n_wind: int = 0) -> None:
         self.n_shared = n_c + n_pos
-        self.n_own = n_x0 + n_delay + n_imu
-        self.n_x0, self.n_pos = n_x0, n_pos
+        self.n_own = n_x0 + n_wind + n_delay + n_imu
+        self.n_x0, self.n_pos, self.n_wind = n_x0, n_pos, n_wind
         self.size = self.n_shared + n_windows * self.n_own
         self.index = []
         for w in range(n_windows):
             base = self.n_shared + w * self.n_own
             self.index.append(np.concatenate([
                 np.arange(n_c), base + np.arange(n_x0), n_c + np.arange(n_pos),
-                base + n_x0 + np.arange(n_delay + n_imu)]).astype(int))
+                base + n_x0 + np.arange(n_wind + n_delay + n_imu)]).astype(int))
 
     def own(self, w: int) -> np.ndarray:
         """Stacked indices of window ``w``'s own parameters."""
@@ -152,7 +153,8 @@ def windows_problem(est: Any, windows: Windows) -> tuple[Problem, WindowsModel]:
     models: list[RecordModel] = [prob.model for prob in parts]  # type: ignore[misc]
     layout = WindowsLayout(len(parts), len(est.x0_free()), len(position_free),
                            int(est.estimate_delay), models[0].n_imu,
-                           len(coefficient_layout(windows.flights[0])[0]))
+                           len(coefficient_layout(windows.flights[0])[0]),
+                           len(_oe_wind.wind_names(est)))
     scale = np.zeros(layout.size)
     weight = np.zeros(layout.size)
     for prob, model, idx in zip(parts, models, layout.index, strict=True):
@@ -220,6 +222,9 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, holds: Any
     if est.positions == "consider":
         raise EstimatorError(f"{owner}: positions = consider is not available for several "
                              "windows; use estimate or known")
+    if est.estimate_wind and windows.airframe.tables is not None:
+        raise EstimatorError(f"{owner}: estimate_wind with coefficient tables ([tables]) is "
+                             "not built (Mach needs the airspeed)")
     if windows.n_samples > MAX_SAMPLES:
         raise EstimatorError(f"{owner}: {windows.n_samples} samples over the windows; it fits "
                              f"at most {MAX_SAMPLES} at once")
@@ -234,7 +239,7 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, holds: Any
     first[:n_c] = prior / scale[:n_c]
     if est.estimate_delay:
         for w in range(len(windows)):
-            i = layout.own(w)[layout.n_x0]
+            i = layout.own(w)[layout.n_x0 + layout.n_wind]
             first[i] = est.delay_s / scale[i]
     starts = _starts(est, windows, model, first, rng)
     fits: list[Fit] = []
@@ -281,6 +286,7 @@ def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best
     names = list(shared) + [est.parameter_names(position_free)[n_9 + layout.n_x0 + j]
                             for j in range(layout.n_pos)]
     per_window, per_window_sd, window_imu = {}, {}, {}
+    window_wind: dict[str, dict[str, Any]] = {}
     warnings: list[str] = []
     imu_names = imu_error_names(est.imu_errors)
     for w, (name, flight) in enumerate(windows.items()):
@@ -300,6 +306,11 @@ def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best
             warnings += [f"window {name}: {text}" for text in found]
         if "initial_state_sd" in flight.metadata and not est.estimate_initial_velocity:
             warnings.append(f"window {name}: {HELD_VELOCITY_WARNING}")
+        if est.estimate_wind:  # each window's own steady wind
+            idx = layout.index[w]
+            window_wind[name] = {}
+            warnings += [f"window {name}: {text}" for text in _oe_wind.wind_report(
+                est, position_free, phys[idx], stderr_phys[idx], window_wind[name])]
     positions = model.models[0].pos.copy()
     position_sd = np.zeros(positions.size)
     for j, c in enumerate(position_free):
@@ -319,6 +330,8 @@ def _result(est: Any, windows: Windows, model: WindowsModel, prob: Problem, best
         "accel_position_stderr_m": position_sd.reshape(2, 3)}
     if window_imu:
         info["window_imu_errors"] = window_imu
+    if window_wind:  # name -> {"wind_ned_mps": [n, e, d], "wind_stderr_mps": [...]}
+        info["window_wind"] = window_wind
     if coefficients is not None:
         info["tables"] = coefficients.to_table()
         warnings += [f"window {name}: {note}" for name, flight in windows.items()
