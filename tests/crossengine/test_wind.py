@@ -18,10 +18,10 @@ Measured (``python -m tests.crossengine.wind_measure``, seeds 1-5; the tests fly
 * output-error with ``estimate_wind`` in the steady wind: 5/5 successes, every
   coefficient within 1.22 of its standard error (0.07-1.22), the wind within 1.08 se
   (seed 1: (1.87 +- 1.20, 4.02 +- 0.02, 0.70 +- 0.73) m/s against (3, 4, 0)); mean
-  |error| 0.29 % against the still-air fit's 0.01-0.02 % on the same climb: the
-  along-path wind trades with every coefficient (their correlations 0.98-0.9998), so
-  the issue's <= 1.2x is not met here either. Without the wind: refused 5/5 (``az2``
-  35-38x its noise).
+  |error| 0.29 % against the still-air fit's 0.012-0.035 % (mean 0.022 %) on the same
+  climb, 13x: the along-path wind trades with every coefficient (their correlations
+  0.98-0.9998), so the issue's <= 1.2x is not met here either. Without the wind:
+  refused 5/5 (``az2`` 35-38x its noise).
 * equation-error with the logged angles (0.1 deg vane noise) in the turbulence: mean
   |error| 1.19-2.33 % (mean 1.75 %) against its still-air 0.048-0.084 % on the same
   climb: 15-49x, **not** the issue's <= 2x; with the inertial angles 15.8-22.9 %
