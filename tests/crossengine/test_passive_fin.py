@@ -13,7 +13,7 @@ airframe file with ``fin = "passive"`` (and the engine's per-sample density as a
 Measured (``python -m tests.crossengine.wind_measure``, seeds 1-5; the test flies seed
 1): output-error and the EKF hold Czd = Cmd = 0 (passive fin), succeed 5/5 each and
 recover the seven others within 0.80-1.51 of their standard errors (EKF 0.78-1.55);
-Cl0 and Clp within 0.25 / 0.06 / 1.31 se on seeds 1-3 (EKF 0.33 / 0.18 / 1.27), their
+Cl0 and Clp within 0.06-1.31 se (EKF 0.18-1.27; seed 1: 0.25, EKF 0.33), their
 standard errors 0.014 and 0.016 % of the truth; mean |error| of the seven 0.03-0.16 %.
 The same log read with a relay airframe (a fin column of zeros) and fitted with all nine
 free: not a success, Czd and Cmd named ("no fin motion").

@@ -171,13 +171,14 @@ def test_equation_error_with_air_data_in_turbulence(turbulent):
     assert not measured.success and "does not fit the data" in measured.message
 
 
-@pytest.mark.parametrize(("estimate_wind", "verdict"), [
-    (False, "does not fit the data"), (True, "max_iterations")], ids=["still-air", "estimate_wind"])
-def test_output_error_is_flagged_in_turbulence(turbulent, estimate_wind, verdict):
+@pytest.mark.parametrize("estimate_wind", [False, True], ids=["still-air", "estimate_wind"])
+def test_output_error_is_flagged_in_turbulence(turbulent, estimate_wind):
     """Measured: refused by the fit check without the wind (``r`` 16.8x its noise); with
-    a steady wind estimated it does not converge (50 iterations): a steady wind cannot
-    explain the gusts either way."""
+    a steady wind estimated it does not converge (50 iterations; on 1 of 5 seeds the fit
+    check refuses it instead): a steady wind cannot explain the gusts either way."""
     flight, _ = turbulent
     result = _fit("output-error", flight, {"input": "events", "estimate_wind": estimate_wind})
     assert not result.success
-    assert verdict in result.message, result.message
+    verdicts = ("does not fit the data", "max_iterations") if estimate_wind else (
+        "does not fit the data",)
+    assert any(v in result.message for v in verdicts), result.message
