@@ -73,6 +73,8 @@ def measure(seed: int) -> None:
     _row("wind / output-error estimate_wind", _fit(
         "output-error", flight, {"input": "events", "estimate_wind": True}), truth)
     _row("wind / output-error", _fit("output-error", flight, {"input": "events"}), truth)
+    _row("wind / EKF estimate_wind", _fit(
+        "ekf", flight, {"input": "events", "estimate_wind": True}), truth)
     still, still_truth = jsbsim_flight.make_flight(STILL, noise=noise, rng=seed)
     still = issue10_flight(still, still_truth, events=True)
     _row("still / output-error", _fit("output-error", still, {"input": "events"}), still_truth)
