@@ -108,6 +108,13 @@ def scenario_truth(scenario: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return _TRUTH_CACHE[key]
 
 
+def turbulent(scenario: Any) -> bool:
+    """Whether the scenario's ``[wind]`` has Dryden turbulence (then each run's truth is
+    its own: the gusts are drawn from the run's flight seed, before the sensor noise)."""
+    wind = getattr(scenario.manoeuvre, "wind", None)
+    return wind is not None and bool(wind.turbulent)
+
+
 def simulate_run(study: Study, run: int, noise_index: int) -> Any:
     """Return the flight of ``run`` under noise condition ``noise_index``.
 
@@ -115,7 +122,9 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
     rng=default_rng(flight_seed(seed, run)))`` (a test checks it), but the truth is
     integrated once per process (:func:`aeroid.flights.record_flight` does the rest).
     A sensor-suite condition's flight is the reconstruction of the run's suite log
-    (:func:`aeroid.study._suite.suite_flight`, from the same flight seed).
+    (:func:`aeroid.study._suite.suite_flight`, from the same flight seed). In a
+    turbulent scenario (:func:`turbulent`) the whole flight, gusts then sensor noise, is
+    ``aeroid.simulate`` with the run's flight generator: no truth is shared.
     """
     from aeroid.flights import record_flight
 
@@ -125,6 +134,11 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
                             flight_seed(study.seed, run), scenario_key(scenario))
     noise = study.noise[noise_index].model
     rng = np.random.default_rng(flight_seed(study.seed, run))
+    if turbulent(scenario):  # each run flies its own gusts: no shared truth
+        from aeroid.flights import simulate
+
+        return simulate(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                        noise, rng=rng)
     return record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                          scenario_truth(scenario), noise, rng=rng, tables=scenario.tables)
 
@@ -241,4 +255,4 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
 
 __all__ = ["HISTORY_RUN", "Task", "base_record", "estimator_seed", "failed_record",
            "fit_task", "fit_times", "flight_seed", "prior_seed", "run_prior", "scenario_key",
-           "scenario_truth", "simulate_run", "study_code_id"]
+           "scenario_truth", "simulate_run", "study_code_id", "turbulent"]

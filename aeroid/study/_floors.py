@@ -138,6 +138,11 @@ SUITE_NO_FLOOR = ("a sensor-suite log: its IMU errors, its rate and the reconstr
 _CACHE: dict[tuple[str, str], dict[str, Any]] = {}
 
 
+#: Why a turbulent scenario has no floor.
+TURBULENCE_NO_FLOOR = ("turbulence: every run flies its own gusts, so there is no common "
+                       "noise-free flight to compute a floor on")
+
+
 def study_floors(study: Study) -> dict[str, Any]:
     """Return the floors of every noise condition (what ``floors.json`` holds).
 
@@ -148,12 +153,15 @@ def study_floors(study: Study) -> dict[str, Any]:
         ``conditions``: one entry per noise condition with ``label`` and either the
         fields of :func:`floors_of` or ``reason`` (why there is no floor, e.g. no noise).
     """
-    from aeroid.study._fits import scenario_key
+    from aeroid.study._fits import scenario_key, turbulent
     from aeroid.study._tables import TABLES_NO_FLOOR, has_tables
 
     flight = None
     conditions = []
     for cond in study.noise:
+        if turbulent(study.scenario):  # every run's truth is its own
+            conditions.append({"label": cond.label, "reason": TURBULENCE_NO_FLOOR})
+            continue
         if cond.suite is not None or has_tables(study):
             conditions.append({"label": cond.label, "reason": SUITE_NO_FLOOR if
                                cond.suite is not None else TABLES_NO_FLOOR})

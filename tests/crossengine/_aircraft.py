@@ -115,6 +115,27 @@ class FlightConfig:
         JSBSim's ring buffer (FGFCSComponent::Delay) writes the new value, advances and
         then reads, so a buffer of N frames delays by N - 1 (measured; a test checks the
         switch instants).
+    wind_ned_mps : tuple of 3 float
+        Steady wind over the ground, north-east-down [m/s] (``atmosphere/wind-*-fps``);
+        default still air.
+    turbulence_severity : int
+        JSBSim's MIL-F-8785C Dryden turbulence (``atmosphere/turb-type`` Milspec,
+        ``atmosphere/turbulence/milspec/severity``): 0 (default) none, 1-7 the
+        probability-of-exceedance curves (3 light, 4 moderate, 6 severe).
+    random_seed : int
+        JSBSim's random generator seed (``simulation/randomseed``): the gusts.
+    rotational_gusts : bool
+        With turbulence, whether the damping terms see JSBSim's rotational gusts
+        (``velocities/p-aero-rad_sec = p - p_turb``). Default False: the body rates, as
+        aeroid's model (eqs. 2-7: only the velocity is air-relative). JSBSim's Milspec
+        rotational gusts scale with 1/wingspan and with the frame rate (``q_turb`` is a
+        frame-to-frame difference of the vertical gust): with this airframe's D = 0.152 m
+        at 16 kHz they are 0.5 rad/s RMS (measured), white at the frame rate.
+    fin : {"relay", "passive"}
+        ``passive``: the fin does not move (``fcs/fin-rad`` is 0; a sounding rocket's fixed,
+        canted fins: the roll moment Cl0 against the roll damping Clp); the flight's fin
+        column is 0 and its airframe says ``fin = "passive"`` (a log written without
+        the column reads back the same). Default ``relay``.
     """
 
     name: str = "xe_climb"
@@ -151,6 +172,11 @@ class FlightConfig:
     integrator: Literal["euler", "trapezoidal", "ab2", "ab3", "ab4"] = "ab3"
     switching: Literal["subframe", "frame"] = "subframe"
     fin_delay_s: float = 0.0
+    wind_ned_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    turbulence_severity: int = 0
+    random_seed: int = 0
+    rotational_gusts: bool = False
+    fin: Literal["relay", "passive"] = "relay"
 
     def __post_init__(self) -> None:
         ratio = self.frame_rate_hz / self.sample_rate_hz
@@ -168,6 +194,10 @@ class FlightConfig:
                              f"at {self.frame_rate_hz} Hz")
         if self.switching not in ("subframe", "frame"):
             raise ValueError(f"switching must be subframe or frame, got {self.switching!r}")
+        if self.fin not in ("relay", "passive"):
+            raise ValueError(f"fin must be relay or passive, got {self.fin!r}")
+        if self.turbulence_severity not in range(8):
+            raise ValueError(f"turbulence_severity must be 0-7, got {self.turbulence_severity}")
         if not 0.0 <= self.window_s[0] < self.window_s[1]:
             raise ValueError(f"window_s must be 0 <= start < end, got {self.window_s}")
 
@@ -186,6 +216,12 @@ class FlightConfig:
     def area_m2(self) -> float:
         """Reference area S = pi D^2 / 4 [m^2]."""
         return math.pi * self.diameter_m**2 / 4.0
+
+    @property
+    def moving_air(self) -> bool:
+        """Whether the flight has a wind or turbulence (then the logged ``alpha``, ``beta``
+        are the air-relative angles, the engine's ``aero/alpha-rad``, ``aero/beta-rad``)."""
+        return any(x != 0.0 for x in self.wind_ned_mps) or self.turbulence_severity > 0
 
     @property
     def delay_frames(self) -> int:
@@ -218,6 +254,12 @@ _FRAME_SWITCH = """\
         <default value="-{dmax!r}"/>
         <test value="{dmax!r}"> fcs/switching-function GE 0.0 </test>{delay}
       </switch>"""
+
+_PASSIVE_FIN = """\
+      <fcs_function name="fcs/fin-rad">
+        <!-- a passive fin: no deflection -->
+        <function> <value> 0.0 </value> </function>
+      </fcs_function>"""
 
 _SUBFRAME_SWITCH = """\
       <fcs_function name="fcs/switching-rate">
@@ -302,7 +344,13 @@ def aircraft_xml(config: FlightConfig) -> str:
         "neg_Cma": repr(-c["Cma"]),
         **{name: repr(value) for name, value in c.items()},
     }
-    return Template(TEMPLATE.read_text()).substitute(fields)
+    if config.fin == "passive":
+        fields["fin_output"] = _PASSIVE_FIN
+    xml = Template(TEMPLATE.read_text()).substitute(fields)
+    if config.turbulence_severity and not config.rotational_gusts:  # damping on body rates
+        for axis in "pqr":
+            xml = xml.replace(f"velocities/{axis}-aero-rad_sec", f"velocities/{axis}-rad_sec")
+    return xml
 
 
 def write_aircraft(config: FlightConfig, root: str | Path) -> Path:

@@ -58,9 +58,20 @@ PROPS: dict[str, tuple[str, float]] = {
     "a_pilot_x": ("accelerations/a-pilot-x-ft_sec2", FT),
     "a_pilot_y": ("accelerations/a-pilot-y-ft_sec2", FT),
     "a_pilot_z": ("accelerations/a-pilot-z-ft_sec2", FT),
+    "wind_n": ("atmosphere/total-wind-north-fps", FT),
+    "wind_e": ("atmosphere/total-wind-east-fps", FT),
+    "wind_d": ("atmosphere/total-wind-down-fps", FT),
+    "p_turb": ("atmosphere/p-turb-rad_sec", 1.0), "q_turb": ("atmosphere/q-turb-rad_sec", 1.0),
+    "r_turb": ("atmosphere/r-turb-rad_sec", 1.0),
+    "airspeed": ("velocities/vt-fps", FT),
     "mass": ("inertia/mass-slugs", SLUG), "ix": ("inertia/ixx-slugs_ft2", SLUG_FT2),
     "iy": ("inertia/iyy-slugs_ft2", SLUG_FT2), "iz": ("inertia/izz-slugs_ft2", SLUG_FT2),
 }
+
+
+#: ``atmosphere/turb-type`` of MIL-F-8785C Dryden turbulence (FGWinds::tType: none,
+#: standard, culp, milspec, tustin).
+MILSPEC = 3
 
 
 class _CollectingLogger:
@@ -114,6 +125,31 @@ def _initial_condition(fdm, config: FlightConfig) -> None:
     fdm["ic/r-rad_sec"] = config.r_radps
 
 
+def _air(fdm, config: FlightConfig) -> None:
+    """The steady wind and the Milspec Dryden turbulence of ``config`` (after ``run_ic``).
+
+    ``run_ic`` gives the atmosphere the initial condition's wind, whose NED components
+    are read-only properties in JSBSim 1.3 (``ic/vw-north-fps``; only a horizontal
+    magnitude and direction are writable, and they keep the airspeed, not the ground
+    velocity), so the wind is set after it: the initial state stays the configured one
+    over the ground, and only frame 0's derivative (the first 1/16000 s) saw still air.
+
+    JSBSim's FGWinds (MIL-F-8785C as in MIL-STD-1797A, Yeager 1998 eqs. 30-35): above
+    2000 ft the intensity is the severity curve's at the altitude and the scale length
+    1750 ft; the gusts are first-order filters of white noise advanced once per frame,
+    started at zero, along and across the steady wind's direction (north without one);
+    with them come rotational gusts ``p, q, r``-turb from the wingspan (here D).
+    """
+    north, east, down = (x / FT for x in config.wind_ned_mps)
+    fdm["atmosphere/wind-north-fps"] = north
+    fdm["atmosphere/wind-east-fps"] = east
+    fdm["atmosphere/wind-down-fps"] = down
+    if config.turbulence_severity:
+        fdm["simulation/randomseed"] = config.random_seed
+        fdm["atmosphere/turb-type"] = MILSPEC
+        fdm["atmosphere/turbulence/milspec/severity"] = config.turbulence_severity
+
+
 def run_jsbsim(config: FlightConfig) -> tuple[pd.DataFrame, np.ndarray, np.ndarray, float]:
     """Fly ``config`` in JSBSim and log the window.
 
@@ -149,6 +185,8 @@ def run_jsbsim(config: FlightConfig) -> tuple[pd.DataFrame, np.ndarray, np.ndarr
             _initial_condition(fdm, config)
             if not fdm.run_ic():
                 raise RuntimeError(f"JSBSim run_ic failed: {logger.errors()}")
+            if config.moving_air:
+                _air(fdm, config)
             return _fly(fdm, config, frame_dt, logger)
     finally:
         jsbsim.set_logger(previous)

@@ -54,7 +54,9 @@ class Truth:
         [m/s^2], ``altitude`` [m], planet-relative rates ``p_ecef..`` [rad/s], forces
         ``FAX..FTZ`` [N], moments [N m], ``pdot..rdot`` [rad/s^2], ``udot..wdot``
         [m/s^2], JSBSim's ``alpha_jsbsim``, ``beta_jsbsim``, ``qbar`` [Pa] and its one-frame
-        late ``a_pilot_*`` [m/s^2].
+        late ``a_pilot_*`` [m/s^2], the total wind ``wind_n, wind_e, wind_d`` (steady plus
+        turbulence, NED) [m/s], the rotational gusts ``p_turb..`` [rad/s] and the
+        ``airspeed`` [m/s].
     frame_dt : float
         JSBSim frame [s].
     switch_times, switch_values : ndarray, shape (m,)
@@ -174,7 +176,8 @@ def true_airframe(config: FlightConfig, mean_rho: float) -> Airframe:
     return Airframe(
         diameter_m=config.diameter_m, length_m=config.length_m, mass_kg=config.mass_kg,
         ix_kgm2=config.ix_kgm2, iy_kgm2=config.iy_kgm2, iz_kgm2=config.iz_kgm2,
-        thrust_n=config.thrust_n, delta_max_deg=config.delta_max_deg,
+        thrust_n=config.thrust_n,
+        delta_max_deg=None if config.fin == "passive" else config.delta_max_deg, fin=config.fin,
         accel1_position_m=config.accel1_position_m,
         accel2_position_m=config.accel2_position_m,
         altitude_m=isa_altitude(mean_rho), prior=config.prior)
@@ -197,8 +200,9 @@ def make_flight(config: FlightConfig | None = None, *, noise: NoiseModel | None 
     -------
     flight : Flight
         aeroid's channels only (t, ax1..az2, p, q, r, delta, u, v, w, alpha, beta, phi,
-        theta, psi); its airframe's ``[atmosphere]`` is the window's mean density and its
-        metadata holds ``true_coefficients``, ``true_accel_positions_m`` and ``source``.
+        theta, psi; in moving air (``FlightConfig.moving_air``) alpha and beta are air-relative);
+        its airframe's ``[atmosphere]`` is the window's mean density and its metadata
+        holds ``true_coefficients``, ``true_accel_positions_m`` and ``source``.
     truth : Truth
     """
     config = FlightConfig() if config is None else config
@@ -206,8 +210,11 @@ def make_flight(config: FlightConfig | None = None, *, noise: NoiseModel | None 
     rng = np.random.default_rng(rng)
     log, frame_t, frame_delta, frame_dt = run_jsbsim(config)
     shift = 0.0 if config.integrator == "euler" else 0.5 * frame_dt
-    times, values, initial = switch_events(frame_t, frame_delta,
-                                           math.radians(config.delta_max_deg), shift)
+    if config.fin == "passive":  # no relay: the deflection is 0 throughout
+        times, values, initial = np.array([]), np.array([]), 0.0
+    else:
+        times, values, initial = switch_events(frame_t, frame_delta,
+                                               math.radians(config.delta_max_deg), shift)
     relay = np.concatenate([[initial], values])[
         np.searchsorted(times, log["t"].to_numpy(), side="right")]
     log = relay_at_samples(log, relay)
@@ -218,6 +225,8 @@ def make_flight(config: FlightConfig | None = None, *, noise: NoiseModel | None 
     u, v, w = (log[c].to_numpy() for c in ("u", "v", "w"))
     log["alpha"] = np.arctan2(w, u)
     log["beta"] = np.arcsin(v / np.sqrt(u * u + v * v + w * w))
+    if config.moving_air:  # a vane's angles: the engine's air-relative ones
+        log["alpha"], log["beta"] = log["alpha_jsbsim"], log["beta_jsbsim"]
     truth = Truth(config=config, airframe=airframe, coefficients=config.coefficient_vector,
                   data=log, frame_dt=frame_dt, switch_times=times, switch_values=values,
                   initial_delta=initial)
