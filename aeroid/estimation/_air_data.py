@@ -7,10 +7,10 @@ its vane is miscalibrated). A method that regresses the loads on the measured st
 (equation-error) can use the logged angles directly: :func:`air_data_wind` returns the
 per-sample wind (north-east-down) that makes the model's air-relative angles equal the
 logged ones, so the loads are still evaluated by the one model (no second writing of
-eqs. 2-7). The airspeed is taken as the inertial speed ``|u, v, w|`` (the log has no
-airspeed channel): a wind *along* the path changes the dynamic pressure by ``2 w / V``
-(5 m/s at 540 m/s: 1.9 %), which the angles cannot see; a crosswind changes it only to
-second order.
+eqs. 2-7). The airspeed is the log's ``airspeed`` channel (an air-data probe's) or,
+without one, the inertial speed ``|u, v, w|``: then a wind *along* the path changes the
+dynamic pressure by ``2 w / V`` (5 m/s at 540 m/s: 1.9 %), which the angles cannot see
+(a crosswind changes it only to second order), and the fit says so in one line.
 
 A vane's noise enters the regressors (errors in variables): 0.1 deg at 500 m/s is 0.9 m/s
 of implied wind per sample, and the loads' noise it makes is several times the IMU's.
@@ -39,7 +39,8 @@ from aeroid.flights import Flight
 from aeroid.model import equations
 
 __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData", "air_data_wind",
-           "has_air_data", "ignored_air_data_warning", "resolve_air_data"]
+           "has_air_angles", "has_air_data", "has_airspeed", "ignored_air_data_warning",
+           "resolve_air_data"]
 
 #: The option ``air_data``: ``auto`` uses the logged angles when the flight has them
 #: (:func:`has_air_data`), ``inertial`` takes the angles from ``u, v, w``, ``measured``
@@ -75,7 +76,20 @@ def _inertial_angles(flight: Flight) -> tuple[np.ndarray, np.ndarray]:
     return alpha, beta
 
 
+def has_airspeed(flight: Flight) -> bool:
+    """Return True when the flight logs an air-data probe's ``airspeed`` [m/s]."""
+    return "airspeed" in flight.channels
+
+
 def has_air_data(flight: Flight) -> bool:
+    """Return True when the flight logs an ``airspeed``, or ``alpha`` and ``beta`` that
+    differ from the inertial angles by more than :data:`ANGLE_TOLERANCE_RAD` somewhere."""
+    if has_airspeed(flight):
+        return True
+    return has_air_angles(flight)
+
+
+def has_air_angles(flight: Flight) -> bool:
     """Return True when the flight logs ``alpha`` and ``beta`` that differ from the
     inertial angles by more than :data:`ANGLE_TOLERANCE_RAD` somewhere."""
     if not {"alpha", "beta", "u", "v", "w"} <= set(flight.channels):
@@ -100,12 +114,13 @@ def air_data_wind(flight: Flight, window_s: float = 0.0) -> np.ndarray:
     angles equal the logged ``alpha`` and ``beta`` (module docstring).
 
     The air-relative velocity in body axes is ``V (cos a cos b, sin b, sin a cos b)`` with
-    ``V = |u, v, w|``; the wind is the inertial velocity minus it, rotated to NED by the
+    ``V`` the logged ``airspeed`` (an air-data probe's) or, without one, ``|u, v, w|``;
+    the wind is the inertial velocity minus it, rotated to NED by the
     transpose of the model's :func:`aeroid.model.equations.ned_to_body`; smoothed over
     ``window_s`` [s] in NED axes (:func:`wind_window`; 0: not smoothed).
     """
     u, v, w, phi, theta, psi = (flight[c] for c in ("u", "v", "w", "phi", "theta", "psi"))
-    speed = np.sqrt(u * u + v * v + w * w)
+    speed = flight["airspeed"] if has_airspeed(flight) else np.sqrt(u * u + v * v + w * w)
     alpha, beta = flight["alpha"], flight["beta"]
     air = speed[:, None] * np.stack([np.cos(alpha) * np.cos(beta), np.sin(beta),
                                      np.sin(alpha) * np.cos(beta)], axis=1)
@@ -139,8 +154,9 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
         return AirData("inertial", None, f"{owner}: aerodynamic angles from u, v, w ({why})")
     if not logged:
         where = flight.metadata.get("source", "flight")
-        raise FlightError(f"{owner}: air_data = 'measured' but {where} has no logged alpha "
-                          "and beta apart from the inertial atan(w/u), asin(v/V)")
+        raise FlightError(f"{owner}: air_data = 'measured' but {where} has no airspeed "
+                          "channel and no logged alpha and beta apart from the inertial "
+                          "atan(w/u), asin(v/V)")
     alpha, beta = _inertial_angles(flight)
     rms = np.degrees(np.sqrt(np.mean(np.concatenate([flight["alpha"] - alpha,
                                                      flight["beta"] - beta]) ** 2)))
@@ -150,19 +166,30 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
     smoothed = (f"the wind they imply smoothed over {window} samples in NED axes"
                 if window > 1 else "not smoothed")
     speed = float(np.mean(np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w")))))
+    angles = (f"the logged alpha, beta ({rms:.3g} deg RMS from the inertial ones"
+              if has_air_angles(flight) else "alpha, beta from u, v, w (none logged apart "
+              "from them")
+    if has_airspeed(flight):
+        off = float(np.sqrt(np.mean((flight["airspeed"] - np.sqrt(
+            sum(flight[c] ** 2 for c in ("u", "v", "w")))) ** 2)))
+        return AirData("measured", air_data_wind(flight, window_s),
+                       f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
+                       f"from the logged airspeed channel ({off:.3g} m/s RMS from |u, v, w|)")
     warning = (f"{owner}: airspeed taken as |u, v, w| (no airspeed channel): a wind along "
                f"the path of 1 m/s biases every coefficient by about {200.0 / speed:.2g} %, "
                "which the logged angles cannot see and the standard errors leave out")
     return AirData("measured", air_data_wind(flight, window_s),
-                   f"{owner}: aerodynamic angles from the logged alpha, beta ({rms:.3g} deg "
-                   f"RMS from the inertial ones; {smoothed}), airspeed |u, v, w| (no "
-                   "airspeed channel)", warning)
+                   f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
+                   "|u, v, w| (no airspeed channel)", warning)
 
 
 def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:
     """Return the one-line warning of a method that ignores logged angles, or None."""
     if not has_air_data(flight):
         return None
+    logged = " and ".join(
+        (["logged alpha, beta (they differ: wind, or a vane's calibration)"]
+         if has_air_angles(flight) else []) + (["airspeed"] if has_airspeed(flight) else []))
     return (f"{owner}: takes the aerodynamic angles from u, v, w and ignores the flight's "
-            "logged alpha, beta (they differ: wind, or a vane's calibration); "
-            "equation-error uses them (option air_data)")
+            f"{logged}; equation-error uses them (option air_data), output-error as "
+            "measured outputs (option air_data = measured)")
