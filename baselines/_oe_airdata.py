@@ -155,7 +155,7 @@ def probe_position(flight: Flight) -> tuple[np.ndarray, str]:
         raise aeroid.FlightError(f"{where}: metadata air_data_probe must be {{\"position_m\": "
                                  f"[x, y, z]}} (finite numbers, body axes from the c.g. [m]): "
                                  f"{exc}") from None
-    return r, f"probe at {np.array2string(r, precision=3, separator=', ')} m (metadata)"
+    return r, f"probe at [{', '.join(f'{v:.4g}' for v in r)}] m (metadata)"
 
 
 def _probe_outputs(x: Any, const: Any, r: Any, cal: Any, channels: tuple[str, ...],
