@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 import aeroid
-from aeroid.estimation import ignored_air_data_warning
+from aeroid.estimation import air_data_verdict, ignored_air_data_warning, verdict_of
 from aeroid.flights import Flight
 from aeroid.model import OUTPUT_CHANNELS
 from baselines._gauss_newton import Problem
@@ -114,8 +114,21 @@ def airdata_report(est: Any, flight: Flight, prob: Problem, e: np.ndarray, phys:
     shown = ", ".join(f"{c} {noise[c]:.3g} +- {noise_se[c]:.2g} {UNITS[c]}"
                       for c in model.channels)
     calib = "; ".join(f"{k} {v:+.4g} +- {cal_se[k]:.2g}" for k, v in cal.items()) or "none"
-    return [f"output-error: air data as measured outputs ({', '.join(model.channels)}; "
-            f"{where}); probe noise sd {shown}; calibration {calib}"]
+    lines = [f"output-error: air data as measured outputs ({', '.join(model.channels)}; "
+             f"{where}); probe noise sd {shown}; calibration {calib}"]
+    if est.estimate_wind:  # what the steady wind and the calibration leave, in m/s
+        speed = np.mean(flight["airspeed"] if "airspeed" in model.channels else
+                        np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w"))))
+        rest = air * np.array([1.0 if c == "airspeed" else speed for c in model.channels])
+        verdict = verdict_of(flight, est.name, rest, np.array(info["wind_ned_mps"]),
+                             np.array(info["wind_stderr_mps"]),
+                             source=" after the fitted steady wind and calibration")
+    else:  # wind or turbulence, from the log alone
+        verdict = air_data_verdict(flight, est.name)
+    if verdict is not None:
+        info["air_data_verdict"] = verdict.as_info()
+        lines.append(verdict.line)
+    return lines
 
 
 __all__ = ["AirDataProblem", "airdata_problem", "airdata_report"]

@@ -250,6 +250,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         result = dataclasses.replace(
             result, info={**result.info, "air_data": air.source, "air_data_note": air.note},
             warnings=tuple(result.warnings) + ((air.warning,) if air.warning else ()))
+        if air.source == "measured":  # wind or turbulence: aeroid/estimation/_air_verdict.py
+            result = rc.with_air_verdict(result, rc.air_data_verdict(flight, self.name))
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:

@@ -32,6 +32,12 @@ from aeroid.estimation._air_data import (
     ignored_air_data_warning,
     resolve_air_data,
 )
+from aeroid.estimation._air_verdict import (
+    AirVerdict,
+    air_data_verdict,
+    verdict_of,
+    with_air_verdict,
+)
 from aeroid.estimation._consider import (
     ConsiderCovariance,
     add_consider,
@@ -133,6 +139,10 @@ __all__ = [
     "WIND_WINDOW_S",
     "AirData",
     "air_data_wind",
+    "AirVerdict",
+    "air_data_verdict",
+    "verdict_of",
+    "with_air_verdict",
     "has_air_angles",
     "has_air_data",
     "has_airspeed",
