@@ -203,3 +203,45 @@ def test_the_airspeed_channel_is_read_converted_and_checked(clean_windy, tmp_pat
     negative = f.data.assign(airspeed=-f["airspeed"])
     with pytest.raises(FlightError, match="'airspeed' must be positive"):
         dataclasses.replace(f, data=negative).validate()
+
+
+def _turbulent(reference_scenario, sd, seed):
+    s = reference_scenario
+    m = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=WIND, turbulence_sd_mps=sd,
+                                                   scale_length_m=533.4))
+    return simulate(s.airframe, s.coefficient_vector, m, make_noise("gaussian"), rng=seed)
+
+
+def test_the_verdict_tells_steady_wind_from_turbulence(reference_scenario) -> None:
+    # the simulator logs the air-relative alpha, beta: a vane's readings with noise added
+    def vane(f, seed):
+        gen = np.random.default_rng([seed, 26])
+        return dataclasses.replace(f, data=f.data.assign(
+            alpha=f["alpha"] + VANE_SD * gen.standard_normal(f.n_samples),
+            beta=f["beta"] + VANE_SD * gen.standard_normal(f.n_samples)))
+    steady = EquationErrorEstimator().fit(vane(windy(reference_scenario,
+                                                     make_noise("gaussian"), 3), 3))
+    verdict = steady.info["air_data_verdict"]
+    assert verdict["kind"] == "steady wind"
+    assert verdict["gust_rms_mps"] < verdict["gust_limit_mps"]
+    assert abs(verdict["steady_ned_mps"][1] - WIND[1]) < 0.5  # across the path: seen
+    line = [w for w in steady.warnings if "against the inertial u, v, w" in w]
+    assert len(line) == 1 and "along the path unseen" in line[0] and "\n" not in line[0]
+    rough = vane(_turbulent(reference_scenario, 3.0, 3), 3)
+    assert EquationErrorEstimator().fit(rough).info["air_data_verdict"]["kind"] == "turbulence"
+    # output-error: what its steady wind and calibration leave of the vane's angles
+    r = OutputErrorEstimator(estimate_wind=True, air_data="measured").fit(rough)
+    assert r.info["air_data"]["channels"] == ("alpha", "beta")
+    assert r.info["air_data_verdict"]["kind"] == "turbulence"
+    assert not r.success  # a steady wind does not explain the gusts: the fit check says so
+
+
+def test_still_air_with_a_probe_is_still_air(reference_scenario) -> None:
+    s = reference_scenario
+    f = simulate(s.airframe, s.coefficient_vector, s.manoeuvre, make_noise("gaussian"), rng=4)
+    f = with_probe(f, (0.0, 0.0, 0.0), rng=[4, 26])
+    r = OutputErrorEstimator(estimate_wind=True, air_data="measured").fit(f)
+    assert r.success, r.message
+    assert r.info["air_data_verdict"]["kind"] == "still air"
+    wind, sd = np.array(r.info["wind_ned_mps"]), np.array(r.info["wind_stderr_mps"])
+    assert np.all(np.abs(wind) <= N_SE * sd)

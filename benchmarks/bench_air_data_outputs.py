@@ -1,0 +1,185 @@
+"""Output-error with air data as measured outputs, on the 5 m/s windy flight (issue 26).
+
+Run by hand from the repository root (one process, the fits in turn: ``--jobs 1``)::
+
+    python benchmarks/bench_air_data_outputs.py                    # 8 seeds, writes results
+    python benchmarks/bench_air_data_outputs.py --seeds 2 --no-write
+    python benchmarks/bench_air_data_outputs.py --verdict-seeds 6  # also the verdict's rates
+
+Per seed ``k`` (``rng = k`` for the flight, ``[k, 26]`` for the probe): the reference
+scenario with Gaussian IMU noise, in still air and in a steady wind of 5 m/s (north 3,
+along the path; east 4, across). The probe's readings are computed from the simulator's
+true states and wind at the c.g.: alpha and beta with a miscalibration (factor +2 %,
+offsets +2 and -1 mrad) and white noise of 0.1 deg, the airspeed with white noise of
+0.5 m/s. Fits (output-error, defaults otherwise):
+
+* ``off``: still air assumed, air data ignored (the yardstick on the still flight);
+* ``wind``: ``estimate_wind = true`` (no air data: the along-path wind nearly
+  unobservable);
+* ``wind + air data``: ``estimate_wind = true, air_data = measured`` (factor and offset
+  estimated).
+
+Reported: successes (the fit check's verdict), mean |relative error| of the nine
+coefficients [%] and its ratio to still air / off, the mean relative standard error, the
+largest |error| / se over coefficients and wind components, how many runs have every
+coefficient and wind component within 3 se, the north (along-path) wind's mean |error|
+and mean se, and the calibration parameters within 3 se. With ``--verdict-seeds``: the
+log-only verdict (:func:`aeroid.estimation.air_data_verdict`, vane angles only, no
+airspeed) on the steady wind and on Dryden turbulence of sd 0.3, 1 and 3 m/s.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import datetime as dt  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import aeroid  # noqa: E402
+from aeroid.estimation import air_data_verdict  # noqa: E402
+from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
+from aeroid.model import as_state, constants, equations  # noqa: E402
+from baselines.output_error import OutputErrorEstimator  # noqa: E402
+
+RESULTS = Path(__file__).parent / "results" / "air_data_outputs.md"
+WIND = (3.0, 4.0, 0.0)
+VANE_SD = np.radians(0.1)
+AIRSPEED_SD = 0.5
+CALIBRATION = {"alpha_factor": 0.02, "beta_factor": 0.02, "alpha_offset_rad": 0.002,
+               "beta_offset_rad": -0.001}
+FITS = {"off": {}, "wind": {"estimate_wind": True},
+        "wind + air data": {"estimate_wind": True, "air_data": "measured"}}
+
+
+def with_probe(flight: aeroid.flights.Flight, wind: tuple[float, float, float],
+               rng: np.random.Generator) -> aeroid.flights.Flight:
+    """``flight`` with a miscalibrated probe's alpha, beta, airspeed at the c.g. in ``wind``."""
+    x = as_state(flight.states())
+    const = constants(flight.airframe)._replace(wind_n=wind[0], wind_e=wind[1],
+                                                wind_d=wind[2])
+    speed, alpha, beta = equations.air_data(*equations.air_velocity(x, const))
+    n, c = flight.n_samples, CALIBRATION
+    return dataclasses.replace(flight, data=flight.data.assign(
+        alpha=(1 + c["alpha_factor"]) * alpha + c["alpha_offset_rad"]
+        + VANE_SD * rng.standard_normal(n),
+        beta=(1 + c["beta_factor"]) * beta + c["beta_offset_rad"]
+        + VANE_SD * rng.standard_normal(n),
+        airspeed=speed + AIRSPEED_SD * rng.standard_normal(n)))
+
+
+def run(seeds: int) -> tuple[dict, list[str]]:
+    """Fit every kind on every seed; return per-kind rows and the log lines."""
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    kinds: dict[str, list] = {}
+    lines = []
+    for seed in range(1, seeds + 1):
+        for air, wind in (("still", (0.0, 0.0, 0.0)), ("wind 5 m/s", WIND)):
+            m = s.manoeuvre if air == "still" else dataclasses.replace(
+                s.manoeuvre, wind=Wind(steady_ned_mps=wind))
+            flight = with_probe(simulate(s.airframe, truth, m, make_noise("gaussian"),
+                                         rng=seed), wind, np.random.default_rng([seed, 26]))
+            for fit, options in FITS.items():
+                start = time.perf_counter()
+                r = OutputErrorEstimator(**options).fit(flight)
+                took = time.perf_counter() - start
+                err = np.abs(r.theta / truth - 1.0) * 100.0
+                z = list(np.abs(r.theta - truth) / r.stderr)
+                north = (np.nan, np.nan)
+                if "wind_ned_mps" in r.info:
+                    w, sd = np.array(r.info["wind_ned_mps"]), np.array(r.info["wind_stderr_mps"])
+                    z += list(np.abs(w - wind) / sd)
+                    north = (abs(w[0] - wind[0]), sd[0])
+                cal = r.info.get("air_data", {})
+                cal_ok = sum(abs(cal["calibration"][k] - v) <= 3 * cal["calibration_stderr"][k]
+                             for k, v in CALIBRATION.items()) if cal else np.nan
+                kinds.setdefault(f"{air} / {fit}", []).append(
+                    (r.success, err.mean(), np.mean(r.stderr / np.abs(truth)) * 100, max(z),
+                     north, cal_ok, took))
+                lines.append(f"seed {seed} {air} / {fit}: success={r.success} mean |err| "
+                             f"{err.mean():.3f} % max |err|/se {max(z):.2f} north |err| "
+                             f"{north[0]:.3f} +- {north[1]:.3f} m/s calibration within 3 se "
+                             f"{cal_ok}/4 {took:.1f} s {r.message[:80]}")
+                print(lines[-1], flush=True)
+    return kinds, lines
+
+
+def verdicts(seeds: int) -> list[str]:
+    """The log-only verdict's kinds over seeds, per air (vane angles, no airspeed)."""
+    s = reference_scenario()
+    out = ["| air | still air | steady wind | turbulence | gusts [m/s] min-max | limit [m/s] |",
+           "|---|---|---|---|---|---|"]
+    for label, sd in (("steady 5 m/s", 0.0), ("+ Dryden sd 0.3", 0.3),
+                      ("+ Dryden sd 1", 1.0), ("+ Dryden sd 3", 3.0)):
+        found = []
+        for seed in range(1, seeds + 1):
+            wind = Wind(steady_ned_mps=WIND, turbulence_sd_mps=sd, scale_length_m=533.4)
+            f = simulate(s.airframe, s.coefficient_vector,
+                         dataclasses.replace(s.manoeuvre, wind=wind), make_noise("gaussian"),
+                         rng=seed)
+            gen = np.random.default_rng([seed, 26])
+            f = dataclasses.replace(f, data=f.data.assign(
+                alpha=f["alpha"] + VANE_SD * gen.standard_normal(f.n_samples),
+                beta=f["beta"] + VANE_SD * gen.standard_normal(f.n_samples)))
+            found.append(air_data_verdict(f, "verdict"))
+        kinds = [v.kind for v in found]
+        gusts = [v.gust_rms_mps for v in found]
+        out.append(f"| {label} | {kinds.count('still air')} | {kinds.count('steady wind')} | "
+                   f"{kinds.count('turbulence')} | {min(gusts):.2f}-{max(gusts):.2f} | "
+                   f"{np.mean([v.gust_limit_mps for v in found]):.2f} |")
+        print(out[-1], flush=True)
+    return out
+
+
+def table(kinds: dict) -> str:
+    """Return the markdown table of the kinds."""
+    still = np.mean([r[1] for r in kinds["still / off"]])
+    out = ["| flight / fit | success | mean abs rel error [%] | x still/off | mean rel se [%] "
+           "| max err/se | all within 3 se | north wind mean abs err / se [m/s] "
+           "| calibration within 3 se | mean time [s] |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for kind, rows in kinds.items():
+        e = np.mean([r[1] for r in rows])
+        north = np.array([r[4] for r in rows])
+        cal = [r[5] for r in rows]
+        out.append(
+            f"| {kind} | {sum(r[0] for r in rows)}/{len(rows)} | {e:.3f} | {e / still:.2f} | "
+            f"{np.mean([r[2] for r in rows]):.3f} | {max(r[3] for r in rows):.2f} | "
+            f"{sum(r[3] <= 3 for r in rows)}/{len(rows)} | "
+            + ("- |" if np.all(np.isnan(north)) else
+               f"{np.nanmean(north[:, 0]):.3f} / {np.nanmean(north[:, 1]):.3f} |")
+            + (" - |" if np.all(np.isnan(cal)) else f" {int(np.nansum(cal))}/{4 * len(rows)} |")
+            + f" {np.mean([r[6] for r in rows]):.1f} |")
+    return "\n".join(out)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--verdict-seeds", type=int, default=0)
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+    kinds, lines = run(args.seeds)
+    text = table(kinds)
+    print(text)
+    verdict = verdicts(args.verdict_seeds) if args.verdict_seeds else []
+    if not args.no_write:
+        RESULTS.parent.mkdir(exist_ok=True)
+        command = (f"python benchmarks/bench_air_data_outputs.py --seeds {args.seeds}"
+                   + (f" --verdict-seeds {args.verdict_seeds}" if args.verdict_seeds else ""))
+        RESULTS.write_text(f"# Output-error with air data as outputs\n\n{dt.date.today()}, "
+                           f"`{command}`\n\n{text}\n\n" + ("\n".join(verdict) + "\n\n"
+                                                           if verdict else "")
+                           + "Per run:\n\n" + "\n".join(f"    {x}" for x in lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
