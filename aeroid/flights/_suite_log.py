@@ -67,6 +67,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "baro": ("altitude", "pressure", "temperature"),
     "ins": ("phi", "theta", "psi"),
     "fin": ("delta",),
+    "air": ("alpha", "beta", "airspeed"),
 }
 #: The SI unit of each channel.
 SI_UNITS: dict[str, str] = {
@@ -74,6 +75,7 @@ SI_UNITS: dict[str, str] = {
     "vn": "m/s", "ve": "m/s", "vd": "m/s", "pn": "m", "pe": "m", "pd": "m", "altitude": "m",
     "pressure": "Pa", "temperature": "K",
     "phi": "rad", "theta": "rad", "psi": "rad", "delta": "rad",
+    "alpha": "rad", "beta": "rad", "airspeed": "m/s",
 }
 #: The SI unit of each kind of quantity a suite log carries.
 _SI_OF_KIND = {"acceleration": "m/s^2", "rate": "rad/s", "speed": "m/s", "length": "m",
