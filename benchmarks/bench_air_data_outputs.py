@@ -5,6 +5,8 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
     python benchmarks/bench_air_data_outputs.py                    # 8 seeds, writes results
     python benchmarks/bench_air_data_outputs.py --seeds 2 --no-write
     python benchmarks/bench_air_data_outputs.py --verdict-seeds 6  # also the verdict's rates
+    python benchmarks/bench_air_data_outputs.py --reconstruction-seeds 8  # and the
+        # reconstruction's steady wind (aeroid/reconstruction/_wind.py)
 
 Per seed ``k`` (``rng = k`` for the flight, ``[k, 26]`` for the probe): the reference
 scenario with Gaussian IMU noise, in still air and in a steady wind of 5 m/s (north 3,
@@ -25,7 +27,9 @@ largest |error| / se over coefficients and wind components, how many runs have e
 coefficient and wind component within 3 se, the north (along-path) wind's mean |error|
 and mean se, and the calibration parameters within 3 se. With ``--verdict-seeds``: the
 log-only verdict (:func:`aeroid.estimation.air_data_verdict`, vane angles only, no
-airspeed) on the steady wind and on Dryden turbulence of sd 0.3, 1 and 3 m/s.
+airspeed) on the steady wind and on Dryden turbulence of sd 0.3, 1 and 3 m/s. With
+``--reconstruction-seeds``: the reconstruction's steady wind from a 100 Hz probe added to
+the default suite's log (:func:`reconstruction_winds`).
 """
 
 from __future__ import annotations
@@ -139,6 +143,47 @@ def verdicts(seeds: int) -> list[str]:
     return out
 
 
+def reconstruction_winds(seeds: int) -> list[str]:
+    """The reconstruction's steady wind over seeds: a 100 Hz probe (0.1 deg, 0.5 m/s) in
+    a 3 / 4 / -0.5 m/s wind added to the default suite's log (rng ``k``; probe
+    ``[k, 22]``)."""
+    from aeroid.flights import SensorGroup, body_to_ned, simulate_suite
+    from aeroid.reconstruction import reconstruct
+
+    s = reference_scenario()
+    wind = np.array([3.0, 4.0, -0.5])
+    sd = {"alpha": float(VANE_SD), "beta": float(VANE_SD), "airspeed": AIRSPEED_SD}
+    rows = []
+    for seed in range(1, seeds + 1):
+        sim = simulate_suite(s.airframe, s.coefficient_vector, s.manoeuvre,
+                             rng=np.random.default_rng(seed))
+        gen = np.random.default_rng([seed, 22])
+        t = sim.log["imu"].t
+        k = np.arange(0, t.size, 10)
+        v = np.column_stack([sim.truth[c][k] for c in ("u", "v", "w")])
+        c_nb = body_to_ned(*(sim.truth[c][k] for c in ("phi", "theta", "psi")))
+        true = dict(zip(("airspeed", "alpha", "beta"), equations.air_data(
+            *(v - np.einsum("kji,j->ki", c_nb, wind)).T), strict=True))
+        group = SensorGroup("air", t[k], {c: true[c] + sd[c] * gen.standard_normal(k.size)
+                                          for c in sd}, sd)
+        start = time.perf_counter()
+        rec = reconstruct(dataclasses.replace(sim.log, groups={**sim.log.groups, "air": group}))
+        m = rec.metadata
+        w, e = np.array(m["wind_ned_mps"]), np.array(m["wind_stderr_mps"])
+        rows.append((np.abs(w - wind), e, np.abs(w - wind) / e, m["wind_scatter"],
+                     time.perf_counter() - start))
+        print(f"reconstruction seed {seed}: wind {np.round(w, 3)} sd {np.round(e, 3)} "
+              f"scatter {m['wind_scatter']:.2f}", flush=True)
+    err, sds, z = (np.array([r[j] for r in rows]) for j in range(3))
+    return ["| reconstruction, seeds | mean abs err N / E / D [m/s] | mean sd N / E / D [m/s] "
+            "| components within 3 sd | largest err/sd | scatter min-max | mean time [s] |",
+            "|---|---|---|---|---|---|---|",
+            f"| {seeds} | {' / '.join(f'{x:.3f}' for x in err.mean(axis=0))} | "
+            f"{' / '.join(f'{x:.3f}' for x in sds.mean(axis=0))} | {int(np.sum(z <= 3))}/"
+            f"{z.size} | {z.max():.2f} | {min(r[3] for r in rows):.2f}-"
+            f"{max(r[3] for r in rows):.2f} | {np.mean([r[4] for r in rows]):.1f} |"]
+
+
 def table(kinds: dict) -> str:
     """Return the markdown table of the kinds."""
     still = np.mean([r[1] for r in kinds["still / off"]])
@@ -165,16 +210,22 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--verdict-seeds", type=int, default=0)
+    parser.add_argument("--reconstruction-seeds", type=int, default=0)
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     kinds, lines = run(args.seeds)
     text = table(kinds)
     print(text)
     verdict = verdicts(args.verdict_seeds) if args.verdict_seeds else []
+    if args.reconstruction_seeds:
+        verdict += [""] + reconstruction_winds(args.reconstruction_seeds)
+        print("\n".join(verdict[-3:]))
     if not args.no_write:
         RESULTS.parent.mkdir(exist_ok=True)
         command = (f"python benchmarks/bench_air_data_outputs.py --seeds {args.seeds}"
-                   + (f" --verdict-seeds {args.verdict_seeds}" if args.verdict_seeds else ""))
+                   + (f" --verdict-seeds {args.verdict_seeds}" if args.verdict_seeds else "")
+                   + (f" --reconstruction-seeds {args.reconstruction_seeds}"
+                      if args.reconstruction_seeds else ""))
         RESULTS.write_text(f"# Output-error with air data as outputs\n\n{dt.date.today()}, "
                            f"`{command}`\n\n{text}\n\n" + ("\n".join(verdict) + "\n\n"
                                                            if verdict else "")
