@@ -13,7 +13,8 @@ velocity match the logged angles (and airspeed, when logged) is
   noise per component from the 4th differences, :func:`aeroid.estimation.
   difference_noise_sd`).
 
-Gusts above :data:`GUST_LIMIT_FACTOR` times the smoothed noise's RMS are reported as
+Gusts above :data:`GUST_LIMIT_FACTOR` times the smoothed noise's RMS (and above
+:data:`GUST_FLOOR_MPS`) are reported as
 **turbulence** (a steady wind does not explain the disagreement), else a **steady
 wind** (or **still air** when the steady wind is within :data:`STEADY_SE` standard
 errors ``noise / sqrt(n)`` of zero). Measured on the reference flight (Gaussian IMU,
@@ -53,6 +54,10 @@ from aeroid.model import equations
 #: Gusts (the RMS of the implied wind's slow part beyond the probe noise's) above this
 #: multiple of the smoothed noise's RMS are turbulence (module docstring: measured).
 GUST_LIMIT_FACTOR = 1.0
+#: Gusts below this RMS [m/s] are never called turbulence: on a noise-free log the limit
+#: above is ~0 and the smoothing's end effects alone leave ~0.004 m/s (measured on the
+#: reference flight in a 5 m/s crosswind); light turbulence (MIL-F-8785C) is ~1 m/s.
+GUST_FLOOR_MPS = 0.1
 #: A steady wind within this many standard errors of zero in every component is still air.
 STEADY_SE = 3.0
 
@@ -108,7 +113,7 @@ def verdict_of(flight: Flight, owner: str, rest: np.ndarray, steady: np.ndarray,
     slow = smooth(rest, window, WIND_POLYORDER, axis=0)
     excess = np.maximum(np.mean(slow * slow, axis=0) - gain * noise ** 2, 0.0)
     gust = float(np.sqrt(np.sum(excess)))
-    limit = GUST_LIMIT_FACTOR * float(np.sqrt(gain * np.sum(noise ** 2)))
+    limit = max(GUST_LIMIT_FACTOR * float(np.sqrt(gain * np.sum(noise ** 2))), GUST_FLOOR_MPS)
     steady, se = np.asarray(steady, dtype=float), np.asarray(steady_se, dtype=float)
     if gust > limit:
         kind = "turbulence"
@@ -143,5 +148,5 @@ def with_air_verdict(result: EstimationResult, verdict: AirVerdict | None) -> Es
                                warnings=(*result.warnings, verdict.line))
 
 
-__all__ = ["GUST_LIMIT_FACTOR", "STEADY_SE", "AirVerdict", "air_data_verdict", "verdict_of",
-           "with_air_verdict"]
+__all__ = ["GUST_FLOOR_MPS", "GUST_LIMIT_FACTOR", "STEADY_SE", "AirVerdict", "air_data_verdict",
+           "verdict_of", "with_air_verdict"]
