@@ -191,5 +191,5 @@ def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:
         (["logged alpha, beta (they differ: wind, or a vane's calibration)"]
          if has_air_angles(flight) else []) + (["airspeed"] if has_airspeed(flight) else []))
     return (f"{owner}: takes the aerodynamic angles from u, v, w and ignores the flight's "
-            f"{logged}; equation-error uses them (option air_data), output-error as "
-            "measured outputs (option air_data = measured)")
+            f"{logged}; equation-error, EBM-PSO and SEBM-PSO use them (option air_data), "
+            "output-error as measured outputs (option air_data = measured)")
