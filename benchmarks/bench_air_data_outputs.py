@@ -29,7 +29,8 @@ and mean se, and the calibration parameters within 3 se. With ``--verdict-seeds`
 log-only verdict (:func:`aeroid.estimation.air_data_verdict`, vane angles only, no
 airspeed) on the steady wind and on Dryden turbulence of sd 0.3, 1 and 3 m/s. With
 ``--reconstruction-seeds``: the reconstruction's steady wind from a 100 Hz probe added to
-the default suite's log (:func:`reconstruction_winds`).
+the default suite's log (:func:`reconstruction_winds`). With ``--pso-seeds``: EBM-PSO
+and SEBM-PSO (polished) with the logged angles in a 5 m/s crosswind (:func:`pso_rows`).
 """
 
 from __future__ import annotations
@@ -184,6 +185,40 @@ def reconstruction_winds(seeds: int) -> list[str]:
             f"{max(r[3] for r in rows):.2f} | {np.mean([r[4] for r in rows]):.1f} |"]
 
 
+def pso_rows(seeds: int) -> list[str]:
+    """EBM-PSO and SEBM-PSO (polished) with the logged angles on noisy flights: still air
+    (inertial angles) and a 5 m/s crosswind (vane 0.1 deg; logged / inertial angles)."""
+    from aeroid.estimation import get_estimator
+
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    out = ["| method: air / angles | success | mean abs rel error [%] | x still |",
+           "|---|---|---|---|"]
+    for name in ("ebm-pso", "sebm-pso"):
+        rows: dict[str, list] = {}
+        for seed in range(1, seeds + 1):
+            for air, wind in (("still", None), ("crosswind 5 m/s", (0.0, 5.0, 0.0))):
+                m = s.manoeuvre if wind is None else dataclasses.replace(
+                    s.manoeuvre, wind=Wind(steady_ned_mps=wind))
+                f = simulate(s.airframe, truth, m, make_noise("gaussian"), rng=seed)
+                if wind is not None:
+                    gen = np.random.default_rng([seed, 26])
+                    f = dataclasses.replace(f, data=f.data.assign(
+                        alpha=f["alpha"] + VANE_SD * gen.standard_normal(f.n_samples),
+                        beta=f["beta"] + VANE_SD * gen.standard_normal(f.n_samples)))
+                for angles in (("inertial",) if wind is None else ("measured", "inertial")):
+                    r = get_estimator(name)(air_data=angles, polish=True).fit(f, rng=seed)
+                    err = float(np.mean(np.abs(r.theta / truth - 1.0)) * 100.0)
+                    rows.setdefault(f"{air} / {angles}", []).append((r.success, err))
+                    print(f"{name} seed {seed} {air} / {angles}: success={r.success} mean "
+                          f"|err| {err:.3f} %", flush=True)
+        still = np.mean([e for _, e in rows["still / inertial"]])
+        out += [f"| {name}: {k} | {sum(ok for ok, _ in v)}/{len(v)} | "
+                f"{np.mean([e for _, e in v]):.3f} | {np.mean([e for _, e in v]) / still:.2f} |"
+                for k, v in rows.items()]
+    return out
+
+
 def table(kinds: dict) -> str:
     """Return the markdown table of the kinds."""
     still = np.mean([r[1] for r in kinds["still / off"]])
@@ -211,6 +246,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--verdict-seeds", type=int, default=0)
     parser.add_argument("--reconstruction-seeds", type=int, default=0)
+    parser.add_argument("--pso-seeds", type=int, default=0)
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     kinds, lines = run(args.seeds)
@@ -220,12 +256,16 @@ def main() -> None:
     if args.reconstruction_seeds:
         verdict += [""] + reconstruction_winds(args.reconstruction_seeds)
         print("\n".join(verdict[-3:]))
+    if args.pso_seeds:
+        verdict += [""] + pso_rows(args.pso_seeds)
+        print("\n".join(verdict[-8:]))
     if not args.no_write:
         RESULTS.parent.mkdir(exist_ok=True)
         command = (f"python benchmarks/bench_air_data_outputs.py --seeds {args.seeds}"
                    + (f" --verdict-seeds {args.verdict_seeds}" if args.verdict_seeds else "")
                    + (f" --reconstruction-seeds {args.reconstruction_seeds}"
-                      if args.reconstruction_seeds else ""))
+                      if args.reconstruction_seeds else "")
+                   + (f" --pso-seeds {args.pso_seeds}" if args.pso_seeds else ""))
         RESULTS.write_text(f"# Output-error with air data as outputs\n\n{dt.date.today()}, "
                            f"`{command}`\n\n{text}\n\n" + ("\n".join(verdict) + "\n\n"
                                                            if verdict else "")
