@@ -52,6 +52,8 @@ from aeroid.model import (
 #: The option ``air_data_calibration``: which flow-angle calibration parameters are
 #: estimated (a factor and an offset per angle, or either, or none).
 CALIBRATIONS: tuple[str, ...] = ("none", "offset", "factor", "factor+offset")
+#: Output-error's ``air_data`` values (not equation-error's ``reconstruction``).
+OE_CHOICES: tuple[str, ...] = ("inertial", "auto", "measured")
 #: Scales of the calibration parameters: a factor of order 1e-2, an offset of order
 #: 1e-3 rad (0.06 deg).
 FACTOR_SCALE = 0.01
@@ -85,9 +87,11 @@ class AirDataOption:
 
 def check_air_data_options(est: Any) -> None:
     """Raise ValueError (one line) for an air-data option out of its range."""
-    if est.air_data not in AIR_DATA_CHOICES:
-        raise ValueError(f"air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
-                         f"got {est.air_data!r}")
+    if est.air_data not in OE_CHOICES:
+        raise ValueError(f"air_data must be one of {', '.join(OE_CHOICES)}, "
+                         f"got {est.air_data!r}" + (" (output-error estimates the wind "
+                                                    "itself: estimate_wind)" if
+                                                    est.air_data in AIR_DATA_CHOICES else ""))
     if est.air_data_calibration not in CALIBRATIONS:
         raise ValueError(f"air_data_calibration must be one of {', '.join(CALIBRATIONS)}, "
                          f"got {est.air_data_calibration!r}")

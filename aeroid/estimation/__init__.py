@@ -32,6 +32,7 @@ from aeroid.estimation._air_data import (
     ignored_air_data_warning,
     resolve_air_data,
 )
+from aeroid.estimation._air_reconstruction import reconstruction_wind
 from aeroid.estimation._air_verdict import (
     AirVerdict,
     air_data_verdict,
@@ -146,6 +147,7 @@ __all__ = [
     "has_air_angles",
     "has_air_data",
     "has_airspeed",
+    "reconstruction_wind",
     "ignored_air_data_warning",
     "resolve_air_data",
     "CoefficientSpec",

@@ -34,6 +34,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from aeroid.errors import FlightError
+from aeroid.estimation._air_reconstruction import (
+    WIND_KEY,
+    reconstruction_note,
+    reconstruction_wind,
+)
 from aeroid.estimation._signals import smooth
 from aeroid.flights import Flight
 from aeroid.model import equations
@@ -43,9 +48,11 @@ __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData"
            "resolve_air_data"]
 
 #: The option ``air_data``: ``auto`` uses the logged angles when the flight has them
-#: (:func:`has_air_data`), ``inertial`` takes the angles from ``u, v, w``, ``measured``
-#: uses the logged ones or refuses a flight without them.
-AIR_DATA_CHOICES: tuple[str, ...] = ("auto", "inertial", "measured")
+#: (:func:`has_air_data`), else the reconstruction's steady wind when the flight carries
+#: one, ``inertial`` takes the angles from ``u, v, w``, ``measured`` uses the logged ones
+#: or refuses a flight without them, ``reconstruction`` uses the reconstruction's steady
+#: wind (:mod:`aeroid.estimation._air_reconstruction`) or refuses a flight without it.
+AIR_DATA_CHOICES: tuple[str, ...] = ("auto", "inertial", "measured", "reconstruction")
 #: Logged angles within this of the inertial ones everywhere are the inertial ones: a
 #: reader derives them when the log has none, and a log written with 6 significant digits
 #: (or as float32) makes them differ by up to ~1e-6 rad; 1e-5 rad is 1/170 of a 0.1 deg
@@ -148,6 +155,14 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
         raise FlightError(f"{owner}: air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
                           f"got {choice!r}")
     logged = has_air_data(flight)
+    steady = reconstruction_wind(flight) if choice in ("auto", "reconstruction") else None
+    if choice == "reconstruction" or (choice == "auto" and not logged and steady is not None):
+        if steady is None:
+            raise FlightError(f"{owner}: air_data = 'reconstruction' but "
+                              f"{flight.metadata.get('source', 'flight')} carries no "
+                              "reconstruction's steady wind (metadata wind_ned_mps: "
+                              "reconstruct a suite log with an air group)")
+        return AirData("reconstruction", *reconstruction_note(flight, owner, *steady))
     if choice == "inertial" or (choice == "auto" and not logged):
         why = ("air_data = 'inertial'" if choice == "inertial"
                else "the flight logs no alpha, beta apart from the inertial ones")
@@ -184,9 +199,15 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
 
 
 def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:
-    """Return the one-line warning of a method that ignores logged angles, or None."""
+    """Return the one-line warning of a method that ignores logged angles (or the
+    reconstruction's steady wind the flight carries), or None."""
     if not has_air_data(flight):
-        return None
+        if WIND_KEY not in flight.metadata:
+            return None
+        return (f"{owner}: takes the aerodynamic angles from u, v, w (still air) and ignores "
+                f"the reconstruction's steady wind the flight carries (metadata {WIND_KEY}); "
+                "equation-error, EBM-PSO and SEBM-PSO use it (option air_data), output-error "
+                "estimates its own (estimate_wind)")
     logged = " and ".join(
         (["logged alpha, beta (they differ: wind, or a vane's calibration)"]
          if has_air_angles(flight) else []) + (["airspeed"] if has_airspeed(flight) else []))

@@ -79,11 +79,12 @@ class EBMPSO(StepOneOptions):
         Finish with the exact minimum of the same cost over the box (default False, the
         paper's method): bounded least squares on the quadratic form
         (:mod:`aeroid.estimation._polish`); ``info["polish"]`` holds both costs.
-    air_data : {"inertial", "auto", "measured"}
+    air_data : {"inertial", "auto", "measured", "reconstruction"}
         Step 2: the aerodynamic angles from u, v, w (default inertial: the flight's
         logged air data are said ignored), from the logged alpha, beta and airspeed
-        when the flight has them (auto), or from those or a one-line refusal
-        (measured), as equation-error's option of that name.
+        when the flight has them (auto), from those or a one-line refusal (measured),
+        or with the reconstruction's steady wind (reconstruction), as equation-error's
+        option of that name.
     air_data_window_s : float
         Step 2: smoothing of the wind the logged angles imply [s] (default 0.1; 0: none).
     """

@@ -138,7 +138,7 @@ class StepOneOptions(PSOMethodOptions):
     smoothing_window: int = SMOOTHING_WINDOW
     derivative_window: int = DERIVATIVE_WINDOW
     roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
-    air_data: Literal["inertial", "auto", "measured"] = "inertial"
+    air_data: Literal["inertial", "auto", "measured", "reconstruction"] = "inertial"
     air_data_window_s: float = WIND_WINDOW_S
 
     def __post_init__(self) -> None:

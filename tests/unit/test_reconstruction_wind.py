@@ -94,3 +94,15 @@ def test_the_air_group_is_written_and_read(sim, tmp_path) -> None:
     for c in ("alpha", "beta", "airspeed"):
         np.testing.assert_allclose(read.channels[c], group.channels[c], rtol=1e-15)
         assert read.noise_sd[c] == SD[c]
+
+
+def test_the_flight_carries_the_wind_to_the_regressions(sim) -> None:
+    from aeroid.estimation import resolve_air_data
+
+    rec = reconstruct(with_air(sim, air_group(sim, WIND)))
+    flight = rec.to_flight()
+    assert flight.metadata["wind_ned_mps"] == rec.metadata["wind_ned_mps"]
+    air = resolve_air_data(flight, "auto", "equation-error")
+    assert air.source == "reconstruction" and air.wind is not None
+    np.testing.assert_array_equal(air.wind[-1], rec.metadata["wind_ned_mps"])
+    assert "steady wind is taken as exact" in str(air.warning)
