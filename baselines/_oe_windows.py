@@ -216,6 +216,9 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, holds: Any
     if est.pso_warm_start:
         raise EstimatorError(f"{owner}: pso_warm_start is not available for several windows; "
                              "set pso_warm_start = false")
+    if getattr(est, "air_data", "inertial") != "inertial":
+        raise EstimatorError(f"{owner}: air_data = {est.air_data} is not available for several "
+                             "windows yet (one flight at a time); set air_data = inertial")
     if getattr(est, "aiding", "none") != "none":
         raise EstimatorError(f"{owner}: aiding = {est.aiding} is not available for several "
                              "windows yet (one flight at a time); set aiding = none")

@@ -182,10 +182,12 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         effect on the estimate is added to the covariance (default ``consider``; module
         docstring; ``info["position_sensitivity"]`` holds ``G``), or they are taken as
         known. The estimate is the same either way.
-    air_data : {"auto", "inertial", "measured"}
+    air_data : {"auto", "inertial", "measured", "reconstruction"}
         Aerodynamic angles: the flight's logged alpha and beta where it has them
-        (default ``auto``; said in one line), those from u, v, w (``inertial``), or the
-        logged ones or a refusal (``measured``); :mod:`aeroid.estimation._air_data`.
+        (default ``auto``; said in one line; else the reconstruction's steady wind where
+        the flight carries one), those from u, v, w (``inertial``), the logged ones or a
+        refusal (``measured``), or the reconstruction's steady wind or a refusal
+        (``reconstruction``); :mod:`aeroid.estimation._air_data`.
     air_data_window_s : float
         Smoothing of the wind the logged angles imply, in north-east-down axes [s]
         (default 0.1, measured: :mod:`aeroid.estimation._air_data`; 0: none).
@@ -215,7 +217,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     lateral_rows: bool = False
     covariance: Literal["hac", "ols"] = "hac"
     positions: Literal["consider", "known"] = "consider"
-    air_data: Literal["auto", "inertial", "measured"] = "auto"
+    air_data: Literal["auto", "inertial", "measured", "reconstruction"] = "auto"
     air_data_window_s: float = rc.WIND_WINDOW_S
 
     def __post_init__(self) -> None:
@@ -238,7 +240,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                                      self.air_data_window_s)
         tables = _tables_fit.flight_tables(flight)
         if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
-            if air.source == "measured":
+            if air.source != "inertial":
                 raise aeroid.errors.EstimatorError(
                     f"{self.name}: logged air-data angles with [tables] are not built; "
                     "give air_data = 'inertial' to fit the angles from u, v, w")
@@ -250,6 +252,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         result = dataclasses.replace(
             result, info={**result.info, "air_data": air.source, "air_data_note": air.note},
             warnings=tuple(result.warnings) + ((air.warning,) if air.warning else ()))
+        if air.source == "measured":  # wind or turbulence: aeroid/estimation/_air_verdict.py
+            result = rc.with_air_verdict(result, rc.air_data_verdict(flight, self.name))
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:
@@ -265,7 +269,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         """Several windows: their regressions stacked (:mod:`baselines._ee_windows`)."""
         from baselines._ee_windows import run_windows
 
-        if self.air_data != "inertial" and any(rc.has_air_data(w) for w in windows.flights):
+        if self.air_data != "inertial" and any(rc.has_air_data(w) or rc.reconstruction_wind(w)
+                                               is not None for w in windows.flights):
             raise aeroid.errors.EstimatorError(
                 f"{self.name}: logged air-data angles with several windows are not built; "
                 "give air_data = 'inertial' to fit the angles from u, v, w")

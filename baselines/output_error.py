@@ -29,7 +29,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common, _held, _oe_wind, _tables_fit
+from baselines import _common, _held, _oe_airdata, _oe_wind, _tables_fit
 from baselines._gauss_newton import (
     Fit,
     Problem,
@@ -38,6 +38,7 @@ from baselines._gauss_newton import (
     sandwich,
 )
 from baselines._oe_aiding import aided_problem, aiding_info, aiding_warnings, aiding_x0
+from baselines._oe_airdata_fit import airdata_problem, airdata_report
 from baselines._oe_constants import (
     MAX_SAMPLES,
     POSITION_NAMES,
@@ -68,7 +69,7 @@ from baselines._oe_windows import OutputErrorWindows
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator,
-                           _oe_wind.WindOption):
+                           _oe_wind.WindOption, _oe_airdata.AirDataOption):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the
@@ -190,6 +191,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     uses_state_sd: ClassVar[bool] = True  # initial_velocity_prior, or a warning
     leaves_out_saturated: ClassVar[bool] = True  # RecordModel.mask, Problem.mask
     supports_holds: ClassVar[bool] = True  # holds: baselines._held, the model untouched
+    uses_air_data: ClassVar[bool] = True  # option air_data: baselines/_oe_airdata.py
     description: ClassVar[str] = (
         "output-error maximum likelihood: Gauss-Newton with CasADi AD, Cramer-Rao bounds")
 
@@ -218,6 +220,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
 
     def __post_init__(self) -> None:
         check_options(self)  # one ValueError per bad option: baselines/_oe_options.py
+        _oe_airdata.check_air_data_options(self)
 
     # ----------------------------------------------------------------------------------
     def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
@@ -273,10 +276,10 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                             imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight),
                             wind_free=self.estimate_wind)
         has_prior = bool(np.any(weight > 0))
-        return aided_problem(self.aiding, flight, Problem(
+        return airdata_problem(self, flight, aided_problem(self.aiding, flight, Problem(
             z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,
             noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
-            prior_weight=weight if has_prior else None))
+            prior_weight=weight if has_prior else None)))
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -348,7 +351,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
         position_free = model.position_free
         info = {"R": best.r_diag, "fisher": M,
-                "parameter_names": self.parameter_names(position_free),
+                "parameter_names": self.parameter_names(position_free) + getattr(
+                    model, "calibration", ()),
                 "parameters": phys, "parameter_stderr": stderr_phys,
                 "parameter_covariance": cov_phys, "iterations": best.n_iterations,
                 "starts": len(starts), "failed_starts": failures, "compiled": model.compiled,
@@ -369,6 +373,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
+        warnings += airdata_report(self, flight, prob, best.e, phys, stderr_phys, info)
         if model.n_imu:
             imu_info, found = imu_error_report(info["parameter_names"],
                                                imu_error_names(self.imu_errors), phys,

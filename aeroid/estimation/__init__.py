@@ -26,9 +26,18 @@ from aeroid.estimation._air_data import (
     WIND_WINDOW_S,
     AirData,
     air_data_wind,
+    has_air_angles,
     has_air_data,
+    has_airspeed,
     ignored_air_data_warning,
     resolve_air_data,
+)
+from aeroid.estimation._air_reconstruction import reconstruction_wind
+from aeroid.estimation._air_verdict import (
+    AirVerdict,
+    air_data_verdict,
+    verdict_of,
+    with_air_verdict,
 )
 from aeroid.estimation._consider import (
     ConsiderCovariance,
@@ -131,7 +140,14 @@ __all__ = [
     "WIND_WINDOW_S",
     "AirData",
     "air_data_wind",
+    "AirVerdict",
+    "air_data_verdict",
+    "verdict_of",
+    "with_air_verdict",
+    "has_air_angles",
     "has_air_data",
+    "has_airspeed",
+    "reconstruction_wind",
     "ignored_air_data_warning",
     "resolve_air_data",
     "CoefficientSpec",

@@ -7,10 +7,10 @@ its vane is miscalibrated). A method that regresses the loads on the measured st
 (equation-error) can use the logged angles directly: :func:`air_data_wind` returns the
 per-sample wind (north-east-down) that makes the model's air-relative angles equal the
 logged ones, so the loads are still evaluated by the one model (no second writing of
-eqs. 2-7). The airspeed is taken as the inertial speed ``|u, v, w|`` (the log has no
-airspeed channel): a wind *along* the path changes the dynamic pressure by ``2 w / V``
-(5 m/s at 540 m/s: 1.9 %), which the angles cannot see; a crosswind changes it only to
-second order.
+eqs. 2-7). The airspeed is the log's ``airspeed`` channel (an air-data probe's) or,
+without one, the inertial speed ``|u, v, w|``: then a wind *along* the path changes the
+dynamic pressure by ``2 w / V`` (5 m/s at 540 m/s: 1.9 %), which the angles cannot see
+(a crosswind changes it only to second order), and the fit says so in one line.
 
 A vane's noise enters the regressors (errors in variables): 0.1 deg at 500 m/s is 0.9 m/s
 of implied wind per sample, and the loads' noise it makes is several times the IMU's.
@@ -34,17 +34,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from aeroid.errors import FlightError
+from aeroid.estimation._air_reconstruction import (
+    WIND_KEY,
+    reconstruction_note,
+    reconstruction_wind,
+)
 from aeroid.estimation._signals import smooth
 from aeroid.flights import Flight
 from aeroid.model import equations
 
 __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData", "air_data_wind",
-           "has_air_data", "ignored_air_data_warning", "resolve_air_data"]
+           "has_air_angles", "has_air_data", "has_airspeed", "ignored_air_data_warning",
+           "resolve_air_data"]
 
 #: The option ``air_data``: ``auto`` uses the logged angles when the flight has them
-#: (:func:`has_air_data`), ``inertial`` takes the angles from ``u, v, w``, ``measured``
-#: uses the logged ones or refuses a flight without them.
-AIR_DATA_CHOICES: tuple[str, ...] = ("auto", "inertial", "measured")
+#: (:func:`has_air_data`), else the reconstruction's steady wind when the flight carries
+#: one, ``inertial`` takes the angles from ``u, v, w``, ``measured`` uses the logged ones
+#: or refuses a flight without them, ``reconstruction`` uses the reconstruction's steady
+#: wind (:mod:`aeroid.estimation._air_reconstruction`) or refuses a flight without it.
+AIR_DATA_CHOICES: tuple[str, ...] = ("auto", "inertial", "measured", "reconstruction")
 #: Logged angles within this of the inertial ones everywhere are the inertial ones: a
 #: reader derives them when the log has none, and a log written with 6 significant digits
 #: (or as float32) makes them differ by up to ~1e-6 rad; 1e-5 rad is 1/170 of a 0.1 deg
@@ -75,7 +83,20 @@ def _inertial_angles(flight: Flight) -> tuple[np.ndarray, np.ndarray]:
     return alpha, beta
 
 
+def has_airspeed(flight: Flight) -> bool:
+    """Return True when the flight logs an air-data probe's ``airspeed`` [m/s]."""
+    return "airspeed" in flight.channels
+
+
 def has_air_data(flight: Flight) -> bool:
+    """Return True when the flight logs an ``airspeed``, or ``alpha`` and ``beta`` that
+    differ from the inertial angles by more than :data:`ANGLE_TOLERANCE_RAD` somewhere."""
+    if has_airspeed(flight):
+        return True
+    return has_air_angles(flight)
+
+
+def has_air_angles(flight: Flight) -> bool:
     """Return True when the flight logs ``alpha`` and ``beta`` that differ from the
     inertial angles by more than :data:`ANGLE_TOLERANCE_RAD` somewhere."""
     if not {"alpha", "beta", "u", "v", "w"} <= set(flight.channels):
@@ -100,12 +121,13 @@ def air_data_wind(flight: Flight, window_s: float = 0.0) -> np.ndarray:
     angles equal the logged ``alpha`` and ``beta`` (module docstring).
 
     The air-relative velocity in body axes is ``V (cos a cos b, sin b, sin a cos b)`` with
-    ``V = |u, v, w|``; the wind is the inertial velocity minus it, rotated to NED by the
+    ``V`` the logged ``airspeed`` (an air-data probe's) or, without one, ``|u, v, w|``;
+    the wind is the inertial velocity minus it, rotated to NED by the
     transpose of the model's :func:`aeroid.model.equations.ned_to_body`; smoothed over
     ``window_s`` [s] in NED axes (:func:`wind_window`; 0: not smoothed).
     """
     u, v, w, phi, theta, psi = (flight[c] for c in ("u", "v", "w", "phi", "theta", "psi"))
-    speed = np.sqrt(u * u + v * v + w * w)
+    speed = flight["airspeed"] if has_airspeed(flight) else np.sqrt(u * u + v * v + w * w)
     alpha, beta = flight["alpha"], flight["beta"]
     air = speed[:, None] * np.stack([np.cos(alpha) * np.cos(beta), np.sin(beta),
                                      np.sin(alpha) * np.cos(beta)], axis=1)
@@ -133,14 +155,23 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
         raise FlightError(f"{owner}: air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
                           f"got {choice!r}")
     logged = has_air_data(flight)
+    steady = reconstruction_wind(flight) if choice in ("auto", "reconstruction") else None
+    if choice == "reconstruction" or (choice == "auto" and not logged and steady is not None):
+        if steady is None:
+            raise FlightError(f"{owner}: air_data = 'reconstruction' but "
+                              f"{flight.metadata.get('source', 'flight')} carries no "
+                              "reconstruction's steady wind (metadata wind_ned_mps: "
+                              "reconstruct a suite log with an air group)")
+        return AirData("reconstruction", *reconstruction_note(flight, owner, *steady))
     if choice == "inertial" or (choice == "auto" and not logged):
         why = ("air_data = 'inertial'" if choice == "inertial"
                else "the flight logs no alpha, beta apart from the inertial ones")
         return AirData("inertial", None, f"{owner}: aerodynamic angles from u, v, w ({why})")
     if not logged:
         where = flight.metadata.get("source", "flight")
-        raise FlightError(f"{owner}: air_data = 'measured' but {where} has no logged alpha "
-                          "and beta apart from the inertial atan(w/u), asin(v/V)")
+        raise FlightError(f"{owner}: air_data = 'measured' but {where} has no airspeed "
+                          "channel and no logged alpha and beta apart from the inertial "
+                          "atan(w/u), asin(v/V)")
     alpha, beta = _inertial_angles(flight)
     rms = np.degrees(np.sqrt(np.mean(np.concatenate([flight["alpha"] - alpha,
                                                      flight["beta"] - beta]) ** 2)))
@@ -150,19 +181,36 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
     smoothed = (f"the wind they imply smoothed over {window} samples in NED axes"
                 if window > 1 else "not smoothed")
     speed = float(np.mean(np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w")))))
+    angles = (f"the logged alpha, beta ({rms:.3g} deg RMS from the inertial ones"
+              if has_air_angles(flight) else "alpha, beta from u, v, w (none logged apart "
+              "from them")
+    if has_airspeed(flight):
+        off = float(np.sqrt(np.mean((flight["airspeed"] - np.sqrt(
+            sum(flight[c] ** 2 for c in ("u", "v", "w")))) ** 2)))
+        return AirData("measured", air_data_wind(flight, window_s),
+                       f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
+                       f"from the logged airspeed channel ({off:.3g} m/s RMS from |u, v, w|)")
     warning = (f"{owner}: airspeed taken as |u, v, w| (no airspeed channel): a wind along "
                f"the path of 1 m/s biases every coefficient by about {200.0 / speed:.2g} %, "
                "which the logged angles cannot see and the standard errors leave out")
     return AirData("measured", air_data_wind(flight, window_s),
-                   f"{owner}: aerodynamic angles from the logged alpha, beta ({rms:.3g} deg "
-                   f"RMS from the inertial ones; {smoothed}), airspeed |u, v, w| (no "
-                   "airspeed channel)", warning)
+                   f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
+                   "|u, v, w| (no airspeed channel)", warning)
 
 
 def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:
-    """Return the one-line warning of a method that ignores logged angles, or None."""
+    """Return the one-line warning of a method that ignores logged angles (or the
+    reconstruction's steady wind the flight carries), or None."""
     if not has_air_data(flight):
-        return None
+        if WIND_KEY not in flight.metadata:
+            return None
+        return (f"{owner}: takes the aerodynamic angles from u, v, w (still air) and ignores "
+                f"the reconstruction's steady wind the flight carries (metadata {WIND_KEY}); "
+                "equation-error, EBM-PSO and SEBM-PSO use it (option air_data), output-error "
+                "estimates its own (estimate_wind)")
+    logged = " and ".join(
+        (["logged alpha, beta (they differ: wind, or a vane's calibration)"]
+         if has_air_angles(flight) else []) + (["airspeed"] if has_airspeed(flight) else []))
     return (f"{owner}: takes the aerodynamic angles from u, v, w and ignores the flight's "
-            "logged alpha, beta (they differ: wind, or a vane's calibration); "
-            "equation-error uses them (option air_data)")
+            f"{logged}; equation-error, EBM-PSO and SEBM-PSO use them (option air_data), "
+            "output-error as measured outputs (option air_data = measured)")

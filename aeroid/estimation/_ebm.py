@@ -27,6 +27,7 @@ from aeroid.estimation._pso_methods import (
     reconstruction_info,
     run_pso,
     step_one,
+    step_one_air,
 )
 from aeroid.estimation._reconstruct import (
     ebm_regression,
@@ -78,10 +79,19 @@ class EBMPSO(StepOneOptions):
         Finish with the exact minimum of the same cost over the box (default False, the
         paper's method): bounded least squares on the quadratic form
         (:mod:`aeroid.estimation._polish`); ``info["polish"]`` holds both costs.
+    air_data : {"inertial", "auto", "measured", "reconstruction"}
+        Step 2: the aerodynamic angles from u, v, w (default inertial: the flight's
+        logged air data are said ignored), from the logged alpha, beta and airspeed
+        when the flight has them (auto), from those or a one-line refusal (measured),
+        or with the reconstruction's steady wind (reconstruction), as equation-error's
+        option of that name.
+    air_data_window_s : float
+        Step 2: smoothing of the wind the logged angles imply [s] (default 0.1; 0: none).
     """
 
     name: ClassVar[str] = "ebm-pso"
     supports_holds: ClassVar[bool] = True  # the search over the free ones: held_search
+    uses_air_data: ClassVar[bool] = True  # option air_data (step_one_air)
     description: ClassVar[str] = ("two-step EBM: forces/moments from accelerometers and rates, "
                                   "SG smoothing, one 9-D modified PSO (eq. 34)")
 
@@ -96,9 +106,10 @@ class EBMPSO(StepOneOptions):
             holds: CoefficientSpec | None = None) -> EstimationResult:
         """Reconstruct, smooth and fit (see class docstring)."""
         rec = step_one(self, flight)
+        air, air_lines = step_one_air(self, flight)
         rows = (0, 1, 2, 3, 4, 5) if self.lateral else EBM_ROWS
         cost = ebm_cost(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
-                        rows=rows, guard_fraction=self.guard_fraction)
+                        rows=rows, guard_fraction=self.guard_fraction, wind=air.wind)
         bounds = prior_bounds(flight.airframe, self.box)
         res, warnings, polished = run_pso(self, cost, bounds, rng, n_particles=self.n_particles,
                                           holds=holds)
@@ -109,9 +120,10 @@ class EBMPSO(StepOneOptions):
                      "information": prior_information(cost, holds)})  # identifiability
         if polished is not None:
             info["polish"] = polish_info(polished)
-        X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
+        X, y = ebm_regression(flight, rec, smoothing=self.smoothing, wind=air.wind)
         info.update(regression_fit(rec, X, y, res.x, tuple(rows)))
+        info["air_data"] = air.source
         return EstimationResult(
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
-            message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,
+            message=res.message, warnings=(*warnings, *air_lines), n_evaluations=res.n_evaluations,
             n_iterations=res.n_iterations, history=pso_history(res), info=info)

@@ -199,8 +199,10 @@ class QuadraticCost:
 
 def ebm_cost(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
              smoothing: str = "both", rows: Sequence[int] = EBM_ROWS,
-             guard_fraction: float = GUARD_FRACTION) -> QuadraticCost:
-    """Return the EBM second-step cost (eq. 34) over the nine coefficients.
+             guard_fraction: float = GUARD_FRACTION, wind: np.ndarray | None = None
+             ) -> QuadraticCost:
+    """Return the EBM second-step cost (eq. 34) over the nine coefficients (``wind``:
+    :func:`aeroid.estimation.ebm_regression`'s).
 
     Parameters
     ----------
@@ -222,7 +224,7 @@ def ebm_cost(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
         Over ``theta`` of shape (P, 9).
     """
     rows = _check_rows(rows)
-    X, y = ebm_regression(flight, rec, smoothing=smoothing)
+    X, y = ebm_regression(flight, rec, smoothing=smoothing, wind=wind)
     X, y = X[:, rows], y[:, rows]
     w = channel_weights(y, weighting, sd=estimate_noise_sd(rec.fm[:, rows]),
                         guard_fraction=guard_fraction)
@@ -230,8 +232,8 @@ def ebm_cost(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
 
 
 def sebm_costs(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
-               smoothing: str = "both", guard_fraction: float = GUARD_FRACTION
-               ) -> list[tuple[str, tuple[int, ...], QuadraticCost]]:
+               smoothing: str = "both", guard_fraction: float = GUARD_FRACTION,
+               wind: np.ndarray | None = None) -> list[tuple[str, tuple[int, ...], QuadraticCost]]:
     """Return the four SEBM costs (eqs. 39-42) as ``(label, coefficient indices, cost)``.
 
     Each cost takes only its own coefficients (1, 3, 2 and 3 of them): F_AX -> Cx;
@@ -239,7 +241,7 @@ def sebm_costs(flight: Flight, rec: Reconstruction, *, weighting: str = "noise",
     smoothing as in :func:`ebm_cost` (with one channel, the noise weighting only
     scales each cost).
     """
-    X, y = ebm_regression(flight, rec, smoothing=smoothing)
+    X, y = ebm_regression(flight, rec, smoothing=smoothing, wind=wind)
     sd = estimate_noise_sd(rec.fm)
     out = []
     for label, row, cols, _ in SEBM_PROBLEMS:

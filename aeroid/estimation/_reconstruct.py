@@ -310,7 +310,8 @@ SMOOTHING_CHOICES: tuple[str, ...] = ("both", "forces", "none")
 
 
 def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "both",
-                   window: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   window: int | None = None, wind: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """Return the EBM step-2 regression ``y ~ X theta`` (eqs. 33-38).
 
     ``X`` comes from :func:`aeroid.model.regressors` on the measured states
@@ -332,6 +333,9 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
     smoothing : {"both", "forces", "none"}
     window : int, optional
         SG width (default ``rec.smoothing_window``).
+    wind : ndarray, shape (n, 3), optional
+        NED wind per sample [m/s] replacing the constants' (the logged air data as the
+        aerodynamic angles: :func:`aeroid.estimation.air_data_wind`).
 
     Returns
     -------
@@ -346,7 +350,10 @@ def ebm_regression(flight: Flight, rec: Reconstruction, *, smoothing: str = "bot
         raise ValueError(f"reconstruction has {rec.fm.shape[0]} samples, flight "
                          f"{flight.n_samples}")
     window = rec.smoothing_window if window is None else int(window)
-    X = regressors(flight.states(), flight["delta"], sample_constants(flight))
+    const = sample_constants(flight)
+    if wind is not None:
+        const = const._replace(wind_n=wind[:, 0], wind_e=wind[:, 1], wind_d=wind[:, 2])
+    X = regressors(flight.states(), flight["delta"], const)
     if smoothing == "none" or window == 1:
         return X, rec.fm.copy()
     polyorder = min(SMOOTHING_POLYORDER, window - 1)

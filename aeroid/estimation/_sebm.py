@@ -23,6 +23,7 @@ from aeroid.estimation._pso_methods import (
     reconstruction_info,
     run_pso,
     step_one,
+    step_one_air,
 )
 from aeroid.estimation._reconstruct import (
     ebm_regression,
@@ -75,6 +76,14 @@ class SEBMPSO(StepOneOptions):
         Finish each problem with the exact minimum of its cost over its box (default
         False, the paper's method): bounded least squares on the quadratic form
         (:mod:`aeroid.estimation._polish`).
+    air_data : {"inertial", "auto", "measured", "reconstruction"}
+        Step 2: the aerodynamic angles from u, v, w (default inertial: the flight's
+        logged air data are said ignored), from the logged alpha, beta and airspeed
+        when the flight has them (auto), from those or a one-line refusal (measured),
+        or with the reconstruction's steady wind (reconstruction), as equation-error's
+        option of that name.
+    air_data_window_s : float
+        Step 2: smoothing of the wind the logged angles imply [s] (default 0.1; 0: none).
 
     Notes
     -----
@@ -88,6 +97,7 @@ class SEBMPSO(StepOneOptions):
 
     name: ClassVar[str] = "sebm-pso"
     supports_holds: ClassVar[bool] = True  # the search over the free ones: held_search
+    uses_air_data: ClassVar[bool] = True  # option air_data (step_one_air)
     description: ClassVar[str] = ("separated EBM: step 1 as ebm-pso, then four PSO problems "
                                   "(eqs. 39-42; 50/150/100/150 particles)")
 
@@ -111,6 +121,7 @@ class SEBMPSO(StepOneOptions):
                                  f"{', '.join(NAMES[c] for c in missing)} (SEBM_PROBLEMS, "
                                  "aeroid/estimation/_objectives.py)")
         rec = step_one(self, flight)
+        air, air_lines = step_one_air(self, flight)
         bounds = prior_bounds(flight.airframe, self.box)
         theta = np.empty(len(NAMES))
         closed = np.empty(len(NAMES))
@@ -118,7 +129,7 @@ class SEBMPSO(StepOneOptions):
         runs = []
         warnings: list[str] = []
         problems = sebm_costs(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
-                              guard_fraction=self.guard_fraction)
+                              guard_fraction=self.guard_fraction, wind=air.wind)
         for k, ((label, cols, cost), n_particles) in enumerate(
                 zip(problems, self.n_particles, strict=True)):
             res, found, polished = run_pso(self, cost, bounds[list(cols)], rng,
@@ -151,8 +162,10 @@ class SEBMPSO(StepOneOptions):
                      "subproblems": subproblems, "closed_form_theta": closed,
                      "closed_form_cost": float(sum(s["closed_form_cost"]
                                                    for s in subproblems.values()))})
-        X, y = ebm_regression(flight, rec, smoothing=self.smoothing)
+        X, y = ebm_regression(flight, rec, smoothing=self.smoothing, wind=air.wind)
         info.update(regression_fit(rec, X, y, theta, tuple(row for _, row, _, _ in SEBM_PROBLEMS)))
+        info["air_data"] = air.source
+        warnings += air_lines
         success = all(res.success for _, res in runs)
         messages = sorted({res.message for _, res in runs})
         total = float(hist_cost[-1])

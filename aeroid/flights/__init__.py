@@ -11,6 +11,7 @@ from aeroid.flights._agreement import (
     input_agreement,
 )
 from aeroid.flights._channels import (
+    AIR_DATA_CHANNELS,
     ANGLE_CHANNELS,
     CHANNELS,
     OPTIONAL_CHANNELS,
@@ -102,7 +103,7 @@ from aeroid.flights._windows import (
 __all__ = [
     "INPUTS", "exogenous", "flight_record", "model_constants", "sample_constants", "schedule",
     "resolve_input", "AGREE_RTOL", "REFUSE_PER_SWITCH", "THROW_RTOL", "WARN_PER_SWITCH",
-    "Agreement", "InputChoice", "check_input", "input_agreement",
+    "Agreement", "InputChoice", "check_input", "input_agreement", "AIR_DATA_CHANNELS",
     "ACCEL_CHANNELS", "ANGLE_CHANNELS", "NOISE_FORMS", "CHANNELS", "FORMAT", "OPTIONAL_CHANNELS",
     "RATE_CHANNELS", "REQUIRED_CHANNELS", "STATE_CHANNELS", "UNITS", "Flight", "GaussianNoise",
     "Manoeuvre", "NoNoise", "NoiseModel", "PaperNoise", "Scenario", "load_scenario",

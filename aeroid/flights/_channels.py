@@ -25,8 +25,12 @@ OPTIONAL_CHANNELS: tuple[str, ...] = ("mass", "thrust", "ix", "iy", "iz", "rho",
                                       "qbar")
 #: The atmosphere channels: one of them is used when ``[atmosphere] per_sample`` names it.
 ATMOSPHERE_CHANNELS: tuple[str, ...] = ("rho", "altitude", "qbar")
+#: Measured air data beyond the required angles: an air-data probe's airspeed [m/s] (the
+#: air-relative speed at the probe), used by equation-error and by output-error's
+#: ``air_data`` (:mod:`aeroid.estimation._air_data`), said ignored by the other methods.
+AIR_DATA_CHANNELS: tuple[str, ...] = ("airspeed",)
 #: Every channel name aeroid knows.
-CHANNELS: tuple[str, ...] = (*REQUIRED_CHANNELS, *OPTIONAL_CHANNELS)
+CHANNELS: tuple[str, ...] = (*REQUIRED_CHANNELS, *OPTIONAL_CHANNELS, *AIR_DATA_CHANNELS)
 #: Channels converted by ``angles_in_degrees`` (rates in deg/s).
 ANGLE_CHANNELS: tuple[str, ...] = ("p", "q", "r", "delta", "alpha", "beta", "phi", "theta", "psi")
 
@@ -39,4 +43,5 @@ UNITS: dict[str, str] = {
     "u": "m/s", "v": "m/s", "w": "m/s",
     "mass": "kg", "thrust": "N", "ix": "kg m^2", "iy": "kg m^2", "iz": "kg m^2",
     "rho": "kg/m^3", "altitude": "m", "qbar": "Pa",
+    "airspeed": "m/s",
 }

@@ -23,6 +23,7 @@ import math
 import numpy as np
 import pandas as pd
 
+from aeroid.flights._airspeed import airspeed_findings
 from aeroid.flights._channels import (
     ACCELEROMETER_CHANNELS,
     ATMOSPHERE_CHANNELS,
@@ -122,6 +123,7 @@ def check_flight(data: pd.DataFrame, airframe: Airframe) -> tuple[list[str], lis
     errors.extend(spikes)
     errors.extend(_ranges(finite, airframe, warns))
     check_inputs(finite, airframe, errors, warns)
+    errors.extend(airspeed_findings(finite))
     if clean and not errors:
         _kinematics(finite, errors, warns)
     return errors, warns

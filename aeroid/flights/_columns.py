@@ -58,7 +58,7 @@ UNIT_KINDS: dict[str, str] = {
     **{c: "angle" for c in ("delta", "alpha", "beta", "phi", "theta", "psi")},
     "u": "speed", "v": "speed", "w": "speed", "mass": "mass", "thrust": "force",
     "ix": "inertia", "iy": "inertia", "iz": "inertia", "rho": "density",
-    "altitude": "length", "qbar": "pressure",
+    "altitude": "length", "qbar": "pressure", "airspeed": "speed",
 }
 
 

@@ -66,13 +66,13 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "gnss": ("vn", "ve", "vd", "pn", "pe", "pd"),
     "baro": ("altitude", "pressure", "temperature"),
     "ins": ("phi", "theta", "psi"),
-    "fin": ("delta",),
+    "fin": ("delta",), "air": ("alpha", "beta", "airspeed"),  # air: a probe's air data
 }
 #: The SI unit of each channel.
 SI_UNITS: dict[str, str] = {
     **{c: "m/s^2" for c in GROUPS["imu"][:6]}, "p": "rad/s", "q": "rad/s", "r": "rad/s",
     "vn": "m/s", "ve": "m/s", "vd": "m/s", "pn": "m", "pe": "m", "pd": "m", "altitude": "m",
-    "pressure": "Pa", "temperature": "K",
+    "pressure": "Pa", "temperature": "K", "alpha": "rad", "beta": "rad", "airspeed": "m/s",
     "phi": "rad", "theta": "rad", "psi": "rad", "delta": "rad",
 }
 #: The SI unit of each kind of quantity a suite log carries.

@@ -47,6 +47,7 @@ from aeroid.reconstruction._kinematics import (
     ned_velocity,
 )
 from aeroid.reconstruction._sensors import held_fin, mounted_positions, saturated_samples
+from aeroid.reconstruction._wind import steady_wind
 
 Model = Callable[[np.ndarray], np.ndarray]
 #: Savitzky-Golay window [samples] and order of the gyro derivative (the lever-arm term).
@@ -225,8 +226,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
                               delta=dt, axis=0)
     lever = airframe.accel_positions.mean(axis=0)
     notes += [f"specific force at the c.g.: mean of the two triads at {lever.tolist()} m, "
-             "lever-arm terms from the corrected gyros and their Savitzky-Golay derivative",
-             "no wind state: u v w are over the ground (no air data in a suite log)"]
+             "lever-arm terms from the corrected gyros and their Savitzky-Golay derivative"]
     used: dict[str, Any] = {}
     x0, p0 = _prior(log, t, imu, used, notes, accel_bias_sd, gyro_bias_sd, scale_sd,
                     initial_attitude, initial_velocity, initial_sd)
@@ -255,6 +255,7 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     if saturated:
         meta["saturated"] = saturated
     meta.update(logged_aiding(log))
+    meta.update(steady_wind(log, t, passes.states, passes.covariance, STATES, notes))
     if "baro" in log:
         table["altitude"] = table["alt0"] - table["pd"]
         table["sd_altitude"] = np.sqrt(np.clip(
