@@ -66,8 +66,9 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         Also carry a steady wind (north, east, down [m/s]) as three constant states
         (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
         passes where the last ended, with the coefficients); on noisy flights the
-        along-path component is not reliable (measured:
-        ``benchmarks/results/wind_filters.md``); reported in
+        carried passes walk along the along-path component and are refused (the EKF's
+        default smoothed passes do not; measured: ``benchmarks/results/wind_filters.md``);
+        reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
         with a one-line notice (:mod:`baselines._kalman_wind`).
     wind_sd_mps : float
