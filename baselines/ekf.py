@@ -84,7 +84,9 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
             ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
         ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
-
+        if self.passes_used() == "smoothed" and self.estimate_gust_sd:  # trials share no pass
+            raise EstimatorError(f"{self.name}: passes = smoothed with estimate_gust_sd is not "
+                                 "available; give gust_sd_mps or set passes = carried")
         smoothed: list[Any] = []  # "smoothed": the first pass's prior, the last trajectory
 
         def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup

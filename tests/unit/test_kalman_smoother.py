@@ -77,6 +77,9 @@ def test_smoothed_passes_settle_where_the_carried_ones_walk(reference_scenario, 
 def test_the_passes_option_is_checked_and_refused_with_windows(clean_flight) -> None:
     with pytest.raises(aeroid.EstimatorError, match="passes=.iterated. not one of"):
         aeroid.make_estimator("ekf", {"passes": "iterated"})
+    searched = aeroid.make_estimator("ekf", {"passes": "smoothed", "estimate_gust_sd": True})
+    with pytest.raises(aeroid.EstimatorError, match="passes = smoothed with estimate_gust_sd"):
+        searched.fit(clean_flight, rng=0)
     est = aeroid.make_estimator("ekf", {"passes": "smoothed"})
     with pytest.raises(aeroid.EstimatorError, match="passes = smoothed with several windows"):
         est.fit(aeroid.flights.Windows((clean_flight, dataclasses.replace(clean_flight)),
