@@ -125,9 +125,9 @@ class GustSearch:
         """One line: the estimate and how it was found."""
         at_bound = min(abs(math.log(self.sd_mps / b)) for b in GUST_SD_BOUNDS_MPS) < (
             2 * GUST_SD_LOG_TOL)
-        return (f"gust intensity {self.sd_mps:.3g} m/s maximises the first pass's innovation "
-                f"likelihood ({len(self.trials)} passes, bounded to "
-                f"{GUST_SD_BOUNDS_MPS[0]:g}-{GUST_SD_BOUNDS_MPS[1]:g} m/s)"
+        return (f"estimated: the maximum of the first pass's innovation likelihood over "
+                f"{len(self.trials)} trial passes, bounded to "
+                f"{GUST_SD_BOUNDS_MPS[0]:g}-{GUST_SD_BOUNDS_MPS[1]:g} m/s"
                 + ("; at the search's bound" if at_bound else ""))
 
 
