@@ -271,8 +271,9 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
                 self.mean_speed(flight), "given" if search is None else search.describe())
             if search is not None:
                 found["gust_sd_trials"] = search.trials
+            both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind else ()
             result = dataclasses.replace(result, info={**result.info, **found},
-                                         warnings=(*result.warnings, notice))
+                                         warnings=(*result.warnings, notice, *both))
         if not names:
             return result
         k = len(names)

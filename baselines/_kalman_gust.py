@@ -41,6 +41,12 @@ GUST_SD_BOUNDS_MPS = (0.1, 10.0)
 GUST_SD_LOG_TOL = 0.05
 #: At most this many trial passes in the search.
 GUST_SD_MAX_TRIALS = 12
+#: Said with ``estimate_wind`` and gust states together (measured,
+#: ``benchmarks/results/gust_filters.md``: Dryden sd 3 m/s, seeds 1-4).
+BOTH_WARNING = ("gust states with estimate_wind: the passes walk along the along-path wind "
+                "(measured in Dryden sd 3 m/s: 7/8 fits refused, 23-37 % mean error, the "
+                "one passed 32 % off); gust states alone also carry a steady wind (12 % "
+                "mean error over 8 seeds, all passed)")
 
 
 def gust_phi(dt: float, speed_mps: float, scale_length_m: float) -> float:

@@ -241,3 +241,7 @@ def test_a_gust_fit_reports_its_intensity_and_path(turbulent_clean) -> None:
     assert info["gust_ned_mps"].shape == (turbulent_clean.n_samples,
                                           len(_kalman_gust.GUST_NAMES))
     assert sum(w.startswith("gusts: three Gauss-Markov") for w in result.warnings) == 1
+    assert _kalman_gust.BOTH_WARNING not in result.warnings  # no estimate_wind: not said
+    both = aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0, "estimate_wind": True,
+                                         "max_passes": 1}).fit(turbulent_clean, rng=0)
+    assert both.warnings.count(_kalman_gust.BOTH_WARNING) == 1
