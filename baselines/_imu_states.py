@@ -17,9 +17,16 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from aeroid.estimation import EstimationResult, nuisance_findings
-from aeroid.flights import IMU_ERROR_KINDS, Flight, flight_record, imu_error_names, used_samples
-from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS
-from baselines import _common, _kalman, _kalman_aiding, _kalman_wind
+from aeroid.flights import (
+    IMU_ERROR_KINDS,
+    MIL_SCALE_LENGTH_M,
+    Flight,
+    flight_record,
+    imu_error_names,
+    used_samples,
+)
+from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS, U, V, W
+from baselines import _common, _kalman, _kalman_aiding, _kalman_gust, _kalman_verdict, _kalman_wind
 from baselines._oe_aiding import (
     AIDING,
     RESIDUAL_NAMES,
@@ -59,12 +66,27 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         Also carry a steady wind (north, east, down [m/s]) as three constant states
         (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
         passes where the last ended, with the coefficients); on noisy flights the
-        along-path component is not reliable (measured:
-        ``benchmarks/results/wind_filters.md``); reported in
+        carried passes walk along the along-path component and are refused (the EKF's
+        default smoothed passes do not; measured: ``benchmarks/results/wind_filters.md``);
+        reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
         with a one-line notice (:mod:`baselines._kalman_wind`).
     wind_sd_mps : float
         Initial sd of each wind component [m/s] (default 10).
+    gust_sd_mps : float
+        Intensity (sd) of three Gauss-Markov gust states [m/s] (north, east, down; the
+        loads see the steady wind plus the gust, :mod:`baselines._kalman_gust`); default
+        0: no gust states.
+    estimate_gust_sd : bool
+        Gust states with the intensity that maximises the first pass's innovation
+        likelihood (default False); not with ``gust_sd_mps``.
+    gust_scale_length_m : float
+        The gusts' scale length ``L`` [m]: time constant ``L / V``, ``V`` the record's
+        mean measured speed (default MIL-F-8785C's 533.4 m, the simulator's).
+
+    Every fit with more than one pass is judged on its last pass
+    (:mod:`baselines._kalman_verdict`): a coefficient or steady-wind state that it moved
+    by more than ``SETTLE_LIMIT_SE`` of its standard error makes ``success=False``.
     """
 
     leaves_out_saturated: ClassVar[bool] = True  # FilterSetup.mask
@@ -76,6 +98,9 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
     aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
     estimate_wind: bool = False
     wind_sd_mps: float = _kalman_wind.WIND_SD_MPS
+    gust_sd_mps: float = 0.0
+    estimate_gust_sd: bool = False
+    gust_scale_length_m: float = MIL_SCALE_LENGTH_M
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -86,10 +111,22 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
         if not isinstance(self.estimate_wind, bool):
             raise ValueError(f"estimate_wind must be true or false, got {self.estimate_wind!r}")
+        if not isinstance(self.estimate_gust_sd, bool):
+            raise ValueError(f"estimate_gust_sd must be true or false, got "
+                             f"{self.estimate_gust_sd!r}")
+        if not self.gust_sd_mps >= 0:
+            raise ValueError(f"gust_sd_mps must be >= 0, got {self.gust_sd_mps}")
+        if self.estimate_gust_sd and self.gust_sd_mps > 0:
+            raise ValueError("give gust_sd_mps or estimate_gust_sd = true, not both")
         for name in ("imu_accel_bias_sd_mps2", "imu_gyro_bias_sd_radps", "imu_scale_sd",
-                     "wind_sd_mps"):
+                     "wind_sd_mps", "gust_scale_length_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+
+    @property
+    def gusts(self) -> bool:
+        """Whether the filter carries gust states."""
+        return self.gust_sd_mps > 0 or self.estimate_gust_sd
 
     def imu_error_names(self) -> tuple[str, ...]:
         """Names of the IMU-error states: ``b`` + channel, then ``s`` + channel."""
@@ -101,6 +138,9 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         setup = super().setup(flight)
         if self.estimate_wind:
             setup = _kalman_wind.wind_setup(setup, self.wind_sd_mps)
+        if self.gusts:  # the given intensity, or the search's start (replaced per trial)
+            setup = _kalman_gust.gust_setup(setup, self.gust_sd_mps or 1.0,
+                                            self.gust_phi(flight))
         names = self.imu_error_names()
         if not names:
             return setup
@@ -118,6 +158,19 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             else 0.0)
         P0[rates, rates] += spread
         return setup._replace(x0=np.concatenate([setup.x0, np.zeros(k)]), P0=P0, Q=Q)
+
+    def given_gust(self, sd_mps: float) -> ImuFilterOptions:
+        """These options with the gust intensity ``sd_mps`` given."""
+        return dataclasses.replace(self, gust_sd_mps=sd_mps, estimate_gust_sd=False)
+
+    def gust_phi(self, flight: Flight) -> float:
+        """The gusts' Gauss-Markov transition over one interval at the mean speed."""
+        return _kalman_gust.gust_phi(flight.dt, self.mean_speed(flight), self.gust_scale_length_m)
+
+    @staticmethod
+    def mean_speed(flight: Flight) -> float:
+        """The record's mean measured speed ``|u, v, w|`` [m/s]."""
+        return float(np.mean(np.linalg.norm(flight.states()[:, [U, V, W]], axis=1)))
 
     def innovation_noise_law(self, out: _kalman.FilterOutput, setup: _common.FilterSetup
                              ) -> tuple[np.ndarray, np.ndarray]:
@@ -151,22 +204,27 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         samples = tuple(aiding_samples(flight, s) for s in aiding_sources(self.aiding)) or None
         if samples is not None:
             _kalman_wind.refuse_with(self, "aiding = gnss-velocity")
+            _kalman_gust.refuse_with(self, "aiding = gnss-velocity")
         wind: list[_kalman.DiscreteModel] = []  # the model with the wind states, built once
         wind_first = _common.COEFFICIENTS.stop + len(self.position_free(flight))
+        gust_first = wind_first + (len(_kalman_wind.WIND_NAMES) if self.estimate_wind else 0)
         if samples is not None:
             mask = _kalman_aiding.aided_mask(mask, flight.n_samples, len(OUTPUT_CHANNELS),
                                              samples)
 
-        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
-                     ) -> _kalman.FilterOutput:
-            if self.estimate_wind:  # in place of the still-air model
+        def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup,
+                     trial: bool = False) -> _kalman.FilterOutput:
+            if self.estimate_wind or self.gusts:  # in place of the still-air model
                 if not wind:
                     wind.append(_kalman_wind.wind_model(
                         flight, self.substeps, flight_record(flight, self.input, self.delay_s),
                         setup.position_free))
+                    if self.gusts:  # the loads see the steady wind plus the gust
+                        wind[0] = _kalman_gust.with_gusts(wind[0], self.gust_phi(flight),
+                                                          steady=self.estimate_wind)
                 model = wind[0]
-                if passes and passes[-1].failed_at is None:  # carried as the coefficients
-                    setup = _kalman_wind.carried(setup, passes[-1], wind_first)
+                if self.estimate_wind and passes and passes[-1].failed_at is None:
+                    setup = _kalman_wind.carried(setup, passes[-1], wind_first)  # as theta
             if names:
                 model = _kalman.with_sensor_errors(model, len(names))
             if samples is not None:
@@ -176,10 +234,20 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
                 out = run_filter(model, setup)
             else:  # saturated samples leave the likelihood
                 out = masked_output(run_filter(with_mask(model, setup.zs, mask), setup), mask)
-            passes.append(out)
+            if not trial:
+                passes.append(out)
             return out
 
-        result = self.run_passes(flight, one_pass, evaluations_per_pass)
+        search, runner = None, self
+        if self.estimate_gust_sd:  # trial first passes over the intensity, then the passes
+            search = _kalman_gust.search_gust_sd(lambda sd: one_pass(
+                None, self.given_gust(sd).setup(flight), trial=True).neg_log_likelihood)
+            runner = self.given_gust(search.sd_mps)
+        result = runner.run_passes(flight, one_pass, evaluations_per_pass)
+        judged = np.r_[_common.COEFFICIENTS.start:_common.COEFFICIENTS.stop, wind_first:gust_first]
+        result = _kalman_verdict.settle_verdict(
+            result, passes, judged,
+            (*result.names, *(_kalman_wind.WIND_NAMES if self.estimate_wind else ())))
         if "fit_residuals" in result.info and flight.metadata.get("saturated"):
             # the fit check reads the innovations in the likelihood (saturated left out)
             kept = {c: e[np.isfinite(e)] for c, e in result.info["fit_residuals"].items()}
@@ -197,6 +265,15 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
             found, notice = _kalman_wind.wind_report(last, wind_first)
             result = dataclasses.replace(result, info={**result.info, **found},
                                          warnings=(*result.warnings, notice))
+        if self.gusts:
+            found, notice = _kalman_gust.gust_report(
+                last, gust_first, runner.gust_sd_mps, self.gust_scale_length_m,
+                self.mean_speed(flight), "given" if search is None else search.describe())
+            if search is not None:
+                found["gust_sd_trials"] = search.trials
+            both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind else ()
+            result = dataclasses.replace(result, info={**result.info, **found},
+                                         warnings=(*result.warnings, notice, *both))
         if not names:
             return result
         k = len(names)

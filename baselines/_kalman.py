@@ -129,6 +129,7 @@ class FilterOutput:
         measurement-noise covariance ``R_k`` used in each update: ``E[innovation^2] =
         innovation_var`` when the filter's model and noise are right, and
         ``innovation_var - noise_var`` is the part due to the state's uncertainty.
+    neg_log_likelihood : float  ``sum_k (log det S_k + e_k' S_k^-1 e_k) / 2`` (NaN: failed)
     """
 
     x: np.ndarray
@@ -139,6 +140,7 @@ class FilterOutput:
     innovation: np.ndarray
     innovation_var: np.ndarray | None = None
     noise_var: np.ndarray | None = None
+    neg_log_likelihood: float = np.nan
 
 
 class _NonlinearEKF(ExtendedKalmanFilter):
@@ -231,11 +233,11 @@ def _check(P: np.ndarray, x: np.ndarray) -> tuple[str, np.ndarray]:
 
 def _finish(xs: np.ndarray, sds: np.ndarray, P: np.ndarray, k: int | None,
             reason: str, innovation: np.ndarray, s_var: np.ndarray,
-            r_var: np.ndarray) -> FilterOutput:
+            r_var: np.ndarray, nll: float = np.nan) -> FilterOutput:
     if k is not None:
         for a in (xs, sds, innovation, s_var, r_var):
             a[k:] = np.nan
-    return FilterOutput(xs, sds, P, k, reason, innovation, s_var, r_var)
+    return FilterOutput(xs, sds, P, k, reason, innovation, s_var, r_var, float(nll))
 
 
 @contextlib.contextmanager
@@ -303,7 +305,7 @@ def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
     sds = np.empty((n, model.dim_x))
     innov = np.empty((n, model.dim_z))
     s_var = np.empty((n, model.dim_z))
-    r_var = np.empty((n, model.dim_z))
+    r_var, nll = np.empty((n, model.dim_z)), 0.0
     for k in range(n):
         if k > 0:
             x_next, F = model.transition(ekf.x.ravel(), k - 1)
@@ -319,13 +321,14 @@ def _run_ekf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
                    Hx=lambda _x, z_hat=z_hat: z_hat, R=R_k)
         s_var[k] = np.diag(ekf.S)
         r_var[k] = np.diag(R_k)
+        nll += 0.5 * (np.linalg.slogdet(ekf.S)[1] + innov[k] @ np.linalg.solve(ekf.S, innov[k]))
         ekf.P = 0.5 * (ekf.P + ekf.P.T)
         reason, ekf.P = _check(ekf.P, ekf.x)
         if reason:
             return _finish(xs, sds, ekf.P, k, reason, innov, s_var, r_var)
         xs[k] = ekf.x.ravel()
         sds[k] = np.sqrt(np.diag(ekf.P))
-    return _finish(xs, sds, ekf.P, None, "", innov, s_var, r_var)
+    return _finish(xs, sds, ekf.P, None, "", innov, s_var, r_var, nll)
 
 
 def run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,
@@ -372,7 +375,7 @@ def _run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
     sds = np.empty((n, model.dim_x))
     innov = np.empty((n, model.dim_z))
     s_var = np.empty((n, model.dim_z))
-    r_var = np.empty((n, model.dim_z))
+    r_var, nll = np.empty((n, model.dim_z)), 0.0
     for k in range(n):
         if k > 0:
             step["k"] = k - 1
@@ -387,10 +390,11 @@ def _run_ukf(model: DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray
         innov[k] = ukf.y
         s_var[k] = np.diag(ukf.S)
         r_var[k] = np.diag(R_k)
+        nll += 0.5 * (np.linalg.slogdet(ukf.S)[1] + innov[k] @ np.linalg.solve(ukf.S, innov[k]))
         ukf.P = 0.5 * (ukf.P + ukf.P.T)
         reason, ukf.P = _check(ukf.P, ukf.x)
         if reason:
             return _finish(xs, sds, ukf.P, k, reason, innov, s_var, r_var)
         xs[k] = ukf.x
         sds[k] = np.sqrt(np.diag(ukf.P))
-    return _finish(xs, sds, ukf.P, None, "", innov, s_var, r_var)
+    return _finish(xs, sds, ukf.P, None, "", innov, s_var, r_var, nll)

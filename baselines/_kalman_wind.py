@@ -3,8 +3,10 @@
 ``estimate_wind`` (:class:`baselines._imu_states.ImuFilterOptions`): the filter's state
 becomes ``[x, theta, d, w]``, ``w`` the wind's north, east and down components [m/s] (the
 air's velocity over the ground), constant in the transition, started at 0 (still air)
-with :data:`WIND_SD_MPS` as sd; later passes start it where the last ended, with the
-coefficients (:func:`carried`: their joint covariance, inflated). The loads see the
+with :data:`WIND_SD_MPS` as sd; later carried passes start it where the last ended, with
+the coefficients (:func:`carried`: their joint covariance, inflated); the EKF's smoothed
+passes (:mod:`baselines._kalman_smoother`, its default with the wind) start each pass from
+that prior instead. The loads see the
 air-relative velocity: the wind enters the model's constants or, with per-sample values,
 each sample's exogenous row through :func:`aeroid.model.with_wind_symbols` (output-error's
 own symbols, the rotation written once in :mod:`aeroid.model`); the Jacobians are exact
@@ -144,7 +146,8 @@ def wind_report(out: _kalman.FilterOutput, first: int) -> tuple[dict[str, Any], 
     info = {"wind_ned_mps": wind.tolist(), "wind_stderr_mps": sd.tolist()}
     return info, (f"estimate_wind: a steady wind was carried as three constant states "
                   f"(the loads see the air-relative velocity): {shown} m/s; the along-path "
-                  "component trades with every coefficient (the dynamic pressure) and on "
-                  "noisy flights the filter's sd of it was measured 2-3x too small "
-                  "(benchmarks/results/wind_filters.md): output-error's is the safer estimate")
+                  "component trades with every coefficient (the dynamic pressure): carried "
+                  "passes (the UKF's) walk along it on noisy flights and are refused when "
+                  "they do not settle; the EKF's smoothed passes were measured at "
+                  "output-error's accuracy (benchmarks/results/wind_filters.md)")
 

@@ -14,14 +14,16 @@ written once in :mod:`aeroid.model` from the same equations as :mod:`aeroid.mode
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _held, _kalman, _kalman_wind
+from baselines import _common, _held, _kalman, _kalman_gust, _kalman_smoother, _kalman_wind
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -41,6 +43,22 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     holds=...)``) leave the state; a coefficient with a prior starts at its mean with its
     sd, a free one at the airframe's ``[prior]`` with ``initial_coefficient_sd_rel`` (0.3)
     of it as sd (:func:`baselines._held.held_pass`).
+
+    Attributes
+    ----------
+    passes : {"auto", "carried", "smoothed"}
+        ``"carried"``: each pass starts where the last ended (the constant states with
+        ``PASS_INFLATION`` times their sd) and linearises at its own running estimate.
+        ``"smoothed"``: each pass after the first starts from the original prior and
+        linearises along the previous pass's RTS-smoothed trajectory (the iterated
+        extended Kalman smoother, Gauss-Newton on the record's MAP:
+        :mod:`baselines._kalman_smoother`); measured: the carried passes walk along the
+        along-path wind's ridge, the smoothed ones settle in 3 passes at output-error's
+        estimate (``benchmarks/results/wind_filters.md``); with gust states (process
+        noise) it is the joint MAP of the gust path and the coefficients, which was
+        measured worse in turbulence (55 % against 14-48 %, 2 seeds). ``"auto"``
+        (default): ``smoothed`` with ``estimate_wind`` and no gust states (said in a
+        one-line notice), else ``carried`` (still air: unchanged).
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
@@ -49,21 +67,53 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     description: ClassVar[str] = (
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
+    passes: Literal["auto", "carried", "smoothed"] = "auto"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.passes not in ("auto", "carried", "smoothed"):
+            raise ValueError(f"passes must be auto, carried or smoothed, got {self.passes!r}")
+
+    def passes_used(self) -> str:
+        """``passes`` with ``auto`` resolved: smoothed with a steady wind, no gusts."""
+        if self.passes != "auto":
+            return self.passes
+        return "smoothed" if self.estimate_wind and not self.gusts else "carried"
+
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
         ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
+        if self.passes_used() == "smoothed" and self.estimate_gust_sd:  # trials share no pass
+            raise EstimatorError(f"{self.name}: passes = smoothed with estimate_gust_sd is not "
+                                 "available; give gust_sd_mps or set passes = carried")
+        smoothed: list[Any] = []  # "smoothed": the first pass's prior, the last trajectory
 
         def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                         ) -> _kalman.FilterOutput:
-            return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                                   R_of=setup.R_of)
+            if self.passes_used() == "carried":
+                return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R,
+                                       setup.zs, R_of=setup.R_of)
+            if not smoothed:
+                smoothed[:] = [setup.x0, setup.P0, None]
+            x0, P0, nominal = smoothed
+            out = _kalman_smoother.run_eks(model, x0, P0, setup.Q, setup.R, setup.zs,
+                                           nominal=nominal, R_of=setup.R_of)
+            if out.smoothed is not None:
+                smoothed[2] = out.smoothed
+            return out
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             return _held.held_pass(model, setup, holds, filter_pass)
 
-        return self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
+        result = self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
+        if self.passes == "auto" and self.passes_used() == "smoothed":
+            notice = ("ekf: passes = smoothed (auto, with estimate_wind): each pass "
+                      "after the first linearises along the last one's smoothed trajectory "
+                      "from the original prior (the carried passes walk along the wind)")
+            result = dataclasses.replace(result, warnings=(*result.warnings, notice))
+        return result
 
     def run_windows(self, windows: Windows, rng: np.random.Generator, holds: Any = None
                     ) -> EstimationResult:
@@ -72,6 +122,10 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         from baselines._kalman_windows import run_windows
 
         _kalman_wind.refuse_with(self, "several windows")
+        _kalman_gust.refuse_with(self, "several windows")
+        if self.passes == "smoothed":
+            raise EstimatorError(f"{self.name}: passes = {self.passes} with several windows "
+                                 "is not available; set passes = carried")
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             return _kalman.run_ekf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,

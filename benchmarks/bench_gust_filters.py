@@ -1,0 +1,142 @@
+"""The EKF/UKF with gust states in Dryden turbulence (issue 26), against output-error and still air.
+
+Run by hand from the repository root (one process, the fits in turn: ``--jobs 1``)::
+
+    python benchmarks/bench_gust_filters.py --seeds 4            # writes results/gust_filters.md
+    python benchmarks/bench_gust_filters.py --seeds 1 --no-write --fits ekf-gust-given
+
+Per seed ``k`` (``rng = k``): the reference scenario's flight with Gaussian IMU noise
+(:class:`aeroid.flights.GaussianNoise` defaults) in still air, and the same manoeuvre in a
+steady wind of 5 m/s (north 3 along the path, east 4) with Dryden turbulence of sd
+``--turbulence`` m/s (default 3, the issue's moderate turbulence; MIL-F-8785C's scale
+length 533.4 m). Fits (``--fits``, default all):
+
+* ``ekf-still``: the EKF (defaults) on the still-air flight: the yardstick;
+* ``oe-wind``: output-error with ``estimate_wind`` on the turbulent flight;
+* ``ekf-wind``: the EKF with ``estimate_wind`` (no gust states) on the turbulent flight;
+* ``ekf-gust-given``: the EKF with ``estimate_wind`` and gust states of the true intensity;
+* ``ekf-gust-est``: the same with the intensity estimated (``estimate_gust_sd``);
+* ``ekf-gust-still``: gust states with the intensity estimated on the still-air flight
+  (the option's cost where there is no turbulence; ``estimate_wind`` off);
+* ``ekf-gustonly-given``, ``ekf-gustonly-est``, ``ukf-gustonly-est``: gust states
+  without the steady wind's states (the gusts carry the steady wind too) on the
+  turbulent flight, the intensity given or estimated.
+
+Reported per fit: successes (after the fit check and the passes' verdict), the mean over
+seeds of the mean |relative error| of the nine coefficients [%], its ratio to
+``ekf-still``'s and to ``oe-wind``'s, the largest |error| / se and how many runs have
+every coefficient within 3 se.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import datetime as dt  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import aeroid  # noqa: E402
+from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
+
+RESULTS = Path(__file__).parent / "results" / "gust_filters.md"
+WITHIN_SE = 3.0
+STEADY = (3.0, 4.0, 0.0)
+
+
+def fits(sd: float) -> dict[str, tuple[str, str, dict]]:
+    """name -> (method, flight, options)."""
+    return {
+        "ekf-still": ("ekf", "still", {}),
+        "oe-wind": ("output-error", "turbulent", {"estimate_wind": True}),
+        "ekf-wind": ("ekf", "turbulent", {"estimate_wind": True}),
+        "ekf-gust-given": ("ekf", "turbulent", {"estimate_wind": True, "gust_sd_mps": sd}),
+        "ekf-gust-est": ("ekf", "turbulent", {"estimate_wind": True, "estimate_gust_sd": True}),
+        "ekf-gust-still": ("ekf", "still", {"estimate_gust_sd": True}),
+        "ekf-gustonly-given": ("ekf", "turbulent", {"gust_sd_mps": sd}),
+        "ekf-gustonly-est": ("ekf", "turbulent", {"estimate_gust_sd": True}),
+        "ukf-gustonly-est": ("ukf", "turbulent", {"estimate_gust_sd": True}),
+    }
+
+
+def run(seeds: int, sd: float, chosen: tuple[str, ...]) -> tuple[dict, list[str]]:
+    """Fit every chosen kind on every seed; return per-kind rows and the per-run lines."""
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    turbulent = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=STEADY,
+                                                           turbulence_sd_mps=sd))
+    noise = make_noise("gaussian")
+    kinds = {name: [] for name in chosen}
+    table = fits(sd)
+    lines = []
+    for seed in range(1, seeds + 1):
+        flights = {"still": simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed),
+                   "turbulent": simulate(s.airframe, truth, turbulent, noise, rng=seed)}
+        for name in chosen:
+            method, air, options = table[name]
+            start = time.perf_counter()
+            r = aeroid.make_estimator(method, options).fit(flights[air], rng=seed)
+            wall = time.perf_counter() - start
+            z = np.abs(r.theta - truth) / r.stderr
+            rel = 100.0 * np.mean(np.abs(r.theta / truth - 1.0))
+            extra = ""
+            if "wind_ned_mps" in r.info:
+                extra += f" wind {np.round(r.info['wind_ned_mps'], 2).tolist()}"
+            if "gust_sd_mps" in r.info:
+                extra += f" gust sd {r.info['gust_sd_mps']:.2f}"
+            kinds[name].append({"success": r.success, "rel": rel, "zmax": float(np.max(z)),
+                                "within": bool(np.all(z < WITHIN_SE)), "wall": wall})
+            lines.append(f"seed {seed} {name:15s} success={r.success} mean|err|={rel:.3f}% "
+                         f"max z={np.max(z):.2f} {wall:.1f}s{extra}"
+                         + ("" if r.success else f" [{r.message[:100]}]"))
+            print(lines[-1], flush=True)
+    return kinds, lines
+
+
+def summary(kinds: dict) -> str:
+    """The summary table (markdown)."""
+    def mean_rel(name: str) -> float:
+        return float(np.mean([row["rel"] for row in kinds[name]])) if name in kinds else np.nan
+
+    out = ["| fit | success | mean abs rel error [%] | x ekf-still | x oe-wind | max err/se "
+           "| all within 3 se | wall [s] (median) |", "|---|---|---|---|---|---|---|---|"]
+    for name, rows in kinds.items():
+        rel = mean_rel(name)
+        out.append(f"| {name} | {sum(row['success'] for row in rows)}/{len(rows)} | "
+                   f"{rel:.3f} | {rel / mean_rel('ekf-still'):.2f} | "
+                   f"{rel / mean_rel('oe-wind'):.2f} | "
+                   f"{max(row['zmax'] for row in rows):.2f} | "
+                   f"{sum(row['within'] for row in rows)}/{len(rows)} | "
+                   f"{np.median([row['wall'] for row in rows]):.1f} |")
+    return "\n".join(out)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=4)
+    parser.add_argument("--turbulence", type=float, default=3.0)
+    parser.add_argument("--fits", nargs="+", default=list(fits(3.0)))
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+    kinds, lines = run(args.seeds, args.turbulence, tuple(args.fits))
+    text = summary(kinds)
+    print(text)
+    if not args.no_write:
+        RESULTS.parent.mkdir(exist_ok=True)
+        RESULTS.write_text(
+            f"# The EKF with gust states in Dryden turbulence ({dt.date.today()})\n\n"
+            f"`python benchmarks/bench_gust_filters.py --seeds {args.seeds} --turbulence "
+            f"{args.turbulence:g} --fits {' '.join(args.fits)}` (one process, fits in turn)"
+            f"\n\n{text}\n\nPer run:\n\n```\n" + "\n".join(lines) + "\n```\n")
+        print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()
