@@ -12,7 +12,10 @@ pass starts the coefficients at the previous pass's end with ``PASS_INFLATION`` 
 sd, the positions again at their given values and sd, and each window's noise law is
 refitted to its own innovations before passes 2 .. ``LAW_REFITS + 1``.
 
-The result is the end of the last window: coefficients, their covariance; its history and
+A last pass that still moves a coefficient by more than
+:data:`baselines._kalman_verdict.SETTLE_LIMIT_SE` of its standard error makes the fit no
+success, as for one flight. The result is the end of the last window: coefficients, their
+covariance; its history and
 states run over the windows joined (:meth:`aeroid.flights.Windows.joined`), the fit check's
 residuals are the second half of the joined innovations; each window's filtered start
 state and, with ``imu_errors``, its IMU errors at its end are in
@@ -30,7 +33,7 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, flight_record
-from baselines import _common, _held, _kalman
+from baselines import _common, _held, _kalman, _kalman_verdict
 from baselines._augmented import COEFFICIENTS, STATES, augmented_model
 
 __all__ = ["run_windows"]
@@ -111,6 +114,7 @@ def run_windows(est: Any, windows: Windows, run_filter: PassRunner,
         return est.result(joined, _failed(outs, windows), parts[failed][1], evaluations)
     changes: list[float] = []
     warnings: list[str] = []
+    ends = [outs[-1]]  # each pass's last window: the coefficients where the pass left them
     n_passes = 1
     while n_passes < est.max_passes:
         end = outs[-1]
@@ -137,6 +141,7 @@ def run_windows(est: Any, windows: Windows, run_filter: PassRunner,
                                            - outs[-1].x[-1, COEFFICIENTS])
                                     / nxt[-1].sd[-1, COEFFICIENTS])))
         outs, parts = nxt, nxt_parts
+        ends.append(outs[-1])
         if changes[-1] <= _common.PASS_TOL:
             break
     else:
@@ -149,7 +154,9 @@ def run_windows(est: Any, windows: Windows, run_filter: PassRunner,
                 noise_law={name: {"a": s.law[0], "b": s.law[1]}
                            for name, (_, s) in zip(windows.names, parts, strict=True)})
     info.update(_window_parameters(windows, outs, names))
-    return dataclasses.replace(result, info=info, warnings=(*result.warnings, *warnings))
+    result = dataclasses.replace(result, info=info, warnings=(*result.warnings, *warnings))
+    judged = np.arange(COEFFICIENTS.start, COEFFICIENTS.stop)  # passes that do not settle
+    return _kalman_verdict.settle_verdict(result, ends, judged, tuple(result.names))
 
 
 def _window_parameters(windows: Windows, outs: list[_kalman.FilterOutput],

@@ -224,6 +224,10 @@ def test_filter_over_one_window_is_the_single_flight_filter(noisy_window, method
     windows = est.fit(Windows.of([noisy_window]))
     np.testing.assert_array_equal(windows.theta, alone.theta)
     np.testing.assert_array_equal(windows.stderr, alone.stderr)
+    # the passes' settle verdict (baselines._kalman_verdict) judges windows as one flight
+    assert "last_pass_moves_se" in alone.info
+    assert windows.info["last_pass_moves_se"] == alone.info["last_pass_moves_se"]
+    assert windows.success == alone.success
 
 
 @pytest.mark.parametrize("method", ["ekf", "ukf"])
