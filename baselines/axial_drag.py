@@ -56,6 +56,8 @@ NOT_DETERMINED = ("an axial accelerometer and a track see the axial force only: 
                   "lateral force, moment or rate is measured")
 #: Time grid merge tolerance [s]: sample times of two groups closer than this are one node.
 TIME_TOLERANCE_S = 1e-6
+#: Names of the initial state, the first nuisance parameters (``info["nuisance"]``).
+TRACK_START = ("pn0", "pe0", "pd0", "vn0", "ve0", "vd0")
 #: Window [s] of the quadratic fit of the first GNSS positions that starts the velocity.
 START_WINDOW_S = 1.0
 
@@ -76,7 +78,8 @@ def _grid(record: AxialLog) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     return grid, found
 
 
-def _start(record: AxialLog, cx0: float, k: int, bias0: float) -> np.ndarray:
+def _start(record: AxialLog, cx0: float, k: int, bias0: float, scale0: float
+           ) -> np.ndarray:
     t0 = record.t[0]
     near = record.gnss_t <= t0 + START_WINDOW_S
     if near.sum() < 3:
@@ -90,7 +93,7 @@ def _start(record: AxialLog, cx0: float, k: int, bias0: float) -> np.ndarray:
     if record.baro_t is not None:
         assert record.baro_altitude is not None
         h0 = [float(record.baro_altitude[0] + x0[PD])]
-    return np.concatenate([np.full(k, cx0), x0, [bias0, 0.0], h0])
+    return np.concatenate([np.full(k, cx0), x0, [bias0, scale0], h0])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -106,8 +109,10 @@ class AxialDragEstimator(Estimator):
         Prior mean of the axial accelerometer's bias [m/s^2] (a calibration; 0: none).
     accel_bias_sd_mps2 : float
         Prior sd of that bias [m/s^2].
+    accel_scale : float
+        Prior mean of its scale factor (a calibration; 0: none).
     scale_sd : float
-        Prior sd of the accelerometer's scale factor (prior mean 0).
+        Prior sd of that scale factor.
     max_iterations : int
         Most Gauss-Newton evaluations.
     """
@@ -120,6 +125,7 @@ class AxialDragEstimator(Estimator):
     cx_knots: tuple[float, ...] = ()
     accel_bias_mps2: float = 0.0
     accel_bias_sd_mps2: float = 0.5
+    accel_scale: float = 0.0
     scale_sd: float = 0.02
     max_iterations: int = 100
 
@@ -179,10 +185,15 @@ class AxialDragEstimator(Estimator):
             return tuple(self.cx_knots), sound, "option cx_knots"
         if spec is not None and "Cx" in dict(spec.knots):
             given = dict(spec.knots)["Cx"]
-            if isinstance(given, int):  # a count: spread over the track's Mach range
-                speed = np.linalg.norm(np.diff(record.gnss[:, :3], axis=0), axis=1) \
-                    / np.diff(record.gnss_t)
-                return tables.choose_knots(speed / sound, given), sound, "[tables] Cx count"
+            if isinstance(given, int):  # a count: over the Mach range of a constant-Cx fit
+                first = dataclasses.replace(self, cx_knots=(1.0,))._fit(record)
+                start = [first.info["nuisance"][n][0] for n in TRACK_START]
+                grid, _ = _grid(record)
+                track = propagate(np.array(start), first.theta, grid, constants(airframe),
+                                  (1.0,), sound)
+                speed = np.linalg.norm(track.states[:, VN:], axis=1)
+                return (tables.choose_knots(speed / sound, given), sound,
+                        f"[tables] Cx = {given} knots over the Mach range of a constant-Cx fit")
             return tuple(given), sound, "[tables] Cx"
         return (1.0,), sound, "constant"
 
@@ -198,12 +209,11 @@ class AxialDragEstimator(Estimator):
                  else tuple(tables.point_name("Cx", knot) for knot in knots))
         grid, index = _grid(record)
         baro = record.baro_t is not None
-        nuisance = ("pn0", "pe0", "pd0", "vn0", "ve0", "vd0", "accel_bias", "accel_scale",
-                    *(("h0",) if baro else ()))
+        nuisance = (*TRACK_START, "accel_bias", "accel_scale", *(("h0",) if baro else ()))
         n_dyn = k + N_TRACK
         bias_j, scale_j = n_dyn, n_dyn + 1
         gnss_cols = record.gnss.shape[1]
-        prior_mean = np.array([self.accel_bias_mps2, 0.0])
+        prior_mean = np.array([self.accel_bias_mps2, self.accel_scale])
         prior_sd = np.array([self.accel_bias_sd_mps2, self.scale_sd])
 
         def model(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,7 +251,7 @@ class AxialDragEstimator(Estimator):
             return np.concatenate(parts), np.vstack(jac)
 
         cx0 = float(airframe.prior_vector()[NAMES.index("Cx")])
-        theta0 = _start(record, cx0, k, self.accel_bias_mps2)
+        theta0 = _start(record, cx0, k, self.accel_bias_mps2, self.accel_scale)
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
         def cached(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -21,8 +21,10 @@ barometer) and the full log (two triads, gyros, INS). Fits, the Cx table at Mach
   README "Mass known roughly"; output-error's three fits would take 2 min a seed);
 * ``flipped``: the axial-only log with the axial sign flipped in its mounting
   (``x=y, y=-x, z=z``), and ``wrong bias``: the right log fitted with a bias calibration
-  of the wrong sign (``accel_bias_mps2 = +0.135`` with sd 0.01; the drawn bias is about
-  -0.135 in body x for seed 2026, and each seed's own is used).
+  of the wrong sign (``accel_bias_mps2`` = minus the seed's drawn body-x bias, sd 0.01;
+  the right sign is fitted too);
+* ``calibrated``: axial-drag with the drawn scale factor given as a calibration with sd
+  0.001 (what a scale-factor calibration buys), mass exact.
 
 Printed: per Cx point |error| / se and the se ratio axial / full, as Markdown tables.
 """
@@ -58,10 +60,12 @@ MASS_SCALE, MASS_SD_FRACTION = 1.02, 0.03
 FULL = OutputErrorEstimator(imu_errors="bias+scale", estimate_initial_velocity=True,
                             initial_velocity_prior="flight")
 WRONG_MOUNTING = "x=y, y=-x, z=z"
+#: The sd of a scale-factor calibration (the drawn scale factor as its mean).
+CALIBRATED_SCALE_SD = 0.001
 
 
-def logs(seed: int, mass_scale: float) -> tuple[Any, Any, float]:
-    """Return the full log, the axial-only log and the drawn body-x bias of one flight."""
+def logs(seed: int, mass_scale: float) -> tuple[Any, Any, float, float]:
+    """Return the full log, the axial-only log and the drawn body-x bias and scale factor."""
     scenario = load_scenario(SCENARIO)
     nominal = scenario.airframe.replace(tables=TableSpec((("Cx", KNOTS),)))
     truth = scenario.airframe.replace(mass_kg=nominal.mass_kg * mass_scale)
@@ -71,8 +75,10 @@ def logs(seed: int, mass_scale: float) -> tuple[Any, Any, float]:
     # them (a limit of aeroid.reconstruction); the table goes on the flight it makes
     full = dataclasses.replace(sim.log, airframe=scenario.airframe)
     rotation = full["imu"].mounting.rotation
-    bias = float(rotation[0] @ np.asarray(full.metadata["truth"]["accel_bias"])[0])
-    return full, dataclasses.replace(axial_only(full), airframe=nominal), bias
+    truth_of = full.metadata["truth"]
+    bias = float(rotation[0] @ np.asarray(truth_of["accel_bias"])[0])
+    scale = float(np.abs(rotation[0]) @ np.asarray(truth_of["accel_scale"])[0])
+    return full, dataclasses.replace(axial_only(full), airframe=nominal), bias, scale
 
 
 def z_scores(result: Any, truth: float) -> np.ndarray:
@@ -90,14 +96,14 @@ def cx_se(result: Any) -> np.ndarray:
 def one(seed: int) -> dict[str, Any]:
     """Run one seed (module docstring)."""
     cx = float(load_scenario(SCENARIO).coefficient_vector[NAMES.index("Cx")])
-    full, axial, bias = logs(seed, 1.0)
+    full, axial, bias, scale = logs(seed, 1.0)
     method = AxialDragEstimator()
     plain = method.fit(axial, rng=seed)
     flight = reconstruct(full).to_flight(imu="raw")
     flight = dataclasses.replace(flight, airframe=flight.airframe.replace(
         tables=TableSpec((("Cx", KNOTS),))))
     reference = FULL.fit(flight, rng=seed)
-    _, heavy_axial, _ = logs(seed, MASS_SCALE)
+    _, heavy_axial, _, _ = logs(seed, MASS_SCALE)
     sd = MASS_SD_FRACTION * heavy_axial.airframe.mass_kg
     heavy = method.fit(dataclasses.replace(
         heavy_axial, airframe=heavy_axial.airframe.replace(mass_sd_kg=sd)), rng=seed)
@@ -111,7 +117,11 @@ def one(seed: int) -> dict[str, Any]:
         axial, rng=seed)
     right_bias = AxialDragEstimator(accel_bias_mps2=bias, accel_bias_sd_mps2=0.01).fit(
         axial, rng=seed)
-    return {"plain_success": plain.success, "plain_z": z_scores(plain, cx),
+    calibrated = AxialDragEstimator(accel_scale=scale, scale_sd=CALIBRATED_SCALE_SD).fit(
+        axial, rng=seed)
+    return {"calibrated_success": calibrated.success, "calibrated_z": z_scores(calibrated, cx),
+            "calibrated_se": cx_se(calibrated), "plain_success": plain.success,
+            "plain_z": z_scores(plain, cx),
             "plain_se": cx_se(plain), "full_success": reference.success,
             "full_z": z_scores(reference, cx), "full_se": full_se,
             "heavy_success": heavy.success, "heavy_z": z_scores(heavy, cx),
@@ -146,18 +156,23 @@ def main() -> None:
     print("| fit | success | points within 3 se | largest \\|error\\|/se |\n|---|---|---|---|")
     for label, key in (("axial-drag, mass exact", "plain"),
                        ("axial-drag, flown 1.02 x, 3 % mass sd", "heavy"),
+                       ("axial-drag, scale factor calibrated to 0.1 %", "calibrated"),
                        ("output-error full suite, mass exact", "full")):
         z = stack(f"{key}_z")
         print(f"| {label} | {int(stack(f'{key}_success').sum())} of {n} | "
               f"{int((z < 3).sum())} of {z.size} | {z.max():.2f} |")
     ratio = stack("plain_se") / stack("full_se")
     widened = stack("heavy_se") / stack("full_widened")
-    print("\n| Mach | se axial / full, mass exact (median, range) | with 3 % mass sd |"
-          "\n|---|---|---|")
+    calibrated = stack("calibrated_se") / stack("full_se")
+
+    def cell(r: np.ndarray) -> str:
+        return f"{np.median(r):.2f} ({r.min():.2f}-{r.max():.2f})"
+
+    print("\n| Mach | se axial / full, mass exact: median (range) | with 3 % mass sd | "
+          "mass exact, scale calibrated |\n|---|---|---|---|")
     for i, knot in enumerate(KNOTS):
-        print(f"| {knot} | {np.median(ratio[:, i]):.2f} ({ratio[:, i].min():.2f}-"
-              f"{ratio[:, i].max():.2f}) | {np.median(widened[:, i]):.2f} "
-              f"({widened[:, i].min():.2f}-{widened[:, i].max():.2f}) |")
+        print(f"| {knot} | {cell(ratio[:, i])} | {cell(widened[:, i])} | "
+              f"{cell(calibrated[:, i])} |")
     checks = {k: np.array([r["checks"][k] for r in rows]) for k in rows[0]["checks"]}
     print("\nfit check ratios of the right fits (min-max): " + ", ".join(
         f"{k} {v.min():.3f}-{v.max():.3f}" for k, v in checks.items()))

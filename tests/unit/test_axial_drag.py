@@ -21,7 +21,15 @@ from scipy.integrate import solve_ivp
 
 from aeroid.errors import EstimatorError
 from aeroid.flights import SensorSuite, axis_map, load_scenario, simulate_suite
-from aeroid.model import G0, NAMES, TableSpec, constants, density, pressure_altitude
+from aeroid.model import (
+    G0,
+    NAMES,
+    TableSpec,
+    constants,
+    density,
+    pressure_altitude,
+    tables,
+)
 from baselines._axial_log import axial_log
 from baselines._axial_model import axial_force, propagate
 from baselines.axial_drag import AxialDragEstimator
@@ -258,3 +266,16 @@ def test_axial_log_reads_the_barometer_pressure_as_altitude(coast) -> None:
     # the sd through dh/dp = -1 / (rho g), hydrostatic, at the ISA density of that altitude
     sd = baro.noise_sd["pressure"] / (density(record.baro_altitude) * G0)
     np.testing.assert_allclose(record.baro_sd, sd, rtol=1e-6)
+
+
+def test_a_knot_count_spans_the_fitted_tracks_mach_range(coast) -> None:
+    log = coast["axial"]
+    airframe = log.airframe.replace(tables=TableSpec((("Cx", 3),)))
+    result = AxialDragEstimator().fit(dataclasses.replace(log, airframe=airframe), rng=1)
+    # the coast: 302.8 m/s at burnout to 68.3 m/s at 15 s (the scenario's), the end knots
+    # that Mach range rounded outward to 0.01
+    sound = result.info["speed_of_sound_mps"]
+    knots = tables.choose_knots(np.array([68.3, 302.8]) / sound, 3)
+    assert knots == (0.2, 0.55, 0.91)  # 0.555 rounds to 0.55 in binary
+    assert result.names == tuple(tables.point_name("Cx", k) for k in knots)
+    assert result.success and np.all(np.abs(result.theta - coast["cx"]) < 3 * result.stderr)
