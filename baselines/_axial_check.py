@@ -30,11 +30,21 @@ PRIOR_LIMIT = 3.0
 
 @dataclass(frozen=True)
 class Verdict:
-    """The fit check: ``passed``, one-line ``message`` (empty when passed) and the ratios."""
+    """The fit check: ``passed``, one-line ``message`` (empty when passed), the RMS ratio
+    per channel and the normalized prior residuals."""
 
     passed: bool
     message: str
     ratios: dict[str, float]
+    priors: dict[str, float]
+
+    @property
+    def info(self) -> dict[str, object]:
+        """The result's ``info["fit_check"]`` (``ratio``, ``worst``, ``limit`` as the
+        toolkit's fit check; ``priors``, ``prior_limit``)."""
+        return {"ratio": dict(self.ratios), "worst": max(self.ratios, key=self.ratios.get),
+                "limit": RMS_LIMIT, "priors": dict(self.priors), "prior_limit": PRIOR_LIMIT,
+                "passed": self.passed}
 
 
 def fit_check(residuals: np.ndarray, channels: list[str], sizes: list[int],
@@ -56,9 +66,9 @@ def fit_check(residuals: np.ndarray, channels: list[str], sizes: list[int],
         part = residuals[start:start + size]
         ratios[name] = float(np.sqrt(np.mean(part * part)))
         start += size
-    prior = {f"prior {n}": float(abs(r)) for n, r in zip(priors, residuals[start:], strict=True)}
+    prior = {n: float(abs(r)) for n, r in zip(priors, residuals[start:], strict=True)}
     failed = [f"{n} {r:.3g}" for n, r in ratios.items() if not r <= RMS_LIMIT]
-    against = [f"{n} {r:.3g} sd" for n, r in prior.items() if not r <= PRIOR_LIMIT]
+    against = [f"{n} {r:.3g} sd from its prior" for n, r in prior.items() if not r <= PRIOR_LIMIT]
     parts = []
     if failed:
         parts.append(f"residual RMS / noise sd above {RMS_LIMIT:g}: {', '.join(failed)}")
@@ -67,4 +77,4 @@ def fit_check(residuals: np.ndarray, channels: list[str], sizes: list[int],
                      f"{', '.join(against)}")
     message = ("fit check: " + "; ".join(parts) + " (the model does not fit this log: "
                "mounting sign, bias calibration, noise sd?)") if parts else ""
-    return Verdict(not parts, message, {**ratios, **prior})
+    return Verdict(not parts, message, ratios, prior)

@@ -58,6 +58,9 @@ NOT_DETERMINED = ("an axial accelerometer and a track see the axial force only: 
 TIME_TOLERANCE_S = 1e-6
 #: Names of the initial state, the first nuisance parameters (``info["nuisance"]``).
 TRACK_START = ("pn0", "pe0", "pd0", "vn0", "ve0", "vd0")
+#: The axial accelerometer's bias [m/s^2] and scale factor, named like output-error's
+#: IMU errors (``reading = (1 + s) f_x + b``).
+IMU_ERRORS = ("bax1", "sax1")
 #: Window [s] of the quadratic fit of the first GNSS positions that starts the velocity.
 START_WINDOW_S = 1.0
 
@@ -209,7 +212,7 @@ class AxialDragEstimator(Estimator):
                  else tuple(tables.point_name("Cx", knot) for knot in knots))
         grid, index = _grid(record)
         baro = record.baro_t is not None
-        nuisance = (*TRACK_START, "accel_bias", "accel_scale", *(("h0",) if baro else ()))
+        nuisance = (*TRACK_START, *IMU_ERRORS, *(("h0",) if baro else ()))
         n_dyn = k + N_TRACK
         bias_j, scale_j = n_dyn, n_dyn + 1
         gnss_cols = record.gnss.shape[1]
@@ -275,7 +278,7 @@ class AxialDragEstimator(Estimator):
                     *(["baro"] if baro else [])]
         sizes = [record.t.size, *([record.gnss_t.size] * gnss_cols),
                  *([record.baro_t.size] if record.baro_t is not None else [])]
-        verdict = fit_check(residuals, channels, sizes, ("accel_bias", "accel_scale"))
+        verdict = fit_check(residuals, channels, sizes, IMU_ERRORS)
         converged = solution.status > 0
         success = converged and verdict.passed
         message = ("" if success else verdict.message if converged else
@@ -300,6 +303,11 @@ class AxialDragEstimator(Estimator):
             info={"nuisance": {n: (float(v), float(s)) for n, v, s in
                                zip(nuisance, theta[k:], se[k:], strict=True)},
                   "not_determined": dict.fromkeys(others, NOT_DETERMINED),
-                  "fit_check": verdict.ratios, "knots": list(knots),
+                  "fit_check": verdict.info,
+                  "imu_errors": {n: float(v) for n, v in zip(
+                      IMU_ERRORS, theta[[bias_j, scale_j]], strict=True)},
+                  "imu_error_stderr": {n: float(v) for n, v in zip(
+                      IMU_ERRORS, se[[bias_j, scale_j]], strict=True)},
+                  "knots": list(knots),
                   "speed_of_sound_mps": sound, "notes": notes,
                   "options": self.options()})

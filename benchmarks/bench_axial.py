@@ -126,7 +126,8 @@ def one(seed: int) -> dict[str, Any]:
             "full_z": z_scores(reference, cx), "full_se": full_se,
             "heavy_success": heavy.success, "heavy_z": z_scores(heavy, cx),
             "heavy_se": cx_se(heavy), "full_widened": full_widened,
-            "checks": plain.info["fit_check"], "flipped": flipped.success,
+            "checks": {**plain.info["fit_check"]["ratio"],
+                       **plain.info["fit_check"]["priors"]}, "flipped": flipped.success,
             "flipped_message": flipped.message, "wrong_bias": wrong_bias.success,
             "wrong_bias_message": wrong_bias.message, "right_bias": right_bias.success,
             "time": plain.wall_time_s}

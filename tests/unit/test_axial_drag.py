@@ -141,8 +141,12 @@ def test_right_log_fits_cx_within_3_se(coast, fitted) -> None:
     assert fitted.success, fitted.message
     assert fitted.names == ("Cx",)
     assert abs(fitted.theta[0] - coast["cx"]) < 3 * fitted.stderr[0]
-    bias, se = fitted.info["nuisance"]["accel_bias"]
+    bias, se = fitted.info["nuisance"]["bax1"]
     assert abs(bias - coast["bias"]) < 3 * se
+    assert fitted.info["imu_errors"]["bax1"] == bias
+    assert fitted.info["fit_check"]["passed"]
+    text = fitted.summary()
+    assert "fit check: residual RMS / data noise" in text and "bax1" in text
     assert set(fitted.info["not_determined"]) == set(NAMES) - {"Cx"}
     assert "Cza" in fitted.warnings[0] and "not determined" in fitted.warnings[0]
 
@@ -175,7 +179,7 @@ def test_bias_calibration_of_the_wrong_sign_is_refused(coast) -> None:
     assert right.fit(coast["axial"], rng=1).success
     result = wrong.fit(coast["axial"], rng=1)
     assert not result.success
-    assert "contradict the priors" in result.message and "accel_bias" in result.message
+    assert "contradict the priors" in result.message and "bax1" in result.message
 
 
 def test_a_wrong_mass_moves_cx_by_its_ratio_unseen(coast, fitted) -> None:
