@@ -1,10 +1,12 @@
 """The axial-drag fit's verdict: residuals the size of the stated noise, priors not contradicted.
 
-Two tests on the residuals weighted by the log's noise sd (so about 1 when the model and
+Three tests, on the residuals weighted by the log's noise sd (so about 1 when the model and
 the noise sd are right):
 
 * each channel's RMS (accelerometer, each GNSS axis, barometer) at most
   :data:`RMS_LIMIT`;
+* the accelerometer's gain ``1 + scale`` positive (a reading of the opposite sign of the
+  force is a flipped mounting, however well a scale factor of -2 fits);
 * each prior's normalized residual (the accelerometer's bias against a given calibration,
   its scale factor against 0) at most :data:`PRIOR_LIMIT` in size: data that push a
   calibration that far contradict it (a bias given with the wrong sign, a mounting whose
@@ -48,7 +50,7 @@ class Verdict:
 
 
 def fit_check(residuals: np.ndarray, channels: list[str], sizes: list[int],
-              priors: tuple[str, ...]) -> Verdict:
+              priors: tuple[str, ...], gain: float = 1.0) -> Verdict:
     """Return the verdict on the weighted residuals.
 
     Parameters
@@ -59,6 +61,9 @@ def fit_check(residuals: np.ndarray, channels: list[str], sizes: list[int],
         Each channel's name and number of samples, in the order of ``residuals``.
     priors : tuple of str
         Names of the prior residuals at the end.
+    gain : float
+        The accelerometer's fitted ``1 + scale``: at or below 0 its reading has the
+        opposite sign of the force (a flipped mounting), whatever the residuals say.
     """
     ratios: dict[str, float] = {}
     start = 0
@@ -70,6 +75,10 @@ def fit_check(residuals: np.ndarray, channels: list[str], sizes: list[int],
     failed = [f"{n} {r:.3g}" for n, r in ratios.items() if not r <= RMS_LIMIT]
     against = [f"{n} {r:.3g} sd from its prior" for n, r in prior.items() if not r <= PRIOR_LIMIT]
     parts = []
+    if not gain > 0:
+        parts.append(f"the accelerometer's fitted 1 + scale is {gain:.3g}: its reading has "
+                     "the opposite sign of the axial force (is the mounting's axial sign "
+                     "flipped?)")
     if failed:
         parts.append(f"residual RMS / noise sd above {RMS_LIMIT:g}: {', '.join(failed)}")
     if against:

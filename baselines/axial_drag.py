@@ -278,7 +278,7 @@ class AxialDragEstimator(Estimator):
                     *(["baro"] if baro else [])]
         sizes = [record.t.size, *([record.gnss_t.size] * gnss_cols),
                  *([record.baro_t.size] if record.baro_t is not None else [])]
-        verdict = fit_check(residuals, channels, sizes, IMU_ERRORS)
+        verdict = fit_check(residuals, channels, sizes, IMU_ERRORS, 1.0 + theta[scale_j])
         converged = solution.status > 0
         success = converged and verdict.passed
         message = ("" if success else verdict.message if converged else

@@ -169,7 +169,13 @@ def test_flipped_axial_sign_is_refused(coast) -> None:
     log = coast["example"].axial_only(coast["full"], axis_map("x=y, y=-x, z=z"))
     result = AxialDragEstimator().fit(log, rng=1)
     assert not result.success
-    assert result.message.startswith("fit check:")
+    assert result.message.startswith("fit check:") and "sax1" in result.message
+    # with no scale-factor prior to speak of, a scale factor of -2 fits the readings as
+    # well as the right sign: the gain's sign refuses it
+    loose = AxialDragEstimator(scale_sd=1e3).fit(log, rng=1)
+    assert not loose.success
+    assert "opposite sign of the axial force" in loose.message
+    np.testing.assert_allclose(1.0 + loose.info["imu_errors"]["sax1"], -1.0, atol=0.02)
 
 
 def test_bias_calibration_of_the_wrong_sign_is_refused(coast) -> None:
