@@ -294,7 +294,9 @@ class AxialDragEstimator(Estimator):
             notes.append(mass_note.split(";")[0])
         warnings = (f"axial-drag: {', '.join(others)} not determined ({NOT_DETERMINED}); not "
                     "estimated",)
-        logging.getLogger("aeroid").info(warnings[0])
+        for line in (*notes, warnings[0]):  # what was read, assumed and left out, said
+            logging.getLogger("aeroid").info(line if line.startswith("axial-drag")
+                                             else f"axial-drag: {line}")
         return EstimationResult(
             estimator=self.name, names=names, theta=theta[:k], stderr=se[:k],
             covariance=covariance[:k, :k], cost=float(0.5 * residuals @ residuals),

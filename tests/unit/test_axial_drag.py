@@ -151,6 +151,17 @@ def test_right_log_fits_cx_within_3_se(coast, fitted) -> None:
     assert "Cza" in fitted.warnings[0] and "not determined" in fitted.warnings[0]
 
 
+def test_what_was_done_is_said_in_one_line_each(coast, caplog) -> None:
+    with caplog.at_level("INFO", logger="aeroid"):
+        AxialDragEstimator().fit(coast["axial"], rng=1)
+    lines = [r.getMessage() for r in caplog.records if r.name == "aeroid"]
+    assert all(line.startswith("axial-drag: ") and "\n" not in line for line in lines)
+    text = " | ".join(lines)
+    for said in ("mounted: axes x=-y", "temperature (board's) not used", "density 1.1116",
+                 "mass taken as exact: 10 kg", "point mass", "not determined"):
+        assert said in text, said
+
+
 def test_table_points_within_3_se(coast) -> None:
     result = AxialDragEstimator(cx_knots=KNOTS).fit(coast["axial"], rng=1)
     assert result.success, result.message
