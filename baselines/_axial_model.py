@@ -11,9 +11,16 @@ lies along the airspeed (``u = V``, ``v = w = 0``, no rates) evaluated by
 :func:`~aeroid.model.equations.specific_force` (``(Q S Cx + thrust) / m``), with Cx the
 table :func:`aeroid.model.tables.table_value` at ``M = V / a``; the density and the speed
 of sound are the airframe's constants, gravity the model's. The axial accelerometer reads
-``(1 + scale) f_x + bias``. The lateral aerodynamic force (the normal force at the small
-incidence of a coast) and the accelerometer's lever arm are not in the model: a
-point-mass reduction, the range-test way.
+``(1 + scale) f_x + bias``. The accelerometer's lever arm is not in the model, and the
+lateral aerodynamic force only as the **trim** of a statically stable airframe in a gravity
+turn (optional): turning its nose at ``q = -g cos(gamma) / V`` needs an incidence
+``alpha = -Cmq (D / 2V) q / Cma`` whose normal force ``Q S (Cza alpha + Czq (D / 2V) q)``
+is ``k g cos(gamma)``, a constant share ``k = -rho S D (Czq - Cza Cmq / Cma) / (4 m)`` of
+gravity's component normal to the path (-0.0196 for the rocket coast: the trim holds the
+path up against gravity's turning, the nose above the path); ``k`` is a free
+parameter (the trim factor), the normal force ``k (g - (g . v/V) v/V)``. The pitch and
+yaw oscillation's normal force averages out; nothing else lateral is modelled: a
+point-mass reduction, the range-test way (a "modified point mass" with its trim).
 
 The graph is CasADi's, so the sensitivities of the states to the initial state and the
 table points are exact: the RK4 step and its Jacobians give ``S_{k+1} = A_k S_k + B_k``
@@ -65,9 +72,9 @@ def _specific_force(velocity, points, const: Constants, knots: tuple[float, ...]
 
 
 @functools.lru_cache(maxsize=16)
-def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps: int
-               ) -> tuple[ca.Function, ca.Function]:
-    k = len(knots)
+def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps: int,
+               trim: bool) -> tuple[ca.Function, ca.Function]:
+    k = len(knots) + int(trim)
     x = ca.SX.sym("x", N_TRACK)
     c = ca.SX.sym("c", k)
     dt = ca.SX.sym("dt")
@@ -75,7 +82,11 @@ def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps
     def rhs(z):
         force, speed = _specific_force(z[VN:], c, const, knots, sound)
         gravity = ca.vertcat(0.0, 0.0, const.gravity)
-        return ca.vertcat(z[VN:], force * z[VN:] / speed + gravity)
+        along = z[VN:] / speed
+        accel = force * along + gravity
+        if trim:  # the trim's normal force: a share c[-1] of gravity's normal component
+            accel += c[k - 1] * (gravity - ca.dot(gravity, along) * along)
+        return ca.vertcat(z[VN:], accel)
 
     k1 = rhs(x)
     k2 = rhs(x + 0.5 * dt * k1)
@@ -95,7 +106,7 @@ def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps
 
 
 def propagate(x0: np.ndarray, points: np.ndarray, t: np.ndarray, const: Constants,
-              knots: tuple[float, ...], sound: float) -> Track:
+              knots: tuple[float, ...], sound: float, trim: bool = False) -> Track:
     """Integrate the point mass from ``x0`` at ``t[0]`` over the grid ``t`` (RK4, one step
     per interval) with the sensitivities to ``(points, x0)``.
 
@@ -103,8 +114,9 @@ def propagate(x0: np.ndarray, points: np.ndarray, t: np.ndarray, const: Constant
     ----------
     x0 : ndarray, shape (6,)
         Initial position [m] and velocity [m/s], NED.
-    points : ndarray, shape (k,)
-        The Cx table's values at ``knots`` (one knot: a constant Cx).
+    points : ndarray, shape (k,) or (k + 1,)
+        The Cx table's values at ``knots`` (one knot: a constant Cx), then with ``trim``
+        the trim factor (module docstring).
     t : ndarray, shape (n,)
         Increasing times [s].
     const : Constants
@@ -113,12 +125,14 @@ def propagate(x0: np.ndarray, points: np.ndarray, t: np.ndarray, const: Constant
         The table's knots [Mach].
     sound : float
         Speed of sound [m/s].
+    trim : bool
+        Whether the trim's normal force is in the model (``points[-1]`` its factor).
     """
-    k = len(knots)
+    k = len(knots) + int(trim)
     n = len(t)
     z0 = np.concatenate([x0, np.column_stack([np.zeros((N_TRACK, k)),
                                               np.eye(N_TRACK)]).ravel(order="F")])
-    track, force_fn = _functions(const, tuple(knots), float(sound), n - 1)
+    track, force_fn = _functions(const, tuple(knots), float(sound), n - 1, bool(trim))
     out = np.array(track(z0, np.asarray(points, dtype=float), np.diff(t)[None, :]))
     z = np.column_stack([z0, out])  # (6 + 6 (k + 6), n)
     force, grad = force_fn(z, np.asarray(points, dtype=float))

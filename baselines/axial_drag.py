@@ -56,6 +56,8 @@ NOT_DETERMINED = ("an axial accelerometer and a track see the axial force only: 
                   "lateral force, moment or rate is measured")
 #: Time grid merge tolerance [s]: sample times of two groups closer than this are one node.
 TIME_TOLERANCE_S = 1e-6
+#: Name of the trim factor (``info["nuisance"]``).
+TRIM = "trim_factor"
 #: Names of the initial state, the first nuisance parameters (``info["nuisance"]``).
 TRACK_START = ("pn0", "pe0", "pd0", "vn0", "ve0", "vd0")
 #: The axial accelerometer's bias [m/s^2] and scale factor, named like output-error's
@@ -116,6 +118,9 @@ class AxialDragEstimator(Estimator):
         Prior mean of its scale factor (a calibration; 0: none).
     scale_sd : float
         Prior sd of that scale factor.
+    trim : bool
+        Whether the trim's normal force in the gravity turn is in the model (its factor a
+        free parameter, ``info["nuisance"]["trim_factor"]``; :mod:`baselines._axial_model`).
     max_iterations : int
         Most Gauss-Newton evaluations.
     """
@@ -130,6 +135,7 @@ class AxialDragEstimator(Estimator):
     accel_bias_sd_mps2: float = 0.5
     accel_scale: float = 0.0
     scale_sd: float = 0.02
+    trim: bool = True
     max_iterations: int = 100
 
     def __post_init__(self) -> None:
@@ -191,9 +197,10 @@ class AxialDragEstimator(Estimator):
             if isinstance(given, int):  # a count: over the Mach range of a constant-Cx fit
                 first = dataclasses.replace(self, cx_knots=(1.0,))._fit(record)
                 start = [first.info["nuisance"][n][0] for n in TRACK_START]
+                extra = [first.info["nuisance"][TRIM][0]] if self.trim else []
                 grid, _ = _grid(record)
-                track = propagate(np.array(start), first.theta, grid, constants(airframe),
-                                  (1.0,), sound)
+                track = propagate(np.array(start), np.concatenate([first.theta, extra]), grid,
+                                  constants(airframe), (1.0,), sound, self.trim)
                 speed = np.linalg.norm(track.states[:, VN:], axis=1)
                 return (tables.choose_knots(speed / sound, given), sound,
                         f"[tables] Cx = {given} knots over the Mach range of a constant-Cx fit")
@@ -212,15 +219,18 @@ class AxialDragEstimator(Estimator):
                  else tuple(tables.point_name("Cx", knot) for knot in knots))
         grid, index = _grid(record)
         baro = record.baro_t is not None
-        nuisance = (*TRACK_START, *IMU_ERRORS, *(("h0",) if baro else ()))
-        n_dyn = k + N_TRACK
+        n_c = k + int(self.trim)  # the table points, then the trim factor
+        nuisance = (*((TRIM,) if self.trim else ()), *TRACK_START, *IMU_ERRORS,
+                    *(("h0",) if baro else ()))
+        n_dyn = n_c + N_TRACK
         bias_j, scale_j = n_dyn, n_dyn + 1
         gnss_cols = record.gnss.shape[1]
         prior_mean = np.array([self.accel_bias_mps2, self.accel_scale])
         prior_sd = np.array([self.accel_bias_sd_mps2, self.scale_sd])
 
         def model(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            track = propagate(theta[k:n_dyn], theta[:k], grid, const, knots, sound)
+            track = propagate(theta[n_c:n_dyn], theta[:n_c], grid, const, knots, sound,
+                              self.trim)
             parts, jac = [], []
             i = index["accel"]
             gain = 1.0 + theta[scale_j]
@@ -255,6 +265,8 @@ class AxialDragEstimator(Estimator):
 
         cx0 = float(airframe.prior_vector()[NAMES.index("Cx")])
         theta0 = _start(record, cx0, k, self.accel_bias_mps2, self.accel_scale)
+        if self.trim:  # the trim factor starts at 0
+            theta0 = np.insert(theta0, k, 0.0)
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
         def cached(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -288,7 +300,9 @@ class AxialDragEstimator(Estimator):
                  f"Cx: {origin} at Mach {', '.join(f'{kn:g}' for kn in knots)}, speed of "
                  f"sound {sound:.5g} m/s, density {const.rho:.5g} kg/m^3 (the airframe's, "
                  "along the whole track)",
-                 "point mass: drag along the airspeed, no lateral force, no lever arm"]
+                 "point mass: drag along the airspeed, no lever arm, " + (
+                     "the trim's normal force a free share of gravity's normal component"
+                     if self.trim else "no lateral force (trim = false)")]
         mass_note = exact_mass_note(airframe)
         if mass_note and "mass_kg" not in airframe.mass_sd:
             notes.append(mass_note.split(";")[0])

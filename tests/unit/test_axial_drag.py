@@ -109,17 +109,19 @@ def test_track_equals_scipy_dop853() -> None:
     np.testing.assert_allclose(track.states, reference.y.T, rtol=0, atol=TRACK_ATOL_M)
 
 
-def test_sensitivities_equal_central_differences() -> None:
+@pytest.mark.parametrize("trim", [False, True])
+def test_sensitivities_equal_central_differences(trim) -> None:
     const = _const()
     sound = 336.0
     # Mach 0.85 -> 0.75 over the 3 s: no knot crossed (where the table's slope jumps and a
-    # finite difference is no derivative)
-    theta = np.array([-0.5, -0.45, -0.4, 1.0, -2.0, 0.5, 50.0, -1.0, -280.0])
+    # finite difference is no derivative); with the trim, its factor after the points
+    theta = np.array([-0.5, -0.45, -0.4, *([-0.03] if trim else []), 1.0, -2.0, 0.5, 50.0,
+                      -1.0, -280.0])
     t = np.concatenate([np.arange(0.0, 3.0, 0.01), [3.004, 3.05]])  # uneven steps too
-    k = len(KNOTS)
+    k = len(KNOTS) + int(trim)
 
     def run(th):
-        return propagate(th[k:], th[:k], t, const, KNOTS, sound)
+        return propagate(th[k:], th[:k], t, const, KNOTS, sound, trim)
 
     track = run(theta)
     for j in range(theta.size):
