@@ -334,3 +334,12 @@ def test_trim_factor_equals_its_closed_form_and_removes_the_cx_bias(coast) -> No
     np.testing.assert_allclose(result.theta, c["Cx"], atol=QUIET_CX_ATOL)
     without = AxialDragEstimator(cx_knots=(0.2, 0.4, 0.6, 0.9), trim=False).fit(log, rng=1)
     assert np.abs(without.theta - c["Cx"]).max() > 2 * np.abs(result.theta - c["Cx"]).max()
+
+
+def test_reconstruct_refuses_the_axial_log_and_names_this_method(coast) -> None:
+    from aeroid.errors import FlightError
+    from aeroid.reconstruction import reconstruct
+
+    with pytest.raises(FlightError) as info:
+        reconstruct(coast["axial"])
+    assert "\n" not in str(info.value) and "axial-drag" in str(info.value)
