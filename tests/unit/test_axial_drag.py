@@ -343,3 +343,17 @@ def test_reconstruct_refuses_the_axial_log_and_names_this_method(coast) -> None:
     with pytest.raises(FlightError) as info:
         reconstruct(coast["axial"])
     assert "\n" not in str(info.value) and "axial-drag" in str(info.value)
+
+
+def test_gnss_velocities_are_used_when_logged(coast) -> None:
+    example = coast["example"]
+    scenario = load_scenario(example.SCENARIO)
+    suite = {**example.FLIGHT_COMPUTER, "gnss_channels": ("vn", "ve", "vd", "pn", "pe", "pd")}
+    sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
+                         SensorSuite(**suite), rng=SEED)
+    result = AxialDragEstimator().fit(example.axial_only(sim.log), rng=1)
+    assert result.success, result.message
+    assert set(result.info["fit_check"]["ratio"]) == {"accel", "pn", "pe", "pd", "vn", "ve",
+                                                      "vd", "baro"}
+    assert abs(result.theta[0] - coast["cx"]) < 3 * result.stderr[0]
+    assert any("pn, pe, pd, vn, ve, vd" in note for note in result.info["notes"])
