@@ -35,11 +35,13 @@ from typing import Any, ClassVar
 import numpy as np
 import scipy.optimize
 
-from aeroid.errors import EstimatorError
+from aeroid.errors import AeroidError, EstimatorError
 from aeroid.estimation import (
+    CoefficientSpec,
     EstimationResult,
     Estimator,
     add_consider,
+    airframe_holds,
     exact_mass_note,
     failed_result,
 )
@@ -168,15 +170,30 @@ class AxialDragEstimator(Estimator):
         if not isinstance(flight, SuiteLog | AxialLog):
             return super().fit(flight, rng=rng, progress=progress, holds=holds)
         record = flight if isinstance(flight, AxialLog) else axial_log(flight)
+        spec = airframe_holds(record.airframe).merged(CoefficientSpec.coerce(holds))
+        on_cx = sorted(n for n in (*spec.held, *spec.priors) if n.split("@")[0] == "Cx")
+        if on_cx:
+            raise EstimatorError(f"axial-drag: {', '.join(on_cx)} held or given a prior: "
+                                 "this method fits Cx free (it is all it estimates)")
         if holds:
             raise EstimatorError("axial-drag: holds and priors are not taken by this method "
                                  "(it estimates Cx alone; the others are not determined)")
+        if not spec.empty:  # the airframe's own (a passive fin's): nothing to do with Cx
+            record = dataclasses.replace(record, notes=(
+                *record.notes, f"the airframe's {spec.describe()}: not used (those "
+                "coefficients are not in a point-mass model)"))
         try:
             generator = np.random.default_rng(rng)
         except (TypeError, ValueError) as exc:
             raise EstimatorError(f"axial-drag: bad seed {rng!r}: {exc}") from None
         start = time.perf_counter()
-        result = self._fit(record)
+        try:
+            result = self._fit(record)
+        except AeroidError:
+            raise  # bad input found on the way: a user error, one line
+        except Exception as exc:  # failure is data (aeroid.estimation.Estimator.fit)
+            text = " ".join(str(exc).split())
+            result = failed_result(self.name, f"{type(exc).__name__}: {text}".rstrip(": "))
         result = dataclasses.replace(result, wall_time_s=time.perf_counter() - start)
         return add_consider(self, record, result, rng=generator)
 

@@ -12,7 +12,8 @@ flight computer of ``examples/make_rocket_log.py`` twice: flown at the file's ma
 barometer) and the full log (two triads, gyros, INS). Fits, the Cx table at Mach
 :data:`KNOTS`:
 
-* ``axial``: axial-drag on the axial-only log, mass exact (flown at the file's mass);
+* ``axial``: axial-drag (defaults: the trim's normal force in the model) on the
+  axial-only log, mass exact (flown at the file's mass);
 * ``axial+sd``: the same on the 1.02 x flight with ``mass_sd_kg = 0.3`` (3 %), the
   consider path's two re-fits in its standard errors;
 * ``full``: output-error on the full log's raw-IMU flight (reconstructed;

@@ -159,7 +159,8 @@ def test_what_was_done_is_said_in_one_line_each(coast, caplog) -> None:
     lines = [r.getMessage() for r in caplog.records if r.name == "aeroid"]
     assert all(line.startswith("axial-drag: ") and "\n" not in line for line in lines)
     text = " | ".join(lines)
-    for said in ("mounted: axes x=-y", "temperature (board's) not used", "density 1.1116",
+    for said in ("held Czd = 0 (passive fin)", "mounted: axes x=-y",
+                 "temperature (board's) not used", "density 1.1116",
                  "mass taken as exact: 10 kg", "point mass", "not determined"):
         assert said in text, said
 
@@ -238,6 +239,7 @@ def _group_without(log, name):
     ("no sd", r"no noise_sd for ax1"),
     ("holds", r"holds and priors are not taken"),
     ("tables", r"\[tables\] Cmq: not determined"),
+    ("hold on Cx", r"Cx held or given a prior"),
 ])
 def test_one_line_refusals(coast, case, match) -> None:
     log, holds = coast["axial"], None
@@ -252,7 +254,9 @@ def test_one_line_refusals(coast, case, match) -> None:
         imu = dataclasses.replace(log["imu"], noise_sd={})
         log = dataclasses.replace(log, groups={**log.groups, "imu": imu})
     elif case == "holds":
-        holds = {"Cza": -10.0}
+        holds = {"hold": {"Cza": -10.0}}
+    elif case == "hold on Cx":
+        holds = {"hold": {"Cx": -0.45}}
     else:
         log = dataclasses.replace(log, airframe=log.airframe.replace(
             tables=TableSpec((("Cmq", (0.2, 0.9)),))))
