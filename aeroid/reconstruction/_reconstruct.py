@@ -208,9 +208,8 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
                           f"{', '.join(missing) or 'none'}, no noise_sd for "
                           f"{', '.join(no_sd) or 'none'}" + (
                               " (without gyros the attitude cannot be propagated: an "
-                              "accelerometer-only log is not reconstructed; an axial "
-                              "accelerometer alone with GNSS is fitted directly by the "
-                              "axial-drag method: make_estimator('axial-drag').fit(log))"
+                              "accelerometer-only log is not reconstructed; an axial one "
+                              "with GNSS is fitted by make_estimator('axial-drag').fit(log))"
                               if axial else ""))
     t = imu_group.t
     if len(t) < OMEGA_DOT_WINDOW:
