@@ -72,7 +72,9 @@ class Problem:
     scale : ndarray, shape (n_free,)
         Scale of each free coefficient (its prior, 1 where the prior is 0).
     estimate_wind : bool
-        Three steady-wind components [m/s] after ``log sigma``.
+        Three steady-wind components [m/s] after ``log sigma`` (tested, but not offered by
+        :class:`baselines.filter_error.FilterErrorEstimator`: not identifiable against the
+        gusts' initial state on a record ~L/V long, its module docstring).
     prior_mean, prior_info : ndarray, shape (n_free,)
         Gaussian priors on the free coefficients (information 0: none), physical units.
     """

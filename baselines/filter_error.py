@@ -7,15 +7,20 @@ measured loads away from any deterministic prediction and the fit check refuses 
 a Kalman filter follows the gusts and the likelihood is that of its innovations.
 
 - **Model**: the model's state plus the wind the loads see, three NED components: a
-  steady part (zero, or parameters with ``estimate_wind``) and a gust per component, a
+  mean of zero (still air) and a gust per component, a
   first-order Gauss-Markov process (Dryden's first-order approximation, time constant
   ``L / V``, intensity ``sigma``; :mod:`baselines._fem_filter`). The gusts are in NED,
   not body axes: the airframe rolls at ~51 rad/s and a gust fixed in the air turns in body
   axes at that rate, so the filter's gain is time-varying (an EKF, exact CasADi
   Jacobians; :mod:`baselines._fem_model`).
 - **Parameters**: the free coefficients (held ones and priors through
-  :class:`aeroid.estimation.CoefficientSpec`), ``log sigma``, optionally the steady wind.
-  Measurement noise: :mod:`baselines._fem_setup`.
+  :class:`aeroid.estimation.CoefficientSpec`) and ``log sigma``. Measurement noise:
+  :mod:`baselines._fem_setup`. A steady wind is not a parameter: over a record about
+  ``L / V`` long the gusts' initial state carries it (measured, reference flight, 5 m/s
+  steady plus Dryden sd 3 m/s, seeds 1-2: every coefficient within 1.9 se, the fit check
+  passed); as three more parameters (:class:`baselines._fem_fit.Problem`'s
+  ``estimate_wind``) the along-path component was not identifiable (not converged in 30
+  iterations, 60 +- 130 m/s), so the estimator does not offer it.
 - **Criterion and optimizer**: the innovations' negative log-likelihood, Fisher scoring
   with central-difference sensitivities of the whole filter; standard errors (the
   Cramér-Rao bound) from the innovations' Fisher information (:mod:`baselines._fem_fit`).
@@ -39,7 +44,7 @@ from aeroid.flights import INPUTS, MIL_SCALE_LENGTH_M, Flight
 from aeroid.model import NAMES, OUTPUT_CHANNELS
 from baselines import _common, _fem_fit, _fem_setup
 from baselines._fem_filter import gust_model
-from baselines._oe_wind import WIND_NAMES
+from baselines._fem_model import N_WIND
 
 #: Samples at most: the filter keeps every perturbed run's innovation covariances
 #: (2 n_p + 1 runs x n x 9 x 9 doubles: 15 kB per sample with 10 parameters).
@@ -69,10 +74,6 @@ class FilterErrorEstimator(Estimator):
         the time constant is ``L / V`` with ``V`` the mean speed of the record.
     gust_sd_start_mps : float
         The gust intensity the fit starts from [m/s] (default 1.0).
-    estimate_wind : bool
-        Also estimate a steady wind (north, east, down [m/s]; default False: the gusts'
-        mean is still air), reported in ``info['wind_ned_mps']`` and
-        ``info['wind_stderr_mps']``.
     measurement_noise : {"auto", "metadata", "innovations"}
         The measurement-noise variances: from the flight's noise metadata, or estimated
         from the innovations after every iteration (FVSysID's relaxation); ``auto``
@@ -95,7 +96,7 @@ class FilterErrorEstimator(Estimator):
     ``scale_length_m``, ``measurement_noise`` (which source) and ``measurement_noise_var``
     (m,), ``R`` (n, m): the innovations' variances (the fit check's noise model),
     ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
-    ``parameter_stderr``, ``wind_ned_mps``/``wind_stderr_mps`` with ``estimate_wind``, and
+    ``parameter_stderr``, and
     ``wind_filtered_ned_mps`` (n, 3): the filtered wind (steady and gusts) at each sample.
     """
 
@@ -110,7 +111,6 @@ class FilterErrorEstimator(Estimator):
     substeps: int = 1
     scale_length_m: float = MIL_SCALE_LENGTH_M
     gust_sd_start_mps: float = 1.0
-    estimate_wind: bool = False
     measurement_noise: Literal["auto", "metadata", "innovations"] = "auto"
     max_iterations: int = 30
     tol: float = 0.01
@@ -133,7 +133,7 @@ class FilterErrorEstimator(Estimator):
 
     def parameter_names(self, free_names: tuple[str, ...]) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
-        return (*free_names, "gust_sd_mps", *(WIND_NAMES if self.estimate_wind else ()))
+        return (*free_names, "gust_sd_mps")
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
@@ -158,9 +158,8 @@ class FilterErrorEstimator(Estimator):
             mean = np.where(info_prior > 0, all_mean[free], 0.0)
         problem = _fem_fit.Problem(
             gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model),
-            zs, x0, P0x, decay, theta_base, free, scale, self.estimate_wind, mean, info_prior)
-        p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)],
-                             np.zeros(len(WIND_NAMES) if self.estimate_wind else 0)])
+            zs, x0, P0x, decay, theta_base, free, scale, False, mean, info_prior)
+        p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)]])
         try:
             fit = _fem_fit.fisher_scoring(problem, p0, noise.R, update_noise=noise.update,
                                           r_floor=noise.floor,
@@ -178,7 +177,7 @@ class FilterErrorEstimator(Estimator):
         with contextlib.suppress(np.linalg.LinAlgError):  # then NaN: no standard errors
             cov_p[np.ix_(active, active)] = np.linalg.inv(
                 fit.information[np.ix_(active, active)])
-        # physical units: coefficients x scale; sigma = exp(p) (delta method); wind in m/s
+        # physical units: coefficients x scale; sigma = exp(p) (delta method)
         jac = np.ones(n_p)
         jac[:nf] = problem.scale
         jac[i_s] = math.exp(fit.p[i_s])
@@ -187,7 +186,7 @@ class FilterErrorEstimator(Estimator):
         phys[i_s] = math.exp(fit.p[i_s])
         cov_phys = cov_p * np.outer(jac, jac)
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
-        theta, wind, _ = problem.unpack(fit.p[None])
+        theta, _, _ = problem.unpack(fit.p[None])
         cov = np.zeros((len(NAMES), len(NAMES)))
         cov[np.ix_(problem.free, problem.free)] = cov_phys[:nf, :nf]
         stderr = np.full(len(NAMES), np.nan)
@@ -204,14 +203,11 @@ class FilterErrorEstimator(Estimator):
             "speed_mps": speed, "measurement_noise": noise.source,
             "measurement_noise_var": fit.R, "R": S_diag, "compiled": problem.model.compiled,
             "iterations": fit.n_iterations,
-            "wind_filtered_ned_mps": runs.x[0][:, -len(WIND_NAMES):],
+            "wind_filtered_ned_mps": runs.x[0][:, -N_WIND:],
             "fit_residuals": {c: runs.innovation[0][:, j]
                               for j, c in enumerate(OUTPUT_CHANNELS)},
         }
         warnings: list[str] = []
-        if self.estimate_wind:
-            info["wind_ned_mps"] = wind[0].tolist()
-            info["wind_stderr_mps"] = stderr_phys[i_s + 1:].tolist()
         if np.any(flight.airframe.accel_position_sd > 0):
             warnings.append(f"{self.name}: the airframe's uncertain accelerometer positions "
                             "(accel*_position_sd_m) are taken as given: not estimated, and "

@@ -4,6 +4,8 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
 
     python benchmarks/bench_filter_error.py --seeds 20 --still-seeds 6   # writes results
     python benchmarks/bench_filter_error.py --seeds 2 --still-seeds 1 --no-write
+    python benchmarks/bench_filter_error.py --timing 5     # the cost, side by side
+    python benchmarks/bench_filter_error.py --wrong-seeds 3  # the verdict on wrong models
 
 Per seed ``k`` (``rng = k``, seeds 1..N): the reference scenario's flight with Gaussian
 IMU noise (0.05 m/s^2, 0.005 rad/s) in Dryden turbulence of sd ``--sd`` (default 3 m/s,
@@ -37,8 +39,13 @@ import numpy as np  # noqa: E402
 
 from aeroid.estimation import make_estimator  # noqa: E402
 from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
+from aeroid.model import NAMES  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "filter_error.md"
+RESULTS_COST = Path(__file__).parent / "results" / "filter_error_cost.md"
+RESULTS_WRONG = Path(__file__).parent / "results" / "filter_error_wrong.md"
+#: Known-wrong models for the verdict: one coefficient held off its true value.
+WRONG_HOLDS = (("Cma", 1.3), ("Cmq", 2.0), ("Clp", 1.1))
 WITHIN_SE = 3.0
 Z95 = 1.959964
 METHODS = ("filter-error", "output-error")
@@ -92,6 +99,61 @@ def run(seeds: int, still_seeds: int, sd: float) -> tuple[dict, list[str]]:
     return rows, lines
 
 
+def cost(repeats: int, sd: float) -> list[str]:
+    """Median wall time of each method on the 501-sample reference flight (Gaussian IMU,
+    seed 1), in still air and in turbulence, the fits alternating (the same machine load)."""
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    noise = make_noise("gaussian")
+    estimators = {name: _estimator(name) for name in METHODS}
+    out = ["| flight | filter-error median [s] | output-error median [s] | ratio | "
+           "filter-error filter runs | iterations (FE / OE) |", "|---|---|---|---|---|---|"]
+    for kind, wind in (("still", None), ("turbulence", Wind(turbulence_sd_mps=sd))):
+        flight = simulate(s.airframe, truth, dataclasses.replace(s.manoeuvre, wind=wind),
+                          noise, rng=1)
+        times: dict[str, list[float]] = {name: [] for name in METHODS}
+        last = {}
+        for _ in range(repeats + 1):  # the first round warms up (compiled models): dropped
+            for name, est in estimators.items():
+                last[name] = est.fit(flight, rng=1)
+                times[name].append(last[name].wall_time_s)
+        fe, oe = (float(np.median(times[name][1:])) for name in METHODS)
+        out.append(f"| {kind} | {fe:.2f} | {oe:.2f} | {fe / oe:.1f} | "
+                   f"{last['filter-error'].n_evaluations} | "
+                   f"{last['filter-error'].n_iterations} / {last['output-error'].n_iterations} |")
+        print(out[-1], flush=True)
+    return out
+
+
+def wrong(seeds: int, sd: float) -> list[str]:
+    """How often filter-error's verdict refuses a known-wrong model (a coefficient held off
+    its truth, :data:`WRONG_HOLDS`), in still air and in turbulence, seeds 1..N."""
+    from baselines.filter_error import FilterErrorEstimator
+
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    noise = make_noise("gaussian")
+    names = list(NAMES)
+    refused: dict[tuple[str, str], list[str]] = {}
+    for seed in range(1, seeds + 1):
+        for kind, wind in (("still", None), ("turbulence", Wind(turbulence_sd_mps=sd))):
+            flight = simulate(s.airframe, truth, dataclasses.replace(s.manoeuvre, wind=wind),
+                              noise, rng=seed)
+            for name, factor in WRONG_HOLDS:
+                value = factor * float(truth[names.index(name)])
+                r = FilterErrorEstimator().fit(flight, rng=seed, holds={"hold": {name: value}})
+                refused.setdefault((kind, f"{name} held {factor:g}x"), []).append(
+                    "refused" if not r.success else f"passed (gust sd "
+                    f"{r.info.get('gust_sd_mps', float('nan')):.2f} m/s)")
+                print(kind, seed, name, factor, r.success, r.message[:100], flush=True)
+    out = ["| flight | known-wrong model | refused | runs |", "|---|---|---|---|"]
+    for (kind, label), verdicts in refused.items():
+        n_refused = sum(v == "refused" for v in verdicts)
+        out.append(f"| {kind} | {label} | {n_refused}/{len(verdicts)} | "
+                   f"{'; '.join(verdicts)} |")
+    return out
+
+
 def table(rows: dict) -> list[str]:
     """The markdown table of :func:`run`'s records."""
     out = ["| flight | method | fit check passed | all within 3 se | coverage 95 % | "
@@ -119,8 +181,34 @@ def main() -> None:
     parser.add_argument("--sd", type=float, default=3.0)
     parser.add_argument("--jobs", type=int, default=1, choices=[1],
                         help="one process (the fits in turn); timing needs it")
+    parser.add_argument("--timing", type=int, default=0,
+                        help="instead: time both methods this many times on the reference "
+                             "flight (results/filter_error_cost.md)")
+    parser.add_argument("--wrong-seeds", type=int, default=0,
+                        help="instead: the verdict on known-wrong models, this many seeds "
+                             "(results/filter_error_wrong.md)")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
+    if args.wrong_seeds:
+        out = wrong(args.wrong_seeds, args.sd)
+        print("\n".join(out))
+        if not args.no_write:
+            command = f"python benchmarks/bench_filter_error.py --wrong-seeds {args.wrong_seeds}"
+            RESULTS_WRONG.write_text(f"# filter-error's verdict on known-wrong models\n\n"
+                                     f"{dt.date.today()}, `{command}`\n\n" + "\n".join(out)
+                                     + "\n")
+            print(f"wrote {RESULTS_WRONG}")
+        return
+    if args.timing:
+        out = cost(args.timing, args.sd)
+        print("\n".join(out))
+        if not args.no_write:
+            command = f"python benchmarks/bench_filter_error.py --timing {args.timing}"
+            RESULTS_COST.write_text(f"# filter-error's cost against output-error's\n\n"
+                                    f"{dt.date.today()}, `{command}`\n\n" + "\n".join(out)
+                                    + "\n")
+            print(f"wrote {RESULTS_COST}")
+        return
     rows, lines = run(args.seeds, args.still_seeds, args.sd)
     out = table(rows)
     print("\n".join(out))
