@@ -213,14 +213,15 @@ def main() -> None:
     out = table(rows)
     print("\n".join(out))
     if not args.no_write:
+        results = RESULTS if args.sd == 3.0 else RESULTS.with_name(f"filter_error_sd{args.sd:g}.md")
         RESULTS.parent.mkdir(exist_ok=True)
         command = (f"python benchmarks/bench_filter_error.py --seeds {args.seeds} "
                    f"--still-seeds {args.still_seeds} --sd {args.sd:g}")
-        RESULTS.write_text(
+        results.write_text(
             f"# filter-error against output-error (issue 26)\n\n{dt.date.today()}, "
             f"`{command}`\n\n" + "\n".join(out) + "\n\nPer run:\n\n```\n" + "\n".join(lines)
             + "\n```\n")
-        print(f"wrote {RESULTS}")
+        print(f"wrote {results}")
 
 
 if __name__ == "__main__":
