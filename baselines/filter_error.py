@@ -16,11 +16,12 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
 - **Parameters**: the free coefficients (held ones and priors through
   :class:`aeroid.estimation.CoefficientSpec`) and ``log sigma``. Measurement noise:
   :mod:`baselines._fem_setup`. A steady wind is not a parameter: over a record about
-  ``L / V`` long the gusts' initial state carries it (measured, reference flight, 5 m/s
-  steady plus Dryden sd 3 m/s, seeds 1-2: every coefficient within 1.9 se, the fit check
-  passed); as three more parameters (:class:`baselines._fem_fit.Problem`'s
-  ``estimate_wind``) the along-path component was not identifiable (not converged in 30
-  iterations, 60 +- 130 m/s), so the estimator does not offer it.
+  ``L / V`` long the gusts' initial state carries it (reference flight, 5 m/s steady plus
+  Dryden sd 3 m/s, seeds 1-2: every coefficient within 1.9 se, the fit check passed;
+  ``benchmarks/bench_filter_error.py --checks``); as three more parameters
+  (:class:`baselines._fem_fit.Problem`'s ``estimate_wind``) the along-path component was
+  not identifiable (seeds 1-2: not converged in 30 iterations, 60 +- 130 m/s; measured by
+  hand), so the estimator does not offer it.
 - **Criterion and optimizer**: the innovations' negative log-likelihood, Fisher scoring
   with central-difference sensitivities of the whole filter; standard errors (the
   Cramér-Rao bound) from the innovations' Fisher information (:mod:`baselines._fem_fit`).
@@ -68,7 +69,8 @@ class FilterErrorEstimator(Estimator):
     substeps : int
         RK4 steps per sample interval (default 1: against 2, the coefficients moved by
         0.023 of their standard errors in still air and 2e-4 in Dryden sd 3 m/s; the
-        reference flight, Gaussian IMU, seed 1, measured).
+        reference flight, Gaussian IMU, seed 1; ``benchmarks/bench_filter_error.py
+        --checks``).
     scale_length_m : float
         The gusts' scale length L [m] (default MIL-F-8785C's 533.4 m, the simulator's);
         the time constant is ``L / V`` with ``V`` the mean speed of the record.

@@ -6,6 +6,7 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
     python benchmarks/bench_filter_error.py --seeds 2 --still-seeds 1 --no-write
     python benchmarks/bench_filter_error.py --timing 5     # the cost, side by side
     python benchmarks/bench_filter_error.py --wrong-seeds 3  # the verdict on wrong models
+    python benchmarks/bench_filter_error.py --checks         # steady wind, paper noise, substeps
 
 Per seed ``k`` (``rng = k``, seeds 1..N): the reference scenario's flight with Gaussian
 IMU noise (0.05 m/s^2, 0.005 rad/s) in Dryden turbulence of sd ``--sd`` (default 3 m/s,
@@ -44,6 +45,7 @@ from aeroid.model import NAMES  # noqa: E402
 RESULTS = Path(__file__).parent / "results" / "filter_error.md"
 RESULTS_COST = Path(__file__).parent / "results" / "filter_error_cost.md"
 RESULTS_WRONG = Path(__file__).parent / "results" / "filter_error_wrong.md"
+RESULTS_CHECKS = Path(__file__).parent / "results" / "filter_error_checks.md"
 #: Known-wrong models for the verdict: one coefficient held off its true value.
 WRONG_HOLDS = (("Cma", 1.3), ("Cmq", 2.0), ("Clp", 1.1))
 WITHIN_SE = 3.0
@@ -154,6 +156,42 @@ def wrong(seeds: int, sd: float) -> list[str]:
     return out
 
 
+def checks(sd: float) -> list[str]:
+    """Single-flight checks the README and the options cite: a steady wind in turbulence,
+    the paper's noise, one RK4 substep against two (the reference flight, seeds 1-2)."""
+    from baselines.filter_error import FilterErrorEstimator
+
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    out = ["| flight | fit | success | max abs err/se | gust sd [m/s] | note |",
+           "|---|---|---|---|---|---|"]
+
+    def row(label: str, fit: str, r, note: str = "") -> None:
+        out.append(f"| {label} | {fit} | {r.success} | "
+                   f"{np.max(np.abs(r.theta - truth) / r.stderr):.2f} | "
+                   f"{r.info.get('gust_sd_mps', float('nan')):.3g} | {note or r.message[:90]} |")
+        print(out[-1], flush=True)
+
+    windy = Wind(steady_ned_mps=(3.0, 4.0, 0.0), turbulence_sd_mps=sd)
+    for seed in (1, 2):
+        flight = simulate(s.airframe, truth, dataclasses.replace(s.manoeuvre, wind=windy),
+                          make_noise("gaussian"), rng=seed)
+        row(f"steady (3, 4, 0) m/s + Dryden sd {sd:g}, seed {seed}", "filter-error",
+            FilterErrorEstimator().fit(flight, rng=seed))
+    paper = simulate(s.airframe, truth, s.manoeuvre, make_noise("paper"), rng=1)
+    row("still air, paper noise, seed 1", "filter-error", FilterErrorEstimator().fit(paper, rng=1))
+    row("still air, paper noise, seed 1", "output-error",
+        make_estimator("output-error").fit(paper, rng=1))
+    for kind, wind in (("still", None), (f"Dryden sd {sd:g}", Wind(turbulence_sd_mps=sd))):
+        flight = simulate(s.airframe, truth, dataclasses.replace(s.manoeuvre, wind=wind),
+                          make_noise("gaussian"), rng=1)
+        one, two = (FilterErrorEstimator(substeps=k).fit(flight, rng=1) for k in (1, 2))
+        moved = np.max(np.abs(one.theta - two.theta) / two.stderr)
+        row(f"{kind}, seed 1", "substeps 1", one, f"against substeps 2: max |change| / se "
+            f"{moved:.2g}")
+    return out
+
+
 def table(rows: dict) -> list[str]:
     """The markdown table of :func:`run`'s records."""
     out = ["| flight | method | fit check passed | all within 3 se | coverage 95 % | "
@@ -187,8 +225,18 @@ def main() -> None:
     parser.add_argument("--wrong-seeds", type=int, default=0,
                         help="instead: the verdict on known-wrong models, this many seeds "
                              "(results/filter_error_wrong.md)")
+    parser.add_argument("--checks", action="store_true",
+                        help="instead: the single-flight checks (results/filter_error_checks.md)")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
+    if args.checks:
+        out = checks(args.sd)
+        if not args.no_write:
+            RESULTS_CHECKS.write_text(
+                f"# filter-error: single-flight checks\n\n{dt.date.today()}, "
+                "`python benchmarks/bench_filter_error.py --checks`\n\n" + "\n".join(out) + "\n")
+            print(f"wrote {RESULTS_CHECKS}")
+        return
     if args.wrong_seeds:
         out = wrong(args.wrong_seeds, args.sd)
         print("\n".join(out))
