@@ -147,40 +147,41 @@ def run_filters(model: GustModel, theta: np.ndarray, steady: np.ndarray, sigma: 
     q = (sigma**2 * (1.0 - decay**2))[:, None, None] * np.eye(N_WIND)
     A = np.zeros((r, N_FILTER, N_FILTER))
     A[:, _WIND, _WIND] = decay * np.eye(N_WIND)
-    eye_m, eye_x = np.eye(m), np.eye(N_FILTER)
+    eye_m = np.eye(m)
     innovation = np.empty((r, n, m))
     S_all = np.empty((r, n, m, m))
     xs = np.empty((r, n, N_FILTER))
     ok = np.ones(r, dtype=bool)
     for k in range(n):
         if k > 0:
-            f.set(2, model.pieces[:, k - 1])
-            f.set(3, model.exo[:, k - 1])
-            f.set(4, model.exo[:, k])
+            f.inputs[2][:] = model.pieces[:, k - 1]  # Buffered's input buffers, in place
+            f.inputs[3][:] = model.exo[:, k - 1]
+            f.inputs[4][:] = model.exo[:, k]
             x_next, F = f(x.ravel())
             A[:, :N_STATE, :] = F.reshape(r, N_FILTER, N_STATE).transpose(0, 2, 1)
-            x = np.concatenate([x_next.reshape(r, N_STATE),
-                                steady + decay * (x[:, _WIND] - steady)], axis=1)
+            x[:, _WIND] = steady + decay * (x[:, _WIND] - steady)
+            x[:, :N_STATE] = x_next.reshape(r, N_STATE)
             P = A @ P @ A.transpose(0, 2, 1)
             P[:, _WIND, _WIND] += q
-        h.set(2, model.delta[k:k + 1])
-        h.set(3, model.exo[:, k])
+        h.inputs[2][0] = model.delta[k]
+        h.inputs[3][:] = model.exo[:, k]
         y, H = h(x.ravel())
-        y = y.reshape(r, m)
-        H = H.reshape(r, N_FILTER, m).transpose(0, 2, 1)
-        PHt = P @ H.transpose(0, 2, 1)
-        S = H @ PHt + R[k] * eye_m
-        nu = zs[k] - y
+        H = H.reshape(r, N_FILTER, m)  # H^T per run
+        HP = H.transpose(0, 2, 1) @ P  # H P, (r, m, N_FILTER)
+        S = S_all[:, k]
+        np.matmul(HP, H, out=S)
+        S += R[k] * eye_m
+        nu = innovation[:, k]
+        np.subtract(zs[k], y.reshape(r, m), out=nu)
         try:
-            K = np.linalg.solve(S, PHt.transpose(0, 2, 1)).transpose(0, 2, 1)  # P H' S^-1
+            Kt = np.linalg.solve(S, HP)  # K^T = S^-1 H P
         except np.linalg.LinAlgError:
             ok[:] = False
             break
-        x = x + np.einsum("rij,rj->ri", K, nu)
-        IKH = eye_x - K @ H  # Joseph form
-        P = IKH @ P @ IKH.transpose(0, 2, 1) + (K * R[k]) @ K.transpose(0, 2, 1)
+        x += np.einsum("rji,rj->ri", Kt, nu)
+        P = P - HP.transpose(0, 2, 1) @ Kt  # (I - K H) P = P - P H^T K^T
         P = 0.5 * (P + P.transpose(0, 2, 1))
-        innovation[:, k], S_all[:, k], xs[:, k] = nu, S, x
+        xs[:, k] = x
     else:
         ok &= (np.all(np.isfinite(innovation), axis=(1, 2))
                & np.all(np.isfinite(xs), axis=(1, 2)))
