@@ -178,7 +178,7 @@ def run_filters(model: GustModel, theta: np.ndarray, steady: np.ndarray, sigma: 
         except np.linalg.LinAlgError:
             ok[:] = False
             break
-        x += np.einsum("rji,rj->ri", Kt, nu)
+        x += (nu[:, None, :] @ Kt)[:, 0]  # K nu
         P = P - HP.transpose(0, 2, 1) @ Kt  # (I - K H) P = P - P H^T K^T
         P = 0.5 * (P + P.transpose(0, 2, 1))
         xs[:, k] = x
