@@ -109,7 +109,7 @@ def run_filters(model: GustModel, theta: np.ndarray, steady: np.ndarray, sigma: 
     model : GustModel
     theta : ndarray, shape (r, N_COEFFICIENTS)
         Coefficients of each run.
-    steady : ndarray, shape (r, 3)
+    steady : ndarray, shape (r, N_WIND)
         Steady wind of each run [m/s, NED].
     sigma : ndarray, shape (r,)
         Gust intensity of each run [m/s].

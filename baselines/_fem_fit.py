@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from baselines._fem_filter import FilterRuns, GustModel, run_filters
+from baselines._fem_model import N_WIND
 
 #: Central-difference step of the scaled parameters: the innovations are smooth in them
 #: (truncation ~h^2 = 1e-8 relative), rounding ~eps / h = 2e-12 relative.
@@ -72,9 +73,10 @@ class Problem:
     scale : ndarray, shape (n_free,)
         Scale of each free coefficient (its prior, 1 where the prior is 0).
     estimate_wind : bool
-        Three steady-wind components [m/s] after ``log sigma`` (tested, but not offered by
-        :class:`baselines.filter_error.FilterErrorEstimator`: not identifiable against the
-        gusts' initial state on a record ~L/V long, its module docstring).
+        The steady wind's components (north, east, down [m/s]) after ``log sigma``
+        (tested, but not offered by :class:`baselines.filter_error.FilterErrorEstimator`:
+        not identifiable against the gusts' initial state on a record ~L/V long, its
+        module docstring).
     prior_mean, prior_info : ndarray, shape (n_free,)
         Gaussian priors on the free coefficients (information 0: none), physical units.
     """
@@ -94,7 +96,7 @@ class Problem:
     @property
     def n_parameters(self) -> int:
         """Scaled parameters: the free coefficients, log sigma, the wind if estimated."""
-        return self.free.size + 1 + (3 if self.estimate_wind else 0)
+        return self.free.size + 1 + (N_WIND if self.estimate_wind else 0)
 
     @property
     def i_sigma(self) -> int:
@@ -102,11 +104,12 @@ class Problem:
         return int(self.free.size)
 
     def unpack(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Coefficients (r, N_COEFFICIENTS), steady wind (r, 3), sigma (r,) of ``p`` (r, n_p)."""
+        """Coefficients (r, N_COEFFICIENTS), steady wind (r, N_WIND), sigma (r,) of ``p``
+        (r, n_p)."""
         theta = np.tile(self.theta_base, (p.shape[0], 1))
         theta[:, self.free] = p[:, :self.free.size] * self.scale
         sigma = np.exp(p[:, self.i_sigma])
-        wind = p[:, self.i_sigma + 1:] if self.estimate_wind else np.zeros((p.shape[0], 3))
+        wind = p[:, self.i_sigma + 1:] if self.estimate_wind else np.zeros((p.shape[0], N_WIND))
         return theta, wind, sigma
 
     def run(self, p: np.ndarray, R: np.ndarray) -> FilterRuns:

@@ -99,7 +99,7 @@ class FilterErrorEstimator(Estimator):
     (m,), ``R`` (n, m): the innovations' variances (the fit check's noise model),
     ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
     ``parameter_stderr``, and
-    ``wind_filtered_ned_mps`` (n, 3): the filtered wind (steady and gusts) at each sample.
+    ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each sample.
     """
 
     name: ClassVar[str] = "filter-error"

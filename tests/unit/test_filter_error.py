@@ -126,7 +126,7 @@ def test_the_batched_filter_is_filterpys_ekf(turbulent_flight, reference_scenari
     reference = _kalman.run_ekf(dataclasses.replace(model, transition=transition), x0_aug, P0,
                                 Q, np.diag(noise.R), zs)
     assert reference.failed_at is None
-    runs = run_filters(gust_model(flight, 1, "auto", 0.0), theta[None], np.zeros((1, 3)),
+    runs = run_filters(gust_model(flight, 1, "auto", 0.0), theta[None], np.zeros((1, N_WIND)),
                        np.array([sigma]), decay, x0, P0x, noise.R, zs)
     assert runs.ok[0]
     assert_close_in_norm(runs.innovation[0], reference.innovation, FILTER_RTOL, axis=0)
@@ -245,6 +245,7 @@ def test_noise_from_the_innovations_on_a_log_without_metadata(still_flight) -> N
     assert fe.info["measurement_noise"] == "innovations"
     sd = np.sqrt(fe.info["measurement_noise_var"])
     noise = still_flight.metadata["noise"]
-    want = np.r_[np.full(6, noise["accel_sd_mps2"]), np.full(3, noise["rate_sd_radps"])]
+    want = np.array([noise["accel_sd_mps2"] if c in aeroid.model.ACCEL_CHANNELS
+                     else noise["rate_sd_radps"] for c in aeroid.model.OUTPUT_CHANNELS])
     np.testing.assert_allclose(sd, want, rtol=0.15)  # 501 samples: sd of an sd ~3 %
     assert fe.success, fe.message
