@@ -47,6 +47,9 @@ WITHIN_SE = 3.0
 #: (1 mm/s) and the integration (1 against 2 RK4 substeps): measured 0.05 se apart.
 AGREE_SE = 0.3
 TURBULENCE_SD = 3.0
+#: A noise-free flight is recovered up to one RK4 step per sample against the 0.25 ms
+#: truth integration: output-error measured 1.2e-4 (Clp) with 1 substep; here 1.2e-4.
+NOISE_FREE_RTOL = 2e-4
 
 
 @pytest.fixture(scope="module")
@@ -192,6 +195,16 @@ def test_in_turbulence_the_truth_is_within_3_se_where_output_error_is_refused(
     # (+- 0.27) on this flight; a bracket, not a 3-se claim
     assert 0.5 * TURBULENCE_SD < sd < 2 * TURBULENCE_SD and sd_se > 0
     assert fe.history["axis"] == "iteration" and fe.history["theta"].shape[1] == N_COEFFICIENTS
+
+
+def test_a_noise_free_flight_is_recovered(clean_flight, reference_scenario) -> None:
+    """No noise metadata to use (model "none"): the noise from the innovations, said."""
+    fe = FilterErrorEstimator().fit(clean_flight, rng=0)
+    assert fe.success, fe.message
+    assert fe.info["measurement_noise"] == "innovations"
+    np.testing.assert_allclose(fe.theta, reference_scenario.coefficient_vector,
+                               rtol=NOISE_FREE_RTOL)
+    assert fe.info["gust_sd_at_bound"]
 
 
 def test_the_verdict_on_a_known_wrong_model_in_still_air(still_flight, reference_scenario) -> None:
