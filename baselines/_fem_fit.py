@@ -125,12 +125,23 @@ class Problem:
 
 
 def nll(runs: FilterRuns) -> np.ndarray:
-    """``1/2 sum_k (nu^T S^-1 nu + log det S)`` of each run (r,); inf where a run failed."""
-    L = np.linalg.cholesky(np.where(runs.ok[:, None, None, None], runs.S, np.eye(runs.S.shape[-1])))
+    """``1/2 sum_k (nu^T S^-1 nu + log det S)`` of each run (r,); inf where a run failed
+    (not finite, or an innovation covariance not positive definite)."""
+    ok = runs.ok.copy()
+    eye = np.eye(runs.S.shape[-1])
+    try:
+        L = np.linalg.cholesky(np.where(ok[:, None, None, None], runs.S, eye))
+    except np.linalg.LinAlgError:
+        for j in np.flatnonzero(ok):
+            try:
+                np.linalg.cholesky(runs.S[j])
+            except np.linalg.LinAlgError:
+                ok[j] = False
+        L = np.linalg.cholesky(np.where(ok[:, None, None, None], runs.S, eye))
     white = np.linalg.solve(L, runs.innovation[..., None])[..., 0]  # L^-1 nu
     logdet = 2.0 * np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
     cost = 0.5 * np.sum(np.sum(white * white, axis=-1) + logdet, axis=-1)
-    return np.where(runs.ok, cost, np.inf)
+    return np.where(ok, cost, np.inf)
 
 
 def score_information(nu: np.ndarray, S: np.ndarray, dnu: np.ndarray, dS: np.ndarray

@@ -9,6 +9,8 @@ not states, so the Jacobians have only the columns of ``[x, w]`` (12 of the EKF'
 the functions are compiled to C (:func:`aeroid.model.symbolic.compile_functions`, cached
 on disk), falling back to CasADi's virtual machine (same numbers) without a compiler.
 ``tests/unit/test_filter_error.py`` checks them against the EKF's functions.
+:func:`step_functions` wraps them into the filter's prediction and update, covariance
+included (one compiled call each per sample; the first build compiles for ~5 s).
 """
 
 from __future__ import annotations
@@ -55,3 +57,53 @@ def gust_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
         if built is not None:
             return built[0], built[1], True
     return f, h, False
+
+
+@functools.lru_cache(maxsize=8)
+def step_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
+                   varying: bool, n_outputs: int, compile_model: bool = True
+                   ) -> tuple[ca.Function, ca.Function, bool]:
+    """Return ``predict, update, compiled``: one EKF step of the gust filter in C.
+
+    ``predict(xw, P, theta, steady, decay, q, pieces, exo_a, exo_b) -> (xw, P)``: the
+    model's transition of ``x`` (:func:`gust_functions`' ``f``), the wind decaying towards
+    ``steady`` by ``decay`` with process-noise variance ``q`` per component, ``P <- A P
+    A^T + Q``; ``update(xw, P, theta, delta, exo, positions, z, R) -> (xw, P, nu, S)``:
+    the innovation ``nu = z - h``, ``S = H P H^T + diag(R)``, ``K = P H^T S^-1``,
+    ``xw + K nu`` and ``P - K H P`` (symmetrised). ``P`` and ``S`` dense, column-major.
+    The covariance algebra in C instead of numpy: one call per step and filter batch.
+    """
+    f, h, _ = gust_functions(const, dt, substeps, n_pieces, varying, False)
+    xw = ca.SX.sym("xw", N_FILTER)
+    P = ca.SX.sym("P", N_FILTER, N_FILTER)
+    theta = ca.SX.sym("theta", N_COEFFICIENTS)
+    steady = ca.SX.sym("steady", N_WIND)
+    decay, q = ca.SX.sym("decay"), ca.SX.sym("q")
+    sym = symbolic.interval_symbols(n_pieces, varying)
+    x_next, F = f(xw, theta, *sym)
+    wind = xw[N_STATE:]
+    A = ca.vertcat(F, ca.horzcat(ca.SX.zeros(N_WIND, N_STATE), decay * ca.SX.eye(N_WIND)))
+    Q = ca.diagcat(ca.SX.zeros(N_STATE, N_STATE), q * ca.SX.eye(N_WIND))
+    P_next = A @ P @ A.T + Q
+    predict = ca.Function("fem_predict", [xw, P, theta, steady, decay, q, *sym],
+                          [ca.vertcat(x_next, steady + decay * (wind - steady)),
+                           ca.densify(0.5 * (P_next + P_next.T))])
+    delta = ca.SX.sym("delta")
+    exo = ca.SX.sym("exo", sym.exo_a.shape[0])
+    pos = ca.SX.sym("pos", 6)
+    z = ca.SX.sym("z", n_outputs)
+    R = ca.SX.sym("R", n_outputs)
+    y, H = h(xw, theta, delta, exo, pos)
+    HP = H @ P
+    S = HP @ H.T + ca.diag(R)
+    Kt = ca.solve(S, HP)  # K^T = S^-1 H P
+    nu = z - y
+    P_new = P - HP.T @ Kt
+    update = ca.Function("fem_update", [xw, P, theta, delta, exo, pos, z, R],
+                         [xw + Kt.T @ nu, ca.densify(0.5 * (P_new + P_new.T)), nu,
+                          ca.densify(S)])
+    if compile_model:
+        built = symbolic.compile_functions([predict, update], "fem_step")
+        if built is not None:
+            return built[0], built[1], True
+    return predict, update, False
