@@ -6,11 +6,11 @@ same way from the model's public face (:func:`aeroid.model.with_wind_symbols`,
 wind, held over the sample interval. Two differences, both for speed (the filter-error
 method runs the filter once per parameter and iteration): the coefficients are an input,
 not states, so the Jacobians have only the columns of ``[x, w]`` (12 of the EKF's 21); and
-the functions are compiled to C (:func:`aeroid.model.symbolic.compile_functions`, cached
-on disk), falling back to CasADi's virtual machine (same numbers) without a compiler.
-``tests/unit/test_filter_error.py`` checks them against the EKF's functions.
 :func:`step_functions` wraps them into the filter's prediction and update, covariance
-included (one compiled call each per sample; the first build compiles for ~5 s).
+included, compiled to C (:func:`aeroid.model.symbolic.compile_functions`, cached on disk;
+the first build compiles for ~5 s), falling back to CasADi's virtual machine (same
+numbers) without a compiler. ``tests/unit/test_filter_error.py`` checks the transition and
+measurement against the EKF's functions, the filter against filterpy's EKF.
 """
 
 from __future__ import annotations
@@ -30,9 +30,8 @@ N_FILTER = N_STATE + N_WIND
 
 @functools.lru_cache(maxsize=8)
 def gust_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
-                   varying: bool, compile_model: bool = True
-                   ) -> tuple[ca.Function, ca.Function, bool]:
-    """Return ``f, h, compiled`` for the filter's state ``xw = [x, w]``.
+                   varying: bool) -> tuple[ca.Function, ca.Function]:
+    """Return ``f, h`` (CasADi SX) for the filter's state ``xw = [x, w]``.
 
     ``f(xw, theta, pieces, exo_a, exo_b) -> (x_next (N_STATE,), dx_next/dxw (N_STATE,
     N_FILTER))``: one RK4 interval (``substeps`` steps) with the wind ``w`` added to the
@@ -52,11 +51,7 @@ def gust_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
     y = symbolic.measurement(x, delta, theta, pos,
                              symbolic.sample_constants(const_w, exo + wind_row))
     h = ca.Function("h_fem", [xw, theta, delta, exo, pos], [y, ca.densify(ca.jacobian(y, xw))])
-    if compile_model:
-        built = symbolic.compile_functions([f, h], "fem")
-        if built is not None:
-            return built[0], built[1], True
-    return f, h, False
+    return f, h
 
 
 @functools.lru_cache(maxsize=8)
@@ -73,7 +68,7 @@ def step_functions(const: Constants, dt: float, substeps: int, n_pieces: int,
     ``xw + K nu`` and ``P - K H P`` (symmetrised). ``P`` and ``S`` dense, column-major.
     The covariance algebra in C instead of numpy: one call per step and filter batch.
     """
-    f, h, _ = gust_functions(const, dt, substeps, n_pieces, varying, False)
+    f, h = gust_functions(const, dt, substeps, n_pieces, varying)
     xw = ca.SX.sym("xw", N_FILTER)
     P = ca.SX.sym("P", N_FILTER, N_FILTER)
     theta = ca.SX.sym("theta", N_COEFFICIENTS)

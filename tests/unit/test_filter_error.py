@@ -76,7 +76,7 @@ def _start(flight):
 def test_the_variant_is_the_ekfs_steady_wind_model(turbulent_flight, reference_scenario) -> None:
     const = constants(turbulent_flight.airframe)
     dt = turbulent_flight.dt
-    f, h, _ = gust_functions(const, dt, 1, 1, False, False)
+    f, h = gust_functions(const, dt, 1, 1, False)
     f_ekf, h_ekf, _, _ = _kalman_wind._wind_functions(const, dt, 1, 1, False, ())
     theta = reference_scenario.coefficient_vector
     x = turbulent_flight.states()[100]
