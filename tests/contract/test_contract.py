@@ -41,6 +41,7 @@ HISTORY_AXIS: dict[str, str | None] = {
     "eam-pso": "iteration", "ebm-pso": "iteration", "sebm-pso": "iteration",
     "pyswarms": "iteration", "output-error": "iteration", "ekf": "time", "ukf": "time",
     "equation-error": None,
+    "filter-error": "iteration",
 }
 METHODS = sorted(available())
 SEED = 123

@@ -1,0 +1,225 @@
+"""The filter-error method: maximum likelihood with an extended Kalman filter in the loop.
+
+For a flight in turbulence (issue 26; Maine & Iliff, NASA RP-1168, ch. 5; Jategaonkar,
+*Flight Vehicle System Identification*, ch. 5, FVSysID's ``ml_fem``). Output-error
+integrates the model open loop and so needs still air (or a steady wind): gusts move the
+measured loads away from any deterministic prediction and the fit check refuses it. Here
+a Kalman filter follows the gusts and the likelihood is that of its innovations.
+
+- **Model**: the model's state plus the wind the loads see, three NED components: a
+  mean of zero (still air) and a gust per component, a
+  first-order Gauss-Markov process (Dryden's first-order approximation, time constant
+  ``L / V``, intensity ``sigma``; :mod:`baselines._fem_filter`). The gusts are in NED,
+  not body axes: the airframe rolls at ~51 rad/s and a gust fixed in the air turns in body
+  axes at that rate, so the filter's gain is time-varying (an EKF, exact CasADi
+  Jacobians; :mod:`baselines._fem_model`).
+- **Parameters**: the free coefficients (held ones and priors through
+  :class:`aeroid.estimation.CoefficientSpec`) and ``log sigma``. Measurement noise:
+  :mod:`baselines._fem_setup`. A steady wind is not a parameter: over a record about
+  ``L / V`` long the gusts' initial state carries it (reference flight, 5 m/s steady plus
+  Dryden sd 3 m/s, seeds 1-2: every coefficient within 1.9 se, the fit check passed;
+  ``benchmarks/bench_filter_error.py --checks``); as three more parameters
+  (:class:`baselines._fem_fit.Problem`'s ``estimate_wind``) the along-path component was
+  not identifiable (seeds 1-2: not converged in 30 iterations, 60 +- 130 m/s; measured by
+  hand), so the estimator does not offer it.
+- **Criterion and optimizer**: the innovations' negative log-likelihood, Fisher scoring
+  with central-difference sensitivities of the whole filter; standard errors (the
+  Cramér-Rao bound) from the innovations' Fisher information (:mod:`baselines._fem_fit`).
+- **Verdict**: the fit check reads the innovations (``info['fit_residuals']``) with the
+  filter's own innovation variances as its noise model (``info['R']``): a right model
+  leaves white innovations of that size.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+
+from aeroid.errors import EstimatorError
+from aeroid.estimation import EstimationResult, Estimator, failed_result
+from aeroid.flights import INPUTS, MIL_SCALE_LENGTH_M, Flight
+from aeroid.model import NAMES, OUTPUT_CHANNELS
+from baselines import _common, _fem_fit, _fem_setup
+from baselines._fem_filter import gust_model
+from baselines._fem_model import N_WIND
+
+#: Samples at most: the filter keeps every perturbed run's innovation covariances
+#: (2 n_p + 1 runs x n x 9 x 9 doubles: 15 kB per sample with 10 parameters).
+MAX_SAMPLES = 5000
+
+
+@dataclass(frozen=True, kw_only=True)
+class FilterErrorEstimator(Estimator):
+    """Filter-error maximum likelihood: an EKF with NED gust states inside the likelihood.
+
+    Starts from the airframe's prior coefficients and ``gust_sd_start_mps``; the module
+    docstring says what is estimated and how.
+
+    Attributes
+    ----------
+    input : {"auto", "hold", "midpoint", "events", "law"}
+        How the fin deflection between samples is modelled (default ``auto``: ``law`` with
+        a ``[fin_law]``, else ``hold``; :data:`aeroid.flights.INPUTS`).
+    delay_s : float
+        A known actuator delay [s] (default 0).
+    substeps : int
+        RK4 steps per sample interval (default 1: against 2, the coefficients moved by
+        0.023 of their standard errors in still air and 2e-4 in Dryden sd 3 m/s; the
+        reference flight, Gaussian IMU, seed 1; ``benchmarks/bench_filter_error.py
+        --checks``).
+    scale_length_m : float
+        The gusts' scale length L [m] (default MIL-F-8785C's 533.4 m, the simulator's);
+        the time constant is ``L / V`` with ``V`` the mean speed of the record.
+    gust_sd_start_mps : float
+        The gust intensity the fit starts from [m/s] (default 1.0).
+    measurement_noise : {"auto", "metadata", "innovations"}
+        The measurement-noise variances: from the flight's noise metadata, or estimated
+        from the innovations after every iteration (FVSysID's relaxation); ``auto``
+        (default): metadata when the flight has a noise model with noise, else
+        innovations; said in one line (:mod:`baselines._fem_setup`).
+    max_iterations : int
+        Fisher-scoring iterations at most (default 30).
+    tol : float
+        Convergence: every parameter's step below ``tol`` of its Cramér-Rao sd (default
+        0.01).
+    compile_model : bool
+        Compile the model's CasADi functions to C (default True; falls back to CasADi's
+        virtual machine, the same numbers; ``info['compiled']`` says which ran).
+
+    Notes
+    -----
+    ``cost`` is the innovations' negative log-likelihood without constants, plus the
+    priors'. ``info``: ``gust_sd_mps`` and ``gust_sd_stderr_mps`` (NaN when at its lower
+    bound, :data:`baselines._fem_fit.LOG_SIGMA_MIN`: still air), ``gust_time_constant_s``,
+    ``scale_length_m``, ``measurement_noise`` (which source) and ``measurement_noise_var``
+    (m,), ``R`` (n, m): the innovations' variances (the fit check's noise model),
+    ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
+    ``parameter_stderr``, and
+    ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each sample.
+    """
+
+    name: ClassVar[str] = "filter-error"
+    description: ClassVar[str] = (
+        "filter-error maximum likelihood: an EKF with NED gust states in the loop (turbulence)")
+    supports_holds: ClassVar[bool] = True
+    uses_state_sd: ClassVar[bool] = True  # the initial covariance: _fem_setup.initial_state
+
+    input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
+    delay_s: float = 0.0
+    substeps: int = 1
+    scale_length_m: float = MIL_SCALE_LENGTH_M
+    gust_sd_start_mps: float = 1.0
+    measurement_noise: Literal["auto", "metadata", "innovations"] = "auto"
+    max_iterations: int = 30
+    tol: float = 0.01
+    compile_model: bool = True
+
+    def __post_init__(self) -> None:
+        if self.input not in INPUTS:
+            raise ValueError(f"input must be one of {', '.join(INPUTS)}, got {self.input!r}")
+        if self.measurement_noise not in ("auto", "metadata", "innovations"):
+            raise ValueError("measurement_noise must be auto, metadata or innovations, got "
+                             f"{self.measurement_noise!r}")
+        if not (math.isfinite(self.delay_s) and abs(self.delay_s) < 0.1):
+            raise ValueError(f"delay_s must be seconds below 0.1 in magnitude, got {self.delay_s}")
+        for key in ("substeps", "max_iterations"):
+            if not (isinstance(getattr(self, key), int) and getattr(self, key) >= 1):
+                raise ValueError(f"{key} must be an integer >= 1, got {getattr(self, key)!r}")
+        for key in ("scale_length_m", "gust_sd_start_mps", "tol"):
+            if not (math.isfinite(getattr(self, key)) and getattr(self, key) > 0):
+                raise ValueError(f"{key} must be a positive number, got {getattr(self, key)}")
+
+    def parameter_names(self, free_names: tuple[str, ...]) -> tuple[str, ...]:
+        """Names of the estimated parameters, in the order of ``info['parameters']``."""
+        return (*free_names, "gust_sd_mps")
+
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
+        """Fit the flight (no random draws: ``rng`` is unused)."""
+        if flight.n_samples > MAX_SAMPLES:
+            raise EstimatorError(f"{self.name}: {flight.n_samples} samples; it fits at most "
+                                 f"{MAX_SAMPLES} at once (the perturbed filters' innovation "
+                                 "covariances: ~15 kB per sample); fit a shorter window")
+        zs = _common.measurements(flight)
+        noise = _fem_setup.measurement_noise(flight, zs, self.measurement_noise, self.name)
+        _fem_setup.say(noise.note)
+        x0, P0x = _fem_setup.initial_state(flight, zs, noise.R)
+        decay, tau, speed = _fem_setup.gust_decay(flight, self.scale_length_m)
+        prior = flight.airframe.prior_vector()
+        free = np.arange(len(NAMES)) if holds is None else holds.free_index
+        theta_base = prior.copy() if holds is None else holds.with_held(prior)
+        scale = np.where(prior[free] != 0.0, prior[free], 1.0)
+        mean, info_prior = np.zeros(free.size), np.zeros(free.size)
+        if holds is not None:
+            all_mean, _ = holds.prior_mean_sd()
+            info_prior = holds.prior_information()[free]
+            mean = np.where(info_prior > 0, all_mean[free], 0.0)
+        problem = _fem_fit.Problem(
+            gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model),
+            zs, x0, P0x, decay, theta_base, free, scale, False, mean, info_prior)
+        p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)]])
+        try:
+            fit = _fem_fit.fisher_scoring(problem, p0, noise.R, update_noise=noise.update,
+                                          r_floor=noise.floor,
+                                          max_iterations=self.max_iterations, tol=self.tol)
+        except FloatingPointError as exc:
+            return failed_result(self.name, str(exc))
+        return self._result(flight, problem, fit, noise, tau, speed)
+
+    def _result(self, flight: Flight, problem: _fem_fit.Problem, fit: _fem_fit.Fit,
+                noise: _fem_setup.Noise, tau: float, speed: float) -> EstimationResult:
+        """Turn the fit into an :class:`EstimationResult` (class docstring, Notes)."""
+        n_p, nf, i_s = fit.p.size, problem.free.size, problem.i_sigma
+        active = np.array([i != i_s or not fit.at_bound for i in range(n_p)])
+        cov_p = np.full((n_p, n_p), np.nan)
+        with contextlib.suppress(np.linalg.LinAlgError):  # then NaN: no standard errors
+            cov_p[np.ix_(active, active)] = np.linalg.inv(
+                fit.information[np.ix_(active, active)])
+        # physical units: coefficients x scale; sigma = exp(p) (delta method)
+        jac = np.ones(n_p)
+        jac[:nf] = problem.scale
+        jac[i_s] = math.exp(fit.p[i_s])
+        phys = fit.p.copy()
+        phys[:nf] *= problem.scale
+        phys[i_s] = math.exp(fit.p[i_s])
+        cov_phys = cov_p * np.outer(jac, jac)
+        stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
+        theta, _, _ = problem.unpack(fit.p[None])
+        cov = np.zeros((len(NAMES), len(NAMES)))
+        cov[np.ix_(problem.free, problem.free)] = cov_phys[:nf, :nf]
+        stderr = np.full(len(NAMES), np.nan)
+        stderr[problem.free] = stderr_phys[:nf]
+        runs = fit.runs
+        S_diag = np.diagonal(runs.S[0], axis1=-2, axis2=-1)
+        free_names = tuple(NAMES[i] for i in problem.free)
+        info: dict[str, Any] = {
+            "parameter_names": self.parameter_names(free_names), "parameters": phys,
+            "parameter_stderr": stderr_phys, "parameter_covariance": cov_phys,
+            "fisher": fit.information, "gust_sd_mps": float(phys[i_s]),
+            "gust_sd_stderr_mps": float(stderr_phys[i_s]), "gust_sd_at_bound": fit.at_bound,
+            "gust_time_constant_s": tau, "scale_length_m": self.scale_length_m,
+            "speed_mps": speed, "measurement_noise": noise.source,
+            "measurement_noise_var": fit.R, "R": S_diag, "compiled": problem.model.compiled,
+            "iterations": fit.n_iterations,
+            "wind_filtered_ned_mps": runs.x[0][:, -N_WIND:],
+            "fit_residuals": {c: runs.innovation[0][:, j]
+                              for j, c in enumerate(OUTPUT_CHANNELS)},
+        }
+        warnings: list[str] = []
+        if np.any(flight.airframe.accel_position_sd > 0):
+            warnings.append(f"{self.name}: the airframe's uncertain accelerometer positions "
+                            "(accel*_position_sd_m) are taken as given: not estimated, and "
+                            "their uncertainty is not in the standard errors")
+        hist_p = np.array(fit.history_p)
+        history = {"axis": "iteration", "step": np.arange(len(hist_p)),
+                   "theta": problem.unpack(hist_p)[0],
+                   "cost": np.array(fit.history_cost[:len(hist_p)])}
+        return EstimationResult(
+            estimator=self.name, theta=theta[0], stderr=stderr, covariance=cov,
+            cost=fit.cost, success=fit.converged, message=fit.message,
+            n_evaluations=fit.n_evaluations, n_iterations=fit.n_iterations, history=history,
+            info=info, warnings=tuple(warnings))
