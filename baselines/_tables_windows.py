@@ -54,6 +54,10 @@ def shared_tables(windows: Windows) -> tuple[Windows, list[MachTables]]:
             raise EstimatorError(f"windows: window {name!r} has other [tables] than "
                                  f"{windows.names[0]!r}; the windows share their tables")
     assert spec is not None
+    if spec.angle_knots:
+        raise EstimatorError(f"windows: {', '.join(n for n, _ in spec.angle_knots)}: tables "
+                             "in the angle of attack are fitted on one window only (not yet "
+                             "over several)")
     sounds = [spec.speed_of_sound(f.airframe.altitude_m) for f in windows]
     machs = [mach_tables.mach_number(*f.states()[:, :3].T, a) for f, a in
              zip(windows, sounds, strict=True)]
