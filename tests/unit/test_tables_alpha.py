@@ -129,3 +129,14 @@ def test_scenario_gives_a_true_angle_table():
     assert truth["Cma@A1.2deg"] == -33.8 and truth["Cma@A2.2deg"] == -37.18
     fits = scenario.airframe.mach_tables()
     assert fits.parameter_names() == names
+
+
+def test_a_study_scores_angle_points_against_the_true_table():
+    from aeroid.study import _tables as study_tables
+
+    scenario = aeroid.flights.load_scenario("studies/scenarios/alpha_table.toml")
+    names = ("Cx", "Cma@A0.2deg", "Cma@A0.7deg", "Cma@A2.2deg", "Cma@A3deg", "Cmq")
+    got = study_tables.parameter_truth(scenario, names)
+    # the truth's rows, linear between them and held beyond (numpy.interp, independently)
+    cma = np.interp([0.2, 0.7, 2.2, 3.0], [0.2, 1.2, 2.2], [-30.42, -33.8, -37.18])
+    np.testing.assert_allclose(got, [-0.98, *cma, -2227.0], rtol=1e-12)
