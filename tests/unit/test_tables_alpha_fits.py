@@ -11,7 +11,14 @@ import pytest
 
 import aeroid
 from aeroid.errors import EstimatorError
-from aeroid.flights import GaussianNoise, NoNoise, load_scenario, record_flight, simulate_truth
+from aeroid.flights import (
+    GaussianNoise,
+    NoNoise,
+    cut_windows,
+    load_scenario,
+    record_flight,
+    simulate_truth,
+)
 from aeroid.model import TableSpec
 
 SCENARIO = Path(__file__).parents[2] / "studies" / "scenarios" / "alpha_table.toml"
@@ -93,6 +100,10 @@ def test_knots_the_data_do_not_reach_are_refused_or_held_in_one_line(flights):
     assert any("below 0.5 and above 1.5 deg, beyond Cma's knots" in w for w in result.warnings)
     with pytest.raises(EstimatorError, match="angle of attack cannot be fitted with held"):
         ee.fit(noisy, rng=0, holds={"hold": {"Cmd": -20.9}})
+    windows = cut_windows(noisy, ((5.0, 5.4), (5.6, 6.0)))
+    for method in ("equation-error", "output-error"):
+        with pytest.raises(EstimatorError, match="angle of attack are fitted on one window"):
+            aeroid.make_estimator(method).fit(windows, rng=0)
 
 
 def test_a_mach_table_and_an_angle_table_in_one_fit(flights):
