@@ -145,7 +145,8 @@ def coverage(path: Path) -> None:
     rows = [r for r in rows if r["success"]]
     names = rows[0]["names"]
     err = np.array([r["theta"] for r in rows]) - np.array([r["truth"] for r in rows])
-    z = np.abs(err) / np.array([r["stderr"] for r in rows])
+    signed = err / np.array([r["stderr"] for r in rows])
+    z = np.abs(signed)
     print(f"{len(rows)} successful fits (runs {min(r['run'] for r in rows)}-"
           f"{max(r['run'] for r in rows)})")
     points = [j for j, n in enumerate(names) if "@" in n]
@@ -153,7 +154,8 @@ def coverage(path: Path) -> None:
         k = int(np.sum(z[:, j] <= 1.96))
         ci = binomtest(k, len(rows)).proportion_ci(method="exact")
         print(f"    {name:12s} {k:4d} of {len(rows)} = {k / len(rows):.3f} "
-              f"({ci.low:.3f}-{ci.high:.3f})  max |z| {z[:, j].max():.2f}"
+              f"({ci.low:.3f}-{ci.high:.3f})  max |z| {z[:, j].max():.2f}  mean z "
+              f"{signed[:, j].mean():+.2f}  sd z {signed[:, j].std(ddof=1):.2f}"
               + ("" if j in points else "  (constant)"))
     k, n = int(np.sum(z[:, points] <= 1.96)), z[:, points].size
     ci = binomtest(k, n).proportion_ci(method="exact")
