@@ -83,7 +83,7 @@ def flight_tables(flight: Flight) -> MachTables | None:
         raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
                              f"spans Mach {mach.min():.4g}-{mach.max():.4g}); give knots "
                              "within it, or a knot count")
-    if tables.angle_knots:
+    if tables.angle_knots and not flight.metadata.get(SHARED_KEY):  # windows: over them all
         alpha = tables.alpha_total(states)
         empty = [point for name, knots in tables.angle_knots
                  for point, weight in zip(tables.point_names(name), mach_tables.basis(

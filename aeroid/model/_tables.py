@@ -39,7 +39,12 @@ from aeroid.errors import AirframeError
 from aeroid.model import _alpha_tables as angle
 from aeroid.model import _atmosphere as atmosphere
 from aeroid.model import _equations as eq
-from aeroid.model._alpha_tables import ANGLE_SEPARATOR, split_point, total_angle
+from aeroid.model._alpha_tables import (
+    ANGLE_SEPARATOR,
+    choose_angle_knots,
+    split_point,
+    total_angle,
+)
 from aeroid.model._coefficients import NAMES
 from aeroid.model._table_basis import (
     KNOT_RANGE,
@@ -259,7 +264,7 @@ class MachTables:
         return out
 
 
-__all__ = ["ANGLE_SEPARATOR", "split_point", "total_angle",
+__all__ = ["ANGLE_SEPARATOR", "choose_angle_knots", "split_point", "total_angle",
            "KNOT_RANGE", "MIN_KNOT_SPACING", "POINT_SEPARATOR", "MachTables", "basis",
            "check_knots", "choose_knots", "hat", "mach_number", "point_name", "table_value"]
 

@@ -14,6 +14,7 @@ from aeroid.errors import EstimatorError
 from aeroid.flights import (
     GaussianNoise,
     NoNoise,
+    Windows,
     cut_windows,
     load_scenario,
     record_flight,
@@ -100,10 +101,32 @@ def test_knots_the_data_do_not_reach_are_refused_or_held_in_one_line(flights):
     assert any("below 0.5 and above 1.5 deg, beyond Cma's knots" in w for w in result.warnings)
     with pytest.raises(EstimatorError, match="angle of attack cannot be fitted with held"):
         ee.fit(noisy, rng=0, holds={"hold": {"Cmd": -20.9}})
+
+
+#: One window stacked once is the same least squares (tests/unit/test_tables_windows.py's).
+EE_ONE_WINDOW_RTOL = 1e-10
+
+
+def test_angle_tables_over_windows(flights):
+    (_, noisy), truth = flights
+    ee = aeroid.make_estimator("equation-error")
+    one = ee.fit(cut_windows(noisy, ((5.0, 6.0),)), rng=0)
+    np.testing.assert_allclose(one.theta, ee.fit(noisy, rng=0).theta, rtol=EE_ONE_WINDOW_RTOL)
+    # two windows with a gap: counted knots span both windows' total angle together
     windows = cut_windows(noisy, ((5.0, 5.4), (5.6, 6.0)))
-    for method in ("equation-error", "output-error"):
-        with pytest.raises(EstimatorError, match="angle of attack are fitted on one window"):
-            aeroid.make_estimator(method).fit(windows, rng=0)
+    counted = Windows(tuple(dataclasses.replace(f, airframe=f.airframe.replace(
+        tables=TableSpec((), None, (("Cma", 3),)))) for f in windows), windows.names)
+    alpha = np.degrees(np.concatenate([aeroid.model.tables.total_angle(*f.states()[:, :3].T)
+                                       for f in windows]))
+    result = ee.fit(counted, rng=0)
+    knots = [aeroid.model.tables.split_point(n)[2] for n in result.names if "@A" in n]
+    assert alpha.min() - 0.1 < np.degrees(knots[0]) <= alpha.min()
+    assert alpha.max() <= np.degrees(knots[-1]) < alpha.max() + 0.1
+    fit = aeroid.make_estimator("output-error").fit(windows, rng=0)
+    assert fit.success, fit.message
+    for name in ("Cma@A0.2deg", "Cma@A1.2deg", "Cma@A2.2deg"):
+        i = fit.names.index(name)
+        assert abs(fit.theta[i] - truth[name]) < Z_LIMIT * fit.stderr[i], name
 
 
 def test_a_mach_table_and_an_angle_table_in_one_fit(flights):
