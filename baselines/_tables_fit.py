@@ -83,6 +83,16 @@ def flight_tables(flight: Flight) -> MachTables | None:
         raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
                              f"spans Mach {mach.min():.4g}-{mach.max():.4g}); give knots "
                              "within it, or a knot count")
+    if tables.angle_knots and not flight.metadata.get(SHARED_KEY):  # windows: over them all
+        alpha = tables.alpha_total(states)
+        empty = [point for name, knots in tables.angle_knots
+                 for point, weight in zip(tables.point_names(name), mach_tables.basis(
+                     knots, alpha).max(axis=0), strict=True) if weight == 0.0]
+        if empty:
+            raise EstimatorError(f"tables: no sample informs {', '.join(empty)} (the flight "
+                                 f"spans the total angle of attack {np.degrees(alpha.min()):.3g}"
+                                 f"-{np.degrees(alpha.max()):.3g} deg); give knots within it, "
+                                 "or a knot count")
     return tables
 
 
@@ -144,21 +154,40 @@ def mach_notes(flight: Flight, tables: MachTables) -> tuple[str, ...]:
             notes.append(f"tables: the flight's Mach {lo:.4g}-{hi:.4g} goes "
                          f"{' and '.join(beyond)}, beyond {name}'s knots: its end values "
                          "hold there")
+    if tables.angle_knots:
+        alpha = np.degrees(tables.alpha_total(flight.states()))
+        lo, hi = float(np.min(alpha)), float(np.max(alpha))
+        for name, knots in tables.angle_knots:
+            ends = np.degrees([knots[0], knots[-1]])
+            beyond = [b for b in (f"below {ends[0]:g}" if lo < ends[0] else "",
+                                  f"above {ends[1]:g}" if hi > ends[1] else "") if b]
+            if beyond:
+                notes.append(f"tables: the flight's total angle of attack {lo:.3g}-{hi:.3g} "
+                             f"deg goes {' and '.join(beyond)} deg, beyond {name}'s knots: "
+                             "its end values hold there")
     return tuple(notes)
 
 
-def expand_regressors(X: np.ndarray, tables: MachTables, mach: np.ndarray) -> np.ndarray:
+def expand_regressors(X: np.ndarray, tables: MachTables, mach: np.ndarray,
+                      alpha_total: np.ndarray | None = None) -> np.ndarray:
     """Return the regressors of the tables' parameters, shape (n, rows, n_parameters).
 
     ``X`` (n, rows, 9): the regressors of the nine coefficients (the loads at unit
     coefficient vectors, :func:`aeroid.model.regressors`); ``mach`` (n,) each sample's
-    Mach number. A table point's column is its coefficient's times its hat function.
+    Mach number; ``alpha_total`` (n,) its total angle of attack [rad] (with angle tables).
+    A table point's column is its coefficient's times its hat function.
     """
     given = dict(tables.knots)
+    by_angle = dict(tables.angle_knots)
+    if by_angle and alpha_total is None:
+        raise EstimatorError("tables: angle tables need each sample's angle of attack")
     columns = []
     for j, (name, _) in enumerate(tables.layout):
         if name in given:
             columns.append(X[..., j, None] * mach_tables.basis(given[name], mach)[:, None, :])
+        elif name in by_angle:
+            columns.append(X[..., j, None]
+                           * mach_tables.basis(by_angle[name], alpha_total)[:, None, :])
         else:
             columns.append(X[..., j, None])
     return np.concatenate(columns, axis=-1)
@@ -248,7 +277,9 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
     rec = rc.reconstruct(flight)
     y = rc.regression_target(rec, smoothing=est.smoothing)
     mach = tables.mach(flight.states())
-    X = np.concatenate([expand_regressors(part, tables, mach[start:stop])
+    alpha = tables.alpha_total(flight.states()) if tables.angle_knots else None
+    X = np.concatenate([expand_regressors(part, tables, mach[start:stop],
+                                          None if alpha is None else alpha[start:stop])
                         for start, stop, part in rc.regressor_blocks(
                             flight, smoothing=est.smoothing, window=rec.smoothing_window,
                             block=BLOCK_SAMPLES)])

@@ -60,7 +60,8 @@ def shared_tables(windows: Windows) -> tuple[Windows, list[MachTables]]:
     every = np.concatenate(machs)
     knots = tuple((name, mach_tables.choose_knots(every, k) if isinstance(k, int) else k)
                   for name, k in spec.knots)
-    resolved = TableSpec(knots, spec.temperature_k)
+    angles, alpha = _shared_angle_knots(windows, spec)
+    resolved = TableSpec(knots, spec.temperature_k, angles)
     empty = [mach_tables.point_name(name, k) for name, ks in knots
              for k, weight in zip(ks, mach_tables.basis(ks, every).max(axis=0), strict=True)
              if weight == 0.0]
@@ -68,11 +69,30 @@ def shared_tables(windows: Windows) -> tuple[Windows, list[MachTables]]:
         raise EstimatorError(f"tables: no sample of any window informs {', '.join(empty)} "
                              f"(the windows span Mach {every.min():.4g}-{every.max():.4g}); "
                              "give knots within it, or a knot count")
+    empty = [f"{name}{mach_tables.ANGLE_SEPARATOR}{k:g}deg" for name, ks in angles
+             for k, weight in zip(ks, mach_tables.basis(np.radians(ks), alpha).max(axis=0),
+                                  strict=True) if weight == 0.0]
+    if empty:
+        raise EstimatorError(f"tables: no sample of any window informs {', '.join(empty)} "
+                             f"(the windows span the total angle of attack "
+                             f"{np.degrees(alpha.min()):.3g}-{np.degrees(alpha.max()):.3g} deg);"
+                             " give knots within it, or a knot count")
     flights = tuple(dataclasses.replace(f, airframe=f.airframe.replace(tables=resolved),
                                         metadata={**f.metadata, SHARED_KEY: True})
                     for f in windows)
     out = Windows(flights, windows.names)
     return out, [f.airframe.mach_tables() for f in out]
+
+
+def _shared_angle_knots(windows: Windows, spec: TableSpec
+                        ) -> tuple[tuple[tuple[str, tuple[float, ...]], ...], np.ndarray]:
+    """The angle tables' knots [deg] over all windows (a count chosen from their total
+    angle of attack together) and every window's total angle [rad]."""
+    alpha = np.concatenate([mach_tables.total_angle(*f.states()[:, :3].T) for f in windows])
+    angles = tuple((name, tuple(float(np.degrees(x))
+                                for x in mach_tables.choose_angle_knots(alpha, k))
+                    if isinstance(k, int) else k) for name, k in spec.angle_knots)
+    return angles, alpha
 
 
 def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
@@ -94,8 +114,10 @@ def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
     Xs = []
     for flight, rec, tables in zip(windows, recs, per, strict=True):
         mach = tables.mach(flight.states())
+        alpha = tables.alpha_total(flight.states()) if tables.angle_knots else None
         Xs.append(np.concatenate([
-            expand_regressors(part, tables, mach[a:b]) for a, b, part in rc.regressor_blocks(
+            expand_regressors(part, tables, mach[a:b], None if alpha is None else alpha[a:b])
+            for a, b, part in rc.regressor_blocks(
                 flight, smoothing=est.smoothing, window=rec.smoothing_window,
                 block=BLOCK_SAMPLES)]))
     counts = [f.n_samples for f in windows]

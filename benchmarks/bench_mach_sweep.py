@@ -5,6 +5,8 @@ Run by hand from the repository root (one process; the seeds one after another):
     python benchmarks/bench_mach_sweep.py --seeds 0 1 2 3 4 --out /tmp/sweep.jsonl
     python benchmarks/bench_mach_sweep.py --summary /tmp/sweep.jsonl
     python benchmarks/bench_mach_sweep.py --seeds 5 6 7 --methods output-error --forms tables
+    python benchmarks/bench_mach_sweep.py --scenario studies/scenarios/alpha_table.toml \
+        --seeds 0 1 2 --out /tmp/alpha.jsonl     # Cma a table in the angle of attack
 
 The truth of ``studies/scenarios/mach_sweep.toml`` (a coasting airframe through Mach
 2.19 -> 1.11 in 20 s, Cx and Cmq tables +-15 %) is integrated once; each seed records it
@@ -14,6 +16,14 @@ removed) and with the tables. Each line of the output is one fit: its ``success`
 fit check's verdict and message, and for a table fit every parameter's error in its
 standard errors, its standard error and the Cramér-Rao floor of the table points at the
 truth (:func:`baselines._tables_fit.table_floor`, the noise's true sd).
+
+``--coverage results.jsonl`` reads a study's records (``aeroid study
+studies/mach_sweep.toml --runs 200 --jobs 1 --out DIR``: ``DIR/results.jsonl``, complete or
+still running) and prints each table point's coverage of the 95 % intervals with its exact
+(Clopper-Pearson) binomial interval, and the points pooled.
+
+``--scenario`` fits another scenario with tables and ``[noise.gaussian]`` the same way
+(``studies/scenarios/alpha_table.toml``: Cma a table in the total angle of attack).
 """
 
 from __future__ import annotations
@@ -52,10 +62,11 @@ def verdict(result: aeroid.EstimationResult) -> str:
 
 
 def run(seeds: list[int], out: Path, methods: tuple[str, ...] = METHODS,
-        forms: tuple[str, ...] = ("constants", "tables"), substeps: int | None = None) -> None:
+        forms: tuple[str, ...] = ("constants", "tables"), substeps: int | None = None,
+        path: Path = SCENARIO) -> None:
     """Fit every seed (up to) four ways; one JSON line per fit appended to ``out``."""
-    scenario = load_scenario(SCENARIO)
-    data = aeroid.model.read_toml(SCENARIO)
+    scenario = load_scenario(path)
+    data = aeroid.model.read_toml(path)
     noise = noise_for(data, "gaussian")
     sd = np.array([noise.accel_sd_mps2] * len(aeroid.model.ACCEL_CHANNELS)
                   + [noise.rate_sd_radps] * len(aeroid.model.RATE_CHANNELS))
@@ -126,6 +137,31 @@ def summary(path: Path) -> None:
                           f"{np.median(ratio[:, j]):.3g}  floor {table[0]['floor'][j]:.3g}")
 
 
+def coverage(path: Path) -> None:
+    """Print each table point's coverage with its exact binomial 95 % interval."""
+    from scipy.stats import binomtest
+
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = [r for r in rows if r["success"]]
+    names = rows[0]["names"]
+    err = np.array([r["theta"] for r in rows]) - np.array([r["truth"] for r in rows])
+    signed = err / np.array([r["stderr"] for r in rows])
+    z = np.abs(signed)
+    print(f"{len(rows)} successful fits (runs {min(r['run'] for r in rows)}-"
+          f"{max(r['run'] for r in rows)})")
+    points = [j for j, n in enumerate(names) if "@" in n]
+    for j, name in enumerate(names):
+        k = int(np.sum(z[:, j] <= 1.96))
+        ci = binomtest(k, len(rows)).proportion_ci(method="exact")
+        print(f"    {name:12s} {k:4d} of {len(rows)} = {k / len(rows):.3f} "
+              f"({ci.low:.3f}-{ci.high:.3f})  max |z| {z[:, j].max():.2f}  mean z "
+              f"{signed[:, j].mean():+.2f}  sd z {signed[:, j].std(ddof=1):.2f}"
+              + ("" if j in points else "  (constant)"))
+    k, n = int(np.sum(z[:, points] <= 1.96)), z[:, points].size
+    ci = binomtest(k, n).proportion_ci(method="exact")
+    print(f"    table points pooled: {k} of {n} = {k / n:.3f} ({ci.low:.3f}-{ci.high:.3f})")
+
+
 def main() -> None:
     """Command line (module docstring)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -136,11 +172,17 @@ def main() -> None:
                         choices=["constants", "tables"])
     parser.add_argument("--substeps", type=int, help="output-error's RK4 steps per sample")
     parser.add_argument("--summary", type=Path)
+    parser.add_argument("--coverage", type=Path, help="a study's results.jsonl")
+    parser.add_argument("--scenario", type=Path, default=SCENARIO,
+                        help="a scenario with tables and [noise.gaussian]")
     args = parser.parse_args()
-    if args.summary:
+    if args.coverage:
+        coverage(args.coverage)
+    elif args.summary:
         summary(args.summary)
     else:
-        run(args.seeds, args.out, tuple(args.methods), tuple(args.forms), args.substeps)
+        run(args.seeds, args.out, tuple(args.methods), tuple(args.forms), args.substeps,
+            args.scenario)
 
 
 if __name__ == "__main__":

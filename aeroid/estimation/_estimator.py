@@ -168,7 +168,8 @@ class Estimator(abc.ABC):
         if tables is not None and not self.fits_tables:
             raise EstimatorError(
                 f"{owner}: the airframe's [tables] makes "
-                f"{', '.join(name for name, _ in tables.knots)} tables in Mach; this method "
+                f"{', '.join(name for name, _ in (*tables.knots, *tables.angle_knots))} "
+                "tables (in Mach or the angle of attack); this method "
                 "fits constant coefficients (output-error and equation-error fit tables); "
                 "remove [tables] to fit constants")
         given = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))

@@ -122,6 +122,10 @@ def table_holds(spec: CoefficientSpec, mach_tables: MachTables) -> TableHolds:
         One line for a point of no table of the flight or no knot of its table, a point
         named both by itself and by its table, or every parameter held.
     """
+    if mach_tables.angle_knots:  # issue 23: angle tables without holds and priors yet
+        raise EstimatorError(f"{', '.join(mach_tables.angle_names)}: tables in the angle of "
+                             f"attack cannot be fitted with held coefficients or priors yet "
+                             f"({spec.describe()}); fit them free")
     names = mach_tables.parameter_names()
     held: dict[str, float] = {}
     priors: dict[str, tuple[float, float]] = {}

@@ -316,12 +316,19 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
 
 def _true_coefficients(table: Any, airframe: Airframe, where: str
                        ) -> tuple[tuple[float, ...], MachTables | None]:
-    """The ``[coefficients]`` values: numbers, or ``[[mach, value], ...]`` tables."""
-    if not any(isinstance(table[n], list) for n in NAMES):
+    """The ``[coefficients]`` values: numbers, or ``[[mach, value], ...]`` tables, or
+    ``{alpha_deg = [[deg, value], ...]}`` tables in the total angle of attack."""
+    if not any(isinstance(table[n], list | dict) for n in NAMES):
         return tuple(fileform.number(table[n], f"{where} {n}") for n in NAMES), None
     knots, values = {}, []
+    angle_knots: dict[str, tuple[float, ...]] = {}
     for name in NAMES:
         value = table[name]
+        if isinstance(value, dict):  # a table in the total angle of attack
+            rows = _angle_rows(value, f"{where} {name}")
+            angle_knots[name] = tuple(math.radians(row[0]) for row in rows)
+            values.extend(row[1] for row in rows)
+            continue
         if not isinstance(value, list):
             values.append(fileform.number(value, f"{where} {name}"))
             continue
@@ -335,10 +342,20 @@ def _true_coefficients(table: Any, airframe: Airframe, where: str
     try:
         sound = (spec.speed_of_sound(airframe.altitude_m) if spec is not None
                  else airframe.speed_of_sound_mps)
-        tables = MachTables(tuple(knots.items()), sound)
+        tables = MachTables(tuple(knots.items()), sound, tuple(angle_knots.items()))
     except AirframeError as exc:
         raise AirframeError(f"{where}: {exc}") from None
     return tuple(values), tables
+
+
+def _angle_rows(value: dict[str, Any], where: str) -> list[tuple[float, ...]]:
+    """The rows ``[deg, value]`` of ``{alpha_deg = [[deg, value], ...]}``."""
+    fileform.check_keys(value, ("alpha_deg",), where, required=("alpha_deg",))
+    given = value["alpha_deg"]
+    if not isinstance(given, list) or not given:
+        raise AirframeError(f"{where}: alpha_deg must be rows [[deg, value], ...], "
+                            f"got {given!r}")
+    return [fileform.numbers(row, 2, f"{where} (rows [alpha_deg, value])") for row in given]
 
 
 def _actuator_options(act: Any, where: str) -> dict[str, Any]:

@@ -19,6 +19,11 @@ table points. Mach is ``V_T / a`` with ``V_T`` from the body velocities (no wind
 the model) and the speed of sound ``a`` a constant of the flight: ISA at the airframe's
 altitude, or the given air temperature (:meth:`MachTables.from_table`). The model has no
 position equations, so the temperature does not change along the record.
+
+A coefficient can instead be a table in the total angle of attack (``angle_knots``
+[rad], points named ``Cma@A4deg``: :mod:`aeroid.model._alpha_tables` says why the total
+angle); a fit may have Mach tables and angle tables of different coefficients. The hat
+basis and the knot checks are :mod:`aeroid.model._table_basis`'s.
 """
 
 from __future__ import annotations
@@ -31,55 +36,33 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import AirframeError
+from aeroid.model import _alpha_tables as angle
 from aeroid.model import _atmosphere as atmosphere
 from aeroid.model import _equations as eq
+from aeroid.model._alpha_tables import (
+    ANGLE_SEPARATOR,
+    choose_angle_knots,
+    split_point,
+    total_angle,
+)
 from aeroid.model._coefficients import NAMES
+from aeroid.model._table_basis import (
+    KNOT_RANGE,
+    MIN_KNOT_SPACING,
+    basis,
+    check_knots,
+    choose_knots,
+    hat,
+    table_value,
+)
 
 Scalar = Any  # a float, an ndarray or a CasADi symbol: the functions here are element-wise
 
 #: Separator of a table point's name: ``Cx@M1.4`` is Cx at Mach 1.4.
 POINT_SEPARATOR = "@M"
-#: Closest knots [Mach]: the hat between knots closer than this is steeper than any
-#: flight record can inform (1e-3 Mach is 0.3 m/s), and their names would collide.
-MIN_KNOT_SPACING = 1e-3
-#: Mach range of a table's knots: a knot outside is a typo (a speed in m/s, a percent).
-KNOT_RANGE = (0.0, 10.0)
 #: Air temperature range [K] of a given temperature (the ISA's 216.65 K layer to a hot
 #: day at sea level, with margin); outside, a unit mistake (deg C).
 TEMPERATURE_RANGE_K = (150.0, 350.0)
-
-
-def hat(mach: Scalar, knots: Sequence[float], i: int) -> Scalar:
-    """Return the hat function of knot ``i`` of ``knots`` at ``mach`` (element-wise).
-
-    1 at ``knots[i]``, 0 at the other knots, linear between neighbours; the first and
-    last hats are 1 beyond their end of the table (end values held). One knot: 1.
-    """
-    k = len(knots)
-    if k == 1:
-        return 0.0 * mach + 1.0
-    one = 0.0 * mach + 1.0
-    rising = one if i == 0 else (mach - knots[i - 1]) / (knots[i] - knots[i - 1])
-    falling = one if i == k - 1 else (knots[i + 1] - mach) / (knots[i + 1] - knots[i])
-    return np.maximum(np.minimum(np.minimum(rising, falling), 1.0), 0.0)
-
-
-def basis(knots: Sequence[float], mach: np.ndarray) -> np.ndarray:
-    """Return the hat basis of ``knots`` at ``mach``, shape (n, k) (numpy).
-
-    Row ``j`` holds ``B_i(mach_j)``; every row sums to 1, and ``basis @ values`` is the
-    table at those Mach numbers.
-    """
-    mach = np.asarray(mach, dtype=float).reshape(-1)
-    return np.stack([hat(mach, knots, i) for i in range(len(knots))], axis=-1)
-
-
-def table_value(mach: Scalar, knots: Sequence[float], values: Sequence[Scalar]) -> Scalar:
-    """Return the table ``sum_i B_i(mach) values[i]`` (element-wise)."""
-    total = 0.0
-    for i, value in enumerate(values):
-        total = total + hat(mach, knots, i) * value
-    return total
 
 
 def mach_number(u: Scalar, v: Scalar, w: Scalar, speed_of_sound: float) -> Scalar:
@@ -90,56 +73,6 @@ def mach_number(u: Scalar, v: Scalar, w: Scalar, speed_of_sound: float) -> Scala
 def point_name(name: str, knot: float) -> str:
     """Return the parameter name of a table point: ``Cx@M1.4``."""
     return f"{name}{POINT_SEPARATOR}{knot:g}"
-
-
-def check_knots(knots: Any, where: str) -> tuple[float, ...]:
-    """Return ``knots`` as increasing floats, or raise a one-line :class:`AirframeError`."""
-    if isinstance(knots, str | bytes) or not isinstance(knots, Sequence | np.ndarray):
-        raise AirframeError(f"{where}: knots must be a list of Mach numbers, got {knots!r}")
-    try:
-        values = tuple(float(k) for k in knots)
-    except (TypeError, ValueError):
-        raise AirframeError(f"{where}: knots must be numbers, got {list(knots)!r}") from None
-    if isinstance(knots, Sequence) and any(isinstance(k, bool) for k in knots):
-        raise AirframeError(f"{where}: knots must be numbers, got {list(knots)!r}")
-    if not values:
-        raise AirframeError(f"{where}: no knots (give at least one Mach number)")
-    low, high = KNOT_RANGE
-    if not all(math.isfinite(k) and low < k <= high for k in values):
-        raise AirframeError(f"{where}: knots must be Mach numbers in ({low:g}, {high:g}], "
-                            f"got {list(values)}")
-    gaps = np.diff(values)
-    if np.any(gaps < MIN_KNOT_SPACING):
-        raise AirframeError(f"{where}: knots must increase by at least {MIN_KNOT_SPACING:g} "
-                            f"Mach, got {list(values)}")
-    names = [f"{k:g}" for k in values]
-    if len(set(names)) != len(names):
-        raise AirframeError(f"{where}: knots {names} have the same name; give them fewer "
-                            "digits apart")
-    return values
-
-
-def choose_knots(mach: np.ndarray, count: int) -> tuple[float, ...]:
-    """Return ``count`` knots evenly spaced over the range of ``mach``, rounded to 0.01.
-
-    The end knots are the lowest and highest Mach of the data rounded outward to 0.01, so
-    no sample lies beyond the table.
-    """
-    if int(count) != count or count < 1:
-        raise AirframeError(f"tables: knot count must be a positive integer, got {count!r}")
-    mach = np.asarray(mach, dtype=float)
-    mach = mach[np.isfinite(mach)]
-    if mach.size == 0:
-        raise AirframeError("tables: no finite Mach number in the data to choose knots from")
-    # rounded outward to 0.01 Mach (a rounding error of the speed does not move a knot)
-    low = math.floor(float(mach.min()) * 100 + 1e-6) / 100
-    high = math.ceil(float(mach.max()) * 100 - 1e-6) / 100
-    if count == 1 or high - low < MIN_KNOT_SPACING * (count - 1):
-        if count > 1:
-            raise AirframeError(f"tables: the data span Mach {mach.min():.4g}-{mach.max():.4g},"
-                                f" too narrow for {count} knots")
-        return (round(0.5 * (low + high), 2),)
-    return tuple(round(float(k), 2) for k in np.linspace(low, high, int(count)))
 
 
 @dataclass(frozen=True)
@@ -155,10 +88,14 @@ class MachTables:
         increasing knots [Mach].
     speed_of_sound_mps : float
         The speed of sound of the flight [m/s].
+    angle_knots : tuple of (name, tuple of float)
+        The coefficients tabled in the total angle of attack, each with its increasing
+        knots [rad] (none by default); a coefficient is in one of the two only.
     """
 
     knots: tuple[tuple[str, tuple[float, ...]], ...]
     speed_of_sound_mps: float
+    angle_knots: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
     def __post_init__(self) -> None:
         unknown = [name for name, _ in self.knots if name not in NAMES]
@@ -171,6 +108,15 @@ class MachTables:
         ordered = tuple((name, check_knots(given[name], f"tables: {name}"))
                         for name in NAMES if name in given)
         object.__setattr__(self, "knots", ordered)
+        by_angle = dict(self.angle_knots)
+        wrong = [n for n in by_angle if n not in NAMES or n in given]
+        if wrong or len(by_angle) != len(self.angle_knots):
+            raise AirframeError(f"tables: {', '.join(wrong) or 'a coefficient'}: an angle "
+                                "table of a coefficient that is unknown, tabled twice or also "
+                                "a table in Mach (2-D tables are not available)")
+        object.__setattr__(self, "angle_knots", tuple(
+            (n, angle.check_angle_knots_rad(by_angle[n], f"tables: {n}"))
+            for n in NAMES if n in by_angle))
         a = self.speed_of_sound_mps
         if isinstance(a, bool) or not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
             raise AirframeError(f"tables: the speed of sound must be a positive number of "
@@ -203,14 +149,25 @@ class MachTables:
         return tuple(name for name, _ in self.knots)
 
     def knots_of(self, name: str) -> tuple[float, ...]:
-        """Return the knots of coefficient ``name``."""
-        return dict(self.knots)[name]
+        """Return the knots of coefficient ``name`` (Mach; an angle table's [rad])."""
+        return {**dict(self.knots), **dict(self.angle_knots)}[name]
+
+    @property
+    def angle_names(self) -> tuple[str, ...]:
+        """The coefficients tabled in the total angle of attack, in NAMES order."""
+        return tuple(name for name, _ in self.angle_knots)
+
+    def point_names(self, name: str) -> tuple[str, ...]:
+        """Return the parameter names of coefficient ``name``'s table points."""
+        if name in self.angle_names:
+            return tuple(angle.angle_point_name(name, k) for k in self.knots_of(name))
+        return tuple(point_name(name, k) for k in self.knots_of(name))
 
     @property
     def layout(self) -> tuple[tuple[str, slice], ...]:
         """Each coefficient of :data:`NAMES` with its slice of the parameter vector."""
         out, start = [], 0
-        given = dict(self.knots)
+        given = {**dict(self.knots), **dict(self.angle_knots)}
         for name in NAMES:
             size = len(given[name]) if name in given else 1
             out.append((name, slice(start, start + size)))
@@ -224,10 +181,10 @@ class MachTables:
 
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the parameter vector: ``Cza``, ..., ``Cx@M1.1``, ``Cx@M1.4``, ..."""
-        given = dict(self.knots)
+        tabled = {*self.names, *self.angle_names}
         names: list[str] = []
         for name in NAMES:
-            names += [point_name(name, k) for k in given[name]] if name in given else [name]
+            names += list(self.point_names(name)) if name in tabled else [name]
         return tuple(names)
 
     def expand(self, coefficients: np.ndarray) -> np.ndarray:
@@ -243,23 +200,36 @@ class MachTables:
         return np.stack([p[..., s].mean(axis=-1) for _, s in self.layout], axis=-1)
 
     # evaluation (element-wise: numpy and CasADi) ---------------------------------------
-    def coefficients(self, parameters: Sequence[Scalar], mach: Scalar) -> eq.Coefficients:
-        """Return the coefficients at ``mach`` (element-wise).
+    def coefficients(self, parameters: Sequence[Scalar], mach: Scalar,
+                     alpha_total: Scalar | None = None) -> eq.Coefficients:
+        """Return the coefficients at ``mach`` and total angle ``alpha_total`` [rad]
+        (element-wise; the angle is needed only with angle tables).
 
         ``parameters`` is a sequence of :attr:`n_parameters` element-wise values (CasADi
         entries ``theta[i]``, or numpy arrays broadcastable with ``mach``).
         """
-        given = dict(self.knots)
+        given, by_angle = dict(self.knots), dict(self.angle_knots)
+        if by_angle and alpha_total is None:
+            raise AirframeError(f"tables: {', '.join(by_angle)} are tables in the angle of "
+                                "attack; give the total angle of attack")
         values = []
         for name, s in self.layout:
             part = [parameters[i] for i in range(s.start, s.stop)]
-            values.append(table_value(mach, given[name], part) if name in given else part[0])
+            if name in given:
+                values.append(table_value(mach, given[name], part))
+            elif name in by_angle:
+                values.append(table_value(alpha_total, by_angle[name], part))
+            else:
+                values.append(part[0])
         return eq.Coefficients(*values)
 
     def at_state(self, parameters: Sequence[Scalar], state: eq.State) -> eq.Coefficients:
-        """Return the coefficients at the Mach number of ``state`` (element-wise)."""
-        return self.coefficients(parameters,
-                                 mach_number(state.u, state.v, state.w, self.speed_of_sound_mps))
+        """Return the coefficients at the Mach number and total angle of attack of
+        ``state`` (element-wise)."""
+        mach = mach_number(state.u, state.v, state.w, self.speed_of_sound_mps)
+        alpha_total = (angle.total_angle(state.u, state.v, state.w) if self.angle_knots
+                       else None)
+        return self.coefficients(parameters, mach, alpha_total)
 
     # numpy arrays --------------------------------------------------------------------
     def mach(self, states: np.ndarray) -> np.ndarray:
@@ -267,18 +237,35 @@ class MachTables:
         s = np.asarray(states, dtype=float)
         return mach_number(s[..., 0], s[..., 1], s[..., 2], self.speed_of_sound_mps)
 
+    def alpha_total(self, states: np.ndarray) -> np.ndarray:
+        """Return the total angle of attack of ``states`` (..., 9), shape (...) [rad]."""
+        s = np.asarray(states, dtype=float)
+        return angle.total_angle(s[..., 0], s[..., 1], s[..., 2])
+
+    def variable(self, name: str, states: np.ndarray) -> np.ndarray:
+        """Return the variable of coefficient ``name``'s table at ``states`` (..., 9):
+        Mach, or the total angle of attack [rad] for an angle table."""
+        return self.alpha_total(states) if name in self.angle_names else self.mach(states)
+
     def coefficient_array(self, parameters: np.ndarray, states: np.ndarray) -> np.ndarray:
-        """Return the coefficients at the Mach of each state, shape (..., 9) (numpy)."""
+        """Return the coefficients at each state's Mach (and total angle of attack),
+        shape (..., 9) (numpy)."""
         p = np.moveaxis(np.asarray(parameters, dtype=float), -1, 0)
-        c = self.coefficients(list(p), self.mach(states))
+        alpha_total = self.alpha_total(states) if self.angle_knots else None
+        c = self.coefficients(list(p), self.mach(states), alpha_total)
         return np.stack(np.broadcast_arrays(*c), axis=-1)
 
-    def to_table(self) -> dict[str, list[float]]:
-        """Return the file form of the knots, ``{name: [Mach, ...]}`` (``[tables]``)."""
-        return {name: list(k) for name, k in self.knots}
+    def to_table(self) -> dict[str, Any]:
+        """Return the file form of the knots, ``{name: [Mach, ...]}`` (``[tables]``; an
+        angle table as ``{name: {alpha_deg = [deg, ...]}}``)."""
+        out: dict[str, Any] = {name: list(k) for name, k in self.knots}
+        out.update({name: {angle.ANGLE_KEY: [math.degrees(x) for x in k]}
+                    for name, k in self.angle_knots})
+        return out
 
 
-__all__ = ["KNOT_RANGE", "MIN_KNOT_SPACING", "POINT_SEPARATOR", "MachTables", "basis",
+__all__ = ["ANGLE_SEPARATOR", "choose_angle_knots", "split_point", "total_angle",
+           "KNOT_RANGE", "MIN_KNOT_SPACING", "POINT_SEPARATOR", "MachTables", "basis",
            "check_knots", "choose_knots", "hat", "mach_number", "point_name", "table_value"]
 
 
@@ -293,11 +280,15 @@ class TableSpec:
     ``Cx = [1.1, 1.5, 2.2]`` gives the knots [Mach]; ``Cx = 5`` asks for five knots
     spread over the flight's Mach range (:func:`choose_knots`, resolved per flight by
     :meth:`resolve`); ``temperature_K`` the air temperature of the speed of sound (left
-    out: ISA at ``[atmosphere] altitude_m``).
+    out: ISA at ``[atmosphere] altitude_m``). ``Cma = {alpha_deg = [0, 2, 4]}`` makes a
+    table in the total angle of attack (``angle_knots``: the knots [deg] as given,
+    radians in the resolved :class:`MachTables`), ``{alpha_deg = 4}`` four knots over
+    the flight's range of it.
     """
 
     knots: tuple[tuple[str, tuple[float, ...] | int], ...]
     temperature_k: float | None = None
+    angle_knots: tuple[tuple[str, tuple[float, ...] | int], ...] = ()
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any], where: str) -> TableSpec:
@@ -307,16 +298,19 @@ class TableSpec:
             raise AirframeError(f"{where}: unknown key(s) {', '.join(unknown)} (allowed: "
                                 f"coefficient names {', '.join(NAMES)} and {TEMPERATURE_KEY})")
         knots: list[tuple[str, tuple[float, ...] | int]] = []
+        angles: list[tuple[str, tuple[float, ...] | int]] = []
         for name in (n for n in NAMES if n in table):
             value = table[name]
-            if isinstance(value, int) and not isinstance(value, bool):
+            if isinstance(value, Mapping):
+                angles.append((name, _angle_entry(value, f"{where} {name}")))
+            elif isinstance(value, int) and not isinstance(value, bool):
                 if value < 1:
                     raise AirframeError(f"{where} {name}: a knot count must be >= 1, "
                                         f"got {value}")
                 knots.append((name, value))
             else:
                 knots.append((name, check_knots(value, f"{where} {name}")))
-        if not knots:
+        if not knots and not angles:
             raise AirframeError(f"{where}: no coefficient is tabled (give e.g. Cx = [1.1, 2.2])")
         temperature = table.get(TEMPERATURE_KEY)
         if temperature is not None:
@@ -326,12 +320,14 @@ class TableSpec:
                 raise AirframeError(f"{where} {TEMPERATURE_KEY} must be in {low:g}..{high:g} "
                                     f"K (kelvin, not deg C), got {temperature!r}")
             temperature = float(temperature)
-        return cls(tuple(knots), temperature)
+        return cls(tuple(knots), temperature, tuple(angles))
 
     def to_table(self) -> dict[str, Any]:
         """Return the ``[tables]`` form (:meth:`from_table` reads it back equal)."""
         out: dict[str, Any] = {name: k if isinstance(k, int) else list(k)
                                for name, k in self.knots}
+        out.update({name: {angle.ANGLE_KEY: k if isinstance(k, int) else list(k)}
+                    for name, k in self.angle_knots})
         if self.temperature_k is not None:
             out[TEMPERATURE_KEY] = self.temperature_k
         return out
@@ -348,7 +344,7 @@ class TableSpec:
     @property
     def needs_data(self) -> bool:
         """Whether some knots are a count, to be chosen from a flight's Mach range."""
-        return any(isinstance(k, int) for _, k in self.knots)
+        return any(isinstance(k, int) for _, k in (*self.knots, *self.angle_knots))
 
     def resolve(self, altitude_m: float | None, states: np.ndarray | None = None
                 ) -> MachTables:
@@ -363,7 +359,33 @@ class TableSpec:
                 s = np.asarray(states, dtype=float)
                 k = choose_knots(mach_number(s[:, 0], s[:, 1], s[:, 2], sound), k)
             knots.append((name, k))
-        return MachTables(tuple(knots), sound)
+        angles = []
+        for name, k in self.angle_knots:
+            if isinstance(k, int):
+                if states is None:
+                    raise AirframeError(f"[tables] {name}: {k} knots are chosen from a "
+                                        "flight's angle of attack range; no flight given")
+                s = np.asarray(states, dtype=float)
+                k = angle.choose_angle_knots(angle.total_angle(s[:, 0], s[:, 1], s[:, 2]), k)
+            else:
+                k = tuple(math.radians(x) for x in k)
+            angles.append((name, k))
+        return MachTables(tuple(knots), sound, tuple(angles))
+
+
+def _angle_entry(value: Mapping[str, Any], where: str) -> tuple[float, ...] | int:
+    """Read ``{alpha_deg = [...]}`` (knots [deg], checked) or ``{alpha_deg = count}``."""
+    if set(value) != {angle.ANGLE_KEY}:
+        raise AirframeError(f"{where}: a table in the angle of attack is "
+                            f"{{{angle.ANGLE_KEY} = [deg, ...]}} or {{{angle.ANGLE_KEY} = "
+                            f"count}}, got keys {sorted(value)}")
+    knots = value[angle.ANGLE_KEY]
+    if isinstance(knots, int) and not isinstance(knots, bool):
+        if knots < 1:
+            raise AirframeError(f"{where}: a knot count must be >= 1, got {knots}")
+        return knots
+    angle.check_angle_knots(knots, where)
+    return tuple(float(k) for k in knots)
 
 
 __all__ += ["TEMPERATURE_KEY", "TableSpec"]

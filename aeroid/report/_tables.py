@@ -1,4 +1,5 @@
-"""A fitted coefficient table in Mach: CSV, JSBSim aerodynamics fragment and figure.
+"""A fitted coefficient table in Mach (or in the total angle of attack): CSV, JSBSim
+aerodynamics fragment and figure.
 
 A fit with the airframe's ``[tables]`` (:class:`aeroid.model.MachTables`) returns the
 tables' parameters (``result.names``: ``Cx@M1.4`` ...) with their standard errors;
@@ -11,6 +12,15 @@ tables' parameters (``result.names``: ``Cx@M1.4`` ...) with their standard error
 - :func:`tables_figure`: each coefficient against Mach with its 95 % intervals;
 - :func:`write_tables_report`: the report of such a fit (``aeroid estimate --report``):
   the three files above and a page with the points, the constants and the fit check.
+
+A table in the total angle of attack (points ``Cma@A4deg``) has its knots in degrees
+(``FittedTable.variable == "alpha"``): the CSV gives them in an ``alpha_deg`` column (the
+``mach`` cell empty), the JSBSim fragment computes the total angle
+``atan2(sqrt((sin alpha cos beta)^2 + sin^2 beta), cos alpha cos beta)`` from
+``aero/alpha-rad`` and ``aero/beta-rad`` (``aero/function/alpha_total_rad``: JSBSim's
+alpha is ``atan2(w, u)`` and beta ``asin(v / V)``, so this is
+``atan2(sqrt(v^2 + w^2), u)``, the model's) and indexes ``aero/coefficient/NAME_alpha``
+by it, knots in radians; the figure's axis is the angle in degrees.
   The figures of the model against the data are not drawn for tables:
   :meth:`aeroid.estimation.EstimationResult.predict` integrates constant coefficients.
 """
@@ -34,6 +44,9 @@ from aeroid.report._files import write_figure_atomic, write_text_atomic
 from aeroid.report._html import html_page
 
 POINT_SEPARATOR = mach_tables.POINT_SEPARATOR
+ANGLE_SEPARATOR = mach_tables.ANGLE_SEPARATOR
+#: JSBSim property of the total angle of attack [rad] the angle tables are indexed by.
+ALPHA_TOTAL_PROPERTY = "aero/function/alpha_total_rad"
 
 #: Half-width of the plotted and written intervals in standard errors (95 %, Gaussian).
 Z95 = 1.96
@@ -43,13 +56,18 @@ DIGITS = 10
 
 @dataclass(frozen=True)
 class FittedTable:
-    """One coefficient's fitted table: knots [Mach], values, standard errors (and floor)."""
+    """One coefficient's fitted table: knots [Mach], values, standard errors (and floor).
+
+    ``variable`` is ``"alpha"`` for a table in the total angle of attack: its knots
+    (the field ``mach``) are then in degrees.
+    """
 
     name: str
     mach: np.ndarray
     value: np.ndarray
     stderr: np.ndarray
     floor: np.ndarray | None = None
+    variable: str = "mach"
 
 
 def fitted_tables(names: Sequence[str], theta: np.ndarray, stderr: np.ndarray | None,
@@ -71,28 +89,39 @@ def fitted_tables(names: Sequence[str], theta: np.ndarray, stderr: np.ndarray | 
     theta = np.asarray(theta, dtype=float)
     stderr = np.full(theta.shape, np.nan) if stderr is None else np.asarray(stderr, float)
     groups: dict[str, list[int]] = {}
+    variable: dict[str, str] = {}
     for i, name in enumerate(names):
-        if POINT_SEPARATOR in name:
-            groups.setdefault(name.split(POINT_SEPARATOR)[0], []).append(i)
+        base, kind, _ = mach_tables.split_point(name)
+        if kind:
+            groups.setdefault(base, []).append(i)
+            variable[base] = kind
     if not groups:
         raise EstimatorError("tables: the result has no table points (names like Cx@M1.4); "
                              "fit a flight whose airframe has [tables]")
     out = []
     for coefficient, idx in groups.items():
-        mach = np.array([float(names[i].split(POINT_SEPARATOR)[1]) for i in idx])
-        out.append(FittedTable(coefficient, mach, theta[idx], stderr[idx],
-                               None if floor is None else np.asarray(floor, float)[idx]))
+        knots = np.array([mach_tables.split_point(names[i])[2] for i in idx])
+        if variable[coefficient] == "alpha":
+            knots = np.degrees(knots)
+        out.append(FittedTable(coefficient, knots, theta[idx], stderr[idx],
+                               None if floor is None else np.asarray(floor, float)[idx],
+                               variable[coefficient]))
     return out
 
 
 def tables_csv(tables: Sequence[FittedTable]) -> str:
     """Return the tables as CSV text, one row per table point (module docstring)."""
     floor = any(t.floor is not None for t in tables)
+    angles = any(t.variable == "alpha" for t in tables)
     buf = io.StringIO()
-    buf.write("coefficient,mach,value,stderr,low95,high95" + (",floor" if floor else "") + "\n")
+    buf.write("coefficient,mach" + (",alpha_deg" if angles else "")
+              + ",value,stderr,low95,high95" + (",floor" if floor else "") + "\n")
     for t in tables:
         for j in range(t.mach.size):
-            row = [t.name, f"{t.mach[j]:g}"] + [
+            knot = [f"{t.mach[j]:g}"]
+            if angles:
+                knot = ["", knot[0]] if t.variable == "alpha" else [knot[0], ""]
+            row = [t.name, *knot] + [
                 f"{v:.{DIGITS}g}" for v in (t.value[j], t.stderr[j],
                                             t.value[j] - Z95 * t.stderr[j],
                                             t.value[j] + Z95 * t.stderr[j])]
@@ -110,9 +139,16 @@ def jsbsim_fragment(tables: Sequence[FittedTable], source: str = "aeroid") -> st
     coefficient (dimensionless), to be multiplied into a force or moment by the
     aircraft's own ``<axis>`` functions. ``source`` goes into each ``<description>``.
     """
-    lines = [f"<!-- coefficient tables in Mach fitted by {escape(source)}: linear between "
+    what = ("in Mach and the total angle of attack" if any(t.variable == "alpha" for t in tables)
+            else "in Mach")
+    lines = [f"<!-- coefficient tables {what} fitted by {escape(source)}: linear between "
              "the rows, end values held beyond them -->"]
+    if any(t.variable == "alpha" for t in tables):
+        lines += _alpha_total_function()
     for t in tables:
+        if t.variable == "alpha":
+            lines += _alpha_table(t, source)
+            continue
         lines += [f'<function name="aero/coefficient/{t.name}_mach">',
                   f"  <description>{escape(t.name)} against Mach ({escape(source)})"
                   "</description>",
@@ -122,6 +158,31 @@ def jsbsim_fragment(tables: Sequence[FittedTable], source: str = "aeroid") -> st
         lines += [f"      {m:g}  {v:.{DIGITS}g}" for m, v in zip(t.mach, t.value, strict=True)]
         lines += ["    </tableData>", "  </table>", "</function>"]
     return "\n".join(lines) + "\n"
+
+
+def _alpha_total_function() -> list[str]:
+    """JSBSim's total angle of attack [rad] from its alpha and beta (module docstring)."""
+    sa, ca = "<sin><p>aero/alpha-rad</p></sin>", "<cos><p>aero/alpha-rad</p></cos>"
+    sb, cb = "<sin><p>aero/beta-rad</p></sin>", "<cos><p>aero/beta-rad</p></cos>"
+    cross = (f"<sqrt><sum><pow><product>{sa}{cb}</product><v>2</v></pow>"
+             f"<pow>{sb}<v>2</v></pow></sum></sqrt>")
+    return [f'<function name="{ALPHA_TOTAL_PROPERTY}">',
+            "  <description>total angle of attack atan2(sqrt(v^2 + w^2), u) [rad]"
+            "</description>",
+            f"  <atan2>{cross}<product>{ca}{cb}</product></atan2>",
+            "</function>"]
+
+
+def _alpha_table(t: FittedTable, source: str) -> list[str]:
+    """One ``<function>`` of a table in the total angle of attack (knots in radians)."""
+    rows = [f"      {np.radians(a):.{DIGITS + 6}g}  {v:.{DIGITS}g}"
+            for a, v in zip(t.mach, t.value, strict=True)]
+    return [f'<function name="aero/coefficient/{t.name}_alpha">',
+            f"  <description>{escape(t.name)} against the total angle of attack "
+            f"[rad] ({escape(source)})</description>",
+            "  <table>",
+            f'    <independentVar lookup="row">{ALPHA_TOTAL_PROPERTY}</independentVar>',
+            "    <tableData>", *rows, "    </tableData>", "  </table>", "</function>"]
 
 
 def tables_figure(tables: Sequence[FittedTable],
@@ -140,9 +201,10 @@ def tables_figure(tables: Sequence[FittedTable],
         if truth and t.name in truth:
             mach, value = truth[t.name]
             ax.plot(mach, value, "k--", label="truth")
-        ax.set_xlabel("Mach")
+        what = "total angle of attack [deg]" if t.variable == "alpha" else "Mach"
+        ax.set_xlabel(what)
         ax.set_ylabel(LABELS.get(t.name, t.name))
-        ax.set_title(f"{t.name} against Mach")
+        ax.set_title(f"{t.name} against {what.split(' [')[0]}")
         ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
@@ -156,7 +218,7 @@ DPI = 110
 
 def has_tables(names: Sequence[str]) -> bool:
     """Whether a result's names hold table points (``Cx@M1.4``)."""
-    return any(POINT_SEPARATOR in name for name in names)
+    return any(mach_tables.split_point(name)[1] for name in names)
 
 
 def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
@@ -177,6 +239,8 @@ def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
                       jsbsim_fragment(tables, f"aeroid {result.estimator}"))
     write_figure_atomic(tables_figure(tables), folder / TABLE_FILES["figure"], DPI)
     source = flight.metadata.get("source", "flight")
+    knot_header = ("Mach or angle" if any(t.variable == "alpha" for t in tables)
+                   else "Mach")
     status = "ok" if result.success else "FAILED"
     lines = [f"# {result.estimator} on {source}: coefficient tables in Mach", "",
              f"**{status}**" + (f": {result.message}" if result.message else ""), "",
@@ -186,10 +250,11 @@ def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
     found.append("- the figures of the model against the data are not drawn for tables "
                  "(the prediction integrates constant coefficients)")
     lines += found + ["", "## Tables", "", f"![tables]({TABLE_FILES['figure']})", "",
-                      "| coefficient | Mach | estimate | std err | 95 % interval |",
+                      f"| coefficient | {knot_header} | estimate | std err | 95 % interval |",
                       "|---|---|---|---|---|"]
     for t in tables:
-        lines += [f"| {t.name} | {m:g} | {v:.6g} | {s:.3g} | {v - Z95 * s:.6g} .. "
+        unit = " deg" if t.variable == "alpha" else ""
+        lines += [f"| {t.name} | {m:g}{unit} | {v:.6g} | {s:.3g} | {v - Z95 * s:.6g} .. "
                   f"{v + Z95 * s:.6g} |"
                   for m, v, s in zip(t.mach, t.value, t.stderr, strict=True)]
     stderr = (np.full(len(result.names), np.nan) if result.stderr is None
@@ -198,7 +263,7 @@ def write_tables_report(result: Any, flight: Any, folder: Path, name: str, *,
               "|---|---|---|"]
     lines += [f"| {n} | {v:.6g} | {s:.3g} |"
               for n, v, s in zip(result.names, result.theta, stderr, strict=True)
-              if POINT_SEPARATOR not in n]
+              if not mach_tables.split_point(n)[1]]
     check = result.info.get("fit_check")
     lines += ["", "## Fit check", ""]
     if isinstance(check, Mapping) and check:

@@ -54,13 +54,14 @@ def parameter_truth(scenario: Any, names: Sequence[str]) -> np.ndarray:
     values = np.asarray(scenario.coefficient_vector, dtype=float)
     out = np.empty(len(names))
     for i, name in enumerate(names):
-        base, sep, knot = name.partition(tables.POINT_SEPARATOR)
+        base, kind, knot = tables.split_point(name)  # Cx@M1.4, Cma@A4deg [rad] or Cza
         j = NAMES.index(base)
         if scenario.tables is None:
             out[i] = values[j]
         else:
-            mach = float(knot) if sep else 1.0  # a constant: any Mach gives its value
-            out[i] = float(scenario.tables.coefficients(list(values), mach)[j])
+            mach = knot if kind == "mach" else 1.0  # a constant: any Mach gives its value
+            alpha = knot if kind == "alpha" else 0.0
+            out[i] = float(scenario.tables.coefficients(list(values), mach, alpha)[j])
     return out
 
 
