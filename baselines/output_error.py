@@ -56,6 +56,7 @@ from baselines._oe_sensors import (
     position_report,
     prior_weights,
 )
+from baselines._oe_skew import skew_names, skew_report, skew_search
 from baselines._oe_starts import (
     Start,
     best_end,
@@ -169,6 +170,12 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
         else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
         ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
+    estimate_skew : {"none", "gnss", "ins", "gnss+ins"}
+        Also estimate the named aiding sources' time skew against the IMU (default none):
+        their samples were taken at ``t + skew`` (true = logged + offset, as the suite
+        log's ``offset_s``), predicted between the record's samples by cubic Hermite
+        interpolation (:mod:`baselines._oe_skew`); ``info['aiding_skew_s']`` with
+        ``info['aiding_skew_stderr_s']``. A source must be in ``aiding``.
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -214,6 +221,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
+    estimate_skew: Literal["none", "gnss", "ins", "gnss+ins"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:
@@ -225,7 +233,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free] + _oe_wind.wind_names(self)
         names += ["delay_s"] if self.estimate_delay else []
-        return tuple(names + list(imu_error_names(self.imu_errors)))
+        return tuple(names + list(imu_error_names(self.imu_errors))
+                     + skew_names(self.estimate_skew))
 
     def rx_free(self) -> tuple[int, ...]:
         """Triads (0, 1) whose x position is estimated."""
@@ -276,7 +285,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         return aided_problem(self.aiding, flight, Problem(
             z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,
             noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
-            prior_weight=weight if has_prior else None))
+            prior_weight=weight if has_prior else None), self.estimate_skew)
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -325,8 +334,11 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                 failures.append(f"{start.label}: {exc}")
         if not fits:
             return aeroid.failed_result(self.name, failures[0])
-        best = fits[k_best := best_end(fits)]
-        n_evals = extra_evals + sum(f.n_evaluations for f in fits)
+        k_best = best_end(fits)  # with estimate_skew, searched along the skews from there
+        fits[k_best], search = skew_search(self.estimate_skew, prob, fits[k_best],
+                                           lambda p0: _held.held_fit(self, prob, p0, holds))
+        best = fits[k_best]
+        n_evals = extra_evals + sum(f.n_evaluations for f in fits) + search["n_evaluations"]
         n_iter = sum(f.n_iterations for f in fits)
         M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
         try:
@@ -369,10 +381,12 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
+        warnings += skew_report(self.estimate_skew, info, model, best.p, phys, cov_phys, search)
         if model.n_imu:
-            imu_info, found = imu_error_report(info["parameter_names"],
-                                               imu_error_names(self.imu_errors), phys,
-                                               stderr_phys, cov_phys)
+            keep = slice(0, n_p - len(skew_names(self.estimate_skew)))  # the skews: after
+            imu_info, found = imu_error_report(info["parameter_names"][keep],
+                                               imu_error_names(self.imu_errors), phys[keep],
+                                               stderr_phys[keep], cov_phys[keep, keep])
             info.update(imu_info)
             warnings += found
         return EstimationResult(
