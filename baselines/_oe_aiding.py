@@ -31,7 +31,6 @@ the machinery below (mask, fixed variances, exact sensitivities) is the same for
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,12 +52,14 @@ from aeroid.model import (
     symbolic,
 )
 from baselines._gauss_newton import Problem
+from baselines._oe_aiding_report import aiding_info, aiding_warnings  # noqa: F401 - re-exported
 from baselines._oe_aiding_samples import (  # noqa: F401 - re-exported: the sources' face
     AIDING,
     AIDING_CHANNELS,
     CHANNELS,
     GRID_RTOL,
     LABELS,
+    OE_AIDING,
     RESIDUAL_NAMES,
     SOURCES,
     UNITS,
@@ -66,8 +67,15 @@ from baselines._oe_aiding_samples import (  # noqa: F401 - re-exported: the sour
     aiding_samples,
     aiding_sources,
 )
+from baselines._oe_position import (
+    ORIGIN_NAMES,
+    ORIGIN_SCALE_M,
+    POSITION_SOURCE,
+    integrated,
+    origin_start,
+)
 from baselines._oe_record import DELAY_STEP_S
-from baselines._oe_skew import check_skew_option, hermite_weights, skew_sources
+from baselines._oe_skew import check_skew_option, hermite_weights, skew_names, skew_sources
 
 #: Initial-state components estimated with aiding (no prior): pitch and heading. The
 #: GNSS velocity's direction in NED depends on them: the reconstruction's 0.3 mrad sd is
@@ -80,6 +88,8 @@ X0_ANGLES = (THETA, PSI)
 #: With the INS attitude in, all three initial angles are estimated: the INS measures
 #: the roll angle itself (held, the roll residual carries the reconstruction's error).
 ATTITUDE = (PHI, THETA, PSI)
+#: The clock group of a source whose skew is another's: the GNSS position's is the GNSS's.
+GROUP = {POSITION_SOURCE: "gnss"}
 #: Complex step of the rotation's derivative [rad] (exact to rounding).
 COMPLEX_STEP = 1e-20
 
@@ -88,7 +98,14 @@ def aiding_x0(aiding: str) -> tuple[int, ...]:
     """The initial-state components ``aiding`` frees (:data:`X0_ANGLES`, :data:`ATTITUDE`
     with the INS, or none)."""
     sources = aiding_sources(aiding)
-    return ATTITUDE if "ins" in sources else X0_ANGLES if sources else ()
+    return ATTITUDE if "ins" in sources else X0_ANGLES if "gnss" in sources else ()
+
+
+def aiding_names(aiding: str, skew: str) -> list[str]:
+    """The aiding's own parameters, after the record model's: the skews
+    (:func:`~baselines._oe_skew.skew_names`), then the GNSS position's origin."""
+    return skew_names(skew) + (list(ORIGIN_NAMES) if POSITION_SOURCE in aiding_sources(aiding)
+                               else [])
 
 
 def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -136,8 +153,12 @@ class AidedModel:
                  skew_free: tuple[str, ...] = ()) -> None:
         self.base, self.samples = base, samples
         self.skew_free = tuple(skew_free)
-        self.n_base = base.scale.size  # the record model's parameters, then the skews
-        self.scale = np.concatenate([base.scale, np.full(len(skew_free), base.t[1] - base.t[0])])
+        self.n_base = base.scale.size  # the record model's parameters, the skews, the origin
+        self.origin = next((j for j, s in enumerate(samples) if s.source == POSITION_SOURCE), None)
+        self.i_origin = self.n_base + len(skew_free)
+        self.scale = np.concatenate([base.scale, np.full(len(skew_free), base.t[1] - base.t[0]),
+                                     np.full(3 * (self.origin is not None), ORIGIN_SCALE_M)])
+        self.origin_start = np.zeros(3)  # set by aided_problem: the first sample's
         n, m = base.t.size, len(OUTPUT_CHANNELS)
         mask = np.ones((n, m), bool) if base.mask is None else base.mask
         aid = np.zeros((n, 3 * len(samples)), bool)
@@ -152,6 +173,14 @@ class AidedModel:
             const = const._replace(**dict.fromkeys(EXOGENOUS, 0.0))
         self.const = const
         self._graphs: dict[int, tuple[ca.Function, ca.Function]] = {}
+
+    @property
+    def phys_offset(self) -> np.ndarray:
+        """Added to ``p * scale`` for the physical parameters: the origin's start [m]."""
+        offset = np.zeros(self.scale.size)
+        if self.origin is not None:
+            offset[self.i_origin:self.i_origin + 3] = self.origin_start
+        return offset
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.base, name)
@@ -204,33 +233,44 @@ class AidedModel:
         return (np.hstack([x0[:, None], np.asarray(xs)]).T,
                 np.concatenate([s0[:, None, :], blocks], axis=1))
 
-    def skew_weights(self, s: AidingSamples, p: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The record samples (n_a, 4) whose predictions give ``s``'s at its skewed times,
-        their weights and the weights' derivatives in the scaled skew
-        (:func:`~baselines._oe_skew.hermite_weights`)."""
-        i = self.n_base + self.skew_free.index(s.source)
-        t, dt = self.base.t, self.scale[i]
-        index, w, dw = hermite_weights(t[s.index] + p[i] * dt, t[0], dt, t.size)
-        return index, w, dw * dt
+    def skew_index(self, source: str) -> int | None:
+        """The parameter of ``source``'s skew (the GNSS position's is the GNSS's), or None."""
+        group = GROUP.get(source, source)
+        return self.n_base + self.skew_free.index(group) if group in self.skew_free else None
+
+    def on_grid(self, s: AidingSamples, p: np.ndarray, xs: np.ndarray, ss: np.ndarray | None,
+                index: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """A source's prediction at record samples ``index`` (k,), (k, 3), and its
+        sensitivities (3, k, n_s) (or None, as ``ss``): a function of the states there, or
+        for the GNSS position the origin plus the NED velocity's integral
+        (:mod:`baselines._oe_position`)."""
+        if s.source == POSITION_SOURCE:
+            v, dv = ned_velocity(xs)
+            y, dy = integrated(self.base.t, v, None if ss is None else
+                               np.einsum("kcx,xkp->ckp", dv, ss), index)
+            cols = slice(self.i_origin, self.i_origin + 3)
+            return y + self.origin_start + p[cols] * self.scale[cols], dy
+        v, dv = predicted(s.source, xs[index])
+        return v, None if ss is None else np.einsum("kcx,xkp->ckp", dv, ss[:, index])
 
     def at_samples(self, s: AidingSamples, p: np.ndarray, xs: np.ndarray,
                    ss: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
                                                    np.ndarray | None]:
         """A source's prediction at its (skewed) sample times (n_a, 3), as the states give
         it (the INS not yet on the circle), its sensitivities (3, n_a, n_s) (or None, as
-        ``ss``) and, with its skew free, to the scaled skew (3, n_a)."""
-        if s.source not in self.skew_free:
-            v, dv = predicted(s.source, xs[s.index])
-            return v, None if ss is None else np.einsum("kcx,xkp->ckp", dv, ss[:, s.index]), None
-        index, w, dw = self.skew_weights(s, p)
-        v, dv = predicted(s.source, xs[index.ravel()])
+        ``ss``) and, with its skew free, to the scaled skew (3, n_a): the cubic Hermite
+        interpolant of :meth:`on_grid` (:func:`~baselines._oe_skew.hermite_weights`)."""
+        i = self.skew_index(s.source)
+        if i is None:
+            return (*self.on_grid(s, p, xs, ss, s.index), None)
+        t, dt = self.base.t, self.scale[i]
+        index, w, dw = hermite_weights(t[s.index] + p[i] * dt, t[0], dt, t.size)
+        v, d = self.on_grid(s, p, xs, ss, index.ravel())
         v = v.reshape(*index.shape, 3)
-        d_skew = np.einsum("ac,acj->ja", dw, v)
-        if ss is None:
-            return np.einsum("ac,acj->aj", w, v), None, d_skew
-        d = np.einsum("kcx,xkp->ckp", dv, ss[:, index.ravel()]).reshape(3, *index.shape, -1)
-        return np.einsum("ac,acj->aj", w, v), np.einsum("ac,jacp->jap", w, d), d_skew
+        y, d_skew = np.einsum("ac,acj->aj", w, v), np.einsum("ac,acj->ja", dw * dt, v)
+        if d is None:
+            return y, None, d_skew
+        return y, np.einsum("ac,jacp->jap", w, d.reshape(3, *index.shape, -1)), d_skew
 
     def _aiding(self, p: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         n, tau = self.base.t.size, self.base.tau(p)
@@ -243,8 +283,10 @@ class AidedModel:
             if J is not None and dv is not None:
                 J[3 * j:3 * j + 3, s.index, :self.n_s] = dv
                 if d_skew is not None:
-                    k = self.n_base + self.skew_free.index(s.source)
-                    J[3 * j:3 * j + 3, s.index, k] = d_skew
+                    J[3 * j:3 * j + 3, s.index, self.skew_index(s.source)] = d_skew
+                if j == self.origin:
+                    for c in range(3):
+                        J[3 * j + c, s.index, self.i_origin + c] = ORIGIN_SCALE_M
         if J is not None and self.base.estimate_delay:
             J[:, :, self.base.n_graph] = self._delay_column(p, tau)
         return y, J
@@ -318,6 +360,10 @@ def aided_problem(aiding: str, flight: Flight, prob: Problem, skew: str = "none"
                                     "nine constant coefficients in still air)")
     samples = tuple(aiding_samples(flight, source) for source in aiding_sources(aiding))
     model = AidedModel(prob.model, samples, skew_sources(skew))
+    if model.origin is not None:  # the GNSS's origin is not the flight's: from its first
+        s = samples[model.origin]  # sample less the flight's own NED velocity integrated
+        model.origin_start = origin_start(flight.t, ned_velocity(flight.states())[0], s.index,
+                                          s.z)
     z = np.zeros((flight.n_samples, 3 * len(samples)))
     for j, s in enumerate(samples):
         z[s.index, 3 * j:3 * j + 3] = s.z
@@ -331,46 +377,3 @@ def aided_problem(aiding: str, flight: Flight, prob: Problem, skew: str = "none"
                         noise_model=prob.noise_model, prior_mean=extended(prob.prior_mean),
                         prior_weight=extended(prob.prior_weight),
                         known_var=np.concatenate([np.full(prob.z.shape[1], np.nan), var]))
-
-
-def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
-    """``info`` entries of an aided fit: the aiding residuals for the fit check (their
-    yardstick the stated sd) and ``info["aiding"]``; empty for a fit without aiding."""
-    if not isinstance(prob, AidedProblem):
-        return {}
-    model: AidedModel = prob.model  # type: ignore[assignment]
-    m = len(OUTPUT_CHANNELS)
-    residuals = {c: e[:, j] for j, c in enumerate(OUTPUT_CHANNELS)}
-    signals, noise_sd, per_source = {}, {}, {}
-    for i, s in enumerate(model.samples):
-        names = RESIDUAL_NAMES[s.source]
-        residuals.update({c: e[s.index, m + 3 * i + j] for j, c in enumerate(names)})
-        # the resolution floor's yardstick: the change over the flight (the initial
-        # value is fitted), not the GNSS's 500 m/s (1e-3 of that is 5x the GNSS's sd)
-        signals.update({c: s.z[:, j] - np.mean(s.z[:, j]) for j, c in enumerate(names)})
-        noise_sd.update(dict(zip(names, s.sd.tolist(), strict=True)))
-        per_source[s.source] = {"channels": names, "n_samples": int(s.index.size),
-                                "times_s": model.base.t[s.index],
-                                "sd": dict(zip(names, s.sd.tolist(), strict=True))}
-    freed = "phi0 theta0 psi0" if "ins" in per_source else "pitch and heading theta0 psi0"
-    return {"fit_residuals": residuals, "fit_signals": signals, "fit_noise_sd": noise_sd,
-            "aiding": {"channels": tuple(signals), "sources": per_source,
-                       "n_samples": sum(v["n_samples"] for v in per_source.values()),
-                       "times_s": model.base.t[model.samples[0].index],
-                       "noise": "the log's stated sd (not estimated)",
-                       "wrapped": "INS angles compared on the circle (residual in (-pi, pi])"
-                       if "ins" in per_source else "none",
-                       "note": f"initial {freed} estimated (no prior)", "sd": noise_sd}}
-
-
-def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
-                    ) -> tuple[str, ...]:
-    """A warning per aiding source the flight carries and the fit leaves out."""
-    carried = flight.metadata.get("aiding")
-    if not isinstance(carried, Mapping):
-        return ()
-    used = aiding_sources(aiding)
-    return tuple(f"{owner}: the flight carries {LABELS[s]} samples (metadata aiding), not in "
-                 f"this fit's likelihood (aiding = "
-                 f"{'gnss-velocity' if s == 'gnss' else AIDING[-1]} puts them in)"
-                 for s in CHANNELS if s in carried and s not in used)

@@ -17,14 +17,19 @@ from aeroid.flights import Flight
 
 #: The option's values (output-error's and the EKF's and UKF's).
 AIDING = ("none", "gnss-velocity", "gnss-velocity+ins-attitude")
+#: Output-error's: also the GNSS position (:mod:`baselines._oe_position`).
+OE_AIDING = AIDING + ("gnss-position", "gnss-velocity+gnss-position",
+                      "gnss-velocity+gnss-position+ins-attitude")
 #: Each aiding source: the option's word, the key in ``metadata["aiding"]``.
-SOURCES = {"gnss-velocity": "gnss", "ins-attitude": "ins"}
+SOURCES = {"gnss-velocity": "gnss", "gnss-position": "gnss_position", "ins-attitude": "ins"}
 #: Each source's channels in ``metadata["aiding"][source]``, the names of its residuals
 #: (the INS's prefixed: ``phi`` is also a flight channel), what it is, its unit.
-CHANNELS = {"gnss": ("vn", "ve", "vd"), "ins": ("phi", "theta", "psi")}
-RESIDUAL_NAMES = {"gnss": ("vn", "ve", "vd"), "ins": ("ins_phi", "ins_theta", "ins_psi")}
-LABELS = {"gnss": "GNSS velocity", "ins": "INS attitude"}
-UNITS = {"gnss": "m/s", "ins": "rad"}
+CHANNELS = {"gnss": ("vn", "ve", "vd"), "gnss_position": ("pn", "pe", "pd"),
+            "ins": ("phi", "theta", "psi")}
+RESIDUAL_NAMES = {"gnss": ("vn", "ve", "vd"), "gnss_position": ("pn", "pe", "pd"),
+                  "ins": ("ins_phi", "ins_theta", "ins_psi")}
+LABELS = {"gnss": "GNSS velocity", "gnss_position": "GNSS position", "ins": "INS attitude"}
+UNITS = {"gnss": "m/s", "gnss_position": "m", "ins": "rad"}
 #: The GNSS aiding outputs (NED velocity [m/s]), after the IMU's.
 AIDING_CHANNELS = CHANNELS["gnss"]
 #: An aiding time within this fraction of the sample interval of a flight sample is on it
@@ -56,8 +61,11 @@ def aiding_samples(flight: Flight, source: str = "gnss") -> AidingSamples:
     if not isinstance(group, Mapping):
         raise aeroid.FlightError(
             f"{where}: aiding = {word} needs the {label} samples in "
-            f"metadata['aiding']['{source}'] (t, {', '.join(channels)}, sd; Reconstruction."
-            "to_flight(imu='raw', aiding=True) passes them); the flight has none")
+            f"metadata['aiding']['{source}'] (t, {', '.join(channels)}, sd; "
+            + ("Reconstruction.to_flight does not pass them yet: put them there"
+               if source == "gnss_position" else
+               "Reconstruction.to_flight(imu='raw', aiding=True) passes them")
+            + "); the flight has none")
     try:
         t = np.asarray(group["t"], dtype=float).reshape(-1)
         z = np.column_stack([np.asarray(group[c], dtype=float).reshape(-1) for c in channels])

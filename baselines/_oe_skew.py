@@ -1,11 +1,12 @@
 """Output-error's estimate of an aiding group's time skew against the IMU (private).
 
-``estimate_skew = "gnss" | "ins" | "gnss+ins"`` frees one parameter per named aiding source:
+``estimate_skew = "gnss" | "ins" | "gnss+ins"`` frees one parameter per named clock group
+(the GNSS's skew moves its velocity and its position samples alike):
 its samples were taken at ``t_logged + skew`` [s] (the suite log's ``offset_s`` convention:
 true time = logged time + offset), so the source's prediction is wanted between the
 record's samples. It is the cubic Hermite interpolant of the source's predictions at the
 record's samples (:func:`hermite_weights`: Catmull-Rom tangents, C1 in the skew, exact for
-a cubic; beyond the record's ends the line of its end tangent), so:
+a parabola; beyond the record's ends the line of its end tangent), so:
 
 - the prediction at a skewed time is ``sum_c w_c(skew) y(x_{k_c})`` over four samples, its
   sensitivity to the other parameters the same weights on theirs (exact), and to the skew
@@ -15,8 +16,9 @@ a cubic; beyond the record's ends the line of its end tangent), so:
   its rate swinging by 5 rad/s at 10 Hz is interpolated to 3.2e-7 rad, 2.3e-5 rad in the
   record's first and last intervals (one-sided tangents) (tested:
   tests/unit/test_output_error_skew.py), far below the INS's 3 mrad;
-- the skews come after every other parameter (the record model's, then the IMU errors),
-  scaled by the flight's sample interval, started at 0, no prior.
+- the skews come after the record model's parameters (its IMU errors last) and before
+  the GNSS position's origin, scaled by the flight's sample interval, started at 0, no
+  prior.
 
 Nothing is resampled: the samples stay at their logged times' rows; only their
 predictions move.
@@ -58,11 +60,13 @@ def check_skew_option(aiding: str, option: str) -> None:
     source ``aiding`` leaves out."""
     if option not in SKEWS:
         raise ValueError(f"estimate_skew must be one of {', '.join(SKEWS)}, got {option!r}")
-    missing = [s for s in skew_sources(option) if s not in aiding_sources(aiding)]
+    sources = aiding_sources(aiding)
+    missing = [s for s in skew_sources(option)
+               if s not in sources and not (s == "gnss" and "gnss_position" in sources)]
     if missing:
-        raise ValueError(f"estimate_skew = {option} needs the {LABELS[missing[0]]} in the "
-                         f"likelihood (aiding = {aiding}): a skew is estimated from its "
-                         "samples")
+        what = "GNSS velocity or position" if missing[0] == "gnss" else LABELS[missing[0]]
+        raise ValueError(f"estimate_skew = {option} needs the {what} in the likelihood "
+                         f"(aiding = {aiding}): a skew is estimated from its samples")
 
 
 def hermite_weights(t_query: np.ndarray, t0: float, dt: float, n: int
@@ -148,8 +152,8 @@ def outside_counts(model: Any, p: np.ndarray) -> dict[str, int]:
     counts = {}
     t = model.base.t
     for s in model.samples:
-        if s.source in model.skew_free:
-            i = model.n_base + model.skew_free.index(s.source)
+        i = model.skew_index(s.source)
+        if i is not None:
             times = t[s.index] + p[i] * model.scale[i]
             counts[s.source] = int(np.sum((times < t[0]) | (times > t[-1])))
     return counts

@@ -37,7 +37,8 @@ from baselines._gauss_newton import (
     posterior_information,
     sandwich,
 )
-from baselines._oe_aiding import aided_problem, aiding_info, aiding_warnings, aiding_x0
+from baselines._oe_aiding import aided_problem, aiding_info, aiding_names, aiding_x0
+from baselines._oe_aiding_report import aiding_warnings
 from baselines._oe_constants import (
     MAX_SAMPLES,
     POSITION_NAMES,
@@ -56,7 +57,7 @@ from baselines._oe_sensors import (
     position_report,
     prior_weights,
 )
-from baselines._oe_skew import skew_names, skew_report, skew_search
+from baselines._oe_skew import skew_report, skew_search
 from baselines._oe_starts import (
     Start,
     best_end,
@@ -165,17 +166,16 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         For a raw IMU (``Reconstruction.to_flight(imu="raw")``). An axial bias trades
         against Cx; a warning names each pair correlated above 0.98
         (:func:`aeroid.estimation.nuisance_findings`).
-    aiding : {"none", "gnss-velocity", "gnss-velocity+ins-attitude"}
+    aiding : {"none", "gnss-velocity", "gnss-velocity+ins-attitude", "gnss-position", ...}
         ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``:
         ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
         else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
         ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
+        ``gnss-position`` (also after gnss-velocity): the GNSS NED position (_oe_position).
     estimate_skew : {"none", "gnss", "ins", "gnss+ins"}
-        Also estimate the named aiding sources' time skew against the IMU (default none):
-        their samples were taken at ``t + skew`` (true = logged + offset, as the suite
-        log's ``offset_s``), predicted between the record's samples by cubic Hermite
-        interpolation (:mod:`baselines._oe_skew`); ``info['aiding_skew_s']`` with
-        ``info['aiding_skew_stderr_s']``. A source must be in ``aiding``.
+        Also estimate those aiding sources' skew against the IMU (samples taken at logged
+        ``t + skew``; :mod:`baselines._oe_skew`), in ``info['aiding_skew_s']`` with
+        ``info['aiding_skew_stderr_s']``; default none. A source must be in ``aiding``.
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -220,7 +220,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     pso_particles: int = 30
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
-    aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
+    aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude", "gnss-position",
+                    "gnss-velocity+gnss-position",
+                    "gnss-velocity+gnss-position+ins-attitude"] = "none"
     estimate_skew: Literal["none", "gnss", "ins", "gnss+ins"] = "none"
     compile_model: bool = True
 
@@ -234,7 +236,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         names += [POSITION_NAMES[c] for c in position_free] + _oe_wind.wind_names(self)
         names += ["delay_s"] if self.estimate_delay else []
         return tuple(names + list(imu_error_names(self.imu_errors))
-                     + skew_names(self.estimate_skew))
+                     + aiding_names(self.aiding, self.estimate_skew))
 
     def rx_free(self) -> tuple[int, ...]:
         """Triads (0, 1) whose x position is estimated."""
@@ -350,7 +352,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         cov_phys = cov_p * np.outer(scale, scale)
         if self.positions == "consider":
             cov_phys = cov_phys + consider_covariance(self, flight, best, scale)
-        phys = best.p * scale
+        phys = best.p * scale + getattr(model, "phys_offset", 0.0)  # aiding's origin
         theta = phys[:n_c]
         cov = cov_phys[:n_c, :n_c]
         hist_p = np.array(best.history_p)
@@ -383,7 +385,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
         warnings += skew_report(self.estimate_skew, info, model, best.p, phys, cov_phys, search)
         if model.n_imu:
-            keep = slice(0, n_p - len(skew_names(self.estimate_skew)))  # the skews: after
+            keep = slice(0, n_p - len(aiding_names(self.aiding, self.estimate_skew)))
             imu_info, found = imu_error_report(info["parameter_names"][keep],
                                                imu_error_names(self.imu_errors), phys[keep],
                                                stderr_phys[keep], cov_phys[keep, keep])

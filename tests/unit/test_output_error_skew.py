@@ -145,7 +145,7 @@ def test_undeclared_50_ms_skew_is_recovered_within_3_se(noisy, source, aiding):
 def test_skew_option_refusals_are_one_line():
     for options, match in (({"aiding": "gnss-velocity", "estimate_skew": "ins"},
                             "needs the INS attitude in the likelihood"),
-                           ({"estimate_skew": "gnss"}, "needs the GNSS velocity"),
+                           ({"estimate_skew": "gnss"}, "needs the GNSS velocity or position"),
                            ({"aiding": BOTH, "estimate_skew": "baro"},
                             "estimate_skew must be one of")):
         with pytest.raises(ValueError, match=match) as exc:
