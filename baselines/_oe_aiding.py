@@ -1,4 +1,4 @@
-"""Aiding sensors in output-error's likelihood: GNSS velocity, INS attitude (private).
+"""Aiding in output-error's likelihood: GNSS velocity and position, baro, INS (private).
 
 ``aiding = "gnss-velocity"`` adds the flight's GNSS velocity samples
 (``metadata["aiding"]["gnss"]``: :meth:`aeroid.reconstruction.Reconstruction.to_flight`
@@ -6,8 +6,9 @@ with ``aiding=True``) as three more measured outputs ``vn ve vd`` of the record 
 ``"gnss-velocity+ins-attitude"`` also the INS's Euler angles (``metadata["aiding"]["ins"]``)
 as ``ins_phi ins_theta ins_psi`` at their own samples, the model's ``phi theta psi``
 compared on the circle (:func:`on_circle`: the residual wrapped to (-pi, pi], the logged
-roll is wrapped) with the log's stated sd [rad]. Each source is an :class:`AidingSamples`;
-the machinery below (mask, fixed variances, exact sensitivities) is the same for both:
+roll is wrapped) with the log's stated sd [rad]; GNSS position and barometric altitude:
+:mod:`baselines._oe_position`; skews: :mod:`baselines._oe_skew`. Each source is an
+:class:`AidingSamples`; the machinery below (mask, fixed variances, sensitivities) is one:
 
 - **Prediction**: the model's body velocity rotated by its attitude,
   ``v_ned = C_nb(phi, theta, psi) [u v w]`` (:func:`aeroid.flights.body_to_ned`), at the
@@ -66,13 +67,16 @@ from baselines._oe_aiding_samples import (  # noqa: F401 - re-exported: the sour
     AidingSamples,
     aiding_samples,
     aiding_sources,
+    source_columns,
 )
 from baselines._oe_position import (
+    BARO_NAME,
+    BARO_SOURCE,
     ORIGIN_NAMES,
     ORIGIN_SCALE_M,
     POSITION_SOURCE,
     integrated,
-    origin_start,
+    origin_starts,
 )
 from baselines._oe_record import DELAY_STEP_S
 from baselines._oe_skew import check_skew_option, hermite_weights, skew_names, skew_sources
@@ -104,8 +108,10 @@ def aiding_x0(aiding: str) -> tuple[int, ...]:
 def aiding_names(aiding: str, skew: str) -> list[str]:
     """The aiding's own parameters, after the record model's: the skews
     (:func:`~baselines._oe_skew.skew_names`), then the GNSS position's origin."""
-    return skew_names(skew) + (list(ORIGIN_NAMES) if POSITION_SOURCE in aiding_sources(aiding)
-                               else [])
+    sources = aiding_sources(aiding)
+    return (skew_names(skew) + (list(ORIGIN_NAMES) if POSITION_SOURCE in sources else [])
+            + ([BARO_NAME] if BARO_SOURCE in sources else []))
+
 
 
 def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,15 +161,20 @@ class AidedModel:
         self.skew_free = tuple(skew_free)
         self.n_base = base.scale.size  # the record model's parameters, the skews, the origin
         self.origin = next((j for j, s in enumerate(samples) if s.source == POSITION_SOURCE), None)
+        self.baro = next((j for j, s in enumerate(samples) if s.source == BARO_SOURCE), None)
         self.i_origin = self.n_base + len(skew_free)
         self.scale = np.concatenate([base.scale, np.full(len(skew_free), base.t[1] - base.t[0]),
-                                     np.full(3 * (self.origin is not None), ORIGIN_SCALE_M)])
+                                     np.full(3 * (self.origin is not None), ORIGIN_SCALE_M),
+                                     np.full(int(self.baro is not None), ORIGIN_SCALE_M)])
+        self.i_baro = self.i_origin + 3 * (self.origin is not None)
         self.origin_start = np.zeros(3)  # set by aided_problem: the first sample's
+        self.baro_start = 0.0  # the same for the barometer's origin altitude
         n, m = base.t.size, len(OUTPUT_CHANNELS)
         mask = np.ones((n, m), bool) if base.mask is None else base.mask
-        aid = np.zeros((n, 3 * len(samples)), bool)
-        for j, s in enumerate(samples):
-            aid[s.index, 3 * j:3 * j + 3] = True
+        self.cols = source_columns(samples)
+        aid = np.zeros((n, self.cols[-1].stop), bool)
+        for s, c in zip(samples, self.cols, strict=True):
+            aid[s.index, c] = True
         self.mask = np.hstack([mask, aid])
         self.n_x0 = len(base.x0_free)
         self.n_s = N_COEFFICIENTS + self.n_x0  # the parameters that move the states
@@ -180,6 +191,8 @@ class AidedModel:
         offset = np.zeros(self.scale.size)
         if self.origin is not None:
             offset[self.i_origin:self.i_origin + 3] = self.origin_start
+        if self.baro is not None:
+            offset[self.i_baro] = self.baro_start
         return offset
 
     def __getattr__(self, name: str) -> Any:
@@ -244,12 +257,17 @@ class AidedModel:
         sensitivities (3, k, n_s) (or None, as ``ss``): a function of the states there, or
         for the GNSS position the origin plus the NED velocity's integral
         (:mod:`baselines._oe_position`)."""
-        if s.source == POSITION_SOURCE:
+        if s.source in (POSITION_SOURCE, BARO_SOURCE):
             v, dv = ned_velocity(xs)
             y, dy = integrated(self.base.t, v, None if ss is None else
                                np.einsum("kcx,xkp->ckp", dv, ss), index)
-            cols = slice(self.i_origin, self.i_origin + 3)
-            return y + self.origin_start + p[cols] * self.scale[cols], dy
+            if self.origin is not None:
+                cols = slice(self.i_origin, self.i_origin + 3)
+                y = y + self.origin_start + p[cols] * self.scale[cols]
+            if s.source == POSITION_SOURCE:
+                return y, dy
+            h0 = self.baro_start + p[self.i_baro] * self.scale[self.i_baro]
+            return h0 - y[:, 2:], None if dy is None else -dy[2:]  # altitude = h0 - pd
         v, dv = predicted(s.source, xs[index])
         return v, None if ss is None else np.einsum("kcx,xkp->ckp", dv, ss[:, index])
 
@@ -266,36 +284,40 @@ class AidedModel:
         t, dt = self.base.t, self.scale[i]
         index, w, dw = hermite_weights(t[s.index] + p[i] * dt, t[0], dt, t.size)
         v, d = self.on_grid(s, p, xs, ss, index.ravel())
-        v = v.reshape(*index.shape, 3)
+        v = v.reshape(*index.shape, -1)
         y, d_skew = np.einsum("ac,acj->aj", w, v), np.einsum("ac,acj->ja", dw * dt, v)
         if d is None:
             return y, None, d_skew
-        return y, np.einsum("ac,jacp->jap", w, d.reshape(3, *index.shape, -1)), d_skew
+        return y, np.einsum("ac,jacp->jap", w, d.reshape(len(d), *index.shape, -1)), d_skew
 
     def _aiding(self, p: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         n, tau = self.base.t.size, self.base.tau(p)
         xs, ss = self.states(p, tau, jacobian)
-        y = np.zeros((n, 3 * len(self.samples)))
+        y = np.zeros((n, self.cols[-1].stop))
         J = None if ss is None else np.zeros((y.shape[1], n, p.size))
-        for j, s in enumerate(self.samples):
+        for j, (s, c) in enumerate(zip(self.samples, self.cols, strict=True)):
             v, dv, d_skew = self.at_samples(s, p, xs, ss)
-            y[s.index, 3 * j:3 * j + 3] = on_circle(s, v)
+            y[s.index, c] = on_circle(s, v)
             if J is not None and dv is not None:
-                J[3 * j:3 * j + 3, s.index, :self.n_s] = dv
+                J[c, s.index, :self.n_s] = dv
                 if d_skew is not None:
-                    J[3 * j:3 * j + 3, s.index, self.skew_index(s.source)] = d_skew
+                    J[c, s.index, self.skew_index(s.source)] = d_skew
                 if j == self.origin:
-                    for c in range(3):
-                        J[3 * j + c, s.index, self.i_origin + c] = ORIGIN_SCALE_M
+                    for k in range(3):
+                        J[c.start + k, s.index, self.i_origin + k] = ORIGIN_SCALE_M
+                if j == self.baro:
+                    J[c, s.index, self.i_baro] = ORIGIN_SCALE_M
+                    if self.origin is not None:  # altitude = h0 - pd: d/d pd0
+                        J[c, s.index, self.i_origin + 2] = -ORIGIN_SCALE_M
         if J is not None and self.base.estimate_delay:
             J[:, :, self.base.n_graph] = self._delay_column(p, tau)
         return y, J
 
     def _raw(self, xs: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The predictions at their samples as the states give them, (n, 3 n_src), 0 between."""
-        y = np.zeros((self.base.t.size, 3 * len(self.samples)))
-        for j, s in enumerate(self.samples):
-            y[s.index, 3 * j:3 * j + 3] = self.at_samples(s, p, xs, None)[0]
+        y = np.zeros((self.base.t.size, self.cols[-1].stop))
+        for s, c in zip(self.samples, self.cols, strict=True):
+            y[s.index, c] = self.at_samples(s, p, xs, None)[0]
         return y
 
     def _delay_column(self, p: np.ndarray, tau: float) -> np.ndarray:
@@ -360,13 +382,12 @@ def aided_problem(aiding: str, flight: Flight, prob: Problem, skew: str = "none"
                                     "nine constant coefficients in still air)")
     samples = tuple(aiding_samples(flight, source) for source in aiding_sources(aiding))
     model = AidedModel(prob.model, samples, skew_sources(skew))
-    if model.origin is not None:  # the GNSS's origin is not the flight's: from its first
-        s = samples[model.origin]  # sample less the flight's own NED velocity integrated
-        model.origin_start = origin_start(flight.t, ned_velocity(flight.states())[0], s.index,
-                                          s.z)
-    z = np.zeros((flight.n_samples, 3 * len(samples)))
-    for j, s in enumerate(samples):
-        z[s.index, 3 * j:3 * j + 3] = s.z
+    model.origin_start, model.baro_start = origin_starts(  # from their first samples
+        flight.t, ned_velocity(flight.states())[0],
+        *(None if j is None else samples[j] for j in (model.origin, model.baro)))
+    z = np.zeros((flight.n_samples, model.cols[-1].stop))
+    for s, c in zip(samples, model.cols, strict=True):
+        z[s.index, c] = s.z
     var = np.concatenate([s.sd ** 2 for s in samples])
     more = np.zeros(model.scale.size - model.n_base)  # the skews: no prior
 

@@ -34,9 +34,9 @@ def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
     m = len(OUTPUT_CHANNELS)
     residuals = {c: e[:, j] for j, c in enumerate(OUTPUT_CHANNELS)}
     signals, noise_sd, per_source = {}, {}, {}
-    for i, s in enumerate(model.samples):
+    for s, cols in zip(model.samples, model.cols, strict=True):
         names = RESIDUAL_NAMES[s.source]
-        residuals.update({c: e[s.index, m + 3 * i + j] for j, c in enumerate(names)})
+        residuals.update({c: e[s.index, m + cols.start + j] for j, c in enumerate(names)})
         # the resolution floor's yardstick: the change over the flight (the initial
         # value is fitted), not the GNSS's 500 m/s (1e-3 of that is 5x the GNSS's sd)
         signals.update({c: s.z[:, j] - np.mean(s.z[:, j]) for j, c in enumerate(names)})
@@ -48,6 +48,8 @@ def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
              if "gnss" in per_source else "")
     if "gnss_position" in per_source:
         freed += " and the GNSS position's origin pn0 pe0 pd0"
+    if "baro" in per_source:
+        freed += " and the barometer's origin altitude baro_h0"
     return {"fit_residuals": residuals, "fit_signals": signals, "fit_noise_sd": noise_sd,
             "aiding": {"channels": tuple(signals), "sources": per_source,
                        "n_samples": sum(v["n_samples"] for v in per_source.values()),

@@ -19,17 +19,20 @@ from aeroid.flights import Flight
 AIDING = ("none", "gnss-velocity", "gnss-velocity+ins-attitude")
 #: Output-error's: also the GNSS position (:mod:`baselines._oe_position`).
 OE_AIDING = AIDING + ("gnss-position", "gnss-velocity+gnss-position",
-                      "gnss-velocity+gnss-position+ins-attitude")
+                      "gnss-velocity+gnss-position+ins-attitude", "baro-altitude",
+                      "gnss-position+baro-altitude", "gnss-velocity+gnss-position+baro-altitude")
 #: Each aiding source: the option's word, the key in ``metadata["aiding"]``.
-SOURCES = {"gnss-velocity": "gnss", "gnss-position": "gnss_position", "ins-attitude": "ins"}
+SOURCES = {"gnss-velocity": "gnss", "gnss-position": "gnss_position", "ins-attitude": "ins",
+           "baro-altitude": "baro"}
 #: Each source's channels in ``metadata["aiding"][source]``, the names of its residuals
 #: (the INS's prefixed: ``phi`` is also a flight channel), what it is, its unit.
 CHANNELS = {"gnss": ("vn", "ve", "vd"), "gnss_position": ("pn", "pe", "pd"),
-            "ins": ("phi", "theta", "psi")}
+            "ins": ("phi", "theta", "psi"), "baro": ("altitude",)}
 RESIDUAL_NAMES = {"gnss": ("vn", "ve", "vd"), "gnss_position": ("pn", "pe", "pd"),
-                  "ins": ("ins_phi", "ins_theta", "ins_psi")}
-LABELS = {"gnss": "GNSS velocity", "gnss_position": "GNSS position", "ins": "INS attitude"}
-UNITS = {"gnss": "m/s", "gnss_position": "m", "ins": "rad"}
+                  "ins": ("ins_phi", "ins_theta", "ins_psi"), "baro": ("baro_altitude",)}
+LABELS = {"gnss": "GNSS velocity", "gnss_position": "GNSS position", "ins": "INS attitude",
+          "baro": "barometric altitude"}
+UNITS = {"gnss": "m/s", "gnss_position": "m", "ins": "rad", "baro": "m"}
 #: The GNSS aiding outputs (NED velocity [m/s]), after the IMU's.
 AIDING_CHANNELS = CHANNELS["gnss"]
 #: An aiding time within this fraction of the sample interval of a flight sample is on it
@@ -63,7 +66,7 @@ def aiding_samples(flight: Flight, source: str = "gnss") -> AidingSamples:
             f"{where}: aiding = {word} needs the {label} samples in "
             f"metadata['aiding']['{source}'] (t, {', '.join(channels)}, sd; "
             + ("Reconstruction.to_flight does not pass them yet: put them there"
-               if source == "gnss_position" else
+               if source in ("gnss_position", "baro") else
                "Reconstruction.to_flight(imu='raw', aiding=True) passes them")
             + "); the flight has none")
     try:
@@ -95,3 +98,9 @@ def aiding_samples(flight: Flight, source: str = "gnss") -> AidingSamples:
     if np.unique(k).size != k.size:
         raise aeroid.FlightError(f"{where}: two {label.split()[0]} samples on one flight sample")
     return AidingSamples(k, z, sd, source)
+
+
+def source_columns(samples: tuple[AidingSamples, ...]) -> list[slice]:
+    """Each source's columns among the aiding outputs (its channels: 3, the barometer 1)."""
+    stops = np.cumsum([s.sd.size for s in samples])
+    return [slice(int(b - s.sd.size), int(b)) for s, b in zip(samples, stops, strict=True)]

@@ -171,7 +171,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
         else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
         ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
-        ``gnss-position`` (also after gnss-velocity): the GNSS NED position (_oe_position).
+        ``gnss-position``, ``baro-altitude``: NED position, barometric altitude (_oe_position).
     estimate_skew : {"none", "gnss", "ins", "gnss+ins"}
         Also estimate those aiding sources' skew against the IMU (samples taken at logged
         ``t + skew``; :mod:`baselines._oe_skew`), in ``info['aiding_skew_s']`` with
@@ -221,8 +221,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
     aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude", "gnss-position",
-                    "gnss-velocity+gnss-position",
-                    "gnss-velocity+gnss-position+ins-attitude"] = "none"
+                    "gnss-velocity+gnss-position", "gnss-velocity+gnss-position+ins-attitude",
+                    "baro-altitude", "gnss-position+baro-altitude",
+                    "gnss-velocity+gnss-position+baro-altitude"] = "none"
     estimate_skew: Literal["none", "gnss", "ins", "gnss+ins"] = "none"
     compile_model: bool = True
 
