@@ -1,4 +1,4 @@
-"""Aiding sensors in output-error's likelihood: GNSS velocity, INS attitude (private).
+"""Aiding in output-error's likelihood: GNSS velocity and position, baro, INS (private).
 
 ``aiding = "gnss-velocity"`` adds the flight's GNSS velocity samples
 (``metadata["aiding"]["gnss"]``: :meth:`aeroid.reconstruction.Reconstruction.to_flight`
@@ -6,8 +6,9 @@ with ``aiding=True``) as three more measured outputs ``vn ve vd`` of the record 
 ``"gnss-velocity+ins-attitude"`` also the INS's Euler angles (``metadata["aiding"]["ins"]``)
 as ``ins_phi ins_theta ins_psi`` at their own samples, the model's ``phi theta psi``
 compared on the circle (:func:`on_circle`: the residual wrapped to (-pi, pi], the logged
-roll is wrapped) with the log's stated sd [rad]. Each source is an :class:`AidingSamples`;
-the machinery below (mask, fixed variances, exact sensitivities) is the same for both:
+roll is wrapped) with the log's stated sd [rad]; GNSS position and barometric altitude:
+:mod:`baselines._oe_position`; skews: :mod:`baselines._oe_skew`. Each source is an
+:class:`AidingSamples`; the machinery below (mask, fixed variances, sensitivities) is one:
 
 - **Prediction**: the model's body velocity rotated by its attitude,
   ``v_ned = C_nb(phi, theta, psi) [u v w]`` (:func:`aeroid.flights.body_to_ned`), at the
@@ -31,9 +32,8 @@ the machinery below (mask, fixed variances, exact sensitivities) is the same for
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -53,23 +53,34 @@ from aeroid.model import (
     symbolic,
 )
 from baselines._gauss_newton import Problem
+from baselines._oe_aiding_report import aiding_info, aiding_warnings  # noqa: F401 - re-exported
+from baselines._oe_aiding_samples import (  # noqa: F401 - re-exported: the sources' face
+    AIDING,
+    AIDING_CHANNELS,
+    CHANNELS,
+    GRID_RTOL,
+    LABELS,
+    OE_AIDING,
+    RESIDUAL_NAMES,
+    SOURCES,
+    UNITS,
+    AidingSamples,
+    aiding_samples,
+    aiding_sources,
+    source_columns,
+)
+from baselines._oe_position import (
+    BARO_NAME,
+    BARO_SOURCE,
+    ORIGIN_NAMES,
+    ORIGIN_SCALE_M,
+    POSITION_SOURCE,
+    integrated,
+    origin_starts,
+)
 from baselines._oe_record import DELAY_STEP_S
+from baselines._oe_skew import check_skew_option, hermite_weights, skew_names, skew_sources
 
-#: The option's values (output-error's and the EKF's and UKF's).
-AIDING = ("none", "gnss-velocity", "gnss-velocity+ins-attitude")
-#: Each aiding source: the option's word, the key in ``metadata["aiding"]``.
-SOURCES = {"gnss-velocity": "gnss", "ins-attitude": "ins"}
-#: Each source's channels in ``metadata["aiding"][source]``, the names of its residuals
-#: (the INS's prefixed: ``phi`` is also a flight channel), what it is, its unit.
-CHANNELS = {"gnss": ("vn", "ve", "vd"), "ins": ("phi", "theta", "psi")}
-RESIDUAL_NAMES = {"gnss": ("vn", "ve", "vd"), "ins": ("ins_phi", "ins_theta", "ins_psi")}
-LABELS = {"gnss": "GNSS velocity", "ins": "INS attitude"}
-UNITS = {"gnss": "m/s", "ins": "rad"}
-#: The GNSS aiding outputs (NED velocity [m/s]), after the IMU's.
-AIDING_CHANNELS = CHANNELS["gnss"]
-#: An aiding time within this fraction of the sample interval of a flight sample is on it
-#: (times logged in ms or us round to 1e-9 s or better).
-GRID_RTOL = 1e-6
 #: Initial-state components estimated with aiding (no prior): pitch and heading. The
 #: GNSS velocity's direction in NED depends on them: the reconstruction's 0.3 mrad sd is
 #: 0.15 m/s at the reference flight's 500 m/s, more than the GNSS's 0.1 m/s sd; held at
@@ -81,72 +92,26 @@ X0_ANGLES = (THETA, PSI)
 #: With the INS attitude in, all three initial angles are estimated: the INS measures
 #: the roll angle itself (held, the roll residual carries the reconstruction's error).
 ATTITUDE = (PHI, THETA, PSI)
+#: The clock group of a source whose skew is another's: the GNSS position's is the GNSS's.
+GROUP = {POSITION_SOURCE: "gnss"}
 #: Complex step of the rotation's derivative [rad] (exact to rounding).
 COMPLEX_STEP = 1e-20
-
-
-class AidingSamples(NamedTuple):
-    """One aiding source's samples on the flight's grid."""
-
-    index: np.ndarray   # (n_a,) flight sample of each
-    z: np.ndarray       # (n_a, 3) vn ve vd [m/s] or phi theta psi [rad]
-    sd: np.ndarray      # (3,) stated white-noise sd [m/s] or [rad]
-    source: str = "gnss"  # a key of CHANNELS
-
-
-def aiding_sources(aiding: str) -> tuple[str, ...]:
-    """The sources of an option value: ``"gnss-velocity+ins-attitude"`` -> gnss, ins."""
-    return () if aiding == "none" else tuple(SOURCES[w] for w in aiding.split("+"))
 
 
 def aiding_x0(aiding: str) -> tuple[int, ...]:
     """The initial-state components ``aiding`` frees (:data:`X0_ANGLES`, :data:`ATTITUDE`
     with the INS, or none)."""
     sources = aiding_sources(aiding)
-    return ATTITUDE if "ins" in sources else X0_ANGLES if sources else ()
+    return ATTITUDE if "ins" in sources else X0_ANGLES if "gnss" in sources else ()
 
 
-def aiding_samples(flight: Flight, source: str = "gnss") -> AidingSamples:
-    """The flight's samples of ``source`` (``metadata["aiding"][source]``), checked."""
-    where = flight.metadata.get("source", "flight")
-    channels, label, unit = CHANNELS[source], LABELS[source], UNITS[source]
-    word = next(w for w, s in SOURCES.items() if s == source)
-    aiding = flight.metadata.get("aiding")
-    group = aiding.get(source) if isinstance(aiding, Mapping) else None
-    if not isinstance(group, Mapping):
-        raise aeroid.FlightError(
-            f"{where}: aiding = {word} needs the {label} samples in "
-            f"metadata['aiding']['{source}'] (t, {', '.join(channels)}, sd; Reconstruction."
-            "to_flight(imu='raw', aiding=True) passes them); the flight has none")
-    try:
-        t = np.asarray(group["t"], dtype=float).reshape(-1)
-        z = np.column_stack([np.asarray(group[c], dtype=float).reshape(-1) for c in channels])
-        sd = np.array([float(group["sd"][c]) for c in channels])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise aeroid.FlightError(f"{where}: metadata aiding.{source} needs t, "
-                                 f"{', '.join(channels)} (numbers, one per sample) and sd of "
-                                 f"each: {exc}") from None
-    if z.shape[0] != t.size or t.size == 0 or not (np.all(np.isfinite(z))
-                                                   and np.all(np.isfinite(t))):
-        raise aeroid.FlightError(f"{where}: metadata aiding.{source}: {t.size} times for "
-                                 f"{z.shape[0]} samples, or a value not finite")
-    if not np.all(sd > 0):
-        raise aeroid.FlightError(f"{where}: metadata aiding.{source} sd must be positive "
-                                 f"[{unit}], got {dict(zip(channels, sd.tolist(), strict=True))}")
-    dt, ft = flight.dt, flight.t
-    k = np.clip(np.rint((t - ft[0]) / dt).astype(int), 0, ft.size - 1)
-    off = t - ft[k]
-    bad = np.flatnonzero(np.abs(off) > GRID_RTOL * dt)
-    if bad.size:
-        j = int(bad[0])
-        raise aeroid.FlightError(
-            f"{where}: {label.split()[0]} sample at t = {t[j]:.9g} s is {1e3 * off[j]:+.6g} ms "
-            f"from the flight's nearest sample ({1e3 * dt:.6g} ms grid): an aiding sample is "
-            "predicted at a flight sample (nothing resampled); log it on the IMU's clock or "
-            "leave it out")
-    if np.unique(k).size != k.size:
-        raise aeroid.FlightError(f"{where}: two {label.split()[0]} samples on one flight sample")
-    return AidingSamples(k, z, sd, source)
+def aiding_names(aiding: str, skew: str) -> list[str]:
+    """The aiding's own parameters, after the record model's: the skews
+    (:func:`~baselines._oe_skew.skew_names`), then the GNSS position's origin."""
+    sources = aiding_sources(aiding)
+    return (skew_names(skew) + (list(ORIGIN_NAMES) if POSITION_SOURCE in sources else [])
+            + ([BARO_NAME] if BARO_SOURCE in sources else []))
+
 
 
 def ned_velocity(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -185,16 +150,31 @@ def on_circle(samples: AidingSamples, y: np.ndarray) -> np.ndarray:
 class AidedModel:
     """The record model with each aiding source's outputs appended, shape (n, m + 3 n_src).
 
-    Everything else (scales, layout, the delay's smooth region) is the record model's.
+    Everything else (layout, the delay's smooth region) is the record model's; with
+    ``skew_free`` (sources whose time skew is estimated: :mod:`baselines._oe_skew`) one
+    parameter per source after the record model's, scaled by the sample interval.
     """
 
-    def __init__(self, base: Any, samples: tuple[AidingSamples, ...]) -> None:
+    def __init__(self, base: Any, samples: tuple[AidingSamples, ...],
+                 skew_free: tuple[str, ...] = ()) -> None:
         self.base, self.samples = base, samples
+        self.skew_free = tuple(skew_free)
+        self.n_base = base.scale.size  # the record model's parameters, the skews, the origin
+        self.origin = next((j for j, s in enumerate(samples) if s.source == POSITION_SOURCE), None)
+        self.baro = next((j for j, s in enumerate(samples) if s.source == BARO_SOURCE), None)
+        self.i_origin = self.n_base + len(skew_free)
+        self.scale = np.concatenate([base.scale, np.full(len(skew_free), base.t[1] - base.t[0]),
+                                     np.full(3 * (self.origin is not None), ORIGIN_SCALE_M),
+                                     np.full(int(self.baro is not None), ORIGIN_SCALE_M)])
+        self.i_baro = self.i_origin + 3 * (self.origin is not None)
+        self.origin_start = np.zeros(3)  # set by aided_problem: the first sample's
+        self.baro_start = 0.0  # the same for the barometer's origin altitude
         n, m = base.t.size, len(OUTPUT_CHANNELS)
         mask = np.ones((n, m), bool) if base.mask is None else base.mask
-        aid = np.zeros((n, 3 * len(samples)), bool)
-        for j, s in enumerate(samples):
-            aid[s.index, 3 * j:3 * j + 3] = True
+        self.cols = source_columns(samples)
+        aid = np.zeros((n, self.cols[-1].stop), bool)
+        for s, c in zip(samples, self.cols, strict=True):
+            aid[s.index, c] = True
         self.mask = np.hstack([mask, aid])
         self.n_x0 = len(base.x0_free)
         self.n_s = N_COEFFICIENTS + self.n_x0  # the parameters that move the states
@@ -204,6 +184,16 @@ class AidedModel:
             const = const._replace(**dict.fromkeys(EXOGENOUS, 0.0))
         self.const = const
         self._graphs: dict[int, tuple[ca.Function, ca.Function]] = {}
+
+    @property
+    def phys_offset(self) -> np.ndarray:
+        """Added to ``p * scale`` for the physical parameters: the origin's start [m]."""
+        offset = np.zeros(self.scale.size)
+        if self.origin is not None:
+            offset[self.i_origin:self.i_origin + 3] = self.origin_start
+        if self.baro is not None:
+            offset[self.i_baro] = self.baro_start
+        return offset
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.base, name)
@@ -256,30 +246,78 @@ class AidedModel:
         return (np.hstack([x0[:, None], np.asarray(xs)]).T,
                 np.concatenate([s0[:, None, :], blocks], axis=1))
 
-    def predictions(self, xs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Each source's prediction at its samples (n_a, 3), as the states give it (the INS
-        not yet on the circle), and its derivative (n_a, 3, 9)."""
-        return [predicted(s.source, xs[s.index]) for s in self.samples]
+    def skew_index(self, source: str) -> int | None:
+        """The parameter of ``source``'s skew (the GNSS position's is the GNSS's), or None."""
+        group = GROUP.get(source, source)
+        return self.n_base + self.skew_free.index(group) if group in self.skew_free else None
+
+    def on_grid(self, s: AidingSamples, p: np.ndarray, xs: np.ndarray, ss: np.ndarray | None,
+                index: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """A source's prediction at record samples ``index`` (k,), (k, 3), and its
+        sensitivities (3, k, n_s) (or None, as ``ss``): a function of the states there, or
+        for the GNSS position the origin plus the NED velocity's integral
+        (:mod:`baselines._oe_position`)."""
+        if s.source in (POSITION_SOURCE, BARO_SOURCE):
+            v, dv = ned_velocity(xs)
+            y, dy = integrated(self.base.t, v, None if ss is None else
+                               np.einsum("kcx,xkp->ckp", dv, ss), index)
+            if self.origin is not None:
+                cols = slice(self.i_origin, self.i_origin + 3)
+                y = y + self.origin_start + p[cols] * self.scale[cols]
+            if s.source == POSITION_SOURCE:
+                return y, dy
+            h0 = self.baro_start + p[self.i_baro] * self.scale[self.i_baro]
+            return h0 - y[:, 2:], None if dy is None else -dy[2:]  # altitude = h0 - pd
+        v, dv = predicted(s.source, xs[index])
+        return v, None if ss is None else np.einsum("kcx,xkp->ckp", dv, ss[:, index])
+
+    def at_samples(self, s: AidingSamples, p: np.ndarray, xs: np.ndarray,
+                   ss: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None,
+                                                   np.ndarray | None]:
+        """A source's prediction at its (skewed) sample times (n_a, 3), as the states give
+        it (the INS not yet on the circle), its sensitivities (3, n_a, n_s) (or None, as
+        ``ss``) and, with its skew free, to the scaled skew (3, n_a): the cubic Hermite
+        interpolant of :meth:`on_grid` (:func:`~baselines._oe_skew.hermite_weights`)."""
+        i = self.skew_index(s.source)
+        if i is None:
+            return (*self.on_grid(s, p, xs, ss, s.index), None)
+        t, dt = self.base.t, self.scale[i]
+        index, w, dw = hermite_weights(t[s.index] + p[i] * dt, t[0], dt, t.size)
+        v, d = self.on_grid(s, p, xs, ss, index.ravel())
+        v = v.reshape(*index.shape, -1)
+        y, d_skew = np.einsum("ac,acj->aj", w, v), np.einsum("ac,acj->ja", dw * dt, v)
+        if d is None:
+            return y, None, d_skew
+        return y, np.einsum("ac,jacp->jap", w, d.reshape(len(d), *index.shape, -1)), d_skew
 
     def _aiding(self, p: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         n, tau = self.base.t.size, self.base.tau(p)
         xs, ss = self.states(p, tau, jacobian)
-        y = np.zeros((n, 3 * len(self.samples)))
+        y = np.zeros((n, self.cols[-1].stop))
         J = None if ss is None else np.zeros((y.shape[1], n, p.size))
-        for j, (s, (v, dv)) in enumerate(zip(self.samples, self.predictions(xs), strict=True)):
-            y[s.index, 3 * j:3 * j + 3] = on_circle(s, v)
-            if J is not None and ss is not None:
-                J[3 * j:3 * j + 3, s.index, :self.n_s] = np.einsum("kcx,xkp->ckp", dv,
-                                                                    ss[:, s.index, :])
+        for j, (s, c) in enumerate(zip(self.samples, self.cols, strict=True)):
+            v, dv, d_skew = self.at_samples(s, p, xs, ss)
+            y[s.index, c] = on_circle(s, v)
+            if J is not None and dv is not None:
+                J[c, s.index, :self.n_s] = dv
+                if d_skew is not None:
+                    J[c, s.index, self.skew_index(s.source)] = d_skew
+                if j == self.origin:
+                    for k in range(3):
+                        J[c.start + k, s.index, self.i_origin + k] = ORIGIN_SCALE_M
+                if j == self.baro:
+                    J[c, s.index, self.i_baro] = ORIGIN_SCALE_M
+                    if self.origin is not None:  # altitude = h0 - pd: d/d pd0
+                        J[c, s.index, self.i_origin + 2] = -ORIGIN_SCALE_M
         if J is not None and self.base.estimate_delay:
             J[:, :, self.base.n_graph] = self._delay_column(p, tau)
         return y, J
 
-    def _raw(self, xs: np.ndarray) -> np.ndarray:
+    def _raw(self, xs: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The predictions at their samples as the states give them, (n, 3 n_src), 0 between."""
-        y = np.zeros((self.base.t.size, 3 * len(self.samples)))
-        for j, (s, (v, _)) in enumerate(zip(self.samples, self.predictions(xs), strict=True)):
-            y[s.index, 3 * j:3 * j + 3] = v
+        y = np.zeros((self.base.t.size, self.cols[-1].stop))
+        for s, c in zip(self.samples, self.cols, strict=True):
+            y[s.index, c] = self.at_samples(s, p, xs, None)[0]
         return y
 
     def _delay_column(self, p: np.ndarray, tau: float) -> np.ndarray:
@@ -295,7 +333,7 @@ class AidedModel:
         if not central:
             h = min(h, 0.5 * max(up, down))
         offsets = (h, -h) if central else (0.0, sign * h, 2.0 * sign * h)
-        v = [self._raw(self.states(p, tau + o, False)[0]) for o in offsets]
+        v = [self._raw(self.states(p, tau + o, False)[0], p) for o in offsets]
         self.base.record(tau)  # the record model's current delay again
         d = ((v[0] - v[1]) / (2.0 * h) if central
              else sign * (4.0 * v[1] - 3.0 * v[0] - v[2]) / (2.0 * h))
@@ -304,11 +342,12 @@ class AidedModel:
     # OutputModel -------------------------------------------------------------------
     def outputs(self, p: np.ndarray) -> np.ndarray:
         """Return ``y(p)``, shape (n, m + 3 n_src): the IMU's outputs, then the sources'."""
-        return np.hstack([self.base.outputs(p), self._aiding(p, False)[0]])
+        return np.hstack([self.base.outputs(p[:self.n_base]), self._aiding(p, False)[0]])
 
     def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Return ``y(p)`` (n, m + 3 n_src) and ``dy/dp`` (m + 3 n_src, n, n_p)."""
-        y, J = self.base.outputs_jacobian(p)
+        y, J = self.base.outputs_jacobian(p[:self.n_base])
+        J = np.concatenate([J, np.zeros((*J.shape[:2], p.size - self.n_base))], axis=2)
         ya, Ja = self._aiding(p, True)
         return np.hstack([y, ya]), np.concatenate([J, Ja], axis=0)
 
@@ -330,8 +369,10 @@ class AidedProblem(Problem):
         return var
 
 
-def aided_problem(aiding: str, flight: Flight, prob: Problem) -> Problem:
-    """``prob`` with the aiding outputs of ``aiding`` (``"none"``: ``prob`` itself)."""
+def aided_problem(aiding: str, flight: Flight, prob: Problem, skew: str = "none") -> Problem:
+    """``prob`` with the aiding outputs of ``aiding`` (``"none"``: ``prob`` itself), the
+    time skews of the sources ``skew`` names free (:mod:`baselines._oe_skew`)."""
+    check_skew_option(aiding, skew)
     if aiding == "none":
         return prob
     base = prob.model
@@ -340,56 +381,20 @@ def aided_problem(aiding: str, flight: Flight, prob: Problem) -> Problem:
                                     "estimate_wind is not built (the aiding outputs integrate the "
                                     "nine constant coefficients in still air)")
     samples = tuple(aiding_samples(flight, source) for source in aiding_sources(aiding))
-    model = AidedModel(prob.model, samples)
-    z = np.zeros((flight.n_samples, 3 * len(samples)))
-    for j, s in enumerate(samples):
-        z[s.index, 3 * j:3 * j + 3] = s.z
+    model = AidedModel(prob.model, samples, skew_sources(skew))
+    model.origin_start, model.baro_start = origin_starts(  # from their first samples
+        flight.t, ned_velocity(flight.states())[0],
+        *(None if j is None else samples[j] for j in (model.origin, model.baro)))
+    z = np.zeros((flight.n_samples, model.cols[-1].stop))
+    for s, c in zip(samples, model.cols, strict=True):
+        z[s.index, c] = s.z
     var = np.concatenate([s.sd ** 2 for s in samples])
+    more = np.zeros(model.scale.size - model.n_base)  # the skews: no prior
+
+    def extended(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else np.concatenate([a, more])
     return AidedProblem(z=np.hstack([prob.z, z]), model=model,
                         r_floor=np.concatenate([prob.r_floor, var]),
-                        noise_model=prob.noise_model, prior_mean=prob.prior_mean,
-                        prior_weight=prob.prior_weight,
+                        noise_model=prob.noise_model, prior_mean=extended(prob.prior_mean),
+                        prior_weight=extended(prob.prior_weight),
                         known_var=np.concatenate([np.full(prob.z.shape[1], np.nan), var]))
-
-
-def aiding_info(prob: Problem, e: np.ndarray) -> dict[str, Any]:
-    """``info`` entries of an aided fit: the aiding residuals for the fit check (their
-    yardstick the stated sd) and ``info["aiding"]``; empty for a fit without aiding."""
-    if not isinstance(prob, AidedProblem):
-        return {}
-    model: AidedModel = prob.model  # type: ignore[assignment]
-    m = len(OUTPUT_CHANNELS)
-    residuals = {c: e[:, j] for j, c in enumerate(OUTPUT_CHANNELS)}
-    signals, noise_sd, per_source = {}, {}, {}
-    for i, s in enumerate(model.samples):
-        names = RESIDUAL_NAMES[s.source]
-        residuals.update({c: e[s.index, m + 3 * i + j] for j, c in enumerate(names)})
-        # the resolution floor's yardstick: the change over the flight (the initial
-        # value is fitted), not the GNSS's 500 m/s (1e-3 of that is 5x the GNSS's sd)
-        signals.update({c: s.z[:, j] - np.mean(s.z[:, j]) for j, c in enumerate(names)})
-        noise_sd.update(dict(zip(names, s.sd.tolist(), strict=True)))
-        per_source[s.source] = {"channels": names, "n_samples": int(s.index.size),
-                                "times_s": model.base.t[s.index],
-                                "sd": dict(zip(names, s.sd.tolist(), strict=True))}
-    freed = "phi0 theta0 psi0" if "ins" in per_source else "pitch and heading theta0 psi0"
-    return {"fit_residuals": residuals, "fit_signals": signals, "fit_noise_sd": noise_sd,
-            "aiding": {"channels": tuple(signals), "sources": per_source,
-                       "n_samples": sum(v["n_samples"] for v in per_source.values()),
-                       "times_s": model.base.t[model.samples[0].index],
-                       "noise": "the log's stated sd (not estimated)",
-                       "wrapped": "INS angles compared on the circle (residual in (-pi, pi])"
-                       if "ins" in per_source else "none",
-                       "note": f"initial {freed} estimated (no prior)", "sd": noise_sd}}
-
-
-def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
-                    ) -> tuple[str, ...]:
-    """A warning per aiding source the flight carries and the fit leaves out."""
-    carried = flight.metadata.get("aiding")
-    if not isinstance(carried, Mapping):
-        return ()
-    used = aiding_sources(aiding)
-    return tuple(f"{owner}: the flight carries {LABELS[s]} samples (metadata aiding), not in "
-                 f"this fit's likelihood (aiding = "
-                 f"{'gnss-velocity' if s == 'gnss' else AIDING[-1]} puts them in)"
-                 for s in CHANNELS if s in carried and s not in used)

@@ -30,14 +30,9 @@ from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common, _held, _oe_airdata, _oe_wind, _tables_fit
-from baselines._gauss_newton import (
-    Fit,
-    Problem,
-    gauss_newton,
-    posterior_information,
-    sandwich,
-)
-from baselines._oe_aiding import aided_problem, aiding_info, aiding_warnings, aiding_x0
+from baselines._gauss_newton import Fit, Problem, gauss_newton, posterior_information, sandwich
+from baselines._oe_aiding import aided_problem, aiding_info, aiding_names, aiding_x0
+from baselines._oe_aiding_report import aiding_warnings
 from baselines._oe_airdata_fit import airdata_problem, airdata_report
 from baselines._oe_constants import (
     MAX_SAMPLES,
@@ -57,6 +52,7 @@ from baselines._oe_sensors import (
     position_report,
     prior_weights,
 )
+from baselines._oe_skew import skew_report, skew_search
 from baselines._oe_starts import (
     Start,
     best_end,
@@ -165,11 +161,16 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         For a raw IMU (``Reconstruction.to_flight(imu="raw")``). An axial bias trades
         against Cx; a warning names each pair correlated above 0.98
         (:func:`aeroid.estimation.nuisance_findings`).
-    aiding : {"none", "gnss-velocity", "gnss-velocity+ins-attitude"}
+    aiding : {"none", "gnss-velocity", "gnss-velocity+ins-attitude", "gnss-position", ...}
         ``"gnss-velocity"``: the flight's GNSS NED velocity samples (``metadata["aiding"]``:
         ``to_flight(aiding=True)``) as outputs at their own samples (on the flight's grid,
         else refused), with the log's stated sd (:mod:`baselines._oe_aiding`); default none.
         ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
+        ``gnss-position``, ``baro-altitude``: NED position, barometric altitude (_oe_position).
+    estimate_skew : {"none", "gnss", "ins", "gnss+ins"}
+        Also estimate those aiding sources' skew against the IMU (samples taken at logged
+        ``t + skew``; :mod:`baselines._oe_skew`), in ``info['aiding_skew_s']`` with
+        ``info['aiding_skew_stderr_s']``; default none. A source must be in ``aiding``.
     compile_model : bool
         Compile the per-step model and sensitivity functions to C with the system
         compiler (default True; CasADi code generation, the library cached on disk in
@@ -215,7 +216,11 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     pso_particles: int = 30
     pso_iterations: int = 40
     imu_errors: Literal["none", "bias", "bias+scale"] = "none"
-    aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
+    aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude", "gnss-position",
+                    "gnss-velocity+gnss-position", "gnss-velocity+gnss-position+ins-attitude",
+                    "baro-altitude", "gnss-position+baro-altitude",
+                    "gnss-velocity+gnss-position+baro-altitude"] = "none"
+    estimate_skew: Literal["none", "gnss", "ins", "gnss+ins"] = "none"
     compile_model: bool = True
 
     def __post_init__(self) -> None:
@@ -228,7 +233,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         names = list(aeroid.NAMES) + [X0_NAMES[i] for i in self.x0_free()]
         names += [POSITION_NAMES[c] for c in position_free] + _oe_wind.wind_names(self)
         names += ["delay_s"] if self.estimate_delay else []
-        return tuple(names + list(imu_error_names(self.imu_errors)))
+        return tuple(names + list(imu_error_names(self.imu_errors))
+                     + aiding_names(self.aiding, self.estimate_skew))
 
     def rx_free(self) -> tuple[int, ...]:
         """Triads (0, 1) whose x position is estimated."""
@@ -279,7 +285,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         return airdata_problem(self, flight, aided_problem(self.aiding, flight, Problem(
             z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,
             noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
-            prior_weight=weight if has_prior else None)))
+            prior_weight=weight if has_prior else None), self.estimate_skew))
 
     def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
@@ -328,8 +334,11 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                 failures.append(f"{start.label}: {exc}")
         if not fits:
             return aeroid.failed_result(self.name, failures[0])
-        best = fits[k_best := best_end(fits)]
-        n_evals = extra_evals + sum(f.n_evaluations for f in fits)
+        k_best = best_end(fits)  # with estimate_skew, searched along the skews from there
+        fits[k_best], search = skew_search(self.estimate_skew, prob, fits[k_best],
+                                           lambda p0: _held.held_fit(self, prob, p0, holds))
+        best = fits[k_best]
+        n_evals = extra_evals + sum(f.n_evaluations for f in fits) + search["n_evaluations"]
         n_iter = sum(f.n_iterations for f in fits)
         M, _ = posterior_information(prob, best.J, best.e, best.r_diag, best.p)
         try:
@@ -341,7 +350,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         cov_phys = cov_p * np.outer(scale, scale)
         if self.positions == "consider":
             cov_phys = cov_phys + consider_covariance(self, flight, best, scale)
-        phys = best.p * scale
+        phys = best.p * scale + getattr(model, "phys_offset", 0.0)  # aiding's origin
         theta = phys[:n_c]
         cov = cov_phys[:n_c, :n_c]
         hist_p = np.array(best.history_p)
@@ -374,10 +383,12 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
         warnings += airdata_report(self, flight, prob, best.e, phys, stderr_phys, info)
+        warnings += skew_report(self.estimate_skew, info, model, best.p, phys, cov_phys, search)
         if model.n_imu:
-            imu_info, found = imu_error_report(info["parameter_names"],
-                                               imu_error_names(self.imu_errors), phys,
-                                               stderr_phys, cov_phys)
+            keep = slice(0, n_p - len(aiding_names(self.aiding, self.estimate_skew)))
+            imu_info, found = imu_error_report(info["parameter_names"][keep],
+                                               imu_error_names(self.imu_errors), phys[keep],
+                                               stderr_phys[keep], cov_phys[keep, keep])
             info.update(imu_info)
             warnings += found
         return EstimationResult(

@@ -32,6 +32,14 @@ initial sd from the reconstruction) without and with ``aiding``, and the EKF wit
 
     python benchmarks/bench_aiding.py --seeds 20 --filters
 
+With ``--skew``, instead: output-error estimating the aiding groups' time skew
+(``estimate_skew``, velocity free): the GNSS 50 ms late (undeclared) with its skew free, the
+INS 50 ms late with its skew free and the INS and GNSS as logged with both free (the
+correct fit's refusal rate with the option on; written to
+``benchmarks/results/aiding_skew.md``)::
+
+    python benchmarks/bench_aiding.py --seeds 10 --skew
+
 Figures per fit: successes, mean |relative error| of the coefficients, Cx's relative
 error and standard error, the correlation of Cx with the axial biases ``bax1``, ``bax2``,
 the largest ``|error| / se`` over the coefficients, biases and scale factors, the
@@ -82,6 +90,14 @@ INS_FITS = {
 }
 
 
+SKEW_FITS = {
+    "GNSS 50 ms late, GNSS skew free": ({**BASE, "aiding": "gnss-velocity",
+                                         "estimate_skew": "gnss"}, 0.05),
+    "INS 50 ms late, INS skew free": ({**BOTH, "estimate_skew": "ins"}, ("ins", 0.05)),
+    "both as logged, both skews free": ({**BOTH, "estimate_skew": "gnss+ins"}, 0.0),
+}
+
+
 FILTER_BASE = {"imu_errors": "bias+scale"}
 FILTERS = {
     "EKF, IMU only": ("ekf", FILTER_BASE, 0.0),
@@ -129,7 +145,7 @@ def _errors_truth(errors: dict[str, np.ndarray]) -> dict[str, float]:
     return dict(zip(names, values.tolist(), strict=True))
 
 
-def one_seed(seed: int, filters: bool = False, ins: bool = False
+def one_seed(seed: int, filters: bool = False, ins: bool = False, skew: bool = False
              ) -> dict[str, dict[str, float]]:
     """All fits of one seed (output-error's, or with ``filters`` the EKF's and UKF's, with
     ``ins`` output-error's with and without the INS)."""
@@ -143,8 +159,8 @@ def one_seed(seed: int, filters: bool = False, ins: bool = False
     out = {}
     fits = ({k: (make_estimator(m, o), late)
              for k, (m, o, late) in (INS_FILTERS if ins else FILTERS).items()}
-            if filters else {k: (OutputErrorEstimator(**o), late)
-                             for k, (o, late) in (INS_FITS if ins else FITS).items()})
+            if filters else {k: (OutputErrorEstimator(**o), late) for k, (o, late) in (
+                SKEW_FITS if skew else INS_FITS if ins else FITS).items()})
     for label, (est, late) in fits.items():
         start = time.perf_counter()
         res = est.fit(skewed(raw, late), rng=seed)
@@ -170,6 +186,13 @@ def one_seed(seed: int, filters: bool = False, ins: bool = False
                       "gyro_bias_se": float(np.median([v for n, v in bias_se.items()
                                                        if n in ("bp", "bq", "br")])),
                       "message": res.message}
+        if skew:
+            truth_skew = dict([late if isinstance(late, tuple) else ("gnss", late)])
+            for source, value in res.info["aiding_skew_s"].items():
+                se = res.info["aiding_skew_stderr_s"][source]
+                out[label][f"{source}_skew"] = value
+                out[label][f"{source}_skew_se"] = se
+                out[label][f"{source}_skew_z"] = (value - truth_skew.get(source, 0.0)) / se
     return out
 
 
@@ -181,7 +204,11 @@ def main() -> None:
                         help="the EKF and UKF instead of output-error")
     parser.add_argument("--ins", action="store_true",
                         help="output-error with GNSS velocity alone and with the INS attitude")
+    parser.add_argument("--skew", action="store_true",
+                        help="output-error estimating the GNSS and INS time skews")
     args = parser.parse_args()
+    if args.skew:
+        return skew_main(args.seeds)
     labels = ((INS_FILTERS if args.ins else FILTERS) if args.filters
               else INS_FITS if args.ins else FITS)
     runs = []
@@ -224,6 +251,55 @@ def main() -> None:
     print("\n".join(lines))
     out = ROOT / "benchmarks" / "results" / (
         "aiding" + ("_filters" if args.filters else "") + ("_ins" if args.ins else "") + ".md")
+    out.write_text("\n".join(lines) + "\n")
+    print(f"wrote {out}")
+
+
+def skew_main(seeds: int) -> None:
+    """``--skew``: each fit's successes, skews against the truth, coefficients' worst z."""
+    runs: list[dict[str, dict[str, float]]] = []
+    for seed in range(seeds):
+        runs.append(one_seed(seed, skew=True))
+        skew_table(runs)
+        print(f"seed {seed}: " + "; ".join(
+            f"{k}: {'ok' if r['success'] else 'refused'} " + " ".join(
+                f"{s} {1e3 * r[s + '_skew']:+.2f}+-{1e3 * r[s + '_skew_se']:.2f} ms"
+                for s in ("gnss", "ins") if s + "_skew" in r) + f" max z {r['max_z']:.2f}"
+            for k, r in runs[-1].items()), flush=True)
+
+
+def skew_table(runs: list[dict[str, dict[str, float]]]) -> None:
+    """Write ``benchmarks/results/aiding_skew.md`` from the seeds run so far."""
+    seeds = len(runs)
+    lines = ["# Output-error estimating the aiding groups' time skew", "",
+             f"`python benchmarks/bench_aiding.py --seeds {seeds} --skew` on "
+             f"{platform.processor() or platform.machine()}, Python "
+             f"{platform.python_version()}, numpy {np.__version__}; reference window 5-6 s, "
+             f"default suite, raw IMU with imu_errors=bias+scale, initial velocity free, "
+             f"seeds 0-{seeds - 1}.", "",
+             "| fit | succeeded | skew | skew estimate [ms] (mean) | skew se [ms] (median) | "
+             r"\|skew - truth\| / se (max) | within 3 se | mean rel. error | "
+             r"max coefficient \|z\| | wall time per fit [s] (median) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for label in SKEW_FITS:
+        rows = [r[label] for r in runs]
+        for source in ("gnss", "ins"):
+            if source + "_skew" not in rows[0]:
+                continue
+            z = np.abs([r[source + "_skew_z"] for r in rows])
+            lines.append(
+                f"| {label} | {int(sum(r['success'] for r in rows))} of {len(rows)} | "
+                f"{source} | {1e3 * np.mean([r[source + '_skew'] for r in rows]):+.2f} | "
+                f"{1e3 * np.median([r[source + '_skew_se'] for r in rows]):.3g} | "
+                f"{np.max(z):.2f} | {int(np.sum(z < 3))} of {len(rows)} | "
+                f"{100 * np.mean([r['mean_rel'] for r in rows]):.3f} % | "
+                f"{max(r['max_z'] for r in rows):.2f} | "
+                f"{np.median([r['wall_s'] for r in rows]):.1f} |")
+    refused = [f"seed {s} {k}: {r[k]['message']}" for s, r in enumerate(runs) for k in SKEW_FITS
+               if not r[k]["success"]]
+    lines += ["", "Refusals:", ""] + [f"- {line}" for line in refused or ["none"]]
+    print("\n".join(lines))
+    out = ROOT / "benchmarks" / "results" / "aiding_skew.md"
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out}")
 

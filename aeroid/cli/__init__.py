@@ -51,7 +51,8 @@ examples:
   aeroid study --runs 5                         # a small Monte Carlo study
 
 Run 'aeroid COMMAND --help' for a command's options. Exit status: 0 done, 1 the method
-failed (estimate: result still printed), 2 bad input (one line on stderr)."""
+failed (estimate: result still printed) or a residual check is NOT consistent
+(reconstruct: files still written), 2 bad input (one line on stderr)."""
 
 
 class _Parser(argparse.ArgumentParser):

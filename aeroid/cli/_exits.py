@@ -18,6 +18,12 @@ from typing import Any
 
 from aeroid.errors import AeroidWarning
 
+#: Exit statuses of every command: done; finished and its output written, but not a
+#: success (``estimate``: a method failed or its fit check refused the fit; ``reconstruct``:
+#: an aiding source's residual check is NOT consistent with its stated sd); bad input or a
+#: refusal (one line on stderr). Ctrl-C is 130 and SIGTERM 143.
+EXIT_DONE, EXIT_NOT_SUCCESS, EXIT_BAD_INPUT = 0, 1, 2
+
 
 class WarningLines:
     """``warnings.showwarning`` for the command line: one line per warning, once per place.

@@ -2,14 +2,19 @@
 
 Registered by :mod:`aeroid.cli` (:func:`add_parser`, :func:`reconstruct`). User errors
 (a missing or malformed log, an unknown unit, a missing output folder) raise the
-classes of :data:`aeroid.errors.USER_ERRORS`: one line, exit status 2.
+classes of :data:`aeroid.errors.USER_ERRORS`: one line, exit status 2. A source whose
+residual check is NOT consistent with its stated sd ends it with exit status 1
+(:data:`aeroid.cli._exits.EXIT_NOT_SUCCESS`), after everything asked for is written and a
+last line on stderr names the sources.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
+from aeroid.cli._exits import EXIT_DONE, EXIT_NOT_SUCCESS
 from aeroid.errors import UsageError
 
 __all__ = ["add_parser", "reconstruct"]
@@ -29,7 +34,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                "  aeroid reconstruct suite.toml -o states.csv --report report/\n"
                "  aeroid reconstruct suite.toml -o states.csv --flight raw.csv --raw-imu\n"
                "  aeroid estimate raw.csv --method output-error --option "
-               "imu_errors=bias+scale\n",
+               "imu_errors=bias+scale\n\n"
+               "Exit status: 0 done, every source's residual check consistent; 1 a\n"
+               "source NOT consistent with its stated sd (every file still written);\n"
+               "2 bad input.",
         formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("log", type=Path, help="suite log TOML (its CSV files beside it)")
     p.add_argument("-o", "--output", type=Path, required=True,
@@ -81,6 +89,7 @@ def reconstruct(args: argparse.Namespace) -> int:
         print(f"{source}: mean NIS per dof {stats['mean_nis_per_dof']:.3f} over "
               f"{stats['n_updates']} updates, {verdict} with the stated noise sd "
               f"(chi-square interval {low:.2f}-{high:.2f})")
+    refused = [source for source, stats in result.nis.items() if not stats["consistent"]]
     print(f"wrote {args.output} ({len(result.table)} samples)")
     if args.report is not None:
         from aeroid.report import write_reconstruction_report
@@ -93,4 +102,8 @@ def reconstruct(args: argparse.Namespace) -> int:
         sidecar = flight.write(args.flight)
         density = next(n for n in flight.metadata["notes"] if n.startswith("flight density"))
         print(f"wrote {args.flight} and {sidecar} ({density}; IMU: {imu})")
-    return 0
+    if refused:
+        print(f"aeroid: the residual check refused {', '.join(refused)} (mean NIS outside its "
+              f"chi-square interval): exit status {EXIT_NOT_SUCCESS}", file=sys.stderr)
+        return EXIT_NOT_SUCCESS
+    return EXIT_DONE

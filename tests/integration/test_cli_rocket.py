@@ -58,8 +58,9 @@ def test_the_same_log_with_a_wrong_mounting_is_not_a_success(tmp_path, capsys):
     log = _make_log()(tmp_path / "wrong", wrong_mounting=True, verbose=False)
     assert 'axes = "x=y, y=-x, z=z"' in log.read_text()
     raw = tmp_path / "raw.csv"
+    # a residual check NOT consistent is exit status 1, the files still written
     assert main(["reconstruct", str(log), "-o", str(tmp_path / "states.csv"), "--flight",
-                 str(raw), "--raw-imu"]) == 0
+                 str(raw), "--raw-imu"]) == 1
     out = capsys.readouterr()
     assert (out.out + out.err).count("NOT consistent") == 3
     assert main(["estimate", str(raw), "--method", "output-error", "--option",
