@@ -43,18 +43,24 @@ def curve_from_args(args: argparse.Namespace) -> ThrustCurve | None:
     if all(v is None for v in given):
         return None
     missing = [f for f, v in zip(FLAGS, given, strict=True) if v is None]
-    if missing:
+    path, origin, burn = given
+    if missing or path is None or origin is None or burn is None:
         raise UsageError(f"{', '.join(FLAGS)} go together (missing {', '.join(missing)}): "
                          "aeroid assumes no time origin or burn window")
-    return read_thrust_curve(given[0], origin_s=float(given[1]), burn_s=parse_burn(given[2]))
+    return read_thrust_curve(path, origin_s=float(origin), burn_s=parse_burn(burn))
 
 
 def with_thrust(flight: Any, args: argparse.Namespace) -> Any:
     """Return ``flight`` with the thrust curve's channels (module docstring), said in one line."""
     curve = curve_from_args(args)
     own = getattr(flight.airframe, "thrust_curve", None)
-    if curve is None and (own is None or "thrust" in flight.channels):
-        return flight  # no curve, or a flight written with its curve's channels
+    if curve is None and own is None:
+        return flight
+    if curve is None and own is not None and "thrust" in flight.channels:  # a flight written
+        # with its curve's channels (aeroid simulate, Flight.write after with_thrust_curve)
+        logging.getLogger("aeroid").info(f"thrust: the flight's 'thrust' channel (from the "
+                                         f"airframe's [thrust_curve]: {own.describe()})")
+        return flight
     flight, note = with_thrust_curve(flight, curve)
     if curve is not None and own is not None:
         note += " (the airframe's [thrust_curve] replaced by --thrust-curve)"

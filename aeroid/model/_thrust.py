@@ -177,10 +177,10 @@ class ThrustCurve:
     def describe(self) -> str:
         """Return one line: the curve, its origin, the burn window, the impulse used and not."""
         total, used = self.impulse(), self.impulse(*self.burn_s)
+        ends = None if self.mass_kg is None else self.mass(np.array(self.burn_s))
         mass = ("no mass along the burn (a fit of samples inside the burn is refused)"
-                if self.mass_kg is None else
-                f"mass {self.mass(self.burn_s[0])[()]:.6g} -> {self.mass(self.burn_s[1])[()]:.6g}"
-                " kg along the burn (the curve's mass_kg)")
+                if ends is None else f"mass {ends[0]:.6g} -> {ends[1]:.6g} kg along the burn "
+                "(the curve's mass_kg)")
         return (f"{self.source}: thrust curve of {self.time_s.size} points, its t = 0 at "
                 f"{self.origin_s:g} s on the log clock; used inside the burn window "
                 f"{self.burn_s[0]:g}..{self.burn_s[1]:g} s only (zero outside): impulse "
@@ -209,7 +209,8 @@ class ThrustCurve:
                                 "inline (time_s, thrust_N, optional mass_kg), not "
                                 f"{'both' if inline else 'neither'}")
         origin = number(table["origin_s"], f"{where} origin_s")
-        burn = numbers(table["burn_s"], 2, f"{where} burn_s")
+        start, end = numbers(table["burn_s"], 2, f"{where} burn_s")
+        burn = (start, end)
         if "file" in table:
             path = Path(text(table["file"], f"{where} file"))
             if base is not None and not path.is_absolute():
