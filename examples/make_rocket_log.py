@@ -21,9 +21,14 @@ prediction as ``[prior]`` (the scenario's; the starting point of every fit). Run
 root::
 
     python examples/make_rocket_log.py [FOLDER] [--seed N] [--wrong-mounting]
+        [--scenario TOML] [--mounting AXES]
 
 ``--wrong-mounting`` writes the same log (the same readings) with a mounting that is
 wrong but a proper rotation, two signs flipped (``x=y, y=-x, z=z``: 180 deg about z).
+``--mounting AXES`` writes the same readings with any other axis map (one sign flipped,
+``x=-y, y=x, z=-z``, is a reflection: the reader refuses it). ``--scenario`` flies another
+scenario (``studies/scenarios/rocket_measure.toml``: the coast mass 2 % above the file's,
+the file giving a 3 % sd, Cx as a Mach table: issue 25's measure flight).
 """
 
 from __future__ import annotations
@@ -49,9 +54,14 @@ WRONG_MOUNTING = "x=y, y=-x, z=z"
 
 
 def make_log(folder: Path, seed: int = SEED, wrong_mounting: bool = False,
-             verbose: bool = True) -> Path:
-    """Simulate the coast, log it with the flight computer, write it; return the TOML."""
-    scenario = load_scenario(SCENARIO)
+             verbose: bool = True, *, scenario_path: Path = SCENARIO,
+             mounting: str | None = None) -> Path:
+    """Simulate the coast, log it with the flight computer, write it; return the TOML.
+
+    ``mounting``: an axis map written instead of the board's (the readings unchanged);
+    ``wrong_mounting`` is ``mounting=WRONG_MOUNTING``.
+    """
+    scenario = load_scenario(scenario_path)
     suite = SensorSuite(**FLIGHT_COMPUTER)
     sim = simulate_suite(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                          suite, rng=seed)
@@ -59,12 +69,13 @@ def make_log(folder: Path, seed: int = SEED, wrong_mounting: bool = False,
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "rocket.toml"
     written = write_suite_log(log, path)
-    if wrong_mounting:
+    mounting = WRONG_MOUNTING if wrong_mounting else mounting
+    if mounting is not None:
         text = path.read_text()
         right = 'axes = "x=-y, y=x, z=z"'
         if right not in text:
             raise SystemExit(f"{path}: no {right!r} to replace")
-        path.write_text(text.replace(right, f'axes = "{WRONG_MOUNTING}"'))
+        path.write_text(text.replace(right, f'axes = "{mounting}"'))
     for file in written if verbose else ():
         print(f"wrote {file}")
     return path
@@ -75,5 +86,8 @@ if __name__ == "__main__":
     parser.add_argument("folder", nargs="?", type=Path, default=Path("rocket-log"))
     parser.add_argument("--seed", type=int, default=SEED)
     parser.add_argument("--wrong-mounting", action="store_true")
+    parser.add_argument("--scenario", type=Path, default=SCENARIO)
+    parser.add_argument("--mounting", help='another axis map, e.g. "x=-y, y=x, z=-z"')
     args = parser.parse_args()
-    make_log(args.folder, args.seed, args.wrong_mounting)
+    make_log(args.folder, args.seed, args.wrong_mounting, scenario_path=args.scenario,
+             mounting=args.mounting)

@@ -186,6 +186,14 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass-sd", type=float, metavar="KG",
                    help="standard deviation of the airframe's mass [kg] (replaces the file's "
                         "mass_sd_kg): its share enters the standard errors")
+    # a motor's thrust curve, used in its burn window only (issue 25): aeroid/cli/_thrust.py
+    p.add_argument("--thrust-curve", type=Path, metavar="CSV",
+                   help="the motor's thrust curve (time_s, thrust_N, optional mass_kg) on "
+                        "its own clock; needs --thrust-origin and --burn")
+    p.add_argument("--thrust-origin", type=float, metavar="S",
+                   help="the log-clock time [s] of the thrust curve's t = 0")
+    p.add_argument("--burn", metavar="START:END",
+                   help="the log-clock window [s] where the motor burns: thrust 0 outside")
     # a design tool's drag curve beside the fitted Cx (issue 25): aeroid/cli/_reference.py
     p.add_argument("--reference-curve", type=Path, metavar="CSV",
                    help="a reference drag curve (columns Mach, Cd) drawn beside the fitted "

@@ -154,7 +154,9 @@ def _read(args: argparse.Namespace, path: Any = None) -> Any:
     columns = read_column_map(args.columns) if getattr(args, "columns", None) else None
     flight = read_flight(args.flight if path is None else path, airframe=airframe,
                          columns=columns, degrees=bool(getattr(args, "degrees", False)))
-    return with_mass_sd(flight, getattr(args, "mass_sd", None))
+    from aeroid.cli._thrust import with_thrust  # --thrust-curve, or the airframe's curve
+
+    return with_thrust(with_mass_sd(flight, getattr(args, "mass_sd", None)), args)
 
 
 def holds_from_args(args: argparse.Namespace) -> CoefficientSpec:

@@ -175,7 +175,9 @@ class EstimationResult:
     def relative_error_pct(self, truth: np.ndarray) -> np.ndarray:
         """Return ``|theta - truth| / |truth| * 100`` per coefficient (the paper's figure)."""
         truth = np.asarray(truth, dtype=float)
-        return np.abs(self.theta - truth) / np.abs(truth) * 100.0
+        with np.errstate(divide="ignore", invalid="ignore"):  # a truth of 0: no relative
+            out = np.abs(self.theta - truth) / np.abs(truth) * 100.0  # figure (a held fin
+        return np.where(truth == 0, np.nan, out)  # term of a passive fin), NaN
 
     def _compiled_text(self) -> str | None:
         compiled = self.info.get("compiled") if isinstance(self.info, dict) else None

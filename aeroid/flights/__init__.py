@@ -85,6 +85,7 @@ from aeroid.flights._suite_log import (
     read_suite_log,
     write_suite_log,
 )
+from aeroid.flights._thrust_flight import sample_thrust, with_thrust_curve
 from aeroid.flights._turbulence import (
     MIL_SCALE_LENGTH_M,
     WIND_KEYS,
@@ -120,4 +121,5 @@ __all__ = [
     "Windows", "check_window_ranges", "cut_windows", "parse_window_spec",
     "MIL_SCALE_LENGTH_M", "WIND_KEYS", "Wind", "dryden_autocorrelation", "path_axes",
     "shaping_filters",
+    "sample_thrust", "with_thrust_curve",
 ]

@@ -86,7 +86,8 @@ def check_inputs(finite: dict[str, np.ndarray], airframe: Airframe, errors: list
             continue
         lo, hi = float(np.min(v)), float(np.max(v))
         if lo >= low and hi <= high:
-            if channel in AIRFRAME_VALUES:
+            curve = channel == "thrust" and getattr(airframe, "thrust_curve", None) is not None
+            if channel in AIRFRAME_VALUES and not curve:  # a curve: the thrust it states
                 _against_airframe(channel, v, airframe, errors, warns)
             continue
         if (channel in ("mass", "ix", "iy", "iz", "rho") and lo <= 0) or (

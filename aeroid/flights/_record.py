@@ -86,6 +86,11 @@ def per_sample_density(flight: Flight) -> np.ndarray | None:
 
 def exogenous(flight: Flight) -> np.ndarray | None:
     """Return the exogenous table (n, 7) of the flight's per-sample channels, or None."""
+    if getattr(flight.airframe, "thrust_curve", None) is not None \
+            and "thrust" not in flight.channels:  # never ignored: made into the channel
+        raise FlightError(f"{flight.metadata.get('source', 'flight')}: the airframe has a "
+                          "[thrust_curve] and the flight no 'thrust' channel: make it with "
+                          "aeroid.flights.with_thrust_curve(flight) (aeroid estimate does)")
     given: dict[str, np.ndarray] = {}
     rho = per_sample_density(flight)
     if rho is not None:

@@ -38,6 +38,7 @@ from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
 from aeroid.flights._sim_metadata import actuator_metadata, manoeuvre_metadata, switch_metadata
+from aeroid.flights._thrust_flight import sample_thrust
 from aeroid.flights._truth import Truth, passive_truth
 from aeroid.model import (
     PHI,
@@ -53,6 +54,7 @@ from aeroid.model import (
     as_vector,
     constants,
     equations,
+    exogenous_table,
     propagate,
     rk4_step,
     state_derivative,
@@ -157,6 +159,15 @@ def simulate_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Mano
             raise AirframeError("simulate: coefficient tables are simulated in still air with "
                                 "the latched relay without delay or rate limit only")
         return _latched_tables(airframe, _parameters(coefficients, tables), tables, manoeuvre)
+    if airframe.thrust_curve is not None:  # the motor: the latched relay in still air
+        if not plain or manoeuvre.wind is not None:
+            raise AirframeError("simulate: a thrust curve is flown with the latched relay "
+                                "without delay or rate limit, in still air, only")
+        n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
+        return _latched(airframe, coefficients, manoeuvre, backend, exogenous=exogenous_table(
+            constants(airframe), n, sample_thrust(airframe.thrust_curve, np.arange(n) *
+                                                  manoeuvre.dt, airframe.thrust_n,
+                                                  manoeuvre.mass_scale)))
     if manoeuvre.wind is not None:
         return _windy(airframe, coefficients, manoeuvre, backend, plain, rng)
     if plain:
@@ -319,6 +330,8 @@ def record_flight(
     channels.update({name: states[:, j] for j, name in enumerate(STATE_CHANNELS)})
     channels["delta"] = delta
     channels = noise.corrupt(channels, rng)
+    if airframe.thrust_curve is not None:  # the exogenous columns the truth flew with
+        channels.update(sample_thrust(airframe.thrust_curve, t))  # the stated mass
     if manoeuvre.wind is not None:  # the air-relative angles (in still air: derived)
         channels["alpha"], channels["beta"] = air_angles(
             *equations.air_velocity(as_state(states), const))
@@ -353,6 +366,10 @@ def _recorded_constants(airframe: Airframe, manoeuvre: Manoeuvre, truth: Truth,
                         k0: int) -> Constants:
     """The model constants at the recorded samples: the wind per sample where there is one."""
     const = constants(airframe)
+    if airframe.thrust_curve is not None:  # the true thrust and mass at the samples
+        given = sample_thrust(airframe.thrust_curve, truth.t[k0:], airframe.thrust_n,
+                              manoeuvre.mass_scale)
+        const = const._replace(**given)
     if manoeuvre.wind is None:
         return const
     if truth.wind is None:

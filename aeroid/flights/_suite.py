@@ -217,6 +217,9 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     if suite.baro_rate_hz > 0 and airframe.altitude_m is None:
         raise AirframeError("sensor suite: the barometer needs the airframe's [atmosphere] "
                             "altitude_m (its altitude at t = 0)")
+    if airframe.thrust_curve is not None:  # its accelerometers would miss the thrust
+        raise AirframeError("sensor suite: an airframe with a [thrust_curve] is not built "
+                            "for the sensor suite (its IMU would miss the thrust); simulate()")
     coefficients = as_vector(coefficients)
     sampled = imu_manoeuvre(manoeuvre, suite.imu_rate_hz)
     truth = simulate_truth(airframe, coefficients, sampled, backend=backend)

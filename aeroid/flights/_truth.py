@@ -7,7 +7,8 @@ from typing import NamedTuple
 import numpy as np
 
 from aeroid.flights._scenario import Manoeuvre
-from aeroid.model import Airframe, Schedule, as_vector, constants, propagate
+from aeroid.flights._thrust_flight import sample_thrust
+from aeroid.model import Airframe, Schedule, as_vector, constants, exogenous_table, propagate
 
 
 class Truth(NamedTuple):
@@ -45,9 +46,13 @@ def passive_truth(airframe: Airframe, coefficients: np.ndarray, manoeuvre: Manoe
     n = int(round(manoeuvre.window_s[1] / manoeuvre.dt)) + 1
     t = np.arange(n) * manoeuvre.dt
     delta = np.zeros(n)
+    exo = None
+    if airframe.thrust_curve is not None:  # the motor's thrust (and mass) per sample
+        exo = exogenous_table(constants(airframe), n, sample_thrust(
+            airframe.thrust_curve, t, airframe.thrust_n, manoeuvre.mass_scale))
     states = propagate(np.array(manoeuvre.initial_state), as_vector(coefficients)[None, :],
                        delta[:-1], manoeuvre.dt, constants(airframe),
-                       substeps=manoeuvre.truth_substeps, backend=backend)[0]
+                       substeps=manoeuvre.truth_substeps, backend=backend, exogenous=exo)[0]
     return Truth(t, states, delta, Schedule.hold(t, delta), t[:0], delta[:0])
 
 

@@ -95,6 +95,7 @@ from aeroid.model._inputs import (
 from aeroid.model._integrate import HAVE_NUMBA, propagate, rk4, rk4_step
 from aeroid.model._sensitivity import DEFAULT_REL_STEP, SENSITIVITY_BLOCK_BYTES
 from aeroid.model._tables import MachTables, TableSpec
+from aeroid.model._thrust import ThrustCurve, read_thrust_curve
 from aeroid.model._wind import with_steady_wind, with_wind_symbols
 
 __all__ = [
@@ -116,5 +117,6 @@ __all__ = [
     "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
     "pressure_altitude",
     "MachTables", "TableSpec", "tables",
+    "ThrustCurve", "read_thrust_curve",
     "with_steady_wind", "with_wind_symbols",
 ]

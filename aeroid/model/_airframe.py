@@ -52,6 +52,7 @@ from aeroid.model._fileform import (
     read_toml,
 )
 from aeroid.model._tables import MachTables, TableSpec
+from aeroid.model._thrust import ThrustCurve
 
 #: Each mass constant -> the attribute of its standard deviation (0: taken as exact).
 MASS_SD_FIELDS = {"mass_kg": "mass_sd_kg", "ix_kgm2": "ix_sd_kgm2", "iy_kgm2": "iy_sd_kgm2",
@@ -113,6 +114,10 @@ class Airframe:
     tables : TableSpec or None
         Coefficients the fits take as tables in Mach (``[tables]``;
         :meth:`mach_tables`); None: every coefficient constant.
+    thrust_curve : ThrustCurve or None
+        ``[thrust_curve]``: the motor's thrust on its own clock, used inside its burn
+        window only (needs ``thrust_n`` 0): the simulator flies it, a flight gets its
+        ``thrust`` (and ``mass``) channels from it (:func:`aeroid.flights.with_thrust_curve`).
 
     Exactly one of ``altitude_m``, ``given_density_kgm3`` and ``atmosphere_channel``
     is given.
@@ -143,6 +148,7 @@ class Airframe:
     hold: tuple[tuple[str, float], ...] = ()
     prior_sd: tuple[tuple[str, float], ...] = ()
     tables: TableSpec | None = None
+    thrust_curve: ThrustCurve | None = None
 
     def __post_init__(self) -> None:
         for name in ("diameter_m", "length_m", "mass_kg", "ix_kgm2", "iy_kgm2", "iz_kgm2"):
@@ -185,6 +191,10 @@ class Airframe:
                 and self.altitude_m is None:
             raise AirframeError("airframe: [tables] needs the speed of sound for Mach: give "
                                 "[tables] temperature_K, or [atmosphere] altitude_m for ISA")
+        if self.thrust_curve is not None and (not isinstance(self.thrust_curve, ThrustCurve)
+                                              or self.thrust_n != 0):
+            raise AirframeError(f"airframe: a [thrust_curve] needs thrust_N = 0 (the curve is "
+                                f"the thrust), got thrust_N = {self.thrust_n:g}")
         if self.fin_law is not None and not (isinstance(self.fin_law, FinLaw) and math.isclose(
                 self.fin_law.delta_max_rad, self.delta_max_rad, rel_tol=1e-12)):
             raise AirframeError(f"airframe: fin_law must be a FinLaw with delta_max_rad "
@@ -297,6 +307,8 @@ class Airframe:
         out.update({k: dict(v) for k, v in (("hold", self.hold), ("prior_sd", self.prior_sd)) if v})
         if self.tables is not None:
             out["tables"] = self.tables.to_table()
+        if self.thrust_curve is not None:
+            out["thrust_curve"] = self.thrust_curve.to_table()
         return out
 
     @classmethod

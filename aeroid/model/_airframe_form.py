@@ -45,6 +45,11 @@ reference scenario file ``aeroid/data/reference-scenario.toml``)::
     Cmq = 3                                 # count chosen from the flight's Mach range
     temperature_K = 255.7                   # optional: else ISA at [atmosphere] altitude_m
 
+    [thrust_curve]                          # optional: the motor (aeroid.model.ThrustCurve)
+    file = "motor.csv"                      # time_s, thrust_N[, mass_kg] on its own clock
+    origin_s = 1.2                          # the log-clock time of the curve's t = 0
+    burn_s = [1.2, 4.7]                     # log clock: the thrust is used only here
+
 :meth:`aeroid.model.Airframe.from_dict` builds the airframe from what
 :func:`airframe_fields` reads here; the checks of the values themselves (ranges, the
 one atmosphere) are the airframe's own.
@@ -53,12 +58,14 @@ one atmosphere) are the airframe's own.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 from aeroid.errors import AirframeError
 from aeroid.model._coefficients import NAMES
 from aeroid.model._fileform import check_keys, check_table, number, numbers, text
 from aeroid.model._tables import TableSpec
+from aeroid.model._thrust import ThrustCurve
 
 #: File key -> attribute of ``[airframe]``.
 AIRFRAME_KEYS = {
@@ -116,7 +123,7 @@ DELTA_MAX_WARN_DEG = 1.0
 MIN_SENSOR_SEPARATION_M = 1e-3
 #: The tables of an airframe file.
 AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "hold", "prior_sd",
-                   "tables")
+                   "tables", "thrust_curve")
 #: The fin of an airframe (its field ``fin``): the moving ON-OFF fin, or none.
 FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
@@ -156,7 +163,8 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
     unknown = sorted(str(t) for t in data if t not in known)
     if unknown:
         hint = ("; a scenario file? an airframe file has only [airframe], [atmosphere], "
-                "[prior], [fin_law], [hold], [prior_sd] and [tables] (starting values go in "
+                "[prior], [fin_law], [hold], [prior_sd], [tables] and [thrust_curve] (starting "
+                "values go in "
                 "[prior])"
                 if set(unknown) & set(SCENARIO_TABLES) else "")
         raise AirframeError(f"{source}: unknown table(s) {', '.join(unknown)} "
@@ -198,6 +206,9 @@ def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",
                                  for n in NAMES if n in table)
     if "tables" in data:
         kwargs["tables"] = TableSpec.from_table(data["tables"], f"{source}: [tables]")
+    if "thrust_curve" in data:  # a file named there: relative to the airframe file's folder
+        kwargs["thrust_curve"] = ThrustCurve.from_table(
+            data["thrust_curve"], f"{source}: [thrust_curve]", Path(source).parent)
     return kwargs, data.get("fin_law")
 
 

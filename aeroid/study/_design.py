@@ -350,8 +350,8 @@ def check_study_tables(scenario: Any, estimators: list[EstimatorSpec], noise: li
     A scenario whose true coefficients are tables needs the fits' ``[tables]`` (else
     each fit would score constants against a truth that varies); the fits' tables
     need estimators that fit them (``fits_tables``), no ``prior_offset`` (drawn per
-    constant coefficient) and no sensor-suite condition (its reconstruction does not
-    carry the truth's tables).
+    constant coefficient) and no sensor-suite condition when the truth is tables (its
+    simulator flies constant coefficients; a constant truth fitted as tables is allowed).
     """
     if scenario.airframe.tables is None:
         if scenario.tables is not None:
@@ -367,6 +367,6 @@ def check_study_tables(scenario: Any, estimators: list[EstimatorSpec], noise: li
         raise StudyError(f"{where}: prior_offset draws one prior per constant coefficient; "
                          "it is not available with tables")
     suites = [n.label for n in noise if n.suite is not None]
-    if suites:
+    if suites and scenario.tables is not None:  # constant truth: the suite flies it
         raise StudyError(f"{where}: sensor-suite condition(s) {', '.join(suites)} are not "
                          "available with tables")

@@ -81,7 +81,8 @@ def test_scenario_file_is_not_an_airframe_file():
         load_airframe(file)
     assert _one_line(info).startswith(
         f"{file}: unknown table(s) actuator, coefficients, initial_state, noise, recording "
-        "(allowed: airframe, atmosphere, prior, fin_law, hold, prior_sd, tables); a scenario "
+        "(allowed: airframe, atmosphere, prior, fin_law, hold, prior_sd, tables, thrust_curve); "
+        "a scenario "
         "file?")
     assert load_scenario(None).airframe == reference_airframe()
 
@@ -122,7 +123,7 @@ def test_missing_and_unknown_keys(tmp_path):
         load_airframe(path)
     assert _one_line(info) == (f"{path}: unknown table(s) fins "
                                "(allowed: airframe, atmosphere, prior, fin_law, hold, "
-                               "prior_sd, tables)")
+                               "prior_sd, tables, thrust_curve)")
 
 
 @pytest.mark.parametrize(
