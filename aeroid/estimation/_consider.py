@@ -10,7 +10,8 @@ covariance of the estimate::
 with ``c_k`` an airframe constant (``mass_kg``, ``ix_kgm2``, ``iy_kgm2``, ``iz_kgm2``) given
 with a standard deviation ``sd_k > 0`` (:attr:`aeroid.model.Airframe.mass_sd`).
 
-``S`` is computed the same way for every method: a central difference of two re-fits,
+``S`` is computed the same way for every method: a central difference of two re-fits
+(with :data:`REFIT_ITERATION_FACTOR` times the method's ``max_iterations``),
 ``(theta_hat(c_k + h_k) - theta_hat(c_k - h_k)) / (2 h_k)``, through the method's own
 :meth:`~aeroid.estimation.Estimator.fit`. The step is the stated sd, ``h_k = sd_k``: the
 secant over +-1 sd is what the linearisation stands for, exact where the estimate is
@@ -33,6 +34,7 @@ the sd is the airframe constant's, which such a flight does not use.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 from dataclasses import dataclass
@@ -142,9 +144,22 @@ def check_consider(flight: Flight, owner: str) -> None:
                 f"the sd of a constant {name} (drop the channel) or no sd")
 
 
+#: The re-fits get this many times the method's ``max_iterations`` (where it has one): they
+#: start from the airframe's prior as the fit did, a constant off by its sd away, and a
+#: re-fit stopped by its iteration limit is no estimate to difference. Measured (the
+#: rocket's Mach-table coast, studies/rocket_measure_mass_right.toml): re-fits at +-1 sd
+#: of the mass often stopped at output-error's 50 iterations, and their estimates, used,
+#: made Cl0's total se 16-31x its own.
+REFIT_ITERATION_FACTOR = 4
+
+
 def _refit(estimator: Any, flight: Flight | Windows, theta: np.ndarray | None, name: str,
            step: float, seed: int) -> EstimationResult:
     """Re-fit with the constant ``name`` moved by ``step`` (in each window, from its own value)."""
+    if "max_iterations" in estimator.option_names():
+        with contextlib.suppress(TypeError, ValueError):  # beyond the method's bound: as is
+            estimator = dataclasses.replace(estimator, max_iterations=REFIT_ITERATION_FACTOR
+                                            * int(estimator.max_iterations))
     exact = {sd: 0.0 for sd in MASS_SD_FIELDS.values()}
     prior = {} if theta is None else {"prior": tuple(float(v) for v in theta)}  # warm start
 
