@@ -28,6 +28,13 @@ allows over the record (length ``T``):
   limit :data:`ROLL_LIMIT` sits above both and catches only a gross body-fixed error
   (tested with a synthetic one).
 
+A third figure, not judged: ``incidence_slope``, the body-axis gust's lateral part
+regressed on the incidence (``v, w``). Cma held 30 % off gives 0.22-0.23 in still air
+(the right model 0.000) and 0.17-0.29 in Dryden sd 1 m/s (right -0.11 to 0.09), but in
+sd 3 m/s the right model's own slope spreads over -0.07 to 0.30 (the airframe follows the
+gusts), Cma 30 % off 0.19-0.40: it needs a null that scales with the turbulence (a
+parametric bootstrap of the fitted model in gusts of the fitted intensity; not done).
+
 Figures and the limits' calibration: ``benchmarks/results/filter_error_wrong.md``.
 """
 
@@ -76,7 +83,8 @@ class GustVerdict:
 
 
 def gust_verdict(gust_ned: np.ndarray, attitude: np.ndarray, roll_rate: np.ndarray,
-                 sigma: float, tau: float, dt: float, *, who: str) -> GustVerdict:
+                 sigma: float, tau: float, dt: float, *, who: str,
+                 velocity: np.ndarray | None = None) -> GustVerdict:
     """Judge an estimated gust path (module docstring).
 
     Parameters
@@ -95,6 +103,12 @@ def gust_verdict(gust_ned: np.ndarray, attitude: np.ndarray, roll_rate: np.ndarr
         Sample interval [s].
     who : str
         The method's name, for the message.
+    velocity : ndarray, shape (n, 3), optional
+        The body-axis velocity ``u, v, w`` [m/s] (the filter's): then ``figures`` also
+        holds ``incidence_slope``, the least-squares slope of the body-axis gust's ``v, w``
+        components on the velocity's (pooled): a gust proportional to the incidence, what
+        a pitch-stiffness error is taken up as. A figure only, not judged (module
+        docstring).
     """
     gust_ned = np.asarray(gust_ned, dtype=float)
     attitude = np.asarray(attitude, dtype=float)
@@ -130,6 +144,9 @@ def gust_verdict(gust_ned: np.ndarray, attitude: np.ndarray, roll_rate: np.ndarr
                "roll_rate_radps": omega, "roll_amplitude_mps": amplitude,
                "roll_amplitude_allowed_mps": allowed, "roll_ratio": ratio,
                "axial_limit": AXIAL_LIMIT, "roll_limit": ROLL_LIMIT}
+    if velocity is not None:
+        lateral = np.asarray(velocity, dtype=float)[:, 1:].ravel()
+        figures["incidence_slope"] = float(lateral @ body[:, 1:].ravel() / (lateral @ lateral))
     seen = []
     if axial_z > AXIAL_LIMIT:
         seen.append(f"a steady {axial:+.2f} m/s along the body x axis, {axial_z:.1f} sd of "

@@ -167,7 +167,7 @@ def gust_report(out: _kalman.FilterOutput, first: int, sd_mps: float, scale_leng
     tau = scale_length_m / speed_mps
     state = out.x[:, _common.STATES]
     verdict = gust_verdict(path, state[:, _common.ANGLES], state[:, P], sd_mps, tau, dt,
-                           who=who)
+                           who=who, velocity=state[:, :3])
     info = {"gust_sd_mps": sd_mps, "gust_scale_length_m": scale_length_m,
             "gust_time_constant_s": tau, "gust_ned_mps": path, "gust_stderr_mps": sd,
             "gust_verdict": verdict.figures, "gust_verdict_refusal": verdict.message}

@@ -220,7 +220,8 @@ class FilterErrorEstimator(Estimator):
         }
         x = runs.x[0]
         verdict = gust_verdict(x[:, -N_WIND:], x[:, [PHI, THETA, PSI]], x[:, P],
-                               float(phys[i_s]), tau, flight.dt, who=self.name)
+                               float(phys[i_s]), tau, flight.dt, who=self.name,
+                               velocity=x[:, :3])
         info["gust_verdict"] = verdict.figures
         success, message = fit.converged, fit.message
         if success and not verdict.ok:

@@ -157,13 +157,15 @@ def wrong(seeds: int, sds: tuple[float, ...]) -> list[str]:
                 records.setdefault((sd, label), []).append(
                     {"by": by, "axial": fig.get("axial_z", np.nan),
                      "roll": fig.get("roll_ratio", np.nan),
+                     "slope": fig.get("incidence_slope", np.nan),
                      "sigma": r.info.get("gust_sd_mps", np.nan)})
                 print(f"sd {sd:g} seed {seed} {label}: {by} axial {fig.get('axial_z', np.nan):.2f}"
-                      f" roll {fig.get('roll_ratio', np.nan):.2f} gust sd "
+                      f" roll {fig.get('roll_ratio', np.nan):.2f} slope "
+                      f"{fig.get('incidence_slope', np.nan):.3f} gust sd "
                       f"{r.info.get('gust_sd_mps', np.nan):.2f} {r.message[:110]}", flush=True)
     out = ["| Dryden sd [m/s] | model | refused | by the fit check | by the gust verdict | "
-           "axial z (min-max) | roll ratio (min-max) | gust sd [m/s] (min-max) |",
-           "|---|---|---|---|---|---|---|---|"]
+           "axial z (min-max) | roll ratio (min-max) | incidence slope (min-max) | "
+           "gust sd [m/s] (min-max) |", "|---|---|---|---|---|---|---|---|---|"]
     for (sd, label), recs in records.items():
         n = len(recs)
         count = {k: sum(r["by"] == k for r in recs) for k in ("fit check", "gust verdict")}
@@ -175,7 +177,7 @@ def wrong(seeds: int, sds: tuple[float, ...]) -> list[str]:
 
         out.append(f"| {sd:g} | {label} | {refused}/{n} | {count['fit check']} | "
                    f"{count['gust verdict']} | {span('axial')} | {span('roll')} | "
-                   f"{span('sigma')} |")
+                   f"{span('slope')} | {span('sigma')} |")
     return out
 
 

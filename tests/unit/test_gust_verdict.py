@@ -142,3 +142,19 @@ def test_the_ekf_with_gust_states_refuses_cx_held_10_percent_off(reference_scena
     right = ekf.fit(flight, rng=1)
     assert right.success, right.message
     assert right.info["gust_verdict"]["axial_z"] < AXIAL_LIMIT
+
+
+def test_the_incidence_slope_recovers_a_gust_proportional_to_the_incidence() -> None:
+    """A body-axis gust ``k (0, v, w)`` (what a pitch-stiffness error is taken up as)
+    rotated into NED: the slope is ``k`` to rounding; without the velocity, no figure."""
+    att, p = _attitude()
+    t = DT * np.arange(N)
+    velocity = np.column_stack([np.full(N, 500.0), 8.0 * np.sin(OMEGA * t + 0.3),
+                                8.0 * np.cos(OMEGA * t)])
+    k = 0.23
+    body = k * velocity * np.array([0.0, 1.0, 1.0])
+    C = body_to_ned(att[:, 0], att[:, 1], att[:, 2])
+    g = np.einsum("kij,kj->ki", C, body)
+    v = gust_verdict(g, att, p, SIGMA, TAU, DT, who="t", velocity=velocity)
+    assert v.figures["incidence_slope"] == pytest.approx(k, rel=1e-12)
+    assert "incidence_slope" not in gust_verdict(g, att, p, SIGMA, TAU, DT, who="t").figures
