@@ -30,9 +30,9 @@ allows over the record (length ``T``):
 
 A third figure, not judged: ``incidence_slope``, the body-axis gust's lateral part
 regressed on the incidence (``v, w``). Cma held 30 % off gives 0.22-0.23 in still air
-(the right model 0.000) and 0.17-0.29 in Dryden sd 1 m/s (right -0.11 to 0.09), but in
-sd 3 m/s the right model's own slope spreads over -0.07 to 0.30 (the airframe follows the
-gusts), Cma 30 % off 0.19-0.40: it needs a null that scales with the turbulence (a
+(the right model 0.00) and 0.18-0.28 in Dryden sd 1 m/s (right -0.10 to 0.09), but in
+sd 3 m/s the right model's own slope spreads over -0.05 to 0.29 (the airframe follows the
+gusts), Cma 30 % off 0.21-0.40: it needs a null that scales with the turbulence (a
 parametric bootstrap of the fitted model in gusts of the fitted intensity; not done).
 
 Figures and the limits' calibration: ``benchmarks/results/filter_error_wrong.md``.
