@@ -31,7 +31,7 @@ from scipy.optimize import minimize_scalar
 from aeroid.errors import EstimatorError
 from aeroid.model import P
 from baselines import _common, _kalman
-from baselines._gust_verdict import gust_verdict
+from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
 
 #: Names of the gust states (north, east, down [m/s]).
 GUST_NAMES = ("gust_n", "gust_e", "gust_d")
@@ -175,7 +175,11 @@ def gust_report(out: _kalman.FilterOutput, first: int, sd_mps: float, scale_leng
     return info, (f"gusts: three Gauss-Markov gust states (north, east, down), intensity "
                   f"{sd_mps:.3g} m/s ({how}), time constant L/V = {scale_length_m:g} m / "
                   f"{speed_mps:.1f} m/s = {tau:.3g} s; filtered gust RMS "
-                  + ", ".join(f"{r:.2f}" for r in rms) + " m/s")
+                  + ", ".join(f"{r:.2f}" for r in rms) + " m/s"
+                  + ("" if verdict.message else
+                     f"; gust verdict passed (axial z {verdict.figures['axial_z']:.2f}, limit "
+                     f"{AXIAL_LIMIT:g}): in turbulence weak evidence of a right model, as "
+                     "pitch and normal-force errors hide in the gusts unseen"))
 
 
 def refuse_with(est: object, what: str) -> None:

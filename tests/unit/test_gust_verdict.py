@@ -122,6 +122,7 @@ def test_filter_error_refuses_cx_held_10_percent_off(reference_scenario, sd) -> 
     assert wrong.info["gust_verdict"]["axial_z"] > AXIAL_LIMIT
     right = FilterErrorEstimator().fit(flight, rng=1)
     assert right.success, right.message
+    assert sum("weak evidence of a right model" in w for w in right.warnings) == (sd > 0)
     assert right.info["gust_verdict"]["axial_z"] < AXIAL_LIMIT
     assert right.info["gust_verdict"]["roll_ratio"] < ROLL_LIMIT
 
@@ -142,6 +143,7 @@ def test_the_ekf_with_gust_states_refuses_cx_held_10_percent_off(reference_scena
     right = ekf.fit(flight, rng=1)
     assert right.success, right.message
     assert right.info["gust_verdict"]["axial_z"] < AXIAL_LIMIT
+    assert sum("weak evidence of a right model" in w for w in right.warnings) == 1
 
 
 def test_the_incidence_slope_recovers_a_gust_proportional_to_the_incidence() -> None:
