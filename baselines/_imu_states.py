@@ -268,12 +268,16 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         if self.gusts:
             found, notice = _kalman_gust.gust_report(
                 last, gust_first, runner.gust_sd_mps, self.gust_scale_length_m,
-                self.mean_speed(flight), "given" if search is None else search.describe())
+                self.mean_speed(flight), "given" if search is None else search.describe(),
+                flight.dt, self.name)
             if search is not None:
                 found["gust_sd_trials"] = search.trials
             both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind else ()
             result = dataclasses.replace(result, info={**result.info, **found},
                                          warnings=(*result.warnings, notice, *both))
+            if result.success and found["gust_verdict_refusal"]:
+                result = dataclasses.replace(result, success=False,
+                                             message=found["gust_verdict_refusal"])
         if not names:
             return result
         k = len(names)

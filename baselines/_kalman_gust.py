@@ -29,7 +29,9 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from aeroid.errors import EstimatorError
+from aeroid.model import P
 from baselines import _common, _kalman
+from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
 
 #: Names of the gust states (north, east, down [m/s]).
 GUST_NAMES = ("gust_n", "gust_e", "gust_d")
@@ -156,19 +158,28 @@ def search_gust_sd(nll_of: Callable[[float], float]) -> GustSearch:
 
 
 def gust_report(out: _kalman.FilterOutput, first: int, sd_mps: float, scale_length_m: float,
-                speed_mps: float, how: str) -> tuple[dict, str]:
+                speed_mps: float, how: str, dt: float, who: str) -> tuple[dict, str]:
     """``info['gust_*']`` (the intensity, the time constant, the filtered gust path and
-    its sd) and the fit's one-line notice."""
+    its sd, the gust verdict's figures and its one-line refusal, empty when it passed:
+    :mod:`baselines._gust_verdict`) and the fit's one-line notice."""
     k = len(GUST_NAMES)
     path, sd = out.x[:, first:first + k], out.sd[:, first:first + k]
     tau = scale_length_m / speed_mps
+    state = out.x[:, _common.STATES]
+    verdict = gust_verdict(path, state[:, _common.ANGLES], state[:, P], sd_mps, tau, dt,
+                           who=who, velocity=state[:, :3])
     info = {"gust_sd_mps": sd_mps, "gust_scale_length_m": scale_length_m,
-            "gust_time_constant_s": tau, "gust_ned_mps": path, "gust_stderr_mps": sd}
+            "gust_time_constant_s": tau, "gust_ned_mps": path, "gust_stderr_mps": sd,
+            "gust_verdict": verdict.figures, "gust_verdict_refusal": verdict.message}
     rms = np.sqrt(np.nanmean(path * path, axis=0))
     return info, (f"gusts: three Gauss-Markov gust states (north, east, down), intensity "
                   f"{sd_mps:.3g} m/s ({how}), time constant L/V = {scale_length_m:g} m / "
                   f"{speed_mps:.1f} m/s = {tau:.3g} s; filtered gust RMS "
-                  + ", ".join(f"{r:.2f}" for r in rms) + " m/s")
+                  + ", ".join(f"{r:.2f}" for r in rms) + " m/s"
+                  + ("" if verdict.message else
+                     f"; gust verdict passed (axial z {verdict.figures['axial_z']:.2f}, limit "
+                     f"{AXIAL_LIMIT:g}): in turbulence weak evidence of a right model, as "
+                     "pitch and normal-force errors hide in the gusts unseen"))
 
 
 def refuse_with(est: object, what: str) -> None:

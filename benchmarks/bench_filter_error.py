@@ -5,7 +5,7 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
     python benchmarks/bench_filter_error.py --seeds 20 --still-seeds 6   # writes results
     python benchmarks/bench_filter_error.py --seeds 2 --still-seeds 1 --no-write
     python benchmarks/bench_filter_error.py --timing 5     # the cost, side by side
-    python benchmarks/bench_filter_error.py --wrong-seeds 3  # the verdict on wrong models
+    python benchmarks/bench_filter_error.py --wrong-seeds 6  # the verdict on wrong models
     python benchmarks/bench_filter_error.py --checks         # steady wind, paper noise, substeps
 
 Per seed ``k`` (``rng = k``, seeds 1..N): the reference scenario's flight with Gaussian
@@ -47,7 +47,8 @@ RESULTS_COST = Path(__file__).parent / "results" / "filter_error_cost.md"
 RESULTS_WRONG = Path(__file__).parent / "results" / "filter_error_wrong.md"
 RESULTS_CHECKS = Path(__file__).parent / "results" / "filter_error_checks.md"
 #: Known-wrong models for the verdict: one coefficient held off its true value.
-WRONG_HOLDS = (("Cma", 1.3), ("Cmq", 2.0), ("Clp", 1.1))
+WRONG_HOLDS = (("Cma", 1.1), ("Cma", 1.3), ("Clp", 1.1), ("Clp", 1.3), ("Cx", 1.1),
+               ("Cza", 1.3), ("Cmq", 1.3), ("Cmq", 2.0))
 WITHIN_SE = 3.0
 Z95 = 1.959964
 METHODS = ("filter-error", "output-error")
@@ -127,32 +128,56 @@ def cost(repeats: int, sd: float) -> list[str]:
     return out
 
 
-def wrong(seeds: int, sd: float) -> list[str]:
+def wrong(seeds: int, sds: tuple[float, ...]) -> list[str]:
     """How often filter-error's verdict refuses a known-wrong model (a coefficient held off
-    its truth, :data:`WRONG_HOLDS`), in still air and in turbulence, seeds 1..N."""
+    its truth, :data:`WRONG_HOLDS`) and a right one, in still air (sd 0) and in each
+    Dryden intensity of ``sds``, seeds 1..N; with the gust verdict's figures
+    (:mod:`baselines._gust_verdict`) and which check refused."""
     from baselines.filter_error import FilterErrorEstimator
 
     s = reference_scenario()
     truth = s.coefficient_vector
     noise = make_noise("gaussian")
     names = list(NAMES)
-    refused: dict[tuple[str, str], list[str]] = {}
+    models = [("right model", None), *((f"{name} held {factor:g}x", (name, factor))
+                                       for name, factor in WRONG_HOLDS)]
+    records: dict[tuple[float, str], list[dict]] = {}
     for seed in range(1, seeds + 1):
-        for kind, wind in (("still", None), ("turbulence", Wind(turbulence_sd_mps=sd))):
+        for sd in sds:
+            wind = Wind(turbulence_sd_mps=sd) if sd > 0 else None
             flight = simulate(s.airframe, truth, dataclasses.replace(s.manoeuvre, wind=wind),
                               noise, rng=seed)
-            for name, factor in WRONG_HOLDS:
-                value = factor * float(truth[names.index(name)])
-                r = FilterErrorEstimator().fit(flight, rng=seed, holds={"hold": {name: value}})
-                refused.setdefault((kind, f"{name} held {factor:g}x"), []).append(
-                    "refused" if not r.success else f"passed (gust sd "
-                    f"{r.info.get('gust_sd_mps', float('nan')):.2f} m/s)")
-                print(kind, seed, name, factor, r.success, r.message[:100], flush=True)
-    out = ["| flight | known-wrong model | refused | runs |", "|---|---|---|---|"]
-    for (kind, label), verdicts in refused.items():
-        n_refused = sum(v == "refused" for v in verdicts)
-        out.append(f"| {kind} | {label} | {n_refused}/{len(verdicts)} | "
-                   f"{'; '.join(verdicts)} |")
+            for label, held in models:
+                holds = None if held is None else {
+                    "hold": {held[0]: held[1] * float(truth[names.index(held[0])])}}
+                r = FilterErrorEstimator().fit(flight, rng=seed, holds=holds)
+                fig = r.info.get("gust_verdict", {})
+                by = ("passed" if r.success else "gust verdict" if "gust carries" in r.message
+                      else "not converged" if "converged" in r.message else "fit check")
+                records.setdefault((sd, label), []).append(
+                    {"by": by, "axial": fig.get("axial_z", np.nan),
+                     "roll": fig.get("roll_ratio", np.nan),
+                     "slope": fig.get("incidence_slope", np.nan),
+                     "sigma": r.info.get("gust_sd_mps", np.nan)})
+                print(f"sd {sd:g} seed {seed} {label}: {by} axial {fig.get('axial_z', np.nan):.2f}"
+                      f" roll {fig.get('roll_ratio', np.nan):.2f} slope "
+                      f"{fig.get('incidence_slope', np.nan):.3f} gust sd "
+                      f"{r.info.get('gust_sd_mps', np.nan):.2f} {r.message[:110]}", flush=True)
+    out = ["| Dryden sd [m/s] | model | refused | by the fit check | by the gust verdict | "
+           "axial z (min-max) | roll ratio (min-max) | incidence slope (min-max) | "
+           "gust sd [m/s] (min-max) |", "|---|---|---|---|---|---|---|---|---|"]
+    for (sd, label), recs in records.items():
+        n = len(recs)
+        count = {k: sum(r["by"] == k for r in recs) for k in ("fit check", "gust verdict")}
+        refused = sum(r["by"] != "passed" for r in recs)
+
+        def span(key: str, recs: list[dict] = recs) -> str:
+            v = np.array([r[key] for r in recs])
+            return f"{np.nanmin(v):.2f}-{np.nanmax(v):.2f}"
+
+        out.append(f"| {sd:g} | {label} | {refused}/{n} | {count['fit check']} | "
+                   f"{count['gust verdict']} | {span('axial')} | {span('roll')} | "
+                   f"{span('slope')} | {span('sigma')} |")
     return out
 
 
@@ -225,6 +250,9 @@ def main() -> None:
     parser.add_argument("--wrong-seeds", type=int, default=0,
                         help="instead: the verdict on known-wrong models, this many seeds "
                              "(results/filter_error_wrong.md)")
+    parser.add_argument("--wrong-sd", type=float, nargs="+", default=[0.0, 1.0, 3.0],
+                        help="with --wrong-seeds: the Dryden intensities [m/s] (0: still "
+                             "air; default 0 1 3)")
     parser.add_argument("--checks", action="store_true",
                         help="instead: the single-flight checks (results/filter_error_checks.md)")
     parser.add_argument("--no-write", action="store_true")
@@ -238,10 +266,12 @@ def main() -> None:
             print(f"wrote {RESULTS_CHECKS}")
         return
     if args.wrong_seeds:
-        out = wrong(args.wrong_seeds, args.sd)
+        sds = tuple(args.wrong_sd)
+        out = wrong(args.wrong_seeds, sds)
         print("\n".join(out))
         if not args.no_write:
-            command = f"python benchmarks/bench_filter_error.py --wrong-seeds {args.wrong_seeds}"
+            command = (f"python benchmarks/bench_filter_error.py --wrong-seeds {args.wrong_seeds}"
+                       f" --wrong-sd {' '.join(f'{v:g}' for v in sds)}")
             RESULTS_WRONG.write_text(f"# filter-error's verdict on known-wrong models\n\n"
                                      f"{dt.date.today()}, `{command}`\n\n" + "\n".join(out)
                                      + "\n")

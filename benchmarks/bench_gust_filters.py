@@ -4,6 +4,8 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
 
     python benchmarks/bench_gust_filters.py --seeds 4            # writes results/gust_filters.md
     python benchmarks/bench_gust_filters.py --seeds 1 --no-write --fits ekf-gust-given
+    python benchmarks/bench_gust_filters.py --seeds 3 --no-write --fits ekf-gustonly-est \
+        --holds Cx=1.1 Clp=1.1 Cma=1.3       # the gust verdict on known-wrong models
 
 Per seed ``k`` (``rng = k``): the reference scenario's flight with Gaussian IMU noise
 (:class:`aeroid.flights.GaussianNoise` defaults) in still air, and the same manoeuvre in a
@@ -25,7 +27,10 @@ length 533.4 m). Fits (``--fits``, default all):
 Reported per fit: successes (after the fit check and the passes' verdict), the mean over
 seeds of the mean |relative error| of the nine coefficients [%], its ratio to
 ``ekf-still``'s and to ``oe-wind``'s, the largest |error| / se and how many runs have
-every coefficient within 3 se.
+every coefficient within 3 se. With ``--holds NAME=FACTOR ...`` every chosen fit is also
+run with that coefficient held at FACTOR x its truth (a known-wrong model), and each run's
+line shows the gust verdict's figures (:mod:`baselines._gust_verdict`: axial z, roll
+ratio) and what refused it.
 """
 
 from __future__ import annotations
@@ -45,6 +50,7 @@ import numpy as np  # noqa: E402
 
 import aeroid  # noqa: E402
 from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
+from aeroid.model import NAMES  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "gust_filters.md"
 WITHIN_SE = 3.0
@@ -66,37 +72,51 @@ def fits(sd: float) -> dict[str, tuple[str, str, dict]]:
     }
 
 
-def run(seeds: int, sd: float, chosen: tuple[str, ...]) -> tuple[dict, list[str]]:
-    """Fit every chosen kind on every seed; return per-kind rows and the per-run lines."""
+def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] = ()
+        ) -> tuple[dict, list[str]]:
+    """Fit every chosen kind on every seed (and with each of ``holds``, ``NAME=FACTOR``:
+    that coefficient held at FACTOR x its truth); return per-kind rows and the lines."""
     s = reference_scenario()
     truth = s.coefficient_vector
     turbulent = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=STEADY,
                                                            turbulence_sd_mps=sd))
     noise = make_noise("gaussian")
-    kinds = {name: [] for name in chosen}
+    held = [(None, None)] + [(h.split("=")[0], float(h.split("=")[1])) for h in holds]
+    kinds = {(name if h is None else f"{name} {h} {f:g}x"): [] for name in chosen
+             for h, f in held}
     table = fits(sd)
     lines = []
     for seed in range(1, seeds + 1):
         flights = {"still": simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed),
                    "turbulent": simulate(s.airframe, truth, turbulent, noise, rng=seed)}
         for name in chosen:
-            method, air, options = table[name]
-            start = time.perf_counter()
-            r = aeroid.make_estimator(method, options).fit(flights[air], rng=seed)
-            wall = time.perf_counter() - start
-            z = np.abs(r.theta - truth) / r.stderr
-            rel = 100.0 * np.mean(np.abs(r.theta / truth - 1.0))
-            extra = ""
-            if "wind_ned_mps" in r.info:
-                extra += f" wind {np.round(r.info['wind_ned_mps'], 2).tolist()}"
-            if "gust_sd_mps" in r.info:
-                extra += f" gust sd {r.info['gust_sd_mps']:.2f}"
-            kinds[name].append({"success": r.success, "rel": rel, "zmax": float(np.max(z)),
-                                "within": bool(np.all(z < WITHIN_SE)), "wall": wall})
-            lines.append(f"seed {seed} {name:15s} success={r.success} mean|err|={rel:.3f}% "
-                         f"max z={np.max(z):.2f} {wall:.1f}s{extra}"
-                         + ("" if r.success else f" [{r.message[:100]}]"))
-            print(lines[-1], flush=True)
+            for hold, factor in held:
+                method, air, options = table[name]
+                label = name if hold is None else f"{name} {hold} {factor:g}x"
+                hold_arg = None if hold is None else {"hold": {hold: factor * float(
+                    truth[NAMES.index(hold)])}}
+                start = time.perf_counter()
+                r = aeroid.make_estimator(method, options).fit(flights[air], rng=seed,
+                                                               holds=hold_arg)
+                wall = time.perf_counter() - start
+                z = np.abs(r.theta - truth) / r.stderr
+                rel = 100.0 * np.mean(np.abs(r.theta / truth - 1.0))
+                extra = ""
+                if "wind_ned_mps" in r.info:
+                    extra += f" wind {np.round(r.info['wind_ned_mps'], 2).tolist()}"
+                if "gust_sd_mps" in r.info:
+                    extra += f" gust sd {r.info['gust_sd_mps']:.2f}"
+                if "gust_verdict" in r.info:
+                    fig = r.info["gust_verdict"]
+                    extra += f" axial z {fig['axial_z']:.2f} roll ratio {fig['roll_ratio']:.2f}"
+                kinds[label].append({"success": r.success, "rel": rel,
+                                     "zmax": float(np.nanmax(z)),
+                                     "within": bool(np.all(z[np.isfinite(z)] < WITHIN_SE)),
+                                     "wall": wall})
+                lines.append(f"seed {seed} {label:15s} success={r.success} "
+                             f"mean|err|={rel:.3f}% max z={np.nanmax(z):.2f} {wall:.1f}s{extra}"
+                             + ("" if r.success else f" [{r.message[:110]}]"))
+                print(lines[-1], flush=True)
     return kinds, lines
 
 
@@ -123,9 +143,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=4)
     parser.add_argument("--turbulence", type=float, default=3.0)
     parser.add_argument("--fits", nargs="+", default=list(fits(3.0)))
+    parser.add_argument("--holds", nargs="*", default=[],
+                        help="NAME=FACTOR: also fit with NAME held at FACTOR x its truth")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
-    kinds, lines = run(args.seeds, args.turbulence, tuple(args.fits))
+    kinds, lines = run(args.seeds, args.turbulence, tuple(args.fits), tuple(args.holds))
     text = summary(kinds)
     print(text)
     if not args.no_write:
