@@ -68,8 +68,9 @@ class FilterErrorEstimator(Estimator):
     Attributes
     ----------
     input : {"auto", "hold", "midpoint", "events", "law"}
-        How the fin deflection between samples is modelled (default ``auto``: ``law`` with
-        a ``[fin_law]``, else ``hold``; :data:`aeroid.flights.INPUTS`).
+        How the fin deflection between samples is modelled: ``auto`` (default) is
+        ``law`` when the flight's airframe has a ``[fin_law]``, else ``hold``
+        (:data:`aeroid.flights.INPUTS`).
     delay_s : float
         A known actuator delay [s] (default 0).
     substeps : int

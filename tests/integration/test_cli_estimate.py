@@ -525,7 +525,9 @@ def test_no_prior_is_said_after_the_fit(tmp_path, capsys, paper_flight) -> None:
 
 
 def test_json_carries_info(flight_csv, capsys) -> None:
-    assert main(["estimate", str(flight_csv), "--method", "ekf", "--option", "max_passes=2",
+    # max_passes=4: the paper flight's passes settle at pass 4; at 2 the passes' settle
+    # verdict (baselines._kalman_verdict) rightly refuses the fit (Cmq moved 3.2 se)
+    assert main(["estimate", str(flight_csv), "--method", "ekf", "--option", "max_passes=4",
                  "--json"]) == 0
     info = json.loads(capsys.readouterr().out)["info"]
     assert {"fit_check", "passes", "noise_law", "accel_positions_m", "options",
