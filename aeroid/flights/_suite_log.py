@@ -350,8 +350,8 @@ def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
         frame.to_csv(file, index=False, float_format="%.17g")
         written.append(file)
         lines += [f"[groups.{name}]", f"file = {json.dumps(file.name)}", 'time = ["t", "s"]',
-                  f"offset_s = {group.offset_s!r}"]
-        lines += [f"{key} = {value!r}" for key, value in group.ranges.items()]
+                  f"offset_s = {float(group.offset_s)!r}"]  # numpy floats repr as np.float64()
+        lines += [f"{key} = {float(value)!r}" for key, value in group.ranges.items()]
         lines += [f'temperature = "{group.temperature_of}"'] * ("temperature" in logged)
         lines += ["", f"[groups.{name}.columns]"]
         lines += [f'{c} = ["{c}", "{SI_UNITS[c]}"]' for c in logged] + [""]
@@ -363,7 +363,7 @@ def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
         sensor_sd = {c: sd for c, sd in _sensor_sd(group).items() if sd > 0}
         if sensor_sd:
             lines += [f"[groups.{name}.noise_sd]"]
-            lines += [f"{c} = {sd!r}" for c, sd in sensor_sd.items()] + [""]
+            lines += [f"{c} = {float(sd)!r}" for c, sd in sensor_sd.items()] + [""]
     truth = log.metadata.get("truth") or {}
     if truth:
         lines += ["[truth]"] + [f"{k} = {json.dumps(_plain(v))}" for k, v in truth.items()]

@@ -118,7 +118,9 @@ def test_rates_must_divide_the_imu_rate():
 
 def test_round_trip_with_offset(tmp_path, suite_sim):
     log = suite_sim.log
-    shifted = dataclasses.replace(log["gnss"], offset_s=0.0123)
+    # numpy floats, as a computed sd or offset is: written as TOML numbers, not np.float64(...)
+    shifted = dataclasses.replace(log["gnss"], offset_s=np.float64(0.0123), noise_sd={
+        c: np.float64(sd) for c, sd in log["gnss"].noise_sd.items()})
     log = dataclasses.replace(log, groups={**log.groups, "gnss": shifted})
     files = write_suite_log(log, tmp_path / "suite.toml")
     assert len(files) == 2 + len(log.groups)
