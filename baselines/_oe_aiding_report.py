@@ -69,10 +69,16 @@ def aiding_warnings(aiding: str, flight: Flight, owner: str = "output-error"
         return ()
     used = aiding_sources(aiding)
     return tuple(f"{owner}: the flight carries {LABELS[s]} samples (metadata aiding), not in "
-                 f"this fit's likelihood (aiding = "
-                 f"{'gnss-velocity' if s == 'gnss' else AIDING[-1] if s == 'ins' else word(s)} "
-                 "puts them in)"
+                 f"this fit's likelihood ({_puts_in(s, owner)})"
                  for s in CHANNELS if s in carried and s not in used)
+
+
+def _puts_in(source: str, owner: str) -> str:
+    """What puts ``source`` in the likelihood: the filters take only GNSS velocity and INS."""
+    option = {"gnss": "gnss-velocity", "ins": AIDING[-1]}.get(source) or word(source)
+    if option in AIDING or owner == "output-error":
+        return f"aiding = {option} puts them in"
+    return f"output-error's aiding = {option} puts them in; {owner} cannot take them"
 
 
 def word(source: str) -> str:
