@@ -263,8 +263,8 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
             passes.covariance[:, IX["alt0"], IX["alt0"]] + passes.covariance[:, IX["pd"], IX["pd"]]
             - 2 * passes.covariance[:, IX["alt0"], IX["pd"]], 0.0, None))
         probe = make_flight({"t": t, "altitude": table["altitude"].to_numpy()},
-                            airframe.replace(altitude_m=None, given_density_kgm3=None,
-                                             atmosphere_channel="altitude"))
+                            airframe.replace(altitude_m=None, given_density_kgm3=None,  # no
+                                             atmosphere_channel="altitude", tables=None))  # Mach
         ex = exogenous(probe)
         assert ex is not None  # the altitude channel is there
         table["rho"] = ex[:, EXOGENOUS.index("rho")]

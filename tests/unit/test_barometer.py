@@ -26,6 +26,7 @@ from aeroid.model import (
     P0,
     R_AIR,
     T0,
+    TableSpec,
     density,
     isa_pressure,
     isa_temperature,
@@ -254,3 +255,15 @@ def test_cli_per_sample_density_from_the_barometer(tmp_path, capsys):
     assert written.airframe.atmosphere_channel == "rho"
     table = pd.read_csv(out)
     np.testing.assert_allclose(written["rho"], table["rho"], rtol=1e-12)
+
+
+def test_reconstruction_of_a_log_whose_airframe_has_tables(pressure_sim):
+    """The density probe is the atmosphere's alone: an airframe with [tables] (Mach from
+    the ISA at its altitude) reconstructs to the same states and density as without."""
+    log = pressure_sim.log
+    tabled = dataclasses.replace(log, airframe=log.airframe.replace(
+        tables=TableSpec((("Cx", 3),))))
+    assert tabled.airframe.tables is not None and tabled.airframe.altitude_m is not None
+    plain, with_tables = reconstruct(log), reconstruct(tabled)
+    for column in ("u", "v", "w", "altitude", "rho"):
+        np.testing.assert_array_equal(with_tables.table[column], plain.table[column])
