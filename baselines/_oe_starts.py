@@ -124,9 +124,12 @@ def start_report(labels: list[str], ends: list[Any], best: int, stderr: np.ndarr
     """
     n = len(aeroid.NAMES) if n_coefficients is None else n_coefficients  # [tables]: more
     p_best, nll_best = ends[best].p[:n], ends[best].nll
+    free = np.asarray(stderr[:n] > 0)  # a held coefficient (sd 0) is the same in every end
     with np.errstate(all="ignore"):
-        distance = [float(np.max(np.abs(f.p[:n] - p_best) / stderr[:n])) for f in ends]
-        relative = [float(np.max(np.abs(f.p[:n] / p_best - 1.0))) for f in ends]
+        distance = [float(np.max(np.abs(f.p[:n] - p_best)[free] / stderr[:n][free],
+                                 initial=0.0)) for f in ends]
+        relative = [float(np.max(np.abs(f.p[:n] / p_best - 1.0)[free & (p_best != 0)],
+                                 initial=0.0)) for f in ends]
     excess = [float(f.nll - nll_best) for f in ends]
     elsewhere = [i for i, (d, r) in enumerate(zip(distance, relative, strict=True))
                  if not (d <= SAME_OPTIMUM_SD or r <= SAME_POINT_REL)]

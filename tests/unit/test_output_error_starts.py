@@ -152,6 +152,15 @@ def test_start_report_counts_the_ends_elsewhere_and_warns_beyond_one_standard_er
     assert warnings == ["output-error: the prior start failed: the model diverges at the "
                         "starting point"]
     assert _oe_starts.best_end([stopped, _End(best.p, -10.0, converged=False)]) == 0
+    # a held coefficient has sd 0 (and here the value 0): no distance, not "elsewhere"
+    # (it gave 0/0 = nan, and "2 of 2 starts converged elsewhere ... higher by 0")
+    held_sd, held_p = sd.copy(), best.p.copy()
+    held_sd[2], held_p[2] = 0.0, 0.0
+    held, again = _End(held_p, -100.0), _End(held_p + 0.001 * held_sd, -99.9999)
+    info, warnings = _oe_starts.start_report(["prior", "equation-error"], [held, again], 0,
+                                             held_sd)
+    assert info["start_distance_sd"] == pytest.approx([0.0, 0.001])
+    assert info["starts_elsewhere"] == 0 and warnings == []
 
 
 def test_an_equation_error_start_that_cannot_be_made_is_recorded(poorer_optimum_run,
