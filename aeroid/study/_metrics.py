@@ -62,7 +62,8 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
     pandas.DataFrame
         Columns :data:`TIDY_COLUMNS`; ``error`` = estimate - truth, ``rel_error_pct`` =
         |error| / |truth| * 100, ``covered`` = |error| <= COVERAGE_Z * stderr (NA where
-        the fit failed or gave no finite standard error).
+        the fit failed, gave no finite standard error, or held the coefficient: sd 0, no
+        interval to cover anything).
     """
     rows: list[dict[str, Any]] = []
     default = tuple(names)
@@ -87,7 +88,8 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
                                         if c not in ("error", "rel_error_pct", "covered")])
     frame["error"] = frame["estimate"] - frame["truth"]
     frame["rel_error_pct"] = frame["error"].abs() / frame["truth"].abs() * 100.0
-    ok = frame["success"] & np.isfinite(frame["stderr"]) & np.isfinite(frame["error"])
+    ok = (frame["success"] & np.isfinite(frame["stderr"]) & (frame["stderr"] > 0)  # held: 0
+          & np.isfinite(frame["error"]))
     covered = frame["error"].abs() <= COVERAGE_Z * frame["stderr"]
     frame["covered"] = pd.array(np.where(ok, covered, False), dtype="boolean")
     frame.loc[~ok, "covered"] = pd.NA

@@ -51,6 +51,21 @@ def test_tidy_has_one_row_per_fit_and_coefficient(records):
     assert pd.isna(covered[3]) and pd.isna(covered[4])
 
 
+
+def test_a_held_coefficient_is_not_counted_as_covered():
+    """A held coefficient has sd 0 (error 0 at the truth): no interval, no coverage
+    (it counted 0 <= 0 as covered)."""
+    stderr = 0.2 * np.ones(len(NAMES))
+    stderr[3] = 0.0
+    offsets = 0.1 * np.ones(len(NAMES))
+    offsets[3] = 0.0
+    frame = metrics.tidy([_record(0, offsets, stderr)])
+    assert pd.isna(frame["covered"].iloc[3]) and frame["covered"].drop(index=3).all()
+    summary = metrics.summarize(frame)
+    held = summary[summary["coefficient"] == NAMES[3]].iloc[0]
+    assert held["n_stderr"] == 0 and np.isnan(held["coverage"])
+
+
 def test_summary_matches_hand_computation(records):
     summary = metrics.summarize(metrics.tidy(records))
     assert len(summary) == len(NAMES)
