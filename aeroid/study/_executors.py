@@ -222,7 +222,11 @@ def run_dask(study: Study, tasks: list[Task], scheduler: str | None, n_local: in
         if scheduler is None:
             cluster = stack.enter_context(LocalCluster(
                 n_workers=n_local, threads_per_worker=1, processes=True,
-                dashboard_address=None, env=dict(WORKER_ENV), silence_logs=logging.ERROR,
+                # workers log CRITICAL only: one whose scheduler closed first logs an ERROR
+                # with a traceback for its heartbeat (seen once on a loaded machine,
+                # an interrupted study); a worker's real failure reaches the study through
+                # its future (a failed record), not through its log
+                dashboard_address=None, env=dict(WORKER_ENV), silence_logs=logging.CRITICAL,
                 # no dashboard, but the scheduler still serves /metrics over HTTP, by
                 # default on port 8787: a second study (or any Dask) on the machine
                 # made the first one's start fail; any free port will do
