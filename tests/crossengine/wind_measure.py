@@ -17,34 +17,22 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-import warnings
 
 import numpy as np
 
-import aeroid
-from aeroid.errors import AeroidWarning
 from aeroid.flights import GaussianNoise, make_flight
 
 from . import jsbsim_flight
 from .test_passive_fin import PASSIVE
 from .test_recovery import issue10_flight
-from .test_wind import TURBULENT, VANE_SD_RAD, WIND_NED_MPS, WINDY
+from .test_wind import TURBULENT, WIND_NED_MPS, WINDY, _fit, _with_vane_noise
 
 STILL = dataclasses.replace(WINDY, name="xe_climb", wind_ned_mps=(0.0, 0.0, 0.0))
 
 
 def _vane(flight, seed: int):
-    rng = np.random.default_rng([seed, 26])
-    n = flight.n_samples
-    data = flight.data.assign(alpha=flight["alpha"] + VANE_SD_RAD * rng.standard_normal(n),
-                              beta=flight["beta"] + VANE_SD_RAD * rng.standard_normal(n))
-    return dataclasses.replace(flight, data=data)
-
-
-def _fit(name: str, flight, options: dict):
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=r".*beta is .* x asin", category=AeroidWarning)
-        return aeroid.make_estimator(name, options).fit(flight, rng=1)
+    """The test's vane noise (0.1 deg white), drawn from the seed's own stream."""
+    return _with_vane_noise(flight, np.random.default_rng([seed, 26]))
 
 
 def _row(label: str, result, truth, free=None) -> float:

@@ -4,8 +4,9 @@ table in Mach): the same log with one axis sign flipped in the mounting is not a
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
+
+from test_cli_rocket import _make_log  # the example script's loader, written once
 
 from aeroid.cli import main
 
@@ -13,14 +14,6 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "studies" / "scenarios" / "rocket_measure.toml"
 #: The board's axis map with one sign flipped (z): a reflection, determinant -1.
 ONE_SIGN_FLIPPED = "x=-y, y=x, z=-z"
-
-
-def _make_log():
-    spec = importlib.util.spec_from_file_location("make_rocket_log",
-                                                  ROOT / "examples" / "make_rocket_log.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.make_log
 
 
 def test_one_axis_sign_flipped_is_refused_in_one_line(tmp_path, capsys):
