@@ -36,7 +36,7 @@ from typing import NamedTuple
 import casadi as ca
 import numpy as np
 
-from aeroid.model import NAMES, Constants, equations, tables
+from aeroid.model import NAMES, Constants, equations, rk4_step, tables
 
 __all__ = ["N_TRACK", "Track", "axial_force", "propagate"]
 
@@ -88,11 +88,7 @@ def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps
             accel += c[k - 1] * (gravity - ca.dot(gravity, along) * along)
         return ca.vertcat(z[VN:], accel)
 
-    k1 = rhs(x)
-    k2 = rhs(x + 0.5 * dt * k1)
-    k3 = rhs(x + 0.5 * dt * k2)
-    k4 = rhs(x + dt * k3)
-    x_next = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    x_next = rk4_step(lambda _t, z: rhs(z), 0.0, x, dt)  # the model's RK4, on CasADi too
     sens = ca.SX.sym("s", N_TRACK, k + N_TRACK)
     s_next = ca.jacobian(x_next, x) @ sens + ca.horzcat(ca.jacobian(x_next, c),
                                                         ca.SX.zeros(N_TRACK, N_TRACK))
