@@ -55,6 +55,7 @@ from aeroid.model._coefficients import (
 )
 from aeroid.model._compile_clock import CompileClock, compile_clock, compiling
 from aeroid.model._compiled import kernels_cached
+from aeroid.model._curve_csv import read_curve_csv
 from aeroid.model._dynamics import (
     ACCEL_CHANNELS,
     FM_NAMES,
@@ -117,6 +118,6 @@ __all__ = [
     "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
     "pressure_altitude",
     "MachTables", "TableSpec", "tables",
-    "ThrustCurve", "read_thrust_curve",
+    "ThrustCurve", "read_thrust_curve", "read_curve_csv",
     "with_steady_wind", "with_wind_symbols",
 ]

@@ -35,9 +35,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from aeroid.errors import AirframeError
+from aeroid.model._curve_csv import read_curve_csv
 from aeroid.model._fileform import check_keys, check_table, number, numbers, text
 
 #: Columns of a thrust curve file (matched without case and surrounding blanks); the
@@ -239,27 +239,10 @@ def read_thrust_curve(path: str | Path, *, origin_s: float, burn_s: Any) -> Thru
     AirframeError
         One line naming the file and what is wrong.
     """
+    values = read_curve_csv(path, required=CURVE_COLUMNS[:2], optional=CURVE_COLUMNS[2:],
+                            kind="thrust curve", row_word="line", error=AirframeError,
+                            columns_text="the columns time_s, thrust_N and optionally mass_kg")
     where = str(path)
-    try:
-        frame = pd.read_csv(path)
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise AirframeError(f"{where}: cannot read the thrust curve: "
-                            f"{' '.join(str(exc).split())}") from None
-    names = {str(c).strip().lower(): c for c in frame.columns}
-    missing = [c for c in CURVE_COLUMNS[:2] if c not in names]
-    extra = sorted(str(c) for k, c in names.items() if k not in CURVE_COLUMNS)
-    if missing or extra:
-        raise AirframeError(f"{where}: a thrust curve has the columns time_s, thrust_N and "
-                            f"optionally mass_kg (missing: {', '.join(missing) or 'none'}; "
-                            f"not used: {', '.join(extra) or 'none'})")
-    values = {}
-    for key in (k for k in CURVE_COLUMNS if k in names):
-        column = pd.to_numeric(frame[names[key]], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(column))
-        if bad.size:
-            raise AirframeError(f"{where}: column {names[key]} line {int(bad[0]) + 2} is not a "
-                                f"finite number ({frame[names[key]].iloc[bad[0]]!r})")
-        values[key] = column
     return ThrustCurve(time_s=values["time_s"], thrust_n=values["thrust_n"], origin_s=origin_s,
                        burn_s=burn_s, mass_kg=values.get("mass_kg"), source=where)
 

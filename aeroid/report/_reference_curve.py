@@ -29,7 +29,7 @@ from matplotlib.figure import Figure
 
 from aeroid.errors import UsageError
 from aeroid.flights import Flight
-from aeroid.model import GAMMA, R_AIR, isa_temperature
+from aeroid.model import GAMMA, R_AIR, isa_temperature, read_curve_csv
 from aeroid.report._files import write_figure_atomic, write_text_atomic
 from aeroid.report._tables import DIGITS, DPI, POINT_SEPARATOR, Z95
 
@@ -88,26 +88,9 @@ def read_reference_curve(path: str | Path, *, area_m2: float) -> ReferenceCurve:
             and math.isfinite(area_m2) and area_m2 > 0):
         raise UsageError(f"{where}: the reference area must be a positive number [m^2], "
                          f"got {area_m2!r}")
-    try:
-        frame = pd.read_csv(path)
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise UsageError(f"{where}: cannot read the reference curve: "
-                         f"{' '.join(str(exc).split())}") from None
-    names = {str(c).strip().lower(): c for c in frame.columns}
-    missing = [c for c in CURVE_COLUMNS if c not in names]
-    extra = sorted(str(c) for k, c in names.items() if k not in CURVE_COLUMNS)
-    if missing or extra:
-        raise UsageError(f"{where}: a reference curve has exactly the columns Mach and Cd "
-                         f"(missing: {', '.join(missing) or 'none'}; not used: "
-                         f"{', '.join(extra) or 'none'})")
-    values = {}
-    for key in CURVE_COLUMNS:
-        column = pd.to_numeric(frame[names[key]], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(column))
-        if bad.size:
-            raise UsageError(f"{where}: column {names[key]} row {int(bad[0]) + 2} is not a "
-                             f"finite number ({frame[names[key]].iloc[bad[0]]!r})")
-        values[key] = column
+    values = read_curve_csv(path, required=CURVE_COLUMNS, kind="reference curve",
+                            columns_text="exactly the columns Mach and Cd", row_word="row",
+                            error=UsageError)
     mach = values["mach"]
     if mach.size < 1:
         raise UsageError(f"{where}: the reference curve has no rows")
