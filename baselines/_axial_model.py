@@ -10,7 +10,9 @@ lies along the airspeed (``u = V``, ``v = w = 0``, no rates) evaluated by
 :func:`aeroid.model.equations.aerodynamic_loads` and
 :func:`~aeroid.model.equations.specific_force` (``(Q S Cx + thrust) / m``), with Cx the
 table :func:`aeroid.model.tables.table_value` at ``M = V / a``; the density and the speed
-of sound are the airframe's constants, gravity the model's. The axial accelerometer reads
+of sound are the airframe's constants, gravity the model's; the thrust and mass the
+constants' or, with a motor (``propagate(..., motor=...)``), given at the grid's nodes and
+linear between them within each RK4 step. The axial accelerometer reads
 ``(1 + scale) f_x + bias``. The accelerometer's lever arm is not in the model, and the
 lateral aerodynamic force only as the **trim** of a statically stable airframe in a gravity
 turn (optional): turning its nose at ``q = -g cos(gamma) / V`` needs an incidence
@@ -73,14 +75,24 @@ def _specific_force(velocity, points, const: Constants, knots: tuple[float, ...]
 
 @functools.lru_cache(maxsize=16)
 def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps: int,
-               trim: bool) -> tuple[ca.Function, ca.Function]:
+               trim: bool, motor: bool = False) -> tuple[ca.Function, ca.Function]:
     k = len(knots) + int(trim)
     x = ca.SX.sym("x", N_TRACK)
     c = ca.SX.sym("c", k)
     dt = ca.SX.sym("dt")
+    # a motor: thrust and mass at the step's two ends (linear between grid nodes, the
+    # estimators' convention for per-sample inputs), else the constants' own
+    ends = ca.SX.sym("ends", 4 if motor else 0)
 
-    def rhs(z):
-        force, speed = _specific_force(z[VN:], c, const, knots, sound)
+    def at(tau):
+        if not motor:
+            return const
+        share = tau / dt
+        return const._replace(thrust=ends[0] + (ends[1] - ends[0]) * share,
+                              mass=ends[2] + (ends[3] - ends[2]) * share)
+
+    def rhs(z, tau=0.0):
+        force, speed = _specific_force(z[VN:], c, at(tau), knots, sound)
         gravity = ca.vertcat(0.0, 0.0, const.gravity)
         along = z[VN:] / speed
         accel = force * along + gravity
@@ -88,21 +100,25 @@ def _functions(const: Constants, knots: tuple[float, ...], sound: float, n_steps
             accel += c[k - 1] * (gravity - ca.dot(gravity, along) * along)
         return ca.vertcat(z[VN:], accel)
 
-    x_next = rk4_step(lambda _t, z: rhs(z), 0.0, x, dt)  # the model's RK4, on CasADi too
+    # the model's RK4, on CasADi too (tau: the time within the step)
+    x_next = rk4_step(lambda tau, z: rhs(z, tau), 0.0, x, dt)
     sens = ca.SX.sym("s", N_TRACK, k + N_TRACK)
     s_next = ca.jacobian(x_next, x) @ sens + ca.horzcat(ca.jacobian(x_next, c),
                                                         ca.SX.zeros(N_TRACK, N_TRACK))
     z = ca.vertcat(x, ca.vec(sens))
-    step = ca.Function("axial_step", [z, c, dt], [ca.vertcat(x_next, ca.vec(s_next))])
-    force, _ = _specific_force(x[VN:], c, const, knots, sound)
+    step = ca.Function("axial_step", [z, c, dt, ends], [ca.vertcat(x_next, ca.vec(s_next))])
+    node = ca.SX.sym("node", 2 if motor else 0)  # thrust and mass at a grid node
+    here = const._replace(thrust=node[0], mass=node[1]) if motor else const
+    force, _ = _specific_force(x[VN:], c, here, knots, sound)
     grad = ca.horzcat(ca.jacobian(force, c), ca.SX.zeros(1, N_TRACK)) \
         + ca.jacobian(force, x) @ sens
-    force_fn = ca.Function("axial_force", [z, c], [force, grad])
+    force_fn = ca.Function("axial_force", [z, c, node], [force, grad])
     return step.mapaccum("axial_track", n_steps), force_fn.map(n_steps + 1)
 
 
 def propagate(x0: np.ndarray, points: np.ndarray, t: np.ndarray, const: Constants,
-              knots: tuple[float, ...], sound: float, trim: bool = False) -> Track:
+              knots: tuple[float, ...], sound: float, trim: bool = False,
+              motor: tuple[np.ndarray, np.ndarray] | None = None) -> Track:
     """Integrate the point mass from ``x0`` at ``t[0]`` over the grid ``t`` (RK4, one step
     per interval) with the sensitivities to ``(points, x0)``.
 
@@ -123,15 +139,25 @@ def propagate(x0: np.ndarray, points: np.ndarray, t: np.ndarray, const: Constant
         Speed of sound [m/s].
     trim : bool
         Whether the trim's normal force is in the model (``points[-1]`` its factor).
+    motor : pair of ndarray, shape (n,), optional
+        Thrust [N] and mass [kg] at ``t`` (a thrust curve's), linear between them; None:
+        the constants' ``thrust`` and ``mass``.
     """
     k = len(knots) + int(trim)
     n = len(t)
     z0 = np.concatenate([x0, np.column_stack([np.zeros((N_TRACK, k)),
                                               np.eye(N_TRACK)]).ravel(order="F")])
-    track, force_fn = _functions(const, tuple(knots), float(sound), n - 1, bool(trim))
-    out = np.array(track(z0, np.asarray(points, dtype=float), np.diff(t)[None, :]))
+    track, force_fn = _functions(const, tuple(knots), float(sound), n - 1, bool(trim),
+                                 motor is not None)
+    if motor is None:
+        ends, nodes = np.zeros((0, n - 1)), np.zeros((0, n))
+    else:
+        thrust, mass = (np.asarray(a, dtype=float) for a in motor)
+        ends = np.vstack([thrust[:-1], thrust[1:], mass[:-1], mass[1:]])
+        nodes = np.vstack([thrust, mass])
+    out = np.array(track(z0, np.asarray(points, dtype=float), np.diff(t)[None, :], ends))
     z = np.column_stack([z0, out])  # (6 + 6 (k + 6), n)
-    force, grad = force_fn(z, np.asarray(points, dtype=float))
+    force, grad = force_fn(z, np.asarray(points, dtype=float), nodes)
     states = z[:N_TRACK].T
     sens = z[N_TRACK:].T.reshape(n, k + N_TRACK, N_TRACK).transpose(0, 2, 1)
     return Track(states, sens, np.array(force).ravel(), np.array(grad).reshape(n, k + N_TRACK))

@@ -19,6 +19,10 @@ force): a mass given with an sd enters Cx's standard errors through the consider
 fit check can see it. Every other coefficient is not determined by such a log and is
 named so (``info["not_determined"]``, a warning).
 
+A log reaching into the burn is fitted with the airframe's ``[thrust_curve]``: its thrust
+inside the burn window and the mass along it enter the axial force at the time grid's
+nodes, linear between them (:mod:`baselines._axial_motor`).
+
 Input: a :class:`aeroid.flights.SuiteLog` (``read_suite_log``) or an
 :class:`baselines._axial_log.AxialLog`. A :class:`aeroid.flights.Flight` holds no track:
 the result is ``success=False`` saying so.
@@ -50,6 +54,7 @@ from aeroid.model import NAMES, constants, tables
 from baselines._axial_check import fit_check
 from baselines._axial_log import AxialLog, axial_log
 from baselines._axial_model import N_TRACK, PD, PN, VD, VN, propagate
+from baselines._axial_motor import motor_on_grid
 
 __all__ = ["AxialDragEstimator", "NOT_DETERMINED"]
 
@@ -217,7 +222,8 @@ class AxialDragEstimator(Estimator):
                 extra = [first.info["nuisance"][TRIM][0]] if self.trim else []
                 grid, _ = _grid(record)
                 track = propagate(np.array(start), np.concatenate([first.theta, extra]), grid,
-                                  constants(airframe), (1.0,), sound, self.trim)
+                                  constants(airframe), (1.0,), sound, self.trim,
+                                  motor_on_grid(airframe, grid)[0])
                 speed = np.linalg.norm(track.states[:, VN:], axis=1)
                 return (tables.choose_knots(speed / sound, given), sound,
                         f"[tables] Cx = {given} knots over the Mach range of a constant-Cx fit")
@@ -235,6 +241,7 @@ class AxialDragEstimator(Estimator):
         names = (("Cx",) if origin == "constant"
                  else tuple(tables.point_name("Cx", knot) for knot in knots))
         grid, index = _grid(record)
+        motor, motor_note = motor_on_grid(airframe, grid)  # a thrust curve's, or None
         baro = record.baro_t is not None
         n_c = k + int(self.trim)  # the table points, then the trim factor
         nuisance = (*((TRIM,) if self.trim else ()), *TRACK_START, *IMU_ERRORS,
@@ -247,7 +254,7 @@ class AxialDragEstimator(Estimator):
 
         def model(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             track = propagate(theta[n_c:n_dyn], theta[:n_c], grid, const, knots, sound,
-                              self.trim)
+                              self.trim, motor)
             parts, jac = [], []
             i = index["accel"]
             gain = 1.0 + theta[scale_j]
@@ -319,7 +326,8 @@ class AxialDragEstimator(Estimator):
                  "along the whole track)",
                  "point mass: drag along the airspeed, no lever arm, " + (
                      "the trim's normal force a free share of gravity's normal component"
-                     if self.trim else "no lateral force (trim = false)")]
+                     if self.trim else "no lateral force (trim = false)"),
+                 *([motor_note] if motor_note else [])]
         mass_note = exact_mass_note(airframe)
         if mass_note and "mass_kg" not in airframe.mass_sd:
             notes.append(mass_note.split(";")[0])

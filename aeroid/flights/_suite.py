@@ -23,8 +23,9 @@ its 1000 Hz suite agree to 3e-7 m/s).
 Sensor errors, per axis: ``reading = (1 + scale) truth + bias + noise``, with bias and
 scale drawn once per flight (uniform magnitude in the stated range, random sign), noise
 white Gaussian per sample. The accelerometers read specific force at their true
-positions (eq. 28) with the fin deflection at the sample. INS angles are wrapped to
-(-pi, pi] after the noise.
+positions (eq. 28) with the fin deflection at the sample and, with a ``[thrust_curve]``,
+the thrust over the flown mass at the sample (``truth["thrust"]``, ``["mass"]``). INS
+angles are wrapped to (-pi, pi] after the noise.
 
 Board mounting (``imu_mounting``, ``imu_angles_deg``): the IMU reads in the board's axes,
 ``v_sensor = C^T v_body`` (``C`` from sensor to body axes, :mod:`._mounting`); its errors,
@@ -51,6 +52,7 @@ from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._scenario import Manoeuvre
 from aeroid.flights._simulate import simulate_truth
 from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog, mounted_group
+from aeroid.flights._thrust_flight import sample_thrust
 from aeroid.model import (
     OUTPUT_CHANNELS,
     PHI,
@@ -217,9 +219,6 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     if suite.baro_rate_hz > 0 and airframe.altitude_m is None:
         raise AirframeError("sensor suite: the barometer needs the airframe's [atmosphere] "
                             "altitude_m (its altitude at t = 0)")
-    if airframe.thrust_curve is not None:  # its accelerometers would miss the thrust
-        raise AirframeError("sensor suite: an airframe with a [thrust_curve] is not built "
-                            "for the sensor suite (its IMU would miss the thrust); simulate()")
     coefficients = as_vector(coefficients)
     sampled = imu_manoeuvre(manoeuvre, suite.imu_rate_hz)
     truth = simulate_truth(airframe, coefficients, sampled, backend=backend)
@@ -228,16 +227,23 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     position = cumulative_trapezoid(ned_velocity, truth.t, axis=0, initial=0.0)
     k0 = int(round(manoeuvre.window_s[0] * suite.imu_rate_hz))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
-    specific = accelerometers(states, delta, coefficients,
-                              constants(manoeuvre.flown(airframe)),
+    const, motor = constants(manoeuvre.flown(airframe)), {}
+    if airframe.thrust_curve is not None:  # the IMU sees the thrust, over the flown mass
+        motor = sample_thrust(airframe.thrust_curve, t, airframe.thrust_n,
+                              manoeuvre.mass_scale)
+        const = const._replace(**motor)
+    specific = accelerometers(states, delta, coefficients, const,
                               airframe.accel_positions).reshape(-1, 2, 3)
     imu_sampling = (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
                     f"{sampled.truth_substeps} RK4 substeps, relay {sampled.evaluation}"
                     + (f" at {sampled.control_rate_hz:g} Hz" if sampled.control_rate_hz
                        else ""))
-    return log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
-                          position=position[k0:], source="simulated suite log",
-                          metadata={"imu_sampling": imu_sampling})
+    extra = {} if not motor else {"thrust": airframe.thrust_curve.describe()}
+    sim = log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
+                         position=position[k0:], source="simulated suite log",
+                         metadata={"imu_sampling": imu_sampling, **extra})
+    sim.truth.update({k: np.broadcast_to(v, t.shape).copy() for k, v in motor.items()})
+    return sim
 
 
 def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
