@@ -136,6 +136,8 @@ class AxialDragEstimator(Estimator):
     description: ClassVar[str] = ("Cx table from an axial accelerometer and a GNSS track "
                                   "(point-mass output-error)")
     fits_tables: ClassVar[bool] = True
+    #: ``aeroid estimate LOG.toml`` fits a suite log with this method (aeroid/cli/_axial.py).
+    reads_suite_log: ClassVar[bool] = True
 
     cx_knots: tuple[float, ...] = ()
     accel_bias_mps2: float = 0.0
@@ -180,7 +182,7 @@ class AxialDragEstimator(Estimator):
         if on_cx:
             raise EstimatorError(f"axial-drag: {', '.join(on_cx)} held or given a prior: "
                                  "this method fits Cx free (it is all it estimates)")
-        if holds:
+        if holds is not None and not CoefficientSpec.coerce(holds).empty:
             raise EstimatorError("axial-drag: holds and priors are not taken by this method "
                                  "(it estimates Cx alone; the others are not determined)")
         if not spec.empty:  # the airframe's own (a passive fin's): nothing to do with Cx
@@ -319,6 +321,8 @@ class AxialDragEstimator(Estimator):
         success = converged and verdict.passed
         message = ("" if success else verdict.message if converged else
                    f"not converged after {solution.nfev} evaluations: {solution.message}")
+        speed = np.linalg.norm(propagate(theta[n_c:n_dyn], theta[:n_c], grid, const, knots,
+                                         sound, self.trim, motor).states[:, VN:], axis=1)
         others = tuple(n for n in NAMES if n != "Cx")
         notes = [*record.notes,
                  f"Cx: {origin} at Mach {', '.join(f'{kn:g}' for kn in knots)}, speed of "
@@ -351,4 +355,6 @@ class AxialDragEstimator(Estimator):
                       IMU_ERRORS, se[[bias_j, scale_j]], strict=True)},
                   "knots": list(knots),
                   "speed_of_sound_mps": sound, "notes": notes,
+                  "mach_range": [float(speed.min() / sound), float(speed.max() / sound)],
+                  "span_s": [float(grid[0]), float(grid[-1])],
                   "options": self.options()})

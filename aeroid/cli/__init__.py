@@ -132,7 +132,9 @@ def _methods_epilog() -> str:
             "  aeroid estimate flight.csv --method output-error --report fit-report\n"
             "  aeroid estimate flight.csv --method output-error --report drag \\\n"
             "      --reference-curve design_cd.csv --reference-area 0.0129\n"
-            "  aeroid estimate flight.csv --method all --option n_iterations=20\n\n"
+            "  aeroid estimate flight.csv --method all --option n_iterations=20\n"
+            "  aeroid estimate axial-log/rocket.toml --method axial-drag --mass-sd 0.3 \\\n"
+            "      --report axial-report     # a flight computer's suite log itself\n\n"
             "methods ('aeroid methods --options NAME' lists a method's options):\n"
             + methods_table(indent="  ") + "\n\n"
             "Exit status: 0 done, 1 the method failed (its result is still printed), "
@@ -151,7 +153,9 @@ def _add_estimate(sub: argparse._SubParsersAction) -> None:
         epilog_factory=_methods_epilog)
     p.add_argument("flight", type=Path, nargs="+",
                    help="flight CSV (or .parquet); several files are fitted together as "
-                        "windows with shared coefficients (each with its own sidecar)")
+                        "windows with shared coefficients (each with its own sidecar); or "
+                        "one suite log TOML (as 'aeroid reconstruct' reads it) for a method "
+                        "that reads one (axial-drag)")
     p.add_argument("--windows", metavar="START-END[,START-END...]",
                    help="fit these time ranges [s] of the one log together (shared "
                         "coefficients; per window its own start, inputs, delay and biases)")

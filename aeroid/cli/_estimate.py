@@ -236,6 +236,10 @@ def estimate(args: argparse.Namespace) -> int:
     """
     options = parse_options(getattr(args, "option", None))
     holds_from_args(args)  # a bad --hold or --prior is said before the log is read
+    from aeroid.cli._axial import estimate_log, is_suite_log
+
+    if is_suite_log(args):  # a flight computer's suite log, fitted as it is (axial-drag)
+        return estimate_log(args, options, with_mass_sd)
     single = "," not in args.method and args.method.strip() != "all"
     names = [args.method.strip()] if single else method_names(args.method)
     if single:

@@ -43,6 +43,7 @@ from aeroid.report._files import (
 )
 from aeroid.report._fit import REPORT_NAME, report_figures, report_markdown, write_report
 from aeroid.report._html import FORMATS, html_page, report_name
+from aeroid.report._log_fit import write_log_report
 from aeroid.report._reconstruction import (
     RECONSTRUCTION_REPORT,
     reconstruction_figures,
@@ -114,4 +115,5 @@ __all__ = [
     "write_text_atomic",
     "window_view",
     "write_windows_report",
+    "write_log_report",
 ]

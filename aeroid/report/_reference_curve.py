@@ -266,18 +266,22 @@ def fitted_cx(result: Any, flight_range: tuple[float, float]
             f"{result.estimator}, +- {Z95:g} se (95 %)")
 
 
-def reference_lines(result: Any, flight: Flight, curve: ReferenceCurve,
-                    folder: Path) -> list[str]:
+def reference_lines(result: Any, flight: Any, curve: ReferenceCurve,
+                    folder: Path, *, flight_range: tuple[float, float] | None = None
+                    ) -> list[str]:
     """Write :data:`REFERENCE_FILES` into ``folder``; return the report's markdown lines.
 
     The figure is :func:`reference_curve_figure` of :func:`fitted_cx`; the CSV holds the
     same arrays (``mach, cx, cx_lo, cx_hi, cd, cd_lo, cd_hi``) and the curve is not
     repeated in it. The lines: a heading, the conversion, the overlap (when there is
     none), the figure and the CSV; for a fit without a finite Cx (a failed method), no
-    files and a line saying so.
+    files and a line saying so. ``flight_range``: the record's Mach range when it is not
+    a :class:`Flight` (a suite log fitted by axial-drag: its fitted track's,
+    ``info["mach_range"]``); ``flight`` then needs only its ``airframe``. Default: the
+    flight's (:func:`mach_range`).
     """
     area = flight.airframe.area_m2
-    flight_range = mach_range(flight)
+    flight_range = mach_range(flight) if flight_range is None else flight_range
     lines = ["## Drag against a reference curve", "",
              f"Reference: `{curve.source}` (Mach {curve.mach[0]:g} .. {curve.mach[-1]:g}) "
              f"on S_ref = {curve.area_m2:.6g} m^2; the flight's Mach {flight_range[0]:.3g} "
