@@ -108,6 +108,14 @@ def _start(record: AxialLog, cx0: float, k: int, bias0: float, scale0: float
     return np.concatenate([np.full(k, cx0), x0, [bias0, scale0], h0])
 
 
+class _Hush(logging.Filter):
+    """Drops this method's own INFO notes (said by the consider path's re-fits)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not (record.levelno == logging.INFO
+                    and record.getMessage().startswith("axial-drag: "))
+
+
 @dataclass(frozen=True, kw_only=True)
 class AxialDragEstimator(Estimator):
     """The Cx table from an axial accelerometer and a GNSS track (module docstring).
@@ -202,7 +210,14 @@ class AxialDragEstimator(Estimator):
             text = " ".join(str(exc).split())
             result = failed_result(self.name, f"{type(exc).__name__}: {text}".rstrip(": "))
         result = dataclasses.replace(result, wall_time_s=time.perf_counter() - start)
-        return add_consider(self, record, result, rng=generator)
+        # the consider path's re-fits (the mass moved by +-1 sd, taken as exact) would say
+        # their notes again, "mass taken as exact: 10.3 kg" among them: not this fit's
+        logger, hush = logging.getLogger("aeroid"), _Hush()
+        logger.addFilter(hush)
+        try:
+            return add_consider(self, record, result, rng=generator)
+        finally:
+            logger.removeFilter(hush)
 
     def _knots(self, record: AxialLog) -> tuple[tuple[float, ...], float, str]:
         airframe = record.airframe

@@ -110,6 +110,7 @@ def test_the_command_line_reproduces_the_python_fit(log_toml, curve, tmp_path) -
     assert out["cost"] == result.cost
     # the mass sd widened the se (the consider path), said before the fit
     assert "--mass-sd: mass 10 +- 0.3 kg" in run.stderr
+    assert "mass taken as exact" not in run.stderr  # the consider re-fits say nothing
     assert all(out["stderr"][n] > s for n, s in zip(
         result.names, result.consider.stderr_without, strict=True))
     # the report: the table's points, and the reference curve beside them
