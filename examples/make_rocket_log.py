@@ -21,7 +21,25 @@ prediction as ``[prior]`` (the scenario's; the starting point of every fit). Run
 root::
 
     python examples/make_rocket_log.py [FOLDER] [--seed N] [--wrong-mounting]
-        [--scenario TOML] [--mounting AXES]
+        [--scenario TOML] [--mounting AXES] [--axial-only]
+
+Then, start to finish (the files to the coefficients)::
+
+    aeroid reconstruct rocket-log/rocket.toml -o rocket-log/states.csv \
+        --flight rocket-log/raw.csv --raw-imu
+    aeroid estimate rocket-log/raw.csv --method output-error \
+        --option imu_errors=bias+scale --option estimate_initial_velocity=true \
+        --option initial_velocity_prior=flight
+
+``--axial-only`` writes the same flight as a cheap board logs it (one accelerometer axis
+along the rocket, GNSS positions, the barometer: ``examples/make_axial_log.py``), which
+needs no reconstruction: ``aeroid estimate`` fits the log's own files by the axial-drag
+method (the Cx table against Mach; ``--mass-sd`` the coast mass's sd, ``--report`` the
+tables and, with ``--reference-curve``, a design tool's drag curve beside them)::
+
+    python examples/make_rocket_log.py axial-log --axial-only
+    aeroid estimate axial-log/rocket.toml --method axial-drag \
+        --option "cx_knots=[0.2, 0.4, 0.6, 0.9]" --mass-sd 0.3 --seed 1 --report axial-report
 
 ``--wrong-mounting`` writes the same log (the same readings) with a mounting that is
 wrong but a proper rotation, two signs flipped (``x=y, y=-x, z=z``: 180 deg about z).
@@ -88,6 +106,24 @@ if __name__ == "__main__":
     parser.add_argument("--wrong-mounting", action="store_true")
     parser.add_argument("--scenario", type=Path, default=SCENARIO)
     parser.add_argument("--mounting", help='another axis map, e.g. "x=-y, y=x, z=-z"')
+    parser.add_argument("--axial-only", action="store_true",
+                        help="the axial accelerometer alone, GNSS and barometer "
+                             "(examples/make_axial_log.py; the rocket coast only)")
     args = parser.parse_args()
-    make_log(args.folder, args.seed, args.wrong_mounting, scenario_path=args.scenario,
-             mounting=args.mounting)
+    if args.axial_only:
+        if args.wrong_mounting or args.mounting or args.scenario != SCENARIO:
+            parser.error("--axial-only writes the rocket coast's log as make_axial_log.py "
+                         "does: not with --wrong-mounting, --mounting or --scenario")
+        import sys
+
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from make_axial_log import make_axial_log
+
+        path = make_axial_log(args.folder, args.seed)
+        print(f"next: aeroid estimate {path} --method axial-drag --mass-sd 0.3 --report "
+              f"{args.folder / 'report'}")
+    else:
+        path = make_log(args.folder, args.seed, args.wrong_mounting,
+                        scenario_path=args.scenario, mounting=args.mounting)
+        print(f"next: aeroid reconstruct {path} -o {args.folder / 'states.csv'} --flight "
+              f"{args.folder / 'raw.csv'} --raw-imu")
