@@ -340,7 +340,9 @@ class AxialDragEstimator(Estimator):
                                          sound, self.trim, motor).states[:, VN:], axis=1)
         others = tuple(n for n in NAMES if n != "Cx")
         notes = [*record.notes,
-                 f"Cx: {origin} at Mach {', '.join(f'{kn:g}' for kn in knots)}, speed of "
+                 (f"Cx: constant over the fitted track's Mach {speed.min() / sound:.3g}.."
+                  f"{speed.max() / sound:.3g}" if origin == "constant" else
+                  f"Cx: {origin} at Mach {', '.join(f'{kn:g}' for kn in knots)}") + ", speed of "
                  f"sound {sound:.5g} m/s, density {const.rho:.5g} kg/m^3 (the airframe's, "
                  "along the whole track)",
                  "point mass: drag along the airspeed, no lever arm, " + (
