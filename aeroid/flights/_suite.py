@@ -227,18 +227,17 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     position = cumulative_trapezoid(ned_velocity, truth.t, axis=0, initial=0.0)
     k0 = int(round(manoeuvre.window_s[0] * suite.imu_rate_hz))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
-    const, motor = constants(manoeuvre.flown(airframe)), {}
+    const, motor, extra = constants(manoeuvre.flown(airframe)), {}, {}
     if airframe.thrust_curve is not None:  # the IMU sees the thrust, over the flown mass
         motor = sample_thrust(airframe.thrust_curve, t, airframe.thrust_n,
                               manoeuvre.mass_scale)
-        const = const._replace(**motor)
+        const, extra = const._replace(**motor), {"thrust": airframe.thrust_curve.describe()}
     specific = accelerometers(states, delta, coefficients, const,
                               airframe.accel_positions).reshape(-1, 2, 3)
     imu_sampling = (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
                     f"{sampled.truth_substeps} RK4 substeps, relay {sampled.evaluation}"
                     + (f" at {sampled.control_rate_hz:g} Hz" if sampled.control_rate_hz
                        else ""))
-    extra = {} if not motor else {"thrust": airframe.thrust_curve.describe()}
     sim = log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
                          position=position[k0:], source="simulated suite log",
                          metadata={"imu_sampling": imu_sampling, **extra})
