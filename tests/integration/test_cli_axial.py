@@ -219,3 +219,13 @@ def test_a_log_into_the_burn_fits_with_the_motor_file_and_fails_without(tmp_path
     cx = float(scenario.coefficient_vector[NAMES.index("Cx")])
     assert abs(result["coefficients"]["Cx"] - cx) < 3 * result["stderr"]["Cx"]
     assert "--thrust-curve: " in out.err and "time nodes inside the burn" in out.err
+
+
+def test_the_rocket_example_refuses_axial_only_with_another_mounting(tmp_path) -> None:
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "make_rocket_log.py"),
+                          str(tmp_path / "x"), "--axial-only", "--wrong-mounting"],
+                         text=True, capture_output=True, timeout=SUBPROCESS_TIMEOUT_S,
+                         check=False)
+    assert run.returncode == 2
+    assert "--axial-only writes the rocket coast's log" in run.stderr
+    assert not (tmp_path / "x").exists()
