@@ -20,7 +20,7 @@ import numpy as np
 
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _held, _kalman, _kalman_gust, _kalman_wind
+from baselines import _common, _held, _kalman, _kalman_air, _kalman_gust, _kalman_wind
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -85,6 +85,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
 
         _kalman_wind.refuse_with(self, "several windows")
         _kalman_gust.refuse_with(self, "several windows")
+        _kalman_air.refuse_windows(self, windows)
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
