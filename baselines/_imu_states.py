@@ -74,8 +74,8 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
         Also carry a steady wind (north, east, down [m/s]) as three constant states
         (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
         passes where the last ended, with the coefficients); on noisy flights the
-        carried passes walk along the along-path component and are refused (the EKF's
-        default smoothed passes do not; measured: ``benchmarks/results/wind_filters.md``);
+        carried passes walk along the along-path component and are refused (the default
+        smoothed passes do not, nor with an airspeed: ``benchmarks/results/kalman_air.md``);
         reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
         with a one-line notice (:mod:`baselines._kalman_wind`).

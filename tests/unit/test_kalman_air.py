@@ -212,3 +212,33 @@ def test_air_data_is_used_or_refused_in_one_line(windy_noisy, clean_flight) -> N
     assert "air_data" not in auto.info  # nothing to use: the still-air filter
     ignored = aeroid.make_estimator("ekf", {"max_passes": 1}).fit(windy_noisy, rng=0)
     assert any("ignores the flight's" in w for w in ignored.warnings)
+
+
+@pytest.mark.parametrize(("given", "passes"), [(False, False), (True, True)])
+def test_a_probe_off_the_roll_axis_is_refused_unless_its_position_is_given(
+        reference_scenario, given, passes) -> None:
+    """A probe 0.1 m off the roll axis at ~51 rad/s sees ~5 m/s of rotation-induced flow
+    (0.58 deg of alpha, turning with the roll): with factors only (no offset to absorb
+    it) and the position not given, the fit check refuses the fit; given, it passes
+    (the known-wrong input and its correct twin, as output-error's test)."""
+    s = reference_scenario
+    flight = _probe(simulate(s.airframe, s.coefficient_vector, s.manoeuvre, GaussianNoise(),
+                             rng=3), (0.0, 0.0, 0.0), np.random.default_rng([3, 26]),
+                    probe=(0.0, 0.1, 0.0))
+    if not given:
+        flight = dataclasses.replace(flight, metadata={
+            k: v for k, v in flight.metadata.items() if k != "air_data_probe"})
+    result = aeroid.make_estimator("ekf", {"air_data": "measured",
+                                           "air_data_calibration": "factor"}).fit(flight, rng=3)
+    assert result.success is passes, result.message
+    if not passes:
+        assert "does not fit" in result.message and result.info["fit_check"]["worst"] in (
+            "alpha", "beta", "airspeed")
+
+
+def test_still_air_states_with_a_windy_probe_are_refused(windy_noisy) -> None:
+    """The known-wrong model: no wind states on the 5 m/s windy flight with the probe's
+    air data as outputs: the air data's residuals fail the fit check."""
+    result = aeroid.make_estimator("ekf", {"air_data": "measured", "max_passes": 1}).fit(
+        windy_noisy, rng=1)
+    assert not result.success and "does not fit" in result.message
