@@ -27,7 +27,12 @@ alone, filter-error's study). Fits (``--fits``, default all):
   without the steady wind's states (the gusts carry the steady wind too) on the
   turbulent flight, the intensity given or estimated;
 * ``fe``: the filter-error method (defaults) on the same turbulent flight, so the EKF's
-  gust states and filter-error are compared on the SAME flights (issue 26's "within 1.5x").
+  gust states and filter-error are compared on the SAME flights (issue 26's "within 1.5x");
+* ``ekf-gustonly-air``, ``ekf-gust-air``, ``ukf-gustonly-air``: the gust fits with
+  ``air_data = measured`` on the same turbulent flight with a probe's readings (alpha,
+  beta, airspeed from the simulator's true states and wind per sample, gusts included,
+  at the c.g.; ``bench_air_data_outputs.py``'s miscalibration and noise: factor +2 %,
+  offsets +2 / -1 mrad, 0.1 deg, 0.5 m/s; probe noise ``rng = [k, 26]``).
 
 Reported per fit: successes (after the fit check and the passes' verdict), the mean over
 seeds of the mean |relative error| of the nine coefficients [%], its ratio to
@@ -50,14 +55,25 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import datetime as dt  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 import aeroid  # noqa: E402
-from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
-from aeroid.model import NAMES  # noqa: E402
+from aeroid.flights import (  # noqa: E402
+    Wind,
+    make_noise,
+    record_flight,
+    reference_scenario,
+    simulate,
+    simulate_truth,
+)
+from aeroid.model import NAMES, as_state, constants, equations  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from bench_air_data_outputs import AIRSPEED_SD, CALIBRATION, VANE_SD  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "gust_filters.md"
 WITHIN_SE = 3.0
@@ -78,7 +94,38 @@ def fits(sd: float) -> dict[str, tuple[str, str, dict]]:
         "ekf-gustonly-est": ("ekf", "turbulent", {"estimate_gust_sd": True}),
         "ukf-gustonly-est": ("ukf", "turbulent", {"estimate_gust_sd": True}),
         "fe": ("filter-error", "turbulent", {}),
+        "ekf-gustonly-air": ("ekf", "turbulent-probe", {"estimate_gust_sd": True,
+                                                        "air_data": "measured"}),
+        "ekf-gust-air": ("ekf", "turbulent-probe", {"estimate_wind": True,
+                                                    "estimate_gust_sd": True,
+                                                    "air_data": "measured"}),
+        "ukf-gustonly-air": ("ukf", "turbulent-probe", {"estimate_gust_sd": True,
+                                                        "air_data": "measured"}),
     }
+
+
+def turbulent_flights(s, manoeuvre, noise, seed: int) -> tuple:
+    """``simulate(..., rng=seed)``'s flight (its own steps: the gusts, then the sensor
+    noise from one generator) and the same flight with a probe's alpha, beta, airspeed
+    in the true wind per sample (miscalibrated, noisy: ``rng = [seed, 26]``)."""
+    generator = np.random.default_rng(seed)
+    truth = simulate_truth(s.airframe, s.coefficient_vector, manoeuvre, rng=generator)
+    flight = record_flight(s.airframe, s.coefficient_vector, manoeuvre, truth, noise,
+                           rng=generator)
+    k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
+    wind = truth.wind[k0:]
+    const = constants(s.airframe)._replace(wind_n=wind[:, 0], wind_e=wind[:, 1],
+                                           wind_d=wind[:, 2])
+    speed, alpha, beta = equations.air_data(*equations.air_velocity(
+        as_state(flight.states()), const))
+    gen, n, c = np.random.default_rng([seed, 26]), flight.n_samples, CALIBRATION
+    probe = dataclasses.replace(flight, data=flight.data.assign(
+        alpha=(1 + c["alpha_factor"]) * alpha + c["alpha_offset_rad"]
+        + VANE_SD * gen.standard_normal(n),
+        beta=(1 + c["beta_factor"]) * beta + c["beta_offset_rad"]
+        + VANE_SD * gen.standard_normal(n),
+        airspeed=speed + AIRSPEED_SD * gen.standard_normal(n)))
+    return flight, probe
 
 
 def _estimator(method: str, options: dict):
@@ -103,8 +150,9 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
     table = fits(sd)
     lines = []
     for seed in range(1, seeds + 1):
-        flights = {"still": simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed),
-                   "turbulent": simulate(s.airframe, truth, turbulent, noise, rng=seed)}
+        flights = {"still": simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed)}
+        flights["turbulent"], flights["turbulent-probe"] = turbulent_flights(
+            s, turbulent, noise, seed)
         for name in chosen:
             for hold, factor in held:
                 method, air, options = table[name]
