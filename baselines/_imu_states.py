@@ -303,7 +303,8 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
                 flight.dt, self.name)
             if search is not None:
                 found["gust_sd_trials"] = search.trials
-            both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind else ()
+            both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind and (
+                air is None or "airspeed" not in air.channels) else ()  # it pins the walk
             result = dataclasses.replace(result, info={**result.info, **found},
                                          warnings=(*result.warnings, notice, *both))
             if result.success and found["gust_verdict_refusal"]:
