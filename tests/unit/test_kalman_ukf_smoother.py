@@ -86,7 +86,7 @@ def test_the_regression_of_a_quadratic_is_its_closed_form() -> None:
 @pytest.mark.parametrize("seed", [1, 4])
 def test_smoothed_ukf_passes_settle_where_the_carried_ones_walk(reference_scenario,
                                                                  seed) -> None:
-    """Seeds whose carried UKF passes walked the along-path wind to 32 and 25 m/s
+    """Seeds whose carried UKF passes walked the along-path wind 32 and 25 m/s off
     (``benchmarks/results/kalman_air.md``, refused by the verdict): the smoothed passes
     settle with every coefficient and wind component within 3 se."""
     s = reference_scenario
