@@ -287,11 +287,12 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
             return result
         last = good[-1]  # the pass the result is (run_passes keeps the last good one)
         if air is not None:
-            found, notice = _kalman_air.air_report(last, air, air_var[0], self.name)
+            steady = wind_first if self.estimate_wind and not self.gusts else None
+            found, said = _kalman_air.air_report(last, air, air_var[0], self.name, flight, steady)
             result = dataclasses.replace(result, info={**result.info, "air_data": found[
                 "air_data"], "fit_residuals": {**result.info.get("fit_residuals", {}),
                                                **found["air_innovations"]}},
-                                         warnings=(*result.warnings, notice))
+                                         warnings=(*result.warnings, *said))
         if self.estimate_wind:
             found, notice = _kalman_wind.wind_report(last, wind_first)
             result = dataclasses.replace(result, info={**result.info, **found},

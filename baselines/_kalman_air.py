@@ -315,11 +315,16 @@ def refit_variances(out: _kalman.FilterOutput, plan: AirPlan) -> np.ndarray:
     return np.where(np.isfinite(var), np.maximum(var, plan.floor), plan.var)
 
 
-def air_report(out: _kalman.FilterOutput, plan: AirPlan, var: np.ndarray, who: str
-               ) -> tuple[dict[str, Any], str]:
+def air_report(out: _kalman.FilterOutput, plan: AirPlan, var: np.ndarray, who: str,
+               flight: Flight, wind_first: int | None) -> tuple[dict[str, Any], tuple[str, ...]]:
     """``info`` entries (``fit_residuals`` of the air channels over the second half, as
-    the IMU's; ``air_data``: channels, calibration with its sd, noise sd, probe) and the
-    fit's one-line notice."""
+    the IMU's; ``air_data``: channels, calibration with its sd, noise sd, probe, and
+    ``air_data_verdict``) and the fit's one-line notices: what was used, and still air,
+    a steady wind or turbulence (:mod:`aeroid.estimation._air_verdict`). With the
+    steady wind's states at ``wind_first`` (no gust states), as output-error's: what the
+    filtered wind and calibration leave of the air data (the second half's innovations,
+    in m/s), so a miscalibrated vane turning with the roll is not called turbulence;
+    otherwise the log alone (with gust states the filtered gust path is the figure)."""
     k, n_cal = len(plan.channels), len(plan.calibration)
     half = out.innovation.shape[0] // 2
     residuals = {c: out.innovation[half:, -k + j] for j, c in enumerate(plan.channels)}
@@ -333,9 +338,22 @@ def air_report(out: _kalman.FilterOutput, plan: AirPlan, var: np.ndarray, who: s
             "probe_position_m": plan.probe.tolist(), "probe": plan.probe_where}
     shown = ", ".join(f"{c} {noise[c]:.3g} {UNITS[c]}" for c in plan.channels)
     calib = "; ".join(f"{c} {v:+.4g} +- {cal_sd[c]:.2g}" for c, v in cal.items()) or "none"
+    if wind_first is None:
+        verdict = estimation.air_data_verdict(flight, who)
+    else:
+        speed = float(np.mean(flight["airspeed"] if "airspeed" in plan.channels else
+                              np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w")))))
+        rest = np.column_stack([r * (1.0 if c == "airspeed" else speed)
+                                for c, r in residuals.items()])
+        w = slice(wind_first, wind_first + 3)
+        verdict = estimation.verdict_of(flight, who, rest, x[w], sd[w], source=(
+            " after the filtered steady wind and calibration"))
+    if verdict is not None:
+        info["air_data_verdict"] = verdict.as_info()
     return {"air_innovations": residuals, "air_data": info}, (
         f"{who}: air data as measured outputs ({', '.join(plan.channels)}; "
-        f"{plan.probe_where}); noise sd {shown} ({info['noise']}); calibration {calib}")
+        f"{plan.probe_where}); noise sd {shown} ({info['noise']}); calibration {calib}",
+        *(() if verdict is None else (verdict.line,)))
 
 
 def refuse_windows(est: Any, windows: Any) -> None:

@@ -150,6 +150,11 @@ def test_the_ekf_with_air_data_recovers_the_wind_and_the_coefficients(
     assert {"alpha", "beta", "airspeed"} <= set(result.info["fit_check"]["ratio"])
     assert any(w.startswith("ekf: air data as measured outputs (alpha, beta, airspeed") for w
                in result.warnings)
+    said = air["air_data_verdict"]  # the log's air against the inertial angles
+    assert said["kind"] == "steady wind"
+    assert np.all(np.abs(np.array(said["steady_ned_mps"]) - WIND) < 0.2)  # probe 2 % off
+    assert any(w.startswith("ekf: the air data (alpha, beta, airspeed) against the inertial")
+               for w in result.warnings)
 
 
 @pytest.mark.parametrize("method", ["ekf", "ukf"])
@@ -255,3 +260,22 @@ def test_the_walk_warning_of_wind_with_gusts_is_not_said_with_an_airspeed(windy_
     assert any(w.startswith("ekf: air data as measured outputs") for w in with_air.warnings)
     without = aeroid.make_estimator("ekf", options).fit(windy_noisy, rng=1)
     assert _kalman_gust.BOTH_WARNING in without.warnings
+
+
+def test_turbulence_is_named_after_the_filtered_steady_wind(reference_scenario) -> None:
+    """Dryden sd 3 m/s plus the 5 m/s wind, the simulator's logged angles with 0.1 deg of
+    vane noise: the steady-wind filter (no gust states) with the angles as outputs says
+    turbulence (the gusts are what its steady wind leaves), and the fit check refuses
+    that model (one pass: with two the passes' verdict refuses it first, Clp moved 17 se);
+    the steady flight above is "steady wind"."""
+    s = reference_scenario
+    man = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=WIND, turbulence_sd_mps=3.0))
+    flight = simulate(s.airframe, s.coefficient_vector, man, GaussianNoise(), rng=2)
+    gen = np.random.default_rng([2, 26])
+    flight = dataclasses.replace(flight, data=flight.data.assign(
+        alpha=flight["alpha"] + VANE_SD * gen.standard_normal(flight.n_samples),
+        beta=flight["beta"] + VANE_SD * gen.standard_normal(flight.n_samples)))
+    result = aeroid.make_estimator("ekf", {"estimate_wind": True, "air_data": "measured",
+                                           "max_passes": 1}).fit(flight, rng=2)
+    assert result.info["air_data"]["air_data_verdict"]["kind"] == "turbulence"
+    assert not result.success and "does not fit" in result.message, result.message
