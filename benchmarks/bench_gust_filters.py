@@ -81,16 +81,18 @@ Z95 = 1.959964
 STEADY = (3.0, 4.0, 0.0)
 
 
-def fits(sd: float) -> dict[str, tuple[str, str, dict]]:
-    """name -> (method, flight, options)."""
+def fits(sd: float, given_sd: float | None = None) -> dict[str, tuple[str, str, dict]]:
+    """name -> (method, flight, options); ``given_sd``: the intensity the ``-given`` fits
+    are told (default the true ``sd``)."""
+    given = sd if given_sd is None else given_sd
     return {
         "ekf-still": ("ekf", "still", {}),
         "oe-wind": ("output-error", "turbulent", {"estimate_wind": True}),
         "ekf-wind": ("ekf", "turbulent", {"estimate_wind": True}),
-        "ekf-gust-given": ("ekf", "turbulent", {"estimate_wind": True, "gust_sd_mps": sd}),
+        "ekf-gust-given": ("ekf", "turbulent", {"estimate_wind": True, "gust_sd_mps": given}),
         "ekf-gust-est": ("ekf", "turbulent", {"estimate_wind": True, "estimate_gust_sd": True}),
         "ekf-gust-still": ("ekf", "still", {"estimate_gust_sd": True}),
-        "ekf-gustonly-given": ("ekf", "turbulent", {"gust_sd_mps": sd}),
+        "ekf-gustonly-given": ("ekf", "turbulent", {"gust_sd_mps": given}),
         "ekf-gustonly-est": ("ekf", "turbulent", {"estimate_gust_sd": True}),
         "ukf-gustonly-est": ("ukf", "turbulent", {"estimate_gust_sd": True}),
         "fe": ("filter-error", "turbulent", {}),
@@ -136,7 +138,8 @@ def _estimator(method: str, options: dict):
 
 
 def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] = (),
-        steady: tuple[float, float, float] = STEADY) -> tuple[dict, list[str]]:
+        steady: tuple[float, float, float] = STEADY, given_sd: float | None = None
+        ) -> tuple[dict, list[str]]:
     """Fit every chosen kind on every seed (and with each of ``holds``, ``NAME=FACTOR``:
     that coefficient held at FACTOR x its truth); return per-kind rows and the lines."""
     s = reference_scenario()
@@ -147,7 +150,7 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
     held = [(None, None)] + [(h.split("=")[0], float(h.split("=")[1])) for h in holds]
     kinds = {(name if h is None else f"{name} {h} {f:g}x"): [] for name in chosen
              for h, f in held}
-    table = fits(sd)
+    table = fits(sd, given_sd)
     lines = []
     for seed in range(1, seeds + 1):
         flights = {"still": simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed)}
@@ -217,12 +220,14 @@ def main() -> None:
                         help="NAME=FACTOR: also fit with NAME held at FACTOR x its truth")
     parser.add_argument("--steady", type=float, nargs=3, default=list(STEADY),
                         metavar=("N", "E", "D"), help="the steady wind [m/s] (0 0 0: none)")
+    parser.add_argument("--given-sd", type=float, default=None,
+                        help="the intensity the -given fits are told (default: the true one)")
     parser.add_argument("--no-write", action="store_true")
     parser.add_argument("--write-to", default=None,
                         help="file name under benchmarks/results (default gust_filters.md)")
     args = parser.parse_args()
     kinds, lines = run(args.seeds, args.turbulence, tuple(args.fits), tuple(args.holds),
-                       tuple(args.steady))
+                       tuple(args.steady), args.given_sd)
     text = summary(kinds)
     print(text)
     if not args.no_write:
