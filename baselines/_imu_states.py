@@ -26,7 +26,15 @@ from aeroid.flights import (
     used_samples,
 )
 from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS, U, V, W
-from baselines import _common, _kalman, _kalman_aiding, _kalman_gust, _kalman_verdict, _kalman_wind
+from baselines import (
+    _common,
+    _kalman,
+    _kalman_aiding,
+    _kalman_air,
+    _kalman_gust,
+    _kalman_verdict,
+    _kalman_wind,
+)
 from baselines._oe_aiding import (
     AIDING,
     RESIDUAL_NAMES,
@@ -40,7 +48,7 @@ PassRunner = Callable[[_kalman.DiscreteModel, _common.FilterSetup], _kalman.Filt
 
 
 @dataclass(frozen=True, kw_only=True)
-class ImuFilterOptions(_common.AugmentedFilterOptions):
+class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOptions):
     """The augmented filters' options with the IMU's errors as states (not registered).
 
     Attributes
@@ -66,8 +74,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         Also carry a steady wind (north, east, down [m/s]) as three constant states
         (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
         passes where the last ended, with the coefficients); on noisy flights the
-        carried passes walk along the along-path component and are refused (the EKF's
-        default smoothed passes do not; measured: ``benchmarks/results/wind_filters.md``);
+        carried passes walk along the along-path component and are refused (the default
+        smoothed passes do not, nor with an airspeed: ``benchmarks/results/kalman_air.md``);
         reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
         with a one-line notice (:mod:`baselines._kalman_wind`).
@@ -87,6 +95,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
     Every fit with more than one pass is judged on its last pass
     (:mod:`baselines._kalman_verdict`): a coefficient or steady-wind state that it moved
     by more than ``SETTLE_LIMIT_SE`` of its standard error makes ``success=False``.
+    The air-data options (``air_data``, ...): :class:`baselines._kalman_air.AirFilterOptions`.
     """
 
     leaves_out_saturated: ClassVar[bool] = True  # FilterSetup.mask
@@ -104,6 +113,7 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        self.check_air_options()
         if self.imu_errors not in IMU_ERROR_KINDS:
             raise ValueError(f"imu_errors must be one of {', '.join(IMU_ERROR_KINDS)}, got "
                              f"{self.imu_errors!r}")
@@ -211,6 +221,12 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         if samples is not None:
             mask = _kalman_aiding.aided_mask(mask, flight.n_samples, len(OUTPUT_CHANNELS),
                                              samples)
+        air = _kalman_air.air_plan(self, flight)  # air data as measurements (or None)
+        air_var, air_models = [None if air is None else air.var], {}
+        if air is not None and mask is not None:
+            mask = np.hstack([mask, np.ones((flight.n_samples, len(air.channels)), bool)])
+        wind_columns = (() if not self.estimate_wind else (wind_first,)) + (
+            (gust_first,) if self.gusts else ())
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup,
                      trial: bool = False) -> _kalman.FilterOutput:
@@ -225,6 +241,13 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
                 model = wind[0]
                 if self.estimate_wind and passes and passes[-1].failed_at is None:
                     setup = _kalman_wind.carried(setup, passes[-1], wind_first)  # as theta
+            if air is not None:  # the calibration states after the wind's and the gusts'
+                if id(model) not in air_models:
+                    air_models[id(model)] = (model, _kalman_air.air_model(
+                        model, flight, air, self.input, self.delay_s, wind_columns))
+                model = air_models[id(model)][1]
+                setup = _kalman_air.air_setup(setup, air, air_var[0], passes[-1] if (
+                    passes and passes[-1].failed_at is None) else None)
             if names:
                 model = _kalman.with_sensor_errors(model, len(names))
             if samples is not None:
@@ -236,6 +259,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
                 out = masked_output(run_filter(with_mask(model, setup.zs, mask), setup), mask)
             if not trial:
                 passes.append(out)
+                if air is not None and out.failed_at is None and len(passes) <= _common.LAW_REFITS:
+                    air_var[0] = _kalman_air.refit_variances(out, air)  # as the IMU's law
             return out
 
         search, runner = None, self
@@ -261,6 +286,13 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
         if not good or not np.all(np.isfinite(result.theta)):
             return result
         last = good[-1]  # the pass the result is (run_passes keeps the last good one)
+        if air is not None:
+            steady = wind_first if self.estimate_wind and not self.gusts else None
+            found, said = _kalman_air.air_report(last, air, air_var[0], self.name, flight, steady)
+            result = dataclasses.replace(result, info={**result.info, "air_data": found[
+                "air_data"], "fit_residuals": {**result.info.get("fit_residuals", {}),
+                                               **found["air_innovations"]}},
+                                         warnings=(*result.warnings, *said))
         if self.estimate_wind:
             found, notice = _kalman_wind.wind_report(last, wind_first)
             result = dataclasses.replace(result, info={**result.info, **found},
@@ -272,7 +304,8 @@ class ImuFilterOptions(_common.AugmentedFilterOptions):
                 flight.dt, self.name)
             if search is not None:
                 found["gust_sd_trials"] = search.trials
-            both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind else ()
+            both = (_kalman_gust.BOTH_WARNING,) if self.estimate_wind and (
+                air is None or "airspeed" not in air.channels) else ()  # it pins the walk
             result = dataclasses.replace(result, info={**result.info, **found},
                                          warnings=(*result.warnings, notice, *both))
             if result.success and found["gust_verdict_refusal"]:

@@ -30,9 +30,12 @@ from baselines import _kalman
 @dataclasses.dataclass(frozen=True)
 class SmoothedOutput(_kalman.FilterOutput):
     """A forward pass (:class:`baselines._kalman.FilterOutput`) with its RTS-smoothed
-    trajectory ``smoothed``, shape (n, dim_x) (None after a failure)."""
+    trajectory ``smoothed``, shape (n, dim_x) (None after a failure), and for the UKF's
+    smoother (:mod:`baselines._kalman_ukf_smoother`) its covariances ``smoothed_cov``,
+    shape (n, dim_x, dim_x)."""
 
     smoothed: np.ndarray | None = None
+    smoothed_cov: np.ndarray | None = None
 
 
 def run_eks(model: _kalman.DiscreteModel, x0: np.ndarray, P0: np.ndarray, Q: np.ndarray,

@@ -147,7 +147,8 @@ def wind_report(out: _kalman.FilterOutput, first: int) -> tuple[dict[str, Any], 
     return info, (f"estimate_wind: a steady wind was carried as three constant states "
                   f"(the loads see the air-relative velocity): {shown} m/s; the along-path "
                   "component trades with every coefficient (the dynamic pressure): carried "
-                  "passes (the UKF's) walk along it on noisy flights and are refused when "
-                  "they do not settle; the EKF's smoothed passes were measured at "
-                  "output-error's accuracy (benchmarks/results/wind_filters.md)")
+                  "passes walk along it on noisy flights and are refused when they do not "
+                  "settle; the smoothed passes (both filters' default with the wind) were "
+                  "measured at output-error's accuracy, and an airspeed channel (air_data) "
+                  "pins it (benchmarks/results/wind_filters.md, kalman_air.md)")
 

@@ -23,7 +23,15 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _held, _kalman, _kalman_gust, _kalman_smoother, _kalman_wind
+from baselines import (
+    _common,
+    _held,
+    _kalman,
+    _kalman_air,
+    _kalman_gust,
+    _kalman_smoother,
+    _kalman_wind,
+)
 from baselines._imu_states import ImuFilterOptions
 
 
@@ -123,6 +131,7 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
 
         _kalman_wind.refuse_with(self, "several windows")
         _kalman_gust.refuse_with(self, "several windows")
+        _kalman_air.refuse_windows(self, windows)
         if self.passes == "smoothed":
             raise EstimatorError(f"{self.name}: passes = {self.passes} with several windows "
                                  "is not available; set passes = carried")

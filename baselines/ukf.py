@@ -13,15 +13,18 @@ filterpy's loops (see :mod:`baselines._kalman`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _held, _kalman, _kalman_gust, _kalman_wind
+from baselines import _common, _held, _kalman, _kalman_air, _kalman_gust, _kalman_wind
 from baselines._imu_states import ImuFilterOptions
+from baselines._kalman_ukf_smoother import run_ipls
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -42,6 +45,16 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         Prior knowledge of the distribution (default 2, optimal for a Gaussian).
     kappa : float
         Secondary scaling of the sigma points (default 0).
+    passes : {"auto", "carried", "smoothed"}
+        ``"carried"``: each pass starts where the last ended (the constant states with
+        ``PASS_INFLATION`` times their sd), its sigma points around its own running
+        estimate. ``"smoothed"``: each pass after the first starts from the original
+        prior with the transition and measurement replaced by their statistical linear
+        regressions on the previous pass's RTS-smoothed posterior (the iterated
+        posterior linearisation smoother, the EKF's smoothed passes' counterpart:
+        :mod:`baselines._kalman_ukf_smoother`). ``"auto"`` (default): ``smoothed`` with
+        ``estimate_wind`` and no gust states (said in a one-line notice), else
+        ``carried`` (still air: unchanged).
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
@@ -53,29 +66,58 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
     alpha: float = 0.5
     beta: float = 2.0
     kappa: float = 0.0
+    passes: Literal["auto", "carried", "smoothed"] = "auto"
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if not 0 < self.alpha <= 1:
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
+        if self.passes not in ("auto", "carried", "smoothed"):
+            raise ValueError(f"passes must be auto, carried or smoothed, got {self.passes!r}")
+
+    def passes_used(self) -> str:
+        """``passes`` with ``auto`` resolved: smoothed with a steady wind, no gusts."""
+        if self.passes != "auto":
+            return self.passes
+        return "smoothed" if self.estimate_wind and not self.gusts else "carried"
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
         ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
+        if self.passes_used() == "smoothed" and self.estimate_gust_sd:  # trials share no pass
+            raise EstimatorError(f"{self.name}: passes = smoothed with estimate_gust_sd is not "
+                                 "available; give gust_sd_mps or set passes = carried")
+        smoothed: list[Any] = []  # "smoothed": the first pass's prior, the last posterior
 
         def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                         ) -> _kalman.FilterOutput:
-            return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
-                                   alpha=self.alpha, beta=self.beta, kappa=self.kappa,
-                                   R_of=setup.R_of)
+            if self.passes_used() == "carried":
+                return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,
+                                       alpha=self.alpha, beta=self.beta, kappa=self.kappa,
+                                       R_of=setup.R_of)
+            if not smoothed:
+                smoothed[:] = [setup.x0, setup.P0, None]
+            x0, P0, nominal = smoothed
+            out = run_ipls(model, x0, P0, setup.Q, setup.R, setup.zs, nominal,
+                           R_of=setup.R_of, alpha=self.alpha, beta=self.beta, kappa=self.kappa)
+            if out.smoothed is not None:
+                smoothed[2] = (out.smoothed, out.smoothed_cov)
+            return out
 
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             return _held.held_pass(model, setup, holds, filter_pass)
 
-        return self.run_imu_passes(
+        result = self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)
+        if self.passes == "auto" and self.passes_used() == "smoothed":
+            notice = ("ukf: passes = smoothed (auto, with estimate_wind): each pass after the "
+                      "first starts from the original prior, its sigma-point regressions on "
+                      "the last one's smoothed posterior (the carried passes walk along the "
+                      "wind)")
+            result = dataclasses.replace(result, warnings=(*result.warnings, notice))
+        return result
 
     def run_windows(self, windows: Windows, rng: np.random.Generator, holds: Any = None
                     ) -> EstimationResult:
@@ -85,6 +127,10 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
 
         _kalman_wind.refuse_with(self, "several windows")
         _kalman_gust.refuse_with(self, "several windows")
+        _kalman_air.refuse_windows(self, windows)
+        if self.passes == "smoothed":
+            raise EstimatorError(f"{self.name}: passes = {self.passes} with several windows "
+                                 "is not available; set passes = carried")
         def one_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
                      ) -> _kalman.FilterOutput:
             return _kalman.run_ukf(model, setup.x0, setup.P0, setup.Q, setup.R, setup.zs,

@@ -111,7 +111,9 @@ def test_still_air_wind_is_zero_within_its_standard_errors(clean_flight,
     and wind component within 3 se on 6/6 still-air and 6/6 windy seeds; the UKF's carried
     passes on 1/6 each, and the passes' verdict refuses 11/12 of them
     (``benchmarks/results/wind_filters.md``; seeds 1 and 5 are asserted in
-    ``tests/unit/test_kalman_smoother.py``)."""
+    ``tests/unit/test_kalman_smoother.py``); the UKF's smoothed passes, its default with
+    the wind now, on 8/8 each (``benchmarks/results/kalman_air.md``; seeds 1 and 4 in
+    ``tests/unit/test_kalman_ukf_smoother.py``)."""
     result = aeroid.make_estimator("ekf", {"estimate_wind": True}).fit(clean_flight, rng=0)
     assert result.success, result.message  # a correct fit accepted
     wind, sd = np.array(result.info["wind_ned_mps"]), np.array(result.info["wind_stderr_mps"])
