@@ -120,3 +120,28 @@ def test_windows_with_a_logged_temperature_are_refused(warm_flights):
     windows = aeroid.flights.cut_windows(logged, [(0.5, 1.4), (1.6, 2.5)])
     with pytest.raises(aeroid.EstimatorError, match="air_temperature channel"):
         aeroid.make_estimator("equation-error").fit(windows)
+
+
+def test_a_temperature_profile_in_time_is_flown_and_fitted_per_sample():
+    # the air cools by 40 K over the 1 s window (the speed of sound by 7 %): the
+    # simulator's stage-wise temperature and output-error's, interpolated between samples,
+    # are one linear function of time, so the noise-free fit is exact
+    data = read_toml(MACH_SWEEP)
+    data["coefficients"].update({n: [list(r) for r in rows] for n, rows in TRUE_ROWS.items()})
+    data["recording"].update(window_s=[0.5, 1.5], truth_rk4_substeps=4)
+    data["air"] = {"temperature_K": [[0.0, 310.0], [1.5, 250.0]], "log_temperature": True}
+    scenario = scenario_from_dict(data, source="cooling")
+    flight = aeroid.flights.simulate_scenario(scenario, NoNoise(), rng=0)
+    np.testing.assert_allclose(flight["air_temperature"], 310.0 - 40.0 * flight.t, rtol=1e-12)
+    knots = (1.9, 2.4)
+    flight = dataclasses.replace(flight, airframe=flight.airframe.replace(
+        tables=TableSpec((("Cx", knots), ("Cmq", knots)))))
+    mach = aeroid.flights.flight_mach_tables(flight).mach(flight.states(),
+                                                          flight["air_temperature"])
+    isa = aeroid.model.tables.mach_number(*flight.states()[:, :3].T, 320.5293)
+    assert np.ptp(mach / isa) > 0.07  # sqrt(290 / 250) - 1 = 0.077 over the record
+    result = aeroid.make_estimator("output-error", {"substeps": 4}).fit(flight, rng=0)
+    assert result.success, result.message
+    for name, value in _points(result).items():
+        coefficient, knot = name.split("@M")
+        assert value == pytest.approx(_true(coefficient, float(knot)), rel=OE_TOL), name
