@@ -102,7 +102,8 @@ def _latched_tables(airframe: Airframe, parameters: np.ndarray, tables: MachTabl
     output-error graph integrates (benchmarks/bench_tables.py measures its cost).
     """
     const = constants(airframe)
-    tables, temperature = flown_tables(tables, manoeuvre.air, airframe.altitude_m)
+    flown, temperature = flown_tables(tables, manoeuvre.air, airframe.altitude_m)
+    assert flown is not None  # tables given
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     dt = manoeuvre.dt
     h = dt / manoeuvre.truth_substeps
@@ -113,7 +114,7 @@ def _latched_tables(airframe: Airframe, parameters: np.ndarray, tables: MachTabl
     x = np.array(manoeuvre.initial_state)
 
     def rhs(_t: float, y: np.ndarray, d: float) -> np.ndarray:  # at each stage's temperature
-        return state_derivative(y, d, tables.coefficient_array(parameters, y, temperature(_t)),
+        return state_derivative(y, d, flown.coefficient_array(parameters, y, temperature(_t)),
                                 const)
 
     varying = law.time_varying
