@@ -27,7 +27,7 @@ import numpy as np
 import aeroid
 from aeroid import estimation as rc
 from aeroid.errors import EstimatorError
-from aeroid.flights import Flight
+from aeroid.flights import Flight, air_temperature, flight_mach_tables, speed_of_sound_note
 from aeroid.model import NAMES, MachTables
 from aeroid.model import tables as mach_tables
 from baselines._ee_least_squares import (
@@ -74,8 +74,8 @@ def flight_tables(flight: Flight) -> MachTables | None:
     if flight.airframe.tables is None:
         return None
     states = flight.states()
-    tables = flight.airframe.mach_tables(states)
-    mach = tables.mach(states)
+    tables = flight_mach_tables(flight, states)  # Mach per sample from an air_temperature
+    mach = tables.mach(states, air_temperature(flight))
     empty = [mach_tables.point_name(name, k) for name, knots in tables.knots
              for k, weight in zip(knots, mach_tables.basis(knots, mach).max(axis=0),
                                   strict=True) if weight == 0.0]
@@ -132,6 +132,7 @@ def record_tables(info: dict[str, Any], model: Any, flight: Flight, holds: Any =
     rest = tuple(info["parameter_names"])[len(NAMES):]
     info["parameter_names"] = (*model.tables.parameter_names(), *rest)
     info["tables"] = model.tables.to_table()
+    info["speed_of_sound"] = speed_of_sound_note(flight, model.tables)
     n = model.tables.n_parameters
     stderr = np.asarray(info["parameter_stderr"][:n], dtype=float)
     extra, low = floor_entries(model.tables.parameter_names(), stderr,
@@ -143,7 +144,7 @@ def record_tables(info: dict[str, Any], model: Any, flight: Flight, holds: Any =
 
 def mach_notes(flight: Flight, tables: MachTables) -> tuple[str, ...]:
     """One line per table whose knots the flight's Mach range leaves: what was done."""
-    mach = tables.mach(flight.states())
+    mach = tables.mach(flight.states(), air_temperature(flight))
     lo, hi = float(np.min(mach)), float(np.max(mach))
     notes = []
     for name, knots in tables.knots:
@@ -276,7 +277,7 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
            theta_only: bool = False, holds: Any = None) -> aeroid.EstimationResult:
     rec = rc.reconstruct(flight)
     y = rc.regression_target(rec, smoothing=est.smoothing)
-    mach = tables.mach(flight.states())
+    mach = tables.mach(flight.states(), air_temperature(flight))
     alpha = tables.alpha_total(flight.states()) if tables.angle_knots else None
     X = np.concatenate([expand_regressors(part, tables, mach[start:stop],
                                           None if alpha is None else alpha[start:stop])
@@ -290,6 +291,7 @@ def _solve(est: Any, flight: Flight, tables: MachTables, covariance: str, *,
                             "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth,
                             "correlation": corr, "tables": tables.to_table(),
                             "speed_of_sound_mps": tables.speed_of_sound_mps,
+                            "speed_of_sound": speed_of_sound_note(flight, tables),
                             "mach_range": (float(mach.min()), float(mach.max()))}
     low: tuple[str, ...] = ()
     if not theta_only:

@@ -38,7 +38,16 @@ from aeroid.estimation._windows import (
     pooled_noise_levels,
     windows_info,
 )
-from aeroid.flights import Flight, InputChoice, Windows, check_input
+from aeroid.flights import (
+    AIR_TEMPERATURE,
+    Flight,
+    InputChoice,
+    Windows,
+    check_input,
+    flight_mach_tables,
+    speed_of_sound_note,
+    unused_note,
+)
 from aeroid.model import NAMES, Airframe
 
 __all__ = ["Estimator", "prior_bounds"]
@@ -172,6 +181,11 @@ class Estimator(abc.ABC):
                 "tables (in Mach or the angle of attack); this method "
                 "fits constant coefficients (output-error and equation-error fit tables); "
                 "remove [tables] to fit constants")
+        if windows is not None and tables is not None and any(
+                AIR_TEMPERATURE in p.channels for p in parts.values()):
+            raise EstimatorError(f"{owner}: several windows with [tables] and an "
+                                 f"{AIR_TEMPERATURE} channel: Mach from a logged temperature "
+                                 "is fitted on one flight (fit a window alone, or drop it)")
         given = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
         if windows is not None:
             check_windows(self, windows, given, tables is not None)
@@ -198,9 +212,12 @@ class Estimator(abc.ABC):
                                  f"priors ({given.describe()}); fit all nine free")
         spec: CoefficientSpec | TableHolds = given  # with tables: their constants and points
         if tables is not None and not given.empty:
-            spec = table_holds(given, flight.airframe.mach_tables(flight.states()))
+            spec = table_holds(given, flight_mach_tables(flight))
         if not spec.empty:
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
+        if tables is not None and windows is None:  # which speed of sound Mach used
+            logging.getLogger("aeroid").info(
+                f"{owner}: {speed_of_sound_note(flight, flight_mach_tables(flight))}")
         known = spec.covers() if isinstance(spec, TableHolds) else {**spec.held, **spec.priors}
         findings = common_findings([record_findings(p) for p in parts.values()])
         for finding in findings:  # what the record cannot determine, said first
@@ -276,6 +293,9 @@ class Estimator(abc.ABC):
         for part in parts.values():
             ignored = None if self.uses_air_data else ignored_air_data_warning(part, owner)
             extra += (ignored,) if ignored and ignored not in extra else ()
+            unused = unused_note(part)  # a logged air temperature without [tables]
+            extra += (f"{owner}: {unused}",) if unused and f"{owner}: {unused}" not in extra \
+                else ()
         if extra:
             result = dataclasses.replace(result, warnings=tuple(result.warnings) + extra)
         return add_consider(self, flight, result, rng=generator)  # uncertain mass, if any

@@ -10,6 +10,13 @@ from aeroid.flights._agreement import (
     check_input,
     input_agreement,
 )
+from aeroid.flights._air_temperature import (
+    AIR_TEMPERATURE,
+    air_temperature,
+    flight_mach_tables,
+    speed_of_sound_note,
+    unused_note,
+)
 from aeroid.flights._channels import (
     AIR_DATA_CHANNELS,
     ANGLE_CHANNELS,
@@ -122,4 +129,6 @@ __all__ = [
     "MIL_SCALE_LENGTH_M", "WIND_KEYS", "Wind", "dryden_autocorrelation", "path_axes",
     "shaping_filters",
     "sample_thrust", "with_thrust_curve",
+    "AIR_TEMPERATURE", "air_temperature", "flight_mach_tables", "speed_of_sound_note",
+    "unused_note",
 ]

@@ -22,7 +22,7 @@ REQUIRED_CHANNELS: tuple[str, ...] = (
 #: The model interpolates them linearly in time between samples; every estimator, the EBM
 #: reconstruction and the Cramér-Rao floor use them (:mod:`aeroid.flights._record`).
 OPTIONAL_CHANNELS: tuple[str, ...] = ("mass", "thrust", "ix", "iy", "iz", "rho", "altitude",
-                                      "qbar")
+                                      "qbar", "air_temperature")
 #: The atmosphere channels: one of them is used when ``[atmosphere] per_sample`` names it.
 ATMOSPHERE_CHANNELS: tuple[str, ...] = ("rho", "altitude", "qbar")
 #: Measured air data beyond the required angles: an air-data probe's airspeed [m/s] (the
@@ -44,4 +44,5 @@ UNITS: dict[str, str] = {
     "mass": "kg", "thrust": "N", "ix": "kg m^2", "iy": "kg m^2", "iz": "kg m^2",
     "rho": "kg/m^3", "altitude": "m", "qbar": "Pa",
     "airspeed": "m/s",
+    "air_temperature": "K",  # the air's (Mach tables), not a barometer board's
 }

@@ -41,7 +41,7 @@ from aeroid.flights._input_checks import (
     range_hint,
 )
 from aeroid.flights._passive_fin import passive_fin_problem
-from aeroid.model import AIRFRAME_LIMITS, Airframe
+from aeroid.model import AIRFRAME_LIMITS, Airframe, check_air_temperature
 
 #: Relative spread of the sample interval accepted as a uniform time base.
 TIME_UNIFORMITY_RTOL = 1e-6
@@ -153,6 +153,12 @@ def _per_sample(values: dict[str, np.ndarray], airframe: Airframe) -> list[str]:
         if v is not None and np.all(np.isfinite(v)) and np.any(v <= 0):
             found.append(f"channel {name!r} must be positive ({PER_SAMPLE_UNITS[name]}), "
                          f"first non-positive at row {int(np.flatnonzero(v <= 0)[0])}")
+    temperature = values.get("air_temperature")  # the air's, for Mach tables
+    if temperature is not None and np.all(np.isfinite(temperature)):  # NaN: said above
+        try:
+            check_air_temperature(values["air_temperature"], "channel 'air_temperature'")
+        except ValueError as exc:
+            found.append(str(exc))
     thrust = values.get("thrust")
     if thrust is not None and np.all(np.isfinite(thrust)) and np.any(thrust < 0):
         found.append("channel 'thrust' must be >= 0 [N] (thrust along body +x)")

@@ -28,8 +28,8 @@ from aeroid.errors import FlightError
 from aeroid.flights._channels import ACCELEROMETER_CHANNELS, CHANNELS
 from aeroid.model import G0
 
-__all__ = ["ChannelMap", "UNIT_FACTORS", "UNIT_KINDS", "WRAP_TOLERANCE_RAD", "channel_map",
-           "check_targets", "unwrap_angles"]
+__all__ = ["ChannelMap", "UNIT_FACTORS", "UNIT_KINDS", "UNIT_OFFSETS", "WRAP_TOLERANCE_RAD",
+           "channel_map", "check_targets", "unwrap_angles"]
 
 #: Factor to aeroid's (SI, radian) unit, and the kind of quantity, of each unit a column
 #: map may name.
@@ -45,7 +45,10 @@ UNIT_FACTORS: dict[str, tuple[float, str]] = {
     "Pa": (1.0, "pressure"), "kPa": (1e3, "pressure"), "psf": (47.88025898, "pressure"),
     "kg/m^3": (1.0, "density"), "slug/ft^3": (515.3788184, "density"),
     "kg m^2": (1.0, "inertia"), "slug ft^2": (1.3558179483, "inertia"),
+    "K": (1.0, "temperature"), "degC": (1.0, "temperature"),
 }
+#: Units with an offset: aeroid's unit = value * factor + offset.
+UNIT_OFFSETS: dict[str, float] = {"degC": 273.15}
 #: A jump is taken for a wrap only when, less a whole turn, it agrees with the step of
 #: the Euler rate within this [rad]: a glitch of another size stays a jump (and the
 #: flight's check refuses it). The reference flight's rate-predicted steps agree with the
@@ -59,6 +62,7 @@ UNIT_KINDS: dict[str, str] = {
     "u": "speed", "v": "speed", "w": "speed", "mass": "mass", "thrust": "force",
     "ix": "inertia", "iy": "inertia", "iz": "inertia", "rho": "density",
     "altitude": "length", "qbar": "pressure", "airspeed": "speed",
+    "air_temperature": "temperature",
 }
 
 

@@ -40,6 +40,7 @@ from aeroid.errors import AirframeError, FlightError
 from aeroid.flights._channels import ANGLE_CHANNELS, CHANNELS, UNITS
 from aeroid.flights._columns import (
     UNIT_FACTORS,
+    UNIT_OFFSETS,
     ChannelMap,
     channel_map,
     check_targets,
@@ -222,9 +223,8 @@ def _convert_units(values: np.ndarray, index: Mapping[str, int], read: Mapping[s
     for column, channel in read.items():
         unit = units.get(column)
         if unit is not None:
-            factor = UNIT_FACTORS[unit][0]
-            if factor != 1.0:
-                values[:, index[channel]] *= factor
+            factor, offset = UNIT_FACTORS[unit][0], UNIT_OFFSETS.get(unit, 0.0)
+            values[:, index[channel]] = values[:, index[channel]] * factor + offset
             done[column] = f"{unit} -> {UNITS[channel]}"
         elif degrees and channel in ANGLE_CHANNELS:
             np.radians(values[:, index[channel]], out=values[:, index[channel]])

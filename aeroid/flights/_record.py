@@ -47,6 +47,7 @@ from __future__ import annotations
 import numpy as np
 
 from aeroid.errors import FlightError
+from aeroid.flights._air_temperature import air_temperature
 from aeroid.flights._flight import Flight
 from aeroid.model import EXOGENOUS, Constants, Record, Schedule, constants, with_exogenous
 from aeroid.model import density as isa_density
@@ -98,6 +99,10 @@ def exogenous(flight: Flight) -> np.ndarray | None:
     for channel, name in EXOGENOUS_CHANNELS.items():
         if channel in flight.channels:
             given[name] = flight[channel]
+    if flight.airframe.tables is not None:  # the Mach tables' speed of sound (else unused)
+        temperature = air_temperature(flight)
+        if temperature is not None:
+            given["temperature"] = temperature
     if not given:
         return None
     const = model_constants(flight)

@@ -31,6 +31,9 @@ steady wind over the ground and Dryden turbulence (MIL-F-8785C); left out, still
     turbulence_sd_mps = 3.0          # Dryden intensity per component (0: none)
     scale_length_m = 533.4           # Dryden scale length (MIL-F-8785C, above 2000 ft)
 
+``[air]`` (optional; :mod:`aeroid.flights._air`): the true air temperature, when not
+the ISA's (an offset or a profile in time), and whether the flights log it.
+
 A scenario may also carry the airframe file's ``[fin_law]``: what the simulated flights'
 airframe tells the estimators (their ``law`` input). It is independent of ``[actuator]``,
 so a study can give the estimators a law that differs from the truth (a wrong delay);
@@ -61,7 +64,9 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import AirframeError
+from aeroid.flights._air import Air, air_from_table
 from aeroid.flights._noise import NOISE_MODELS, NoiseModel, make_noise
+from aeroid.flights._scenario_rows import angle_rows
 from aeroid.flights._turbulence import Wind, wind_from_table
 from aeroid.model import (
     FIN_LAW_KEYS,
@@ -133,6 +138,8 @@ class Manoeuvre:
         control_rate_hz`` from t = 0.
     wind : Wind or None
         The air the flight crosses (steady wind, Dryden turbulence); None: still air.
+    air : Air or None
+        Its true temperature when not the ISA's (``[air]``, :mod:`aeroid.flights._air`).
     mass_scale : float
         The true mass over the airframe's ``mass_kg`` (default 1; in
         :data:`MASS_SCALE_RANGE`): the truth is flown with it, the flights' airframe
@@ -151,6 +158,7 @@ class Manoeuvre:
     control_rate_hz: float | None = None
     wind: Wind | None = None
     mass_scale: float = 1.0
+    air: Air | None = None
 
     def __post_init__(self) -> None:
         if self.wind is not None and not isinstance(self.wind, Wind):
@@ -228,7 +236,7 @@ class Manoeuvre:
             del fields["mass_scale"]
         return {k: v for k, v in fields.items()
                 if (k not in FIN_LAW_DEFAULTS or v != FIN_LAW_DEFAULTS[k])
-                and not (k == "wind" and v is None)}  # still air: as before the wind
+                and not (k in ("wind", "air") and v is None)}  # as before these existed
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -300,6 +308,8 @@ def scenario_from_dict(data: dict[str, Any], *, source: str = "scenario") -> Sce
     coefficients, tables = _true_coefficients(table, airframe, f"{source}: [coefficients]")
     if "wind" in data:
         options["wind"] = wind_from_table(data["wind"], f"{source}: [wind]")
+    if "air" in data:  # the true air temperature (non-ISA)
+        options["air"] = air_from_table(data["air"], f"{source}: [air]")
     noise_tables = fileform.check_table(data.get("noise", {}), f"{source}: [noise]")
     fileform.check_keys(noise_tables, NOISE_MODELS, f"{source}: [noise]")
     noise_options = {name: fileform.check_table(table, f"{source}: [noise.{name}]")
@@ -325,7 +335,7 @@ def _true_coefficients(table: Any, airframe: Airframe, where: str
     for name in NAMES:
         value = table[name]
         if isinstance(value, dict):  # a table in the total angle of attack
-            rows = _angle_rows(value, f"{where} {name}")
+            rows = angle_rows(value, f"{where} {name}")
             angle_knots[name] = tuple(math.radians(row[0]) for row in rows)
             values.extend(row[1] for row in rows)
             continue
@@ -346,16 +356,6 @@ def _true_coefficients(table: Any, airframe: Airframe, where: str
     except AirframeError as exc:
         raise AirframeError(f"{where}: {exc}") from None
     return tuple(values), tables
-
-
-def _angle_rows(value: dict[str, Any], where: str) -> list[tuple[float, ...]]:
-    """The rows ``[deg, value]`` of ``{alpha_deg = [[deg, value], ...]}``."""
-    fileform.check_keys(value, ("alpha_deg",), where, required=("alpha_deg",))
-    given = value["alpha_deg"]
-    if not isinstance(given, list) or not given:
-        raise AirframeError(f"{where}: alpha_deg must be rows [[deg, value], ...], "
-                            f"got {given!r}")
-    return [fileform.numbers(row, 2, f"{where} (rows [alpha_deg, value])") for row in given]
 
 
 def _actuator_options(act: Any, where: str) -> dict[str, Any]:

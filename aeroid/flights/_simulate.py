@@ -33,6 +33,8 @@ from __future__ import annotations
 import numpy as np
 
 from aeroid.errors import AirframeError
+from aeroid.flights._air import flown_tables
+from aeroid.flights._air_temperature import AIR_TEMPERATURE
 from aeroid.flights._flight import STATE_CHANNELS, Flight, air_angles, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
@@ -100,6 +102,8 @@ def _latched_tables(airframe: Airframe, parameters: np.ndarray, tables: MachTabl
     output-error graph integrates (benchmarks/bench_tables.py measures its cost).
     """
     const = constants(airframe)
+    flown, temperature = flown_tables(tables, manoeuvre.air, airframe.altitude_m)
+    assert flown is not None  # tables given
     law = manoeuvre.fin_law(airframe.delta_max_rad)
     dt = manoeuvre.dt
     h = dt / manoeuvre.truth_substeps
@@ -109,8 +113,9 @@ def _latched_tables(airframe: Airframe, parameters: np.ndarray, tables: MachTabl
     delta = np.empty(n)
     x = np.array(manoeuvre.initial_state)
 
-    def rhs(_t: float, y: np.ndarray, d: float) -> np.ndarray:
-        return state_derivative(y, d, tables.coefficient_array(parameters, y), const)
+    def rhs(_t: float, y: np.ndarray, d: float) -> np.ndarray:  # at each stage's temperature
+        return state_derivative(y, d, flown.coefficient_array(parameters, y, temperature(_t)),
+                                const)
 
     varying = law.time_varying
     with np.errstate(all="ignore"):
@@ -320,8 +325,10 @@ def record_flight(
     k0 = int(round(manoeuvre.window_s[0] / manoeuvre.dt))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
     given = coefficients
-    coefficients = (as_vector(coefficients) if tables is None
-                    else tables.coefficient_array(_parameters(given, tables), states))
+    flown, temperature = flown_tables(tables, manoeuvre.air, airframe.altitude_m)
+    coefficients = (as_vector(coefficients) if flown is None
+                    else flown.coefficient_array(_parameters(given, flown), states,
+                                                 temperature(t)))
     const = _recorded_constants(manoeuvre.flown(airframe), manoeuvre, truth, k0)
     accel = accelerometers(states, delta, coefficients, const,
                            airframe.accel_positions).reshape(-1, 6)
@@ -332,6 +339,8 @@ def record_flight(
     channels = noise.corrupt(channels, rng)
     if airframe.thrust_curve is not None:  # the exogenous columns the truth flew with
         channels.update(sample_thrust(airframe.thrust_curve, t))  # the stated mass
+    if manoeuvre.air is not None and manoeuvre.air.log_temperature:  # the true air's [K]
+        channels[AIR_TEMPERATURE] = manoeuvre.air.temperature(t, airframe.altitude_m)
     if manoeuvre.wind is not None:  # the air-relative angles (in still air: derived)
         channels["alpha"], channels["beta"] = air_angles(
             *equations.air_velocity(as_state(states), const))
@@ -357,6 +366,8 @@ def record_flight(
                                    "speed_of_sound_mps": tables.speed_of_sound_mps}
     if manoeuvre.wind is not None:
         metadata["wind"] = manoeuvre.wind.describe()
+    if manoeuvre.air is not None:
+        metadata["air"] = manoeuvre.air.describe()
     if manoeuvre.mass_scale != 1.0:
         metadata["true_mass_kg"] = manoeuvre.flown(airframe).mass_kg
     return make_flight(channels, seen, metadata)

@@ -30,6 +30,7 @@ from aeroid.model._airframe import (
     save_airframe,
 )
 from aeroid.model._atmosphere import (
+    AIR_TEMPERATURE_RANGE_K,
     G0,
     GAMMA,
     H_TROPOPAUSE,
@@ -37,8 +38,10 @@ from aeroid.model._atmosphere import (
     P0,
     R_AIR,
     T0,
+    check_air_temperature,
     density,
     pressure_altitude,
+    speed_of_sound_at,
 )
 from aeroid.model._atmosphere import pressure as isa_pressure
 from aeroid.model._atmosphere import temperature as isa_temperature
@@ -117,6 +120,7 @@ __all__ = [
     "density", "fileform", "profile",
     "GAMMA", "H_TROPOPAUSE", "LAPSE", "P0", "R_AIR", "T0", "isa_pressure", "isa_temperature",
     "pressure_altitude",
+    "AIR_TEMPERATURE_RANGE_K", "check_air_temperature", "speed_of_sound_at",
     "MachTables", "TableSpec", "tables",
     "ThrustCurve", "read_thrust_curve", "read_curve_csv",
     "with_steady_wind", "with_wind_symbols",

@@ -262,13 +262,16 @@ class Airframe:
         """Standard deviation of each position component, shape (2, 3) [m] (0: known)."""
         return np.array([self.accel1_position_sd_m, self.accel2_position_sd_m])
 
-    def mach_tables(self, states: np.ndarray | None = None) -> MachTables | None:
+    def mach_tables(self, states: np.ndarray | None = None,
+                    temperature_k: np.ndarray | None = None) -> MachTables | None:
         """Return the coefficient tables of a flight of this airframe (None: no ``[tables]``).
 
         ``states`` (n, 9): the flight's, to choose knots given as a count from its Mach
-        range; the speed of sound from ``[tables] temperature_K`` or ISA at the altitude.
+        range; the speed of sound from ``[tables] temperature_K`` or ISA at the altitude,
+        or from ``temperature_k`` (n,) [K], the flight's logged air temperature per sample.
         """
-        return None if self.tables is None else self.tables.resolve(self.altitude_m, states)
+        return None if self.tables is None else self.tables.resolve(self.altitude_m, states,
+                                                                    temperature_k)
     @property
     def mass_sd(self) -> dict[str, float]:
         """The uncertain mass constants: attribute (``mass_kg``, ...) -> sd (> 0 only)."""

@@ -128,7 +128,7 @@ AIRFRAME_TABLES = ("airframe", "atmosphere", "prior", "fin_law", "hold", "prior_
 FIN_KINDS: tuple[str, ...] = ("relay", "passive")
 #: The tables a scenario file adds (read by ``aeroid.flights.scenario_from_dict``).
 SCENARIO_TABLES = ("actuator", "initial_state", "recording", "coefficients", "noise",
-                   "wind")
+                   "wind", "air")
 
 
 def airframe_fields(data: Mapping[str, Any], *, source: str = "airframe",

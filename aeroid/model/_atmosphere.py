@@ -8,6 +8,8 @@ reconstruction's barometer model). :func:`pressure_altitude` is the inverse of
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 G0 = 9.80665  # m/s^2, standard gravity
@@ -21,6 +23,9 @@ H_TROPOPAUSE = 11000.0  # m
 T_TROPOPAUSE = T0 - LAPSE * H_TROPOPAUSE
 _EXPONENT = G0 / (R_AIR * LAPSE)
 P_TROPOPAUSE = P0 * (T_TROPOPAUSE / T0) ** _EXPONENT
+#: Air temperature range [K] of a given or logged air temperature (the ISA's 216.65 K
+#: layer to a hot day at sea level, with margin); outside, a unit mistake (deg C).
+AIR_TEMPERATURE_RANGE_K = (150.0, 350.0)
 
 
 def _altitude(altitude_m: float | complex | np.ndarray) -> np.ndarray:
@@ -58,6 +63,39 @@ def density(altitude_m: float | np.ndarray) -> np.ndarray:
     return pressure(altitude_m) / (R_AIR * temperature(altitude_m))
 
 
+def speed_of_sound_at(temperature_k: Any) -> Any:
+    """Return the speed of sound ``sqrt(gamma R T)`` [m/s] of air at ``temperature_k`` [K].
+
+    The one definition (the ISA's, a given and a per-sample temperature all use it);
+    element-wise, so numpy evaluates it on arrays and CasADi on symbols.
+    """
+    return np.sqrt(GAMMA * R_AIR * temperature_k)
+
+
 def speed_of_sound(altitude_m: float | np.ndarray) -> np.ndarray:
     """Return ISA speed of sound [m/s] at altitude [m]."""
-    return np.sqrt(GAMMA * R_AIR * temperature(altitude_m))
+    return np.asarray(speed_of_sound_at(temperature(altitude_m)))
+
+
+def check_air_temperature(values: Any, where: str) -> np.ndarray:
+    """Return air temperatures [K] as floats, checked: finite and in
+    :data:`AIR_TEMPERATURE_RANGE_K` (outside it a unit mistake, e.g. deg C given as K).
+
+    Raises
+    ------
+    ValueError
+        One line naming ``where``, the first bad value and its sample index.
+    """
+    if isinstance(values, bool) or not isinstance(values, int | float | np.ndarray | list
+                                                      | tuple | np.floating):
+        raise ValueError(f"{where} must be a number of kelvin, got {values!r}")
+    t = np.asarray(values, dtype=float)
+    low, high = AIR_TEMPERATURE_RANGE_K
+    bad = np.flatnonzero(~(np.isfinite(t) & (t >= low) & (t <= high)))
+    if bad.size:
+        i = int(bad[0])
+        value = t.reshape(-1)[i]
+        at = "" if t.ndim == 0 else f" at sample {i}"
+        raise ValueError(f"{where} must be an air temperature in {low:g}..{high:g} K (kelvin, "
+                         f"not deg C), got {value!r}{at} ({bad.size} bad value(s))")
+    return t

@@ -79,7 +79,9 @@ class Constants(NamedTuple):
     length D [m], ``mass`` [kg], principal inertias ``ix, iy, iz`` [kg m^2], ``thrust`` [N]
     along body +x, ``gravity`` [m/s^2]; the wind ``wind_n, wind_e, wind_d`` [m/s], the
     air's velocity over the ground in north-east-down axes (default 0: still air; given
-    per sample, a gust: :data:`aeroid.model.EXOGENOUS`).
+    per sample, a gust: :data:`aeroid.model.EXOGENOUS`); ``temperature`` the air
+    temperature [K], read only by Mach tables that take a per-sample temperature
+    (:class:`aeroid.model.MachTables` ``per_sample_temperature``; default 0: not given).
     """
 
     rho: Scalar
@@ -94,6 +96,7 @@ class Constants(NamedTuple):
     wind_n: Scalar = 0.0
     wind_e: Scalar = 0.0
     wind_d: Scalar = 0.0
+    temperature: Scalar = 0.0
 
 
 class Loads(NamedTuple):

@@ -208,7 +208,9 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     With ``tables`` (:class:`aeroid.model.MachTables`), the first parameters are the
     tables' (:meth:`~aeroid.model.MachTables.parameter_names`: constants and table
     points, ``n_c = tables.n_parameters`` of them instead of the 9 coefficients), the
-    coefficients evaluated at each RK4 stage's and sample's Mach number.
+    coefficients evaluated at each RK4 stage's and sample's Mach number (with
+    ``tables.per_sample_temperature``, from the exogenous air temperature interpolated
+    like the density: ``varying`` required).
 
     The Jacobian is propagated with the record (forward sensitivities): the interval
     step ``x_{k+1} = F(x_k, theta)`` is differentiated by CasADi AD in the directions
@@ -235,6 +237,9 @@ def symbolic_record(const: Constants, dt: float, substeps: int, n_samples: int,
     ``x0_given`` is unused), and return two more outputs, the state (9) and, for
     ``jacobian``, its sensitivity (9, n_p) at the last sample, to start the next piece.
     """
+    if tables is not None and tables.per_sample_temperature and not varying:
+        raise ValueError("symbolic_record: tables with a per-sample air temperature need "
+                         "the exogenous table (varying=True) that carries it")
     return _symbolic_record(inputs.normalised(const, varying), float(dt), int(substeps),
                             int(n_samples), tuple(x0_free), tuple(position_free),
                             bool(compiled), int(n_pieces), bool(varying), tables,

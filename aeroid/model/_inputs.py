@@ -22,8 +22,9 @@ approximated. The deflection at a sample instant (what the accelerometers see th
 the right-continuous value (:meth:`Schedule.at`).
 
 Exogenous quantities (:data:`EXOGENOUS`): air density, mass, thrust, inertias,
-gravity and the wind (a gust: the air's NED velocity per sample) may be given per
-sample; the integrators interpolate them linearly in time between samples (:func:`exogenous_table`).
+gravity, the wind (a gust: the air's NED velocity per sample) and the air temperature
+(the speed of sound of Mach tables) may be given per sample; the integrators interpolate
+them linearly in time between samples (:func:`exogenous_table`).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from aeroid.model._equations import Constants
 
 #: Constants that may vary per sample, in the column order of an exogenous table.
 EXOGENOUS: tuple[str, ...] = ("rho", "mass", "thrust", "ix", "iy", "iz", "gravity",
-                              "wind_n", "wind_e", "wind_d")
+                              "wind_n", "wind_e", "wind_d", "temperature")
 #: Exogenous quantities of any sign (the others must be positive).
 SIGNED: tuple[str, ...] = ("thrust", "gravity", "wind_n", "wind_e", "wind_d")
 #: Relative tolerance on a uniform time base (as the flight validation's).

@@ -56,17 +56,19 @@ def n_theta(tables: MachTables | None = None) -> int:
     return N_COEFFICIENTS if tables is None else tables.n_parameters
 
 
-def coefficients_at(theta, state: eq.State, tables: MachTables | None = None
-                    ) -> eq.Coefficients:
+def coefficients_at(theta, state: eq.State, tables: MachTables | None = None,
+                    const: Constants | None = None) -> eq.Coefficients:
     """Return the coefficients of parameters ``theta`` at ``state``.
 
     Without ``tables`` ``theta`` holds the coefficients; with them, the constants and
     table points of :meth:`aeroid.model.MachTables.parameter_names`, evaluated at the
-    state's Mach number (:meth:`aeroid.model.MachTables.at_state`).
+    state's Mach number (:meth:`aeroid.model.MachTables.at_state`; ``const``: the
+    constants whose air temperature gives it, per sample and RK4 stage, with tables
+    that take it).
     """
     if tables is None:
         return _coefficients(theta)
-    return tables.at_state([theta[i] for i in range(tables.n_parameters)], state)
+    return tables.at_state([theta[i] for i in range(tables.n_parameters)], state, const)
 
 
 def rhs(x, delta, theta, const: Constants, tables: MachTables | None = None):
@@ -85,7 +87,8 @@ def rhs(x, delta, theta, const: Constants, tables: MachTables | None = None):
     tables : MachTables, optional
     """
     state = _state(x)
-    loads = eq.aerodynamic_loads(state, coefficients_at(theta, state, tables), delta, const)
+    loads = eq.aerodynamic_loads(state, coefficients_at(theta, state, tables, const), delta,
+                                 const)
     return ca.vertcat(*eq.derivative(state, loads, const, eq.trig(state))), loads
 
 
@@ -101,7 +104,8 @@ def measurement(x, delta, theta, positions, const: Constants,
         ``[x1, y1, z1, x2, y2, z2, ...]`` triad positions from the c.g. [m].
     """
     state = _state(x)
-    loads = eq.aerodynamic_loads(state, coefficients_at(theta, state, tables), delta, const)
+    loads = eq.aerodynamic_loads(state, coefficients_at(theta, state, tables, const), delta,
+                                 const)
     flat = positions if isinstance(positions, ca.SX | ca.MX) else ca.vertcat(*positions)
     n_triads = flat.shape[0] // 3
     symbol = type(x) if isinstance(x, ca.SX | ca.MX) else ca.SX

@@ -16,9 +16,11 @@ simulator integrates. :func:`basis` stacks the hats into an ``(n, k)`` array for
 A fit with tables estimates the parameter vector :meth:`MachTables.parameter_names`:
 the coefficients in :data:`aeroid.model.NAMES` order, each tabled one replaced by its
 table points. Mach is ``V_T / a`` with ``V_T`` from the body velocities (no wind, as in
-the model) and the speed of sound ``a`` a constant of the flight: ISA at the airframe's
-altitude, or the given air temperature (:meth:`MachTables.from_table`). The model has no
-position equations, so the temperature does not change along the record.
+the model) and the speed of sound ``a = sqrt(gamma R T)``
+(:func:`aeroid.model.speed_of_sound_at`, the one definition): a constant of the flight
+(ISA at the airframe's altitude, or ``[tables] temperature_K``), or, with
+``per_sample_temperature``, from the air temperature of each sample and RK4 stage (the
+model's exogenous input ``temperature``, a logged ``air_temperature`` channel).
 
 A coefficient can instead be a table in the total angle of attack (``angle_knots``
 [rad], points named ``Cma@A4deg``: :mod:`aeroid.model._alpha_tables` says why the total
@@ -55,17 +57,17 @@ from aeroid.model._table_basis import (
     hat,
     table_value,
 )
+from aeroid.model._table_file import angle_entry, given_temperature
 
 Scalar = Any  # a float, an ndarray or a CasADi symbol: the functions here are element-wise
 
 #: Separator of a table point's name: ``Cx@M1.4`` is Cx at Mach 1.4.
 POINT_SEPARATOR = "@M"
-#: Air temperature range [K] of a given temperature (the ISA's 216.65 K layer to a hot
-#: day at sea level, with margin); outside, a unit mistake (deg C).
-TEMPERATURE_RANGE_K = (150.0, 350.0)
+#: Air temperature range [K] of a given temperature (the atmosphere's).
+TEMPERATURE_RANGE_K = atmosphere.AIR_TEMPERATURE_RANGE_K
 
 
-def mach_number(u: Scalar, v: Scalar, w: Scalar, speed_of_sound: float) -> Scalar:
+def mach_number(u: Scalar, v: Scalar, w: Scalar, speed_of_sound: Scalar) -> Scalar:
     """Return the Mach number ``V_T / a`` of the body velocities [m/s] (element-wise)."""
     return eq.air_data(u, v, w)[0] / speed_of_sound
 
@@ -91,11 +93,16 @@ class MachTables:
     angle_knots : tuple of (name, tuple of float)
         The coefficients tabled in the total angle of attack, each with its increasing
         knots [rad] (none by default); a coefficient is in one of the two only.
+    per_sample_temperature : bool
+        Mach from the air temperature of each sample and RK4 stage (the constants'
+        ``temperature``, an exogenous input) instead of ``speed_of_sound_mps``, which
+        then only reports the flight's mean speed of sound. Default False.
     """
 
     knots: tuple[tuple[str, tuple[float, ...]], ...]
     speed_of_sound_mps: float
     angle_knots: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    per_sample_temperature: bool = False
 
     def __post_init__(self) -> None:
         unknown = [name for name, _ in self.knots if name not in NAMES]
@@ -133,11 +140,8 @@ class MachTables:
             raise AirframeError("tables: give the speed of sound by exactly one of an ISA "
                                 "altitude and an air temperature")
         if temperature_k is not None:
-            low, high = TEMPERATURE_RANGE_K
-            if not (isinstance(temperature_k, int | float) and low <= temperature_k <= high):
-                raise AirframeError(f"tables: temperature_K must be in {low:g}..{high:g} K "
-                                    f"(kelvin, not deg C), got {temperature_k!r}")
-            sound = math.sqrt(atmosphere.GAMMA * atmosphere.R_AIR * float(temperature_k))
+            sound = float(atmosphere.speed_of_sound_at(given_temperature(
+                temperature_k, "tables: temperature_K")))
         else:
             sound = float(atmosphere.speed_of_sound(altitude_m))
         return cls(tuple((name, tuple(k)) for name, k in knots.items()), sound)
@@ -223,36 +227,53 @@ class MachTables:
                 values.append(part[0])
         return eq.Coefficients(*values)
 
-    def at_state(self, parameters: Sequence[Scalar], state: eq.State) -> eq.Coefficients:
+    def speed_of_sound(self, temperature_k: Scalar | None = None) -> Scalar:
+        """Return the speed of sound [m/s]: the flight's, or with
+        :attr:`per_sample_temperature` that of ``temperature_k`` [K] (element-wise)."""
+        if not self.per_sample_temperature:
+            return self.speed_of_sound_mps
+        if temperature_k is None:  # never the flight's one number in silence
+            raise AirframeError("tables: Mach from a per-sample air temperature needs the "
+                                "temperature (the flight's air_temperature channel)")
+        return atmosphere.speed_of_sound_at(temperature_k)
+
+    def at_state(self, parameters: Sequence[Scalar], state: eq.State,
+                 const: eq.Constants | None = None) -> eq.Coefficients:
         """Return the coefficients at the Mach number and total angle of attack of
-        ``state`` (element-wise)."""
-        mach = mach_number(state.u, state.v, state.w, self.speed_of_sound_mps)
+        ``state`` (element-wise); ``const``: the constants whose ``temperature`` gives the
+        speed of sound with :attr:`per_sample_temperature`."""
+        sound = self.speed_of_sound(None if const is None else const.temperature)
+        mach = mach_number(state.u, state.v, state.w, sound)
         alpha_total = (angle.total_angle(state.u, state.v, state.w) if self.angle_knots
                        else None)
         return self.coefficients(parameters, mach, alpha_total)
 
     # numpy arrays --------------------------------------------------------------------
-    def mach(self, states: np.ndarray) -> np.ndarray:
-        """Return the Mach number of ``states`` (..., 9), shape (...)."""
+    def mach(self, states: np.ndarray, temperature_k: np.ndarray | None = None) -> np.ndarray:
+        """Return the Mach number of ``states`` (..., 9), shape (...); ``temperature_k``
+        (...) [K]: the air temperature, needed with :attr:`per_sample_temperature`."""
         s = np.asarray(states, dtype=float)
-        return mach_number(s[..., 0], s[..., 1], s[..., 2], self.speed_of_sound_mps)
+        return mach_number(s[..., 0], s[..., 1], s[..., 2], self.speed_of_sound(temperature_k))
 
     def alpha_total(self, states: np.ndarray) -> np.ndarray:
         """Return the total angle of attack of ``states`` (..., 9), shape (...) [rad]."""
         s = np.asarray(states, dtype=float)
         return angle.total_angle(s[..., 0], s[..., 1], s[..., 2])
 
-    def variable(self, name: str, states: np.ndarray) -> np.ndarray:
+    def variable(self, name: str, states: np.ndarray,
+                 temperature_k: np.ndarray | None = None) -> np.ndarray:
         """Return the variable of coefficient ``name``'s table at ``states`` (..., 9):
         Mach, or the total angle of attack [rad] for an angle table."""
-        return self.alpha_total(states) if name in self.angle_names else self.mach(states)
+        return (self.alpha_total(states) if name in self.angle_names
+                else self.mach(states, temperature_k))
 
-    def coefficient_array(self, parameters: np.ndarray, states: np.ndarray) -> np.ndarray:
+    def coefficient_array(self, parameters: np.ndarray, states: np.ndarray,
+                          temperature_k: np.ndarray | None = None) -> np.ndarray:
         """Return the coefficients at each state's Mach (and total angle of attack),
-        shape (..., 9) (numpy)."""
+        shape (..., 9) (numpy); ``temperature_k`` as :meth:`mach`."""
         p = np.moveaxis(np.asarray(parameters, dtype=float), -1, 0)
         alpha_total = self.alpha_total(states) if self.angle_knots else None
-        c = self.coefficients(list(p), self.mach(states), alpha_total)
+        c = self.coefficients(list(p), self.mach(states, temperature_k), alpha_total)
         return np.stack(np.broadcast_arrays(*c), axis=-1)
 
     def to_table(self) -> dict[str, Any]:
@@ -302,7 +323,7 @@ class TableSpec:
         for name in (n for n in NAMES if n in table):
             value = table[name]
             if isinstance(value, Mapping):
-                angles.append((name, _angle_entry(value, f"{where} {name}")))
+                angles.append((name, angle_entry(value, f"{where} {name}")))
             elif isinstance(value, int) and not isinstance(value, bool):
                 if value < 1:
                     raise AirframeError(f"{where} {name}: a knot count must be >= 1, "
@@ -314,12 +335,7 @@ class TableSpec:
             raise AirframeError(f"{where}: no coefficient is tabled (give e.g. Cx = [1.1, 2.2])")
         temperature = table.get(TEMPERATURE_KEY)
         if temperature is not None:
-            low, high = TEMPERATURE_RANGE_K
-            if isinstance(temperature, bool) or not isinstance(temperature, int | float) \
-                    or not low <= temperature <= high:
-                raise AirframeError(f"{where} {TEMPERATURE_KEY} must be in {low:g}..{high:g} "
-                                    f"K (kelvin, not deg C), got {temperature!r}")
-            temperature = float(temperature)
+            temperature = given_temperature(temperature, f"{where} {TEMPERATURE_KEY}")
         return cls(tuple(knots), temperature, tuple(angles))
 
     def to_table(self) -> dict[str, Any]:
@@ -335,7 +351,7 @@ class TableSpec:
     def speed_of_sound(self, altitude_m: float | None) -> float:
         """Return the speed of sound [m/s]: from ``temperature_K``, else ISA at ``altitude_m``."""
         if self.temperature_k is not None:
-            return math.sqrt(atmosphere.GAMMA * atmosphere.R_AIR * self.temperature_k)
+            return float(atmosphere.speed_of_sound_at(self.temperature_k))
         if altitude_m is None:
             raise AirframeError("[tables]: Mach needs the speed of sound: give [tables] "
                                 "temperature_K, or [atmosphere] altitude_m for ISA")
@@ -346,10 +362,16 @@ class TableSpec:
         """Whether some knots are a count, to be chosen from a flight's Mach range."""
         return any(isinstance(k, int) for _, k in (*self.knots, *self.angle_knots))
 
-    def resolve(self, altitude_m: float | None, states: np.ndarray | None = None
-                ) -> MachTables:
-        """Return the :class:`MachTables` of a flight (its states choose counted knots)."""
-        sound = self.speed_of_sound(altitude_m)
+    def resolve(self, altitude_m: float | None, states: np.ndarray | None = None,
+                temperature_k: np.ndarray | None = None) -> MachTables:
+        """Return the :class:`MachTables` of a flight (its states choose counted knots);
+        ``temperature_k`` (n,) [K], its logged air temperature: Mach per sample from it."""
+        if temperature_k is not None and self.temperature_k is not None:
+            raise AirframeError(f"[tables] {TEMPERATURE_KEY} = {self.temperature_k:g} and an "
+                                "air_temperature channel: give one speed of sound (drop "
+                                f"{TEMPERATURE_KEY} to use the logged temperature)")
+        sound = (self.speed_of_sound(altitude_m) if temperature_k is None
+                 else atmosphere.speed_of_sound_at(np.asarray(temperature_k, dtype=float)))
         knots = []
         for name, k in self.knots:
             if isinstance(k, int):
@@ -370,22 +392,9 @@ class TableSpec:
             else:
                 k = tuple(math.radians(x) for x in k)
             angles.append((name, k))
-        return MachTables(tuple(knots), sound, tuple(angles))
-
-
-def _angle_entry(value: Mapping[str, Any], where: str) -> tuple[float, ...] | int:
-    """Read ``{alpha_deg = [...]}`` (knots [deg], checked) or ``{alpha_deg = count}``."""
-    if set(value) != {angle.ANGLE_KEY}:
-        raise AirframeError(f"{where}: a table in the angle of attack is "
-                            f"{{{angle.ANGLE_KEY} = [deg, ...]}} or {{{angle.ANGLE_KEY} = "
-                            f"count}}, got keys {sorted(value)}")
-    knots = value[angle.ANGLE_KEY]
-    if isinstance(knots, int) and not isinstance(knots, bool):
-        if knots < 1:
-            raise AirframeError(f"{where}: a knot count must be >= 1, got {knots}")
-        return knots
-    angle.check_angle_knots(knots, where)
-    return tuple(float(k) for k in knots)
+        if temperature_k is None:
+            return MachTables(tuple(knots), sound, tuple(angles))
+        return MachTables(tuple(knots), float(np.mean(sound)), tuple(angles), True)
 
 
 __all__ += ["TEMPERATURE_KEY", "TableSpec"]

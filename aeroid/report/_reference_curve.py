@@ -28,8 +28,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from aeroid.errors import UsageError
-from aeroid.flights import Flight
-from aeroid.model import GAMMA, R_AIR, isa_temperature, read_curve_csv
+from aeroid.flights import Flight, air_temperature, flight_mach_tables
+from aeroid.model import isa_temperature, read_curve_csv, speed_of_sound_at
 from aeroid.report._files import write_figure_atomic, write_text_atomic
 from aeroid.report._tables import DIGITS, DPI, POINT_SEPARATOR, Z95
 
@@ -143,7 +143,7 @@ def flight_mach(flight: Flight) -> np.ndarray:
                          "speed of sound; give [atmosphere] altitude_m or an altitude "
                          "channel")
     speed = np.sqrt(flight["u"] ** 2 + flight["v"] ** 2 + flight["w"] ** 2)
-    return speed / np.sqrt(GAMMA * R_AIR * isa_temperature(altitude))
+    return speed / speed_of_sound_at(isa_temperature(altitude))
 
 
 def reference_curve_figure(mach: np.ndarray, value: np.ndarray, lo: np.ndarray,
@@ -213,8 +213,9 @@ def mach_range(flight: Flight) -> tuple[float, float]:
     UsageError
         As :func:`flight_mach` (an atmosphere given as a density).
     """
-    tables = flight.airframe.mach_tables(flight.states())
-    mach = flight_mach(flight) if tables is None else tables.mach(flight.states())
+    tables = flight_mach_tables(flight)  # Mach per sample from a logged air temperature
+    mach = (flight_mach(flight) if tables is None
+            else tables.mach(flight.states(), air_temperature(flight)))
     return float(np.min(mach)), float(np.max(mach))
 
 

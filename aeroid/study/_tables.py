@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import binomtest
 
+from aeroid.flights import flight_mach_tables
 from aeroid.model import NAMES, tables
 from aeroid.study import _metrics as metrics
 from aeroid.study._spec import Study
@@ -46,7 +47,7 @@ def has_tables(study: Study) -> bool:
 
 def parameter_names(flight: Any) -> tuple[str, ...]:
     """The parameter names of a table fit of ``flight`` (its airframe's tables)."""
-    return flight.airframe.mach_tables(flight.states()).parameter_names()
+    return flight_mach_tables(flight).parameter_names()  # Mach from a logged air temperature
 
 
 def parameter_truth(scenario: Any, names: Sequence[str]) -> np.ndarray:
