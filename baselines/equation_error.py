@@ -90,7 +90,7 @@ from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
 from baselines import _held, _tables_fit
-from baselines._ee_air import with_wind_consider
+from baselines._ee_air import refuse_unseen_gusts, with_wind_consider
 from baselines._ee_least_squares import (  # the sub-problems' names are read from here
     LATERAL,
     SUBPROBLEMS,
@@ -271,7 +271,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                               "air_data_wind_intensity": air.smoothed.intensity})},
             warnings=tuple(result.warnings) + ((air.warning,) if air.warning else ()))
         if air.source == "measured":  # wind or turbulence: aeroid/estimation/_air_verdict.py
-            result = rc.with_air_verdict(result, rc.air_data_verdict(flight, self.name))
+            result = refuse_unseen_gusts(rc.with_air_verdict(
+                result, rc.air_data_verdict(flight, self.name)), flight, self.name)
         if self.along_path_wind_sd_mps is not None and (air.smoothed is None
                                                         or rc.has_airspeed(flight)):
             raise aeroid.errors.EstimatorError(

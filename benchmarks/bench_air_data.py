@@ -73,10 +73,14 @@ AIRS = {"still": None, "crosswind 5 m/s": Wind(steady_ned_mps=(0.0, 5.0, 0.0)),
         "wind + Dryden sd 3": Wind(steady_ned_mps=WIND, turbulence_sd_mps=3.0,
                                    scale_length_m=SCALE_LENGTH_M)}
 IMU = make_noise("gaussian")
-PROBE = make_noise("gaussian", alpha_sd_rad=np.radians(VANE_SD_DEG),
-                   beta_sd_rad=np.radians(VANE_SD_DEG), airspeed_sd_mps=AIRSPEED_SD_MPS)
-NO_AIRSPEED = make_noise("gaussian", alpha_sd_rad=np.radians(VANE_SD_DEG),
-                         beta_sd_rad=np.radians(VANE_SD_DEG))
+
+
+def probes(vane_deg: float) -> tuple[aeroid.flights.NoiseModel, aeroid.flights.NoiseModel]:
+    """The IMU with a probe of ``vane_deg`` on alpha and beta: with its airspeed, without."""
+    vane = float(np.radians(vane_deg))
+    return (make_noise("gaussian", alpha_sd_rad=vane, beta_sd_rad=vane,
+                       airspeed_sd_mps=AIRSPEED_SD_MPS),
+            make_noise("gaussian", alpha_sd_rad=vane, beta_sd_rad=vane))
 
 
 class TrueWind(EquationErrorEstimator):
@@ -86,13 +90,14 @@ class TrueWind(EquationErrorEstimator):
         return self._solve(flight, wind=flight.metadata["bench_true_wind"])
 
 
-def flights(air: str, seed: int) -> dict[str, aeroid.flights.Flight]:
+def flights(air: str, seed: int, vane_deg: float) -> dict[str, aeroid.flights.Flight]:
     """The seed's flights of ``air``: with the probe, without its airspeed, IMU only."""
     s = reference_scenario()
     wind = AIRS[air]
     m = s.manoeuvre if wind is None else dataclasses.replace(s.manoeuvre, wind=wind)
     out = {}
-    for label, noise in (("probe", PROBE), ("no airspeed", NO_AIRSPEED), ("imu", IMU)):
+    probe, no_airspeed = probes(vane_deg)
+    for label, noise in (("probe", probe), ("no airspeed", no_airspeed), ("imu", IMU)):
         rng = np.random.default_rng(seed)
         truth = simulate_truth(s.airframe, s.coefficient_vector, m, rng=rng)
         f = record_flight(s.airframe, s.coefficient_vector, m, truth, noise, rng=rng)
@@ -104,14 +109,15 @@ def flights(air: str, seed: int) -> dict[str, aeroid.flights.Flight]:
     return out
 
 
-def run(seeds: int) -> tuple[dict, list[str]]:
+def run(seeds: int, vane_deg: float = VANE_SD_DEG, airs: tuple[str, ...] = tuple(AIRS)
+        ) -> tuple[dict, list[str]]:
     """Fit every kind on every seed; return per-kind lists of (success, errors, z) and lines."""
     truth = reference_scenario().coefficient_vector
     kinds: dict[str, list] = {}
     lines = []
     for seed in range(1, seeds + 1):
-        for air in AIRS:
-            f = flights(air, seed)
+        for air in ("still", *(a for a in airs if a != "still")):
+            f = flights(air, seed, vane_deg)
             fits = {f"{air} / kalman": (EquationErrorEstimator(air_data="measured"), "probe"),
                     f"{air} / window 0.1 s": (EquationErrorEstimator(
                         air_data="measured", air_data_window_s=0.1), "probe"),
@@ -169,16 +175,27 @@ def main() -> None:
     """Run the benchmark and print (and write) the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--vane-deg", type=float, default=VANE_SD_DEG,
+                        help="the probe's noise sd on alpha and beta [deg]")
+    parser.add_argument("--airs", default=",".join(AIRS),
+                        help="comma-separated airs to fly (still air always)")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
-    kinds, lines = run(args.seeds)
+    airs = tuple(a.strip() for a in args.airs.split(","))
+    unknown = sorted(set(airs) - set(AIRS))
+    if unknown:
+        parser.error(f"unknown air(s) {unknown}; known: {', '.join(AIRS)}")
+    kinds, lines = run(args.seeds, args.vane_deg, airs)
     text = table(kinds) + "\n\n" + floor_line()
     print(text)
     if not args.no_write:
-        RESULTS.write_text(
+        default = args.vane_deg == VANE_SD_DEG and set(airs) == set(AIRS)
+        path = RESULTS if default else RESULTS.with_name(f"air_data_vane_{args.vane_deg:g}deg.md")
+        path.write_text(
             f"# Equation-error with logged air data ({dt.date.today()})\n\n"
-            f"`python benchmarks/bench_air_data.py --seeds {args.seeds}`; probe noise "
-            f"{VANE_SD_DEG} deg on alpha and beta, {AIRSPEED_SD_MPS} m/s on the airspeed; "
+            f"`python benchmarks/bench_air_data.py --seeds {args.seeds} --vane-deg "
+            f"{args.vane_deg:g} --airs '{args.airs}'`; probe noise "
+            f"{args.vane_deg:g} deg on alpha and beta, {AIRSPEED_SD_MPS} m/s on the airspeed; "
             f"wind {WIND} m/s NED, Dryden scale length {SCALE_LENGTH_M} m."
             f"\n\n{text}\n\n```\n" + "\n".join(lines) + "\n```\n")
 
