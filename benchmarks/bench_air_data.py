@@ -25,10 +25,12 @@ said):
   noise would leave: the floor of this estimator on these flights);
 * ``inertial``: ``air_data = "inertial"``, the known-wrong angles the fit check must refuse.
 
-Reported: successes (the fit check's verdict), the mean over seeds of the mean |relative
-error| of the nine coefficients [%], its ratio to still air (IMU only), the coverage of the
-95 % intervals (coefficient-runs with |error| <= 1.96 se), the median over seeds of the
-largest |error| / se, and Czq's mean |error| (the coefficient the vane noise moves most).
+Reported: successes (the fit check's verdict, and equation-error's refusal of turbulence
+without an airspeed channel, :func:`baselines._ee_air.refuse_unseen_gusts`), the mean
+over seeds of the mean |relative error| of the nine coefficients [%], its ratio to still
+air (IMU only), the coverage of the 95 % intervals (coefficient-runs with |error| <= 1.96
+se), the median over seeds of the largest |error| / se, and Czq's mean |error| (the
+coefficient the vane noise moves most).
 The Cramér-Rao floor of the IMU channels in still air (:func:`aeroid.estimation.
 cramer_rao_sd`, as a mean |error|: sd sqrt(2/pi)) is printed beside it: no floor of the
 air-data channels in turbulence exists in aeroid (the gusts are a random process there).
@@ -154,7 +156,7 @@ def table(kinds: dict) -> str:
     """Return the markdown tables of the kinds."""
     still = np.mean([r[1].mean() for r in kinds["still / IMU only"]])
     czq = aeroid.NAMES.index("Czq")
-    out = ["| air / fit | fit check passed | mean abs rel error [%] | x still | coverage "
+    out = ["| air / fit | success | mean abs rel error [%] | x still | coverage "
            "| median max abs err/se | Czq mean abs err [%] |", "|---|---|---|---|---|---|---|"]
     for kind, rows in kinds.items():
         e = np.mean([r[1].mean() for r in rows])

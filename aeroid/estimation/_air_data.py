@@ -185,8 +185,9 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
                                                      flight["beta"] - beta]) ** 2)))
     if window_s is not None and not (np.isfinite(window_s) and window_s >= 0):
         raise FlightError(f"{owner}: air_data_window_s must be >= 0 [s], got {window_s!r}")
-    kalman = None if window_s is not None else smooth_air_wind(flight, air_data_wind(flight))
-    if kalman is not None:
+    kalman = None
+    if window_s is None:
+        kalman = smooth_air_wind(flight, air_data_wind(flight))
         wind = kalman.wind
         smoothed = ("the wind they imply Kalman-smoothed in NED axes (a random walk of "
                     f"intensity {kalman.intensity:.3g} (m/s)^2/s by maximum likelihood, "

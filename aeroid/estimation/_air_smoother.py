@@ -28,6 +28,7 @@ must be long for a steady wind and short for gusts: the data choose.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +69,8 @@ def _ned_to_body(flight: Flight) -> np.ndarray:
                      for e in np.eye(3)], axis=2)
 
 
-def _filter(z: np.ndarray, r: np.ndarray, q: np.ndarray, dt: float, *, keep: bool = False):
+def _filter(z: np.ndarray, r: np.ndarray, q: np.ndarray, dt: float, *, keep: bool = False
+            ) -> tuple[np.ndarray, Any]:
     """Kalman filter of random walks (one per intensity in ``q``, shape (g,)) measured by
     ``z`` (n, 3) with noise covariances ``r`` (n, 3, 3). Returns the log-likelihoods (g,)
     and, with ``keep``, the filtered and predicted means and covariances."""
@@ -77,7 +79,7 @@ def _filter(z: np.ndarray, r: np.ndarray, q: np.ndarray, dt: float, *, keep: boo
     p = np.broadcast_to(DIFFUSE_SD_MPS**2 * np.eye(3), (g, 3, 3)).copy()
     step = (q * dt)[:, None, None] * np.eye(3)
     loglik = np.zeros(g)
-    stored = ([], [], [], []) if keep else None
+    stored: tuple[list[np.ndarray], ...] = ([], [], [], [])  # filled with ``keep``
     for k in range(n):
         if k:
             p = p + step  # predict: x unchanged
@@ -98,7 +100,7 @@ def _filter(z: np.ndarray, r: np.ndarray, q: np.ndarray, dt: float, *, keep: boo
         if keep:
             stored[2].append(x.copy())
             stored[3].append(p.copy())
-    return loglik, stored
+    return loglik, (stored if keep else None)
 
 
 def smooth_air_wind(flight: Flight, implied: np.ndarray, *,

@@ -110,3 +110,18 @@ def test_settings_round_trip_and_bad_values() -> None:
         make_noise("gaussian", airspeed_sd_mps=-1.0)
     with pytest.raises(AirframeError, match="unknown option"):
         make_noise("paper", alpha_sd_rad=0.001)  # eq. 43 has no air data
+
+
+def test_the_turbulence_air_study_draws_the_probe() -> None:
+    from pathlib import Path
+
+    from aeroid.study import _runner as study_runner
+    from aeroid.study import load_study
+
+    study = load_study(Path(__file__).resolve().parents[2] / "studies" / "turbulence_air.toml")
+    probe, vanes = (c.model for c in study.noise)
+    assert probe.airspeed_sd_mps == 0.5 and vanes.airspeed_sd_mps == 0.0
+    assert probe.alpha_sd_rad == probe.beta_sd_rad == pytest.approx(np.radians(0.1))
+    f = study_runner.simulate_run(study, 0, 0)
+    assert "airspeed" in f.channels
+    assert "airspeed" not in study_runner.simulate_run(study, 0, 1).channels
