@@ -18,7 +18,8 @@ said):
   from u, v, w: the issue's "still-air error");
 * ``kalman``: the default, the implied wind Kalman-smoothed with its gust intensity by
   maximum likelihood (:mod:`aeroid.estimation._air_smoother`);
-* ``window 0.1 s``: the former default (Savitzky-Golay over ``air_data_window_s = 0.1``);
+* ``window 0.1 s``: the former default (Savitzky-Golay over ``air_data_window_s`` =
+  ``--window-s``, default 0.1 s);
 * ``kalman, no airspeed``: the same probe without its airspeed channel (the along-path
   wind unseen);
 * ``true wind``: the simulator's wind per sample given to the regressors (what no probe
@@ -111,8 +112,8 @@ def flights(air: str, seed: int, vane_deg: float) -> dict[str, aeroid.flights.Fl
     return out
 
 
-def run(seeds: int, vane_deg: float = VANE_SD_DEG, airs: tuple[str, ...] = tuple(AIRS)
-        ) -> tuple[dict, list[str]]:
+def run(seeds: int, vane_deg: float = VANE_SD_DEG, airs: tuple[str, ...] = tuple(AIRS),
+        window_s: float = 0.1) -> tuple[dict, list[str]]:
     """Fit every kind on every seed; return per-kind lists of (success, errors, z) and lines."""
     truth = reference_scenario().coefficient_vector
     kinds: dict[str, list] = {}
@@ -121,8 +122,8 @@ def run(seeds: int, vane_deg: float = VANE_SD_DEG, airs: tuple[str, ...] = tuple
         for air in ("still", *(a for a in airs if a != "still")):
             f = flights(air, seed, vane_deg)
             fits = {f"{air} / kalman": (EquationErrorEstimator(air_data="measured"), "probe"),
-                    f"{air} / window 0.1 s": (EquationErrorEstimator(
-                        air_data="measured", air_data_window_s=0.1), "probe"),
+                    f"{air} / window {window_s:g} s": (EquationErrorEstimator(
+                        air_data="measured", air_data_window_s=window_s), "probe"),
                     f"{air} / kalman, no airspeed": (EquationErrorEstimator(
                         air_data="measured"), "no airspeed"),
                     f"{air} / true wind": (TrueWind(), "imu")}
@@ -181,22 +182,27 @@ def main() -> None:
                         help="the probe's noise sd on alpha and beta [deg]")
     parser.add_argument("--airs", default=",".join(AIRS),
                         help="comma-separated airs to fly (still air always)")
+    parser.add_argument("--window-s", type=float, default=0.1,
+                        help="air_data_window_s of the fixed-window fits [s]")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     airs = tuple(a.strip() for a in args.airs.split(","))
     unknown = sorted(set(airs) - set(AIRS))
     if unknown:
         parser.error(f"unknown air(s) {unknown}; known: {', '.join(AIRS)}")
-    kinds, lines = run(args.seeds, args.vane_deg, airs)
+    kinds, lines = run(args.seeds, args.vane_deg, airs, args.window_s)
     text = table(kinds) + "\n\n" + floor_line()
     print(text)
     if not args.no_write:
         default = args.vane_deg == VANE_SD_DEG and set(airs) == set(AIRS)
-        path = RESULTS if default else RESULTS.with_name(f"air_data_vane_{args.vane_deg:g}deg.md")
+        path = (RESULTS if default else RESULTS.with_name(
+            f"air_data_vane_{args.vane_deg:g}deg.md"))
+        if args.window_s != 0.1:
+            path = path.with_name(f"{path.stem}_window_{args.window_s:g}s.md")
         path.write_text(
             f"# Equation-error with logged air data ({dt.date.today()})\n\n"
             f"`python benchmarks/bench_air_data.py --seeds {args.seeds} --vane-deg "
-            f"{args.vane_deg:g} --airs '{args.airs}'`; probe noise "
+            f"{args.vane_deg:g} --airs '{args.airs}' --window-s {args.window_s:g}`; probe noise "
             f"{args.vane_deg:g} deg on alpha and beta, {AIRSPEED_SD_MPS} m/s on the airspeed; "
             f"wind {WIND} m/s NED, Dryden scale length {SCALE_LENGTH_M} m."
             f"\n\n{text}\n\n```\n" + "\n".join(lines) + "\n```\n")
