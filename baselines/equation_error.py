@@ -211,7 +211,9 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     the p gyro alone (module docstring), name -> sd in coefficient units, and
     ``p_noise_sd`` [rad/s], linearised at the estimates; ``hac_bandwidth`` per
     sub-problem, the Newey-West bandwidth ``{"lags", "capped"}`` (a capped one is also a
-    warning). ``cost`` is the total weighted residual sum of squares. Nothing is random:
+    warning); with the Kalman-smoothed air data ``air_data_wind_intensity`` [(m/s)^2/s]
+    and ``air_data_wind_consider`` (:mod:`baselines._ee_air`). ``cost`` is the total
+    weighted residual sum of squares. Nothing is random:
     ``rng`` is unused.
     """
 
