@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 import aeroid  # noqa: E402
 from aeroid import estimation as rc  # noqa: E402
 from aeroid.flights import GaussianNoise, Wind, reference_scenario, simulate  # noqa: E402
-from baselines._ee_least_squares import SUBPROBLEMS  # noqa: E402
+from baselines.equation_error import SUBPROBLEMS  # noqa: E402
 
 VANE_RAD = float(np.radians(0.1))
 
