@@ -90,6 +90,7 @@ from aeroid import estimation as rc
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight
 from baselines import _held, _tables_fit
+from baselines._ee_air import refuse_unseen_gusts, with_wind_consider
 from baselines._ee_least_squares import (  # the sub-problems' names are read from here
     LATERAL,
     SUBPROBLEMS,
@@ -188,9 +189,18 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         the flight carries one), those from u, v, w (``inertial``), the logged ones or a
         refusal (``measured``), or the reconstruction's steady wind or a refusal
         (``reconstruction``); :mod:`aeroid.estimation._air_data`.
-    air_data_window_s : float
-        Smoothing of the wind the logged angles imply, in north-east-down axes [s]
-        (default 0.1, measured: :mod:`aeroid.estimation._air_data`; 0: none).
+    air_data_window_s : float or None
+        Smoothing of the wind the logged angles imply, in north-east-down axes: None
+        (default) a Kalman smoother whose gust intensity the data choose by maximum
+        likelihood (:mod:`aeroid.estimation._air_smoother`; measured against the fixed
+        window in benchmarks/bench_air_data.py), or a Savitzky-Golay window of that many
+        seconds (0.1 the former default, :mod:`aeroid.estimation._air_data`; 0: none).
+        With the Kalman smoother the record-mean wind's uncertainty is a consider term of
+        the covariance (:mod:`baselines._ee_air`).
+    along_path_wind_sd_mps : float or None
+        Logged angles without an airspeed channel: the sd [m/s] of the unseen steady wind
+        along the path that the covariance considers (default: the steady wind the air
+        data measure across the path; said in a warning; :mod:`baselines._ee_air`).
 
     Notes
     -----
@@ -201,7 +211,9 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     the p gyro alone (module docstring), name -> sd in coefficient units, and
     ``p_noise_sd`` [rad/s], linearised at the estimates; ``hac_bandwidth`` per
     sub-problem, the Newey-West bandwidth ``{"lags", "capped"}`` (a capped one is also a
-    warning). ``cost`` is the total weighted residual sum of squares. Nothing is random:
+    warning); with the Kalman-smoothed air data ``air_data_wind_intensity`` [(m/s)^2/s]
+    and ``air_data_wind_consider`` (:mod:`baselines._ee_air`). ``cost`` is the total
+    weighted residual sum of squares. Nothing is random:
     ``rng`` is unused.
     """
 
@@ -218,7 +230,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     covariance: Literal["hac", "ols"] = "hac"
     positions: Literal["consider", "known"] = "consider"
     air_data: Literal["auto", "inertial", "measured", "reconstruction"] = "auto"
-    air_data_window_s: float = rc.WIND_WINDOW_S
+    air_data_window_s: float | None = None
+    along_path_wind_sd_mps: float | None = None
 
     def __post_init__(self) -> None:
         if self.smoothing not in rc.SMOOTHING_CHOICES:
@@ -229,8 +242,13 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         if self.air_data not in rc.AIR_DATA_CHOICES:
             raise ValueError(f"air_data must be one of {', '.join(rc.AIR_DATA_CHOICES)}, "
                              f"got {self.air_data!r}")
-        if not (np.isfinite(self.air_data_window_s) and self.air_data_window_s >= 0):
+        if self.air_data_window_s is not None and not (
+                np.isfinite(self.air_data_window_s) and self.air_data_window_s >= 0):
             raise ValueError(f"air_data_window_s must be >= 0 [s], got {self.air_data_window_s}")
+        if self.along_path_wind_sd_mps is not None and not (
+                np.isfinite(self.along_path_wind_sd_mps) and self.along_path_wind_sd_mps >= 0):
+            raise ValueError("along_path_wind_sd_mps must be >= 0 [m/s], got "
+                             f"{self.along_path_wind_sd_mps}")
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
@@ -250,10 +268,24 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         if holds is not None and holds.held:  # the data against the held values
             result = _held.ee_held_check(result, self._solve(flight, wind=air.wind), holds)
         result = dataclasses.replace(
-            result, info={**result.info, "air_data": air.source, "air_data_note": air.note},
+            result, info={**result.info, "air_data": air.source, "air_data_note": air.note,
+                          **({} if air.smoothed is None else {
+                              "air_data_wind_intensity": air.smoothed.intensity})},
             warnings=tuple(result.warnings) + ((air.warning,) if air.warning else ()))
         if air.source == "measured":  # wind or turbulence: aeroid/estimation/_air_verdict.py
-            result = rc.with_air_verdict(result, rc.air_data_verdict(flight, self.name))
+            result = refuse_unseen_gusts(rc.with_air_verdict(
+                result, rc.air_data_verdict(flight, self.name)), flight, self.name)
+        if self.along_path_wind_sd_mps is not None and (air.smoothed is None
+                                                        or rc.has_airspeed(flight)):
+            raise aeroid.errors.EstimatorError(
+                f"{self.name}: along_path_wind_sd_mps is for logged angles without an "
+                "airspeed channel, Kalman-smoothed (air_data_window_s = None); this fit "
+                f"takes {air.source} air data" + (" with an airspeed channel"
+                                                  if rc.has_airspeed(flight) else ""))
+        result = with_wind_consider(  # the smoothed wind's uncertainty: baselines/_ee_air.py
+            result, flight, air, lambda wind: self._solve(
+                flight, theta_only=True, holds=holds, wind=wind).theta, self.name,
+            self.along_path_wind_sd_mps)
         sd = flight.airframe.accel_position_sd.ravel()
         free = np.flatnonzero(sd)
         if self.positions == "known" or free.size == 0 or not result.success:

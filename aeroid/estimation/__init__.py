@@ -33,6 +33,7 @@ from aeroid.estimation._air_data import (
     resolve_air_data,
 )
 from aeroid.estimation._air_reconstruction import reconstruction_wind
+from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
 from aeroid.estimation._air_verdict import (
     AirVerdict,
     air_data_verdict,
@@ -144,6 +145,8 @@ __all__ = [
     "air_data_verdict",
     "verdict_of",
     "with_air_verdict",
+    "SmoothedWind",
+    "smooth_air_wind",
     "has_air_angles",
     "has_air_data",
     "has_airspeed",

@@ -21,7 +21,12 @@ smoothed there (Savitzky-Golay, order :data:`WIND_POLYORDER`, over the option
 (Gaussian IMU, vane noise 0.1 deg, 4 seeds, mean |error| of the nine coefficients; still
 air 1.3 %): steady 5 m/s wind 6.5 % unsmoothed, 3.0 % over 0.1 s, 2.4 % over 0.2 s;
 with Dryden turbulence of sd 3 m/s 6.8 %, 6.0 % and 8.2 % (a long window smooths the
-gusts away). Default 0.1 s.
+gusts away). Default 0.1 s (EBM-PSO, SEBM-PSO). ``window_s = None`` instead smooths it
+with a Kalman smoother whose gust intensity the data choose
+(:mod:`aeroid.estimation._air_smoother`): equation-error's default, measured in
+``benchmarks/bench_air_data.py`` (steady wind: the whole record's weighted mean; 0.1
+deg vanes with an airspeed channel: 0.90-0.96x the still-air error against 2.2-2.6x
+with the 0.1 s window).
 
 Every other method takes the angles from ``u, v, w`` and says so
 (:func:`ignored_air_data_warning`).
@@ -39,6 +44,7 @@ from aeroid.estimation._air_reconstruction import (
     reconstruction_note,
     reconstruction_wind,
 )
+from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
 from aeroid.estimation._signals import smooth
 from aeroid.flights import Flight
 from aeroid.model import equations
@@ -75,6 +81,7 @@ class AirData:
     wind: np.ndarray | None
     note: str
     warning: str | None = None
+    smoothed: SmoothedWind | None = None  # the Kalman smoother's answer, when it ran
 
 
 def _inertial_angles(flight: Flight) -> tuple[np.ndarray, np.ndarray]:
@@ -141,9 +148,10 @@ def air_data_wind(flight: Flight, window_s: float = 0.0) -> np.ndarray:
 
 
 def resolve_air_data(flight: Flight, choice: str, owner: str,
-                     window_s: float = WIND_WINDOW_S) -> AirData:
+                     window_s: float | None = WIND_WINDOW_S) -> AirData:
     """Return the angles a fit of ``owner`` uses on ``flight`` for the option ``choice``
-    (the implied wind smoothed over ``window_s`` [s]).
+    (the implied wind smoothed over ``window_s`` [s]; None: by the Kalman smoother whose
+    gust intensity is fitted, :mod:`aeroid.estimation._air_smoother`).
 
     Raises
     ------
@@ -175,11 +183,20 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
     alpha, beta = _inertial_angles(flight)
     rms = np.degrees(np.sqrt(np.mean(np.concatenate([flight["alpha"] - alpha,
                                                      flight["beta"] - beta]) ** 2)))
-    if not (np.isfinite(window_s) and window_s >= 0):
+    if window_s is not None and not (np.isfinite(window_s) and window_s >= 0):
         raise FlightError(f"{owner}: air_data_window_s must be >= 0 [s], got {window_s!r}")
-    window = wind_window(flight, window_s)
-    smoothed = (f"the wind they imply smoothed over {window} samples in NED axes"
-                if window > 1 else "not smoothed")
+    kalman = None
+    if window_s is None:
+        kalman = smooth_air_wind(flight, air_data_wind(flight))
+        wind = kalman.wind
+        smoothed = ("the wind they imply Kalman-smoothed in NED axes (a random walk of "
+                    f"intensity {kalman.intensity:.3g} (m/s)^2/s by maximum likelihood, "
+                    f"0: steady; probe noise {_body_sd(kalman)} m/s along body x, y, z)")
+    else:
+        wind = air_data_wind(flight, window_s)
+        window = wind_window(flight, window_s)
+        smoothed = (f"the wind they imply smoothed over {window} samples in NED axes"
+                    if window > 1 else "not smoothed")
     speed = float(np.mean(np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w")))))
     angles = (f"the logged alpha, beta ({rms:.3g} deg RMS from the inertial ones"
               if has_air_angles(flight) else "alpha, beta from u, v, w (none logged apart "
@@ -187,15 +204,20 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
     if has_airspeed(flight):
         off = float(np.sqrt(np.mean((flight["airspeed"] - np.sqrt(
             sum(flight[c] ** 2 for c in ("u", "v", "w")))) ** 2)))
-        return AirData("measured", air_data_wind(flight, window_s),
+        return AirData("measured", wind,
                        f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
-                       f"from the logged airspeed channel ({off:.3g} m/s RMS from |u, v, w|)")
+                       f"from the logged airspeed channel ({off:.3g} m/s RMS from |u, v, w|)",
+                       smoothed=kalman)
     warning = (f"{owner}: airspeed taken as |u, v, w| (no airspeed channel): a wind along "
                f"the path of 1 m/s biases every coefficient by about {200.0 / speed:.2g} %, "
                "which the logged angles cannot see and the standard errors leave out")
-    return AirData("measured", air_data_wind(flight, window_s),
+    return AirData("measured", wind,
                    f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
-                   "|u, v, w| (no airspeed channel)", warning)
+                   "|u, v, w| (no airspeed channel)", warning, kalman)
+
+
+def _body_sd(kalman: SmoothedWind) -> str:
+    return ", ".join(f"{v:.2g}" for v in kalman.noise_sd_body)
 
 
 def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:

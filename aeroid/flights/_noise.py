@@ -11,8 +11,19 @@ Noise models
   estimator's copy of each accelerometer-position component perturbed once per flight
   with ``xi_pos`` (a position error; the simulator itself uses the true positions).
 * :class:`GaussianNoise`: additive zero-mean Gaussian, one standard deviation per
-  channel (a realistic IMU); optional Gaussian position error [m].
+  channel (a realistic IMU); optional Gaussian position error [m]; optional air data
+  (an air-data probe: the vane angles ``alpha``, ``beta`` and an ``airspeed`` channel,
+  each with its own sd; :meth:`GaussianNoise.corrupt_air`).
 * :class:`NoNoise`.
+
+Air data (``alpha_sd_rad``, ``beta_sd_rad``, ``airspeed_sd_mps`` of
+:class:`GaussianNoise`; all 0 by default, the flights as before to the bit): the
+simulator records the air-relative angles and speed of the truth (in moving air the
+wind's; in still air the inertial ones) and :meth:`GaussianNoise.corrupt_air` adds
+white Gaussian noise to them, drawn after everything else (the IMU noise and the
+position error draw the same numbers with or without it). A positive
+``airspeed_sd_mps`` is what makes the flight log an ``airspeed`` channel (a probe that
+measures one); with 0 it logs none. The paper's noise (eq. 43) has no air data.
 """
 
 from __future__ import annotations
@@ -24,7 +35,10 @@ from typing import Any, Protocol
 import numpy as np
 
 from aeroid.errors import AirframeError
-from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS, RATE_CHANNELS, fileform
+from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS, RATE_CHANNELS, equations, fileform
+
+#: :class:`GaussianNoise`'s air-data options (module docstring).
+AIR_NOISE_OPTIONS: tuple[str, ...] = ("alpha_sd_rad", "beta_sd_rad", "airspeed_sd_mps")
 
 
 def _check_options(model: Any) -> None:
@@ -165,6 +179,11 @@ class GaussianNoise:
     accel_sd_mps2: float = 0.05
     rate_sd_radps: float = 0.005
     position_sd_m: float = 0.0
+    #: vane noise on the logged angle of attack and of sideslip [rad] (0: the true ones)
+    alpha_sd_rad: float = 0.0
+    beta_sd_rad: float = 0.0
+    #: noise of a logged ``airspeed`` channel [m/s]; 0: no airspeed channel (module docstring)
+    airspeed_sd_mps: float = 0.0
     name: str = field(default="gaussian", init=False)
 
     def __post_init__(self) -> None:
@@ -191,6 +210,32 @@ class GaussianNoise:
         """``position_sd_m`` for every component."""
         return np.full(np.shape(positions), float(self.position_sd_m))
 
+    @property
+    def logs_air_data(self) -> bool:
+        """True when the flights carry air data with noise (:meth:`corrupt_air`)."""
+        return max(self.alpha_sd_rad, self.beta_sd_rad, self.airspeed_sd_mps) > 0
+
+    def corrupt_air(self, channels: dict[str, np.ndarray], air_velocity: tuple[np.ndarray, ...],
+                    rng: np.random.Generator) -> dict[str, np.ndarray]:
+        """Return ``channels`` with the probe's readings of the air-relative velocity.
+
+        ``air_velocity`` is the true ``(u, v, w)`` relative to the air, body axes [m/s],
+        each shape (n,). ``alpha`` and ``beta`` [rad] (eqs. 14-16 of it) get white
+        Gaussian noise of ``alpha_sd_rad``, ``beta_sd_rad`` (one (n, 2) draw, when either
+        is positive); with ``airspeed_sd_mps > 0`` an ``airspeed`` channel [m/s], its
+        magnitude plus noise of that sd (one (n,) draw, after the angles').
+        """
+        out = dict(channels)
+        speed, alpha, beta = equations.air_data(*(np.asarray(c, dtype=float)
+                                                  for c in air_velocity))
+        if self.alpha_sd_rad > 0 or self.beta_sd_rad > 0:
+            e = rng.standard_normal((len(speed), 2))
+            out["alpha"] = alpha + self.alpha_sd_rad * e[:, 0]
+            out["beta"] = beta + self.beta_sd_rad * e[:, 1]
+        if self.airspeed_sd_mps > 0:
+            out["airspeed"] = speed + self.airspeed_sd_mps * rng.standard_normal(len(speed))
+        return out
+
     def output_sd(self, outputs: np.ndarray, *, form: str = "heteroscedastic") -> np.ndarray:
         """Return ``accel_sd_mps2`` / ``rate_sd_radps`` for every output, shape of ``outputs``
         (additive noise: both forms are the same)."""
@@ -202,8 +247,10 @@ class GaussianNoise:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the settings."""
+        air = {k: getattr(self, k) for k in AIR_NOISE_OPTIONS if getattr(self, k) > 0}
         return {"model": self.name, "accel_sd_mps2": self.accel_sd_mps2,
-                "rate_sd_radps": self.rate_sd_radps, "position_sd_m": self.position_sd_m}
+                "rate_sd_radps": self.rate_sd_radps, "position_sd_m": self.position_sd_m,
+                **air}  # the air data only when given: older sidecars unchanged
 
 
 @dataclass(frozen=True, kw_only=True)

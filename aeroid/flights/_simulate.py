@@ -345,6 +345,9 @@ def record_flight(
         channels["alpha"], channels["beta"] = air_angles(
             *equations.air_velocity(as_state(states), const))
     positions = noise.perturb_positions(airframe.accel_positions, rng)
+    corrupt_air = getattr(noise, "corrupt_air", None)  # a probe's readings, drawn last
+    if corrupt_air is not None and getattr(noise, "logs_air_data", False):
+        channels = corrupt_air(channels, equations.air_velocity(as_state(states), const), rng)
     sd = noise.position_sd(positions)  # the estimators are told how uncertain they are
     seen = airframe.replace(accel1_position_m=tuple(positions[0]),
                             accel2_position_m=tuple(positions[1]),

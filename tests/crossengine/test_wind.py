@@ -168,7 +168,11 @@ def test_equation_error_with_air_data_in_turbulence(turbulent):
     inertial_err = np.mean(_error_pct(inertial.theta, truth))
     assert measured_err * AIR_DATA_GAIN < inertial_err, (measured_err, inertial_err)
     assert not inertial.success and "does not fit the data" in inertial.message
-    assert not measured.success and "does not fit the data" in measured.message
+    # refused: by the fit check (the 0.1 s window's roll moment) or, with equation-error's
+    # Kalman-smoothed wind (which the fit check passed here), as turbulence without an
+    # airspeed channel (baselines/_ee_air.py: the along-path gusts unseen)
+    assert not measured.success and ("does not fit the data" in measured.message
+                                     or "no airspeed channel" in measured.message)
 
 
 @pytest.mark.parametrize("estimate_wind", [False, True], ids=["still-air", "estimate_wind"])
