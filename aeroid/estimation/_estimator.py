@@ -31,7 +31,7 @@ from aeroid.estimation._identifiability import record_findings, record_verdict
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
-from aeroid.estimation._table_holds import TableHolds, table_holds
+from aeroid.estimation._table_holds import TableHolds, fit_tables, table_holds
 from aeroid.estimation._windows import (
     check_windows,
     common_findings,
@@ -198,7 +198,7 @@ class Estimator(abc.ABC):
                                  f"priors ({given.describe()}); fit all nine free")
         spec: CoefficientSpec | TableHolds = given  # with tables: their constants and points
         if tables is not None and not given.empty:
-            spec = table_holds(given, flight.airframe.mach_tables(flight.states()))
+            spec = table_holds(given, fit_tables(flight))  # windows: their shared knots
         if not spec.empty:
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
         known = spec.covers() if isinstance(spec, TableHolds) else {**spec.held, **spec.priors}
