@@ -170,7 +170,8 @@ class Estimator(abc.ABC):
                 f"{owner}: the airframe's [tables] makes "
                 f"{', '.join(name for name, _ in (*tables.knots, *tables.angle_knots))} "
                 "tables (in Mach or the angle of attack); this method "
-                "fits constant coefficients (output-error and equation-error fit tables); "
+                "fits constant coefficients (output-error, equation-error, ekf and ukf fit "
+                "tables); "
                 "remove [tables] to fit constants")
         given = airframe_holds(flight.airframe).merged(CoefficientSpec.coerce(holds))
         if windows is not None:
