@@ -45,13 +45,20 @@ FD_RTOL = 1e-6
 #: The same equations in two CasADi graphs (tables flat at the coefficients) and mapped
 #: against single evaluations: rounding.
 SAME_RTOL = 1e-12
-#: Holding a point removes its uncertainty: the filter's covariance of the others shrinks
-#: to the linearisation's change between the two runs (measured 0.3 % at most).
-HELD_SE_RTOL = 2e-2
+#: Holding a point removes its state: in one pass (one noise law) the neighbouring points'
+#: standard errors fall (measured 0.94, 0.95 of the free fit's). Over the passes the noise
+#: law is refitted to each run's own innovations (ax1's ``a`` came out 18 % higher with the
+#: point held), which moves the standard errors by up to that law's change: measured
+#: +1.9 % on Cx@M2.2 after 6 passes.
+HELD_SE_RTOL = 3e-2
 #: The UKF against the EKF on the angle-table flight (a nearly linear problem at the
 #: estimate): measured 0.011 of a standard error apart, standard errors 3e-5 apart.
 UKF_EKF_SE = 0.05
 UKF_EKF_SE_RTOL = 1e-3
+#: The EKF's smoothed passes against its carried ones on that flight: measured 0.023 of a
+#: standard error apart, standard errors 3.1 % apart (different passes, one fixed point).
+SMOOTHED_SE = 0.1
+SMOOTHED_SE_RTOL = 0.1
 
 
 @pytest.fixture(scope="module")
@@ -196,6 +203,11 @@ def test_ekf_holds_a_table_point(sweep, ekf_free):
     assert np.all(held.stderr[points] <= ekf_free.stderr[points] * (1 + HELD_SE_RTOL))
     z = _z(held, truth)
     assert np.all(np.abs(z[points]) < Z_LIMIT), dict(zip(held.names, z.round(2), strict=True))
+    one = aeroid.make_estimator("ekf", {"substeps": SUBSTEPS, "max_passes": 1})
+    free_1 = one.fit(flight, rng=0)
+    held_1 = one.fit(flight, rng=0, holds=CoefficientSpec.parse([f"{name}={truth[name]}"]))
+    neighbours = [i for i, n in enumerate(held.names) if n.startswith("Cx@") and i != j]
+    assert np.all(held_1.stderr[neighbours] < free_1.stderr[neighbours])  # one law: smaller
 
 
 def test_ukf_fits_an_angle_table_as_the_ekf(alpha_flight):
@@ -213,6 +225,17 @@ def test_ukf_fits_an_angle_table_as_the_ekf(alpha_flight):
     # the two filters on one record: the same estimate to a fraction of its se
     assert np.all(np.abs(ukf.theta - ekf.theta) < UKF_EKF_SE * ekf.stderr)
     np.testing.assert_allclose(ukf.stderr, ekf.stderr, rtol=UKF_EKF_SE_RTOL)
+
+
+def test_smoothed_passes_fit_tables_as_the_carried_ones(alpha_flight):
+    """The EKF's smoothed passes (each after the first from the original prior, along the
+    last pass's RTS-smoothed trajectory) reach the carried passes' estimate."""
+    carried = aeroid.make_estimator("ekf").fit(alpha_flight, rng=0)
+    smoothed = aeroid.make_estimator("ekf", {"passes": "smoothed"}).fit(alpha_flight, rng=0)
+    assert carried.success and smoothed.success, (carried.message, smoothed.message)
+    assert smoothed.names == carried.names
+    assert np.all(np.abs(smoothed.theta - carried.theta) < SMOOTHED_SE * carried.stderr)
+    np.testing.assert_allclose(smoothed.stderr, carried.stderr, rtol=SMOOTHED_SE_RTOL)
 
 
 # -- refusals -----------------------------------------------------------------------------
