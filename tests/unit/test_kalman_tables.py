@@ -58,6 +58,10 @@ UKF_EKF_SE_RTOL = 1e-3
 #: The EKF's smoothed passes against its carried ones on that flight: measured 0.023 of a
 #: standard error apart, standard errors 3.1 % apart (different passes, one fixed point).
 SMOOTHED_SE = 0.1
+#: A prior of sd 1e-8 of its mean against the hold: the filter's update of that state is
+#: ~(sd / se)^2 = 1e-11 of the data's; the others within this many se of the held fit.
+TINY_SD = 1e-8
+PRIOR_LIMIT_SE = 1e-3
 SMOOTHED_SE_RTOL = 0.1
 
 
@@ -225,6 +229,26 @@ def test_ukf_fits_an_angle_table_as_the_ekf(alpha_flight):
     # the two filters on one record: the same estimate to a fraction of its se
     assert np.all(np.abs(ukf.theta - ekf.theta) < UKF_EKF_SE * ekf.stderr)
     np.testing.assert_allclose(ukf.stderr, ekf.stderr, rtol=UKF_EKF_SE_RTOL)
+
+
+def test_a_prior_on_a_point_is_its_state_start(alpha_flight):
+    """A prior N(mu, sd^2) on a point starts its state at mu with sd (each pass afresh): a
+    vanishing sd keeps the point at mu and gives the fit with the point held."""
+    name, value = "Cma@A1.2deg", -33.8
+    est = aeroid.make_estimator("ekf")
+    held = est.fit(alpha_flight, rng=0, holds=CoefficientSpec.parse([f"{name}={value}"]))
+    tight = est.fit(alpha_flight, rng=0, holds=CoefficientSpec.parse(
+        [], [f"{name}={value}:{abs(value) * TINY_SD}"]))
+    wide = est.fit(alpha_flight, rng=0, holds=CoefficientSpec.parse([], [f"{name}={value}:1"]))
+    assert held.success and tight.success and wide.success
+    assert tight.priors == {name: (value, abs(value) * TINY_SD)}
+    j = tight.names.index(name)
+    assert tight.theta[j] == pytest.approx(value, rel=TINY_SD)
+    others = [i for i in range(len(held.names)) if i != j]
+    assert np.all(np.abs(tight.theta[others] - held.theta[others])
+                  < PRIOR_LIMIT_SE * held.stderr[others])
+    free = est.fit(alpha_flight, rng=0)  # a prior of sd 1 (10x the point's se) adds little
+    assert free.stderr[j] * (1 - 1e-9) > wide.stderr[j] > free.stderr[j] / 1.01
 
 
 def test_smoothed_passes_fit_tables_as_the_carried_ones(alpha_flight):
