@@ -278,3 +278,41 @@ def test_the_swarms_refuse_tables_in_one_line(alpha_flight, method):
     with pytest.raises(EstimatorError, match=rf"{method}: the airframe's \[tables\] makes Cx, "
                        r"Cma tables .* this method fits constant coefficients"):
         aeroid.make_estimator(method).fit(alpha_flight)
+
+
+def test_a_study_of_tables_takes_the_ekf(tmp_path):
+    """`aeroid study` on a scenario with [tables] runs the EKF and scores its points (the
+    study's own truth per point: tests/integration/test_study_tables.py)."""
+    import re
+
+    from aeroid.study import loads_study, run_study
+
+    text = (SCENARIOS / "mach_sweep.toml").read_text()
+    text = re.sub(r"window_s = \[0.5, 20.5\]", "window_s = [0.5, 6.5]", text)
+    text = re.sub(r"^(Cx|Cmq) = \[1.1, .*\]$", rf"\1 = {list(KNOTS)}", text, flags=re.M)
+    scenario = tmp_path / "sweep6.toml"
+    scenario.write_text(text)
+    study = loads_study(f"""
+[study]
+name = "sweep"
+runs = 1
+seed = 7
+scenario = "{scenario}"
+[[noise]]
+label = "gauss"
+model = "gaussian"
+[[estimators]]
+label = "EKF"
+method = "ekf"
+options = {{ substeps = {SUBSTEPS} }}
+""")
+    (record,) = run_study(study, tmp_path / "out", progress=False).records
+    assert record["success"], record["message"]
+    names = list(record["names"])
+    assert names == list(TableSpec((("Cx", KNOTS), ("Cmq", KNOTS))).resolve(1.0).parameter_names())
+    truth = dict(zip(names, record["truth"], strict=True))
+    assert truth["Cx@M1.925"] == pytest.approx(-0.90)
+    assert truth["Cmq@M2.2"] == pytest.approx(-1893.0)  # the scenario file's rows
+    z = (np.array(record["theta"]) - np.array(record["truth"])) / np.array(record["stderr"])
+    points = np.array(["@M" in n for n in names])
+    assert np.all(np.abs(z[points]) < Z_LIMIT), dict(zip(names, z.round(2), strict=True))
