@@ -118,7 +118,8 @@ def _solve(est: Any, windows: Windows, tools: tuple[Callable, Callable], *,
     covariance = "ols" if theta_only else est.covariance
     affine_accelerations, roll_floor = tools
     if windows.airframe.tables is not None:  # shared table points: baselines._tables_windows
-        return equation_error_windows(est, windows, covariance, theta_only=theta_only)
+        return equation_error_windows(est, windows, covariance, theta_only=theta_only,
+                                      holds=holds)
     if est.one_step:
         theta, cov, corr, cost, info = _one_step(est, windows, covariance,
                                                  affine_accelerations, holds)

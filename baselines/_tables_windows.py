@@ -25,7 +25,7 @@ import aeroid
 from aeroid import estimation as rc
 from aeroid.errors import EstimatorError
 from aeroid.flights import Windows
-from aeroid.model import MachTables, TableSpec
+from aeroid.model import MachTables
 from aeroid.model import tables as mach_tables
 from baselines._common import pooled_sd
 from baselines._tables_fit import (
@@ -53,15 +53,8 @@ def shared_tables(windows: Windows) -> tuple[Windows, list[MachTables]]:
         if flight.airframe.tables != spec:
             raise EstimatorError(f"windows: window {name!r} has other [tables] than "
                                  f"{windows.names[0]!r}; the windows share their tables")
-    assert spec is not None
-    sounds = [spec.speed_of_sound(f.airframe.altitude_m) for f in windows]
-    machs = [mach_tables.mach_number(*f.states()[:, :3].T, a) for f, a in
-             zip(windows, sounds, strict=True)]
-    every = np.concatenate(machs)
-    knots = tuple((name, mach_tables.choose_knots(every, k) if isinstance(k, int) else k)
-                  for name, k in spec.knots)
-    angles, alpha = _shared_angle_knots(windows, spec)
-    resolved = TableSpec(knots, spec.temperature_k, angles)
+    resolved, every, alpha = rc.windows_table_spec(windows)  # counted knots over them all
+    knots, angles = resolved.knots, resolved.angle_knots
     empty = [mach_tables.point_name(name, k) for name, ks in knots
              for k, weight in zip(ks, mach_tables.basis(ks, every).max(axis=0), strict=True)
              if weight == 0.0]
@@ -84,22 +77,14 @@ def shared_tables(windows: Windows) -> tuple[Windows, list[MachTables]]:
     return out, [f.airframe.mach_tables() for f in out]
 
 
-def _shared_angle_knots(windows: Windows, spec: TableSpec
-                        ) -> tuple[tuple[tuple[str, tuple[float, ...]], ...], np.ndarray]:
-    """The angle tables' knots [deg] over all windows (a count chosen from their total
-    angle of attack together) and every window's total angle [rad]."""
-    alpha = np.concatenate([mach_tables.total_angle(*f.states()[:, :3].T) for f in windows])
-    angles = tuple((name, tuple(float(np.degrees(x))
-                                for x in mach_tables.choose_angle_knots(alpha, k))
-                    if isinstance(k, int) else k) for name, k in spec.angle_knots)
-    return angles, alpha
-
-
 def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
-                           theta_only: bool = False) -> aeroid.EstimationResult:
+                           theta_only: bool = False, holds: Any = None
+                           ) -> aeroid.EstimationResult:
     """Equation-error's two-step table fit of several windows: the expanded regressions
     of the windows (each at its own Mach) stacked, the tables' parameters shared; row
-    weights pooled over the windows as :mod:`baselines._ee_windows` does.
+    weights pooled over the windows as :mod:`baselines._ee_windows` does. ``holds``
+    (:class:`aeroid.estimation.TableHolds` over the shared points): held columns to the
+    left side and priors as pseudo-observations in the stacked rows, as one flight's.
     """
 
     refused = [what for what, on in (("one_step", est.one_step),
@@ -123,7 +108,7 @@ def equation_error_windows(est: Any, windows: Windows, covariance: str, *,
     counts = [f.n_samples for f in windows]
     sd = pooled_sd([rc.estimate_noise_sd(rec.fm) for rec in recs], counts)
     theta, cov, corr, sigma2, cost, bandwidth = solve_table_subproblems(
-        np.concatenate(Xs), np.vstack(ys), sd, per[0], covariance)
+        np.concatenate(Xs), np.vstack(ys), sd, per[0], covariance, holds)
     rows = tuple(p[1] for p in subproblem_columns(per[0]))
     info: dict[str, Any] = {"sigma2": sigma2, "subproblems": [p[0] for p in
                                                               subproblem_columns(per[0])],

@@ -33,6 +33,8 @@ from baselines import (
     _kalman_wind,
 )
 from baselines._imu_states import ImuFilterOptions
+from baselines._kalman_tables import refuse_windows, run_table_passes
+from baselines._tables_fit import flight_tables
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -72,6 +74,7 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
     name: ClassVar[str] = "ekf"
     supports_windows: ClassVar[bool] = True  # run_windows: baselines._kalman_windows
+    fits_tables: ClassVar[bool] = True  # [tables]: the points as states, baselines._kalman_tables
     description: ClassVar[str] = (
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
@@ -115,6 +118,10 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
                      ) -> _kalman.FilterOutput:
             return _held.held_pass(model, setup, holds, filter_pass)
 
+        tables = flight_tables(flight)
+        if tables is not None:  # [tables]: the points as states (baselines._kalman_tables)
+            return run_table_passes(self, flight, tables, one_pass,
+                                    lambda _model: flight.n_samples, holds)
         result = self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
         if self.passes == "auto" and self.passes_used() == "smoothed":
             notice = ("ekf: passes = smoothed (auto, with estimate_wind): each pass "
@@ -129,6 +136,7 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         _kalman_windows`; no random draws)."""
         from baselines._kalman_windows import run_windows
 
+        refuse_windows(self, windows)  # [tables]: not built for the filters
         _kalman_wind.refuse_with(self, "several windows")
         _kalman_gust.refuse_with(self, "several windows")
         _kalman_air.refuse_windows(self, windows)

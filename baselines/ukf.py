@@ -24,7 +24,9 @@ from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
 from baselines import _common, _held, _kalman, _kalman_air, _kalman_gust, _kalman_wind
 from baselines._imu_states import ImuFilterOptions
+from baselines._kalman_tables import refuse_windows, run_table_passes
 from baselines._kalman_ukf_smoother import run_ipls
+from baselines._tables_fit import flight_tables
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -60,6 +62,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
     name: ClassVar[str] = "ukf"
     supports_windows: ClassVar[bool] = True  # run_windows: baselines._kalman_windows
+    fits_tables: ClassVar[bool] = True  # [tables]: the points as states, baselines._kalman_tables
     description: ClassVar[str] = (
         "augmented-state unscented Kalman filter (filterpy, batched sigma-point RK4)")
 
@@ -109,6 +112,11 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
                      ) -> _kalman.FilterOutput:
             return _held.held_pass(model, setup, holds, filter_pass)
 
+        tables = flight_tables(flight)
+        if tables is not None:  # [tables]: the points as states (baselines._kalman_tables)
+            return run_table_passes(self, flight, tables, one_pass,
+                                    lambda model: (2 * model.dim_x + 1) * flight.n_samples,
+                                    holds)
         result = self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)
         if self.passes == "auto" and self.passes_used() == "smoothed":
@@ -125,6 +133,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         _kalman_windows`; no random draws)."""
         from baselines._kalman_windows import run_windows
 
+        refuse_windows(self, windows)  # [tables]: not built for the filters
         _kalman_wind.refuse_with(self, "several windows")
         _kalman_gust.refuse_with(self, "several windows")
         _kalman_air.refuse_windows(self, windows)

@@ -130,7 +130,12 @@ from aeroid.estimation._signals import (
     switch_free_samples,
     switch_free_windows,
 )
-from aeroid.estimation._table_holds import TableHolds, table_holds
+from aeroid.estimation._table_holds import (
+    TableHolds,
+    fit_tables,
+    table_holds,
+    windows_table_spec,
+)
 from aeroid.estimation._whiteness import WhitenessTest, autocorrelation_test, switch_test
 
 # The paper's methods register themselves on import (after the registry exists).
@@ -167,6 +172,8 @@ __all__ = [
     "consider_covariance",
     "exact_mass_note",
     "table_holds",
+    "fit_tables",
+    "windows_table_spec",
     "estimate_noise_law",
     "fit_noise_law",
     "EAM_OUTPUTS",

@@ -31,7 +31,7 @@ from aeroid.estimation._identifiability import record_findings, record_verdict
 from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
-from aeroid.estimation._table_holds import TableHolds, table_holds
+from aeroid.estimation._table_holds import TableHolds, fit_tables, table_holds
 from aeroid.estimation._windows import (
     check_windows,
     common_findings,
@@ -179,7 +179,8 @@ class Estimator(abc.ABC):
                 f"{owner}: the airframe's [tables] makes "
                 f"{', '.join(name for name, _ in (*tables.knots, *tables.angle_knots))} "
                 "tables (in Mach or the angle of attack); this method "
-                "fits constant coefficients (output-error and equation-error fit tables); "
+                "fits constant coefficients (output-error, equation-error, ekf and ukf fit "
+                "tables); "
                 "remove [tables] to fit constants")
         if windows is not None and tables is not None and any(
                 AIR_TEMPERATURE in p.channels for p in parts.values()):
@@ -212,7 +213,7 @@ class Estimator(abc.ABC):
                                  f"priors ({given.describe()}); fit all nine free")
         spec: CoefficientSpec | TableHolds = given  # with tables: their constants and points
         if tables is not None and not given.empty:
-            spec = table_holds(given, flight_mach_tables(flight))
+            spec = table_holds(given, fit_tables(flight))  # windows: their shared knots
         if not spec.empty:
             logging.getLogger("aeroid").info(f"{owner}: {spec.describe()}")
         if tables is not None and windows is None:  # which speed of sound Mach used

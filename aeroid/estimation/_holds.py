@@ -50,6 +50,15 @@ def _number(text: Any, where: str) -> float:
 
 
 def _check_name(name: str, where: str) -> str:
+    if tables.ANGLE_SEPARATOR in name:  # an angle table point, Cma@A4deg: as a Mach point
+        try:
+            base, kind, knot = tables.split_point(name)
+        except ValueError:
+            base, kind, knot = "", "", math.nan
+        if base not in NAMES or kind != "alpha" or not math.isfinite(knot):
+            raise EstimatorError(f"{where}: {name!r} is no table point (NAME@A<angle>deg, e.g. "
+                                 f"Cma@A4deg; coefficients: {', '.join(NAMES)})")
+        return f"{base}{tables.ANGLE_SEPARATOR}{math.degrees(knot):g}deg"
     base, sep, knot = name.partition(tables.POINT_SEPARATOR)
     if sep:  # a table point, Cx@M1.4: matched to the flight's tables by the fit
         try:
@@ -67,9 +76,9 @@ def _check_name(name: str, where: str) -> str:
 
 
 def _order(name: str) -> tuple[int, float]:
-    """Sort key: a coefficient's place in NAMES, its table points after it by Mach."""
-    base, sep, knot = name.partition(tables.POINT_SEPARATOR)
-    return NAMES.index(base), float(knot) if sep else -math.inf
+    """Sort key: a coefficient's place in NAMES, its table points after it by their knot."""
+    base, kind, knot = tables.split_point(name)
+    return NAMES.index(base), knot if kind else -math.inf
 
 
 class HeldIndexes:
@@ -297,7 +306,7 @@ class CoefficientSpec(HeldIndexes):
 
     @property
     def points(self) -> tuple[str, ...]:
-        """The names of table points (``Cx@M1.4``) held or given a prior."""
+        """The names of table points (``Cx@M1.4``, ``Cma@A4deg``) held or given a prior."""
         return tuple(n for n in (*self.held, *self.priors) if n not in NAMES)
 
     # -- index sets ------------------------------------------------------------------

@@ -53,10 +53,10 @@ def pooled_noise_levels(windows: Windows) -> dict[str, float]:
 def check_windows(estimator: Any, windows: Windows, holds: Any, tables: bool) -> None:
     """Refuse, in one line, what :meth:`Estimator.fit` cannot do with several windows.
 
-    A method without ``supports_windows``; held coefficients or priors (``holds``, the
-    airframes' and the caller's merged) with coefficient tables (``tables``: their
-    points would be the windows' shared ones); windows whose airframes state different
+    A method without ``supports_windows``; windows whose airframes state different
     mass uncertainties (the consider re-fits move each window's constant by one sd).
+    Held coefficients and priors (``holds``) with coefficient tables (``tables``) name
+    the windows' shared points (:func:`aeroid.estimation.fit_tables`).
 
     Raises
     ------
@@ -67,10 +67,6 @@ def check_windows(estimator: Any, windows: Windows, holds: Any, tables: bool) ->
         raise EstimatorError(f"{owner}: fits one flight at a time; it cannot fit several "
                              "windows (methods that can: output-error, ekf, ukf, "
                              "equation-error)")
-    if tables and not holds.empty:
-        raise EstimatorError(f"{owner}: several windows with [tables] cannot hold "
-                             f"coefficients or take priors yet ({holds.describe()}); fit "
-                             "one window, or the windows without holds")
     def said(sd: Mapping[str, float]) -> str:
         return ", ".join(f"{k} sd {v:g}" for k, v in sd.items()) or "none"
 

@@ -361,8 +361,8 @@ def check_study_tables(scenario: Any, estimators: list[EstimatorSpec], noise: li
     where = f"{source}: [study] scenario with [tables]"
     unable = [e.label for e in estimators if not getattr(e.estimator, "fits_tables", False)]
     if unable:
-        raise StudyError(f"{where}: {', '.join(unable)} cannot fit tables (output-error and "
-                         "equation-error can)")
+        raise StudyError(f"{where}: {', '.join(unable)} cannot fit tables (output-error, "
+                         "equation-error, ekf and ukf can)")
     if prior_offset is not None:
         raise StudyError(f"{where}: prior_offset draws one prior per constant coefficient; "
                          "it is not available with tables")

@@ -79,7 +79,7 @@ def test_a_table_study_scores_each_table_point(scenario_file, tmp_path):
 
 
 @pytest.mark.parametrize(("method", "extra", "words"), [
-    ("ekf", "", "E cannot fit tables"),
+    ("sebm-pso", "", "E cannot fit tables"),
     ("output-error", "prior_offset = [0.1, 0.2]", "prior_offset draws one prior"),
 ])
 def test_what_a_table_study_cannot_do_is_one_line(scenario_file, method, extra, words):

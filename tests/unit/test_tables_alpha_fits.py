@@ -99,8 +99,9 @@ def test_knots_the_data_do_not_reach_are_refused_or_held_in_one_line(flights):
     narrow = noisy.airframe.replace(tables=TableSpec((), None, (("Cma", (0.5, 1.5)),)))
     result = ee.fit(dataclasses.replace(noisy, airframe=narrow), rng=0)
     assert any("below 0.5 and above 1.5 deg, beyond Cma's knots" in w for w in result.warnings)
-    with pytest.raises(EstimatorError, match="angle of attack cannot be fitted with held"):
-        ee.fit(noisy, rng=0, holds={"hold": {"Cmd": -20.9}})
+    # held coefficients beside an angle table: tests/unit/test_tables_alpha_holds.py
+    held = ee.fit(noisy, rng=0, holds={"hold": {"Cmd": -20.9}})
+    assert held.success and held.held == {"Cmd": -20.9}
 
 
 #: One window stacked once is the same least squares (tests/unit/test_tables_windows.py's).

@@ -71,8 +71,9 @@ def test_equation_error_refuses_what_it_does_not_fit_with_tables(sweep):
 
 def test_a_method_without_tables_refuses_a_flight_with_tables(sweep):
     flight, _ = sweep
-    with pytest.raises(aeroid.EstimatorError, match=r"ekf: the airframe's \[tables\] makes Cx"):
-        aeroid.make_estimator("ekf").fit(flight)
+    with pytest.raises(aeroid.EstimatorError,
+                       match=r"sebm-pso: the airframe's \[tables\] makes Cx"):
+        aeroid.make_estimator("sebm-pso").fit(flight)  # the EKF/UKF fit tables since issue 23
 
 
 #: Output-error integrating with the truth's RK4 step (8 substeps) on noise-free data:

@@ -113,6 +113,6 @@ def test_a_study_of_tables_refuses_estimators_without_tables_in_one_line(tmp_pat
     method that fits constants only is refused on load, not per fit."""
     study = tmp_path / "s.toml"
     study.write_text(f'[study]\nruns = 1\nseed = 1\nscenario = "{MACH_SWEEP}"\n'
-                     '[[estimators]]\nlabel = "E"\nmethod = "ekf"\n')
+                     '[[estimators]]\nlabel = "E"\nmethod = "sebm-pso"\n')
     with pytest.raises(aeroid.errors.StudyError, match=r"\[tables\]: E cannot fit tables"):
         aeroid.study.load_study(study)
