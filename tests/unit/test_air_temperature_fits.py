@@ -145,3 +145,28 @@ def test_a_temperature_profile_in_time_is_flown_and_fitted_per_sample():
     for name, value in _points(result).items():
         coefficient, knot = name.split("@M")
         assert value == pytest.approx(_true(coefficient, float(knot)), rel=OE_TOL), name
+
+
+def test_the_filters_tabled_step_takes_mach_from_the_logged_temperature(warm_flights):
+    # the EKF/UKF's augmented RK4 step (baselines._kalman_tables, built beside the
+    # temperature) at the true table points carries each logged state to the next: the
+    # simulator's truth (4 RK4 steps a sample, as here); Mach from the ISA misses it
+    from baselines._kalman_tables import table_model
+
+    logged, isa, scenario = warm_flights
+    truth = dict(zip(scenario.tables.parameter_names(), scenario.coefficient_vector,
+                     strict=True))
+    misses = []
+    for flight in (logged, isa):
+        tables = aeroid.flights.flight_mach_tables(flight)
+        p = np.array([_true(name.split("@M")[0], float(name.split("@M")[1]))
+                      if "@M" in name else float(truth[name])
+                      for name in tables.parameter_names()])
+        model = table_model(flight, 4, tables)
+        states = flight.states()
+        scale = np.maximum(np.abs(states).max(axis=0), 1e-12)
+        misses.append(max(float(np.max(np.abs(
+            model.transition(np.concatenate([states[k], p]), k)[0][:states.shape[1]]
+            - states[k + 1]) / scale)) for k in (0, 100, 300)))
+    assert misses[0] <= OE_TOL, misses  # measured 0 (the same RK4 on the same inputs)
+    assert misses[1] > 100 * OE_TOL, misses  # measured 2e-5 to 1e-4 of each state's range

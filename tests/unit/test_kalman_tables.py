@@ -271,6 +271,11 @@ def test_what_the_filters_do_not_do_with_tables_is_one_line(alpha_flight):
     with pytest.raises(EstimatorError, match=r"ukf: several windows with \[tables\] are not "
                        "built for the filters"):
         aeroid.make_estimator("ukf").fit(windows)
+    # air data as the filters' outputs (built in parallel with the tables): refused, not
+    # silently dropped from the tabled filter
+    with pytest.raises(EstimatorError, match=r"ekf: with \[tables\] .*air_data = measured is "
+                       "not available with tables"):
+        aeroid.make_estimator("ekf", {"air_data": "measured"}).fit(alpha_flight)
 
 
 @pytest.mark.parametrize("method", ["eam-pso", "ebm-pso", "sebm-pso", "pyswarms"])
