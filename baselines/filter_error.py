@@ -32,7 +32,10 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
   (:mod:`baselines._gust_verdict`): a steady along-body-x part larger than Dryden's
   intensity allows refuses the fit (measured: Cx or Clp held 10 % off refused 6/6 in
   Dryden sd 3 m/s, where the fit check passed them; pitch and normal-force errors, Cma
-  held 30 % off, still pass: a passed fit with gusts says so in one line).
+  held 30 % off, still pass: a passed fit with gusts says so in one line). What the user
+  asserts, held coefficients and priors, is tested by a likelihood ratio against a fit
+  with them free (:mod:`baselines._fem_holds`): a pitch-plane coefficient held wrong is
+  refused there.
 """
 
 from __future__ import annotations
@@ -243,8 +246,9 @@ class FilterErrorEstimator(Estimator):
                 f"{self.name}: in turbulence a passed fit is weak evidence of a right model: "
                 "the gust states take up model errors; the gust verdict sees those taken up "
                 "as a steady along-body wind (axial force, roll damping) but not pitch or "
-                f"normal-force ones (measured: Cma held 30 % off passes; here axial z "
-                f"{verdict.figures['axial_z']:.1f}, limit {AXIAL_LIMIT:g})")
+                f"normal-force ones (measured: Cma held 30 % off passes it; here axial z "
+                f"{verdict.figures['axial_z']:.1f}, limit {AXIAL_LIMIT:g}); holds and priors "
+                "are tested by a likelihood ratio, free coefficients are not")
         if np.any(flight.airframe.accel_position_sd > 0):
             warnings.append(f"{self.name}: the airframe's uncertain accelerometer positions "
                             "(accel*_position_sd_m) are taken as given: not estimated, and "
