@@ -2,7 +2,8 @@
 
 Run by hand from the repository root (one process, the fits in turn: ``--jobs 1``)::
 
-    python benchmarks/bench_gust_verdict.py --seeds 50        # writes results
+    python benchmarks/bench_gust_verdict.py --seeds 40        # writes results
+    python benchmarks/bench_gust_verdict.py --seeds 20 --priors   # priors instead of holds
     python benchmarks/bench_gust_verdict.py --seeds 2 --no-write
 
 Per seed ``k`` (``rng = k``, seeds 1..N): the turbulence study's flight
@@ -13,7 +14,10 @@ noise (0.05 m/s^2, 0.005 rad/s), fitted by filter-error with its defaults:
 - the right model, all nine free (no hold: nothing for the likelihood-ratio test);
 - each of Cma, Cza, Cmq held at its truth (the likelihood-ratio test's null: how often a
   right hold is refused) and at 0.7x and 1.3x its truth (known wrong: how often caught);
-- Cx and Clp held at 1.1x (the gust verdict's catches, kept).
+- Cx and Clp held at 1.1x (the gust verdict's catches, kept);
+- with ``--priors`` instead: a Gaussian prior on each of Cma, Cza, Cmq of sd 10 % of the
+  truth, its mean drawn from ``N(truth, sd^2)`` (an honest prior: the test's null) or at
+  1.3x the truth (far off); ``results/gust_verdict_priors.md``.
 
 Reported per model: refused, and by which check (the hold test,
 :mod:`baselines._fem_holds`; the gust verdict, :mod:`baselines._gust_verdict`; the fit
@@ -47,6 +51,9 @@ RESULTS = Path(__file__).parent / "results" / "gust_verdict.md"
 PITCH = ("Cma", "Cza", "Cmq")
 WRONG_FACTORS = (0.7, 1.3)
 KEPT = (("Cx", 1.1), ("Clp", 1.1))
+#: ``--priors``: each prior's sd, a fraction of the truth (a wind-tunnel value's spread).
+PRIOR_SD_REL = 0.10
+RESULTS_PRIORS = Path(__file__).parent / "results" / "gust_verdict_priors.md"
 
 
 def upper_bound(k: int, n: int, level: float = 0.95) -> float:
@@ -80,25 +87,49 @@ def _fit_check_refuses(r) -> bool:
     return bool(size or noise or check.get("not_white"))
 
 
-def run(seeds: int, scenario: Path) -> tuple[dict, list[str]]:
+def _models(priors: bool) -> list[tuple[str, str | None, float]]:
+    """``(label, coefficient, factor)`` of each fit (module docstring)."""
+    if priors:
+        return [(f"{name} prior {what}", name, f) for name in PITCH
+                for what, f in (("at the truth", 1.0), ("1.3x", 1.3))]
+    models: list[tuple[str, str | None, float]] = [("right model, all free", None, 1.0)]
+    for name in PITCH:
+        models += [(f"{name} held {f:g}x", name, f) for f in (1.0, *WRONG_FACTORS)]
+    return models + [(f"{name} held {f:g}x", name, f) for name, f in KEPT]
+
+
+def _constraint(label: str, name: str | None, factor: float, truth: np.ndarray, seed: int
+                ) -> tuple[dict | None, float]:
+    """The fit's ``holds`` and the constrained value. A prior "at the truth" has its mean
+    drawn from ``N(truth, sd^2)`` (seeded by the seed and the coefficient): the null under
+    which the likelihood ratio is chi-square; "1.3x" is centred there; sd
+    :data:`PRIOR_SD_REL` of the truth."""
+    if name is None:
+        return None, np.nan
+    value = factor * float(truth[NAMES.index(name)])
+    if " prior " not in label:
+        return {"hold": {name: value}}, value
+    sd = PRIOR_SD_REL * abs(value / factor)
+    if factor == 1.0:
+        value += sd * float(np.random.default_rng([seed, NAMES.index(name)]).standard_normal())
+    return {"prior": {name: [value, sd]}}, value
+
+
+def run(seeds: int, scenario: Path, priors: bool = False) -> tuple[dict, list[str]]:
     """Fit every model on every flight; return per model the records, and the lines."""
     from baselines.filter_error import FilterErrorEstimator
 
     s = load_scenario(scenario)
     truth = s.coefficient_vector
     noise = make_noise("gaussian")
-    models: list[tuple[str, str | None, float]] = [("right model, all free", None, 1.0)]
-    for name in PITCH:
-        models += [(f"{name} held {f:g}x", name, f) for f in (1.0, *WRONG_FACTORS)]
-    models += [(f"{name} held {f:g}x", name, f) for name, f in KEPT]
+    models = _models(priors)
     est = FilterErrorEstimator()
     records: dict[str, list[dict]] = {label: [] for label, _, _ in models}
     lines = []
     for seed in range(1, seeds + 1):
         flight = simulate(s.airframe, truth, s.manoeuvre, noise, rng=seed)
         for label, name, factor in models:
-            holds = None if name is None else {
-                "hold": {name: factor * float(truth[NAMES.index(name)])}}
+            holds, value = _constraint(label, name, factor, truth, seed)
             r = est.fit(flight, rng=seed, holds=holds)
             test = r.info.get("hold_test", {})
             verdict = r.info.get("gust_verdict", {})
@@ -111,8 +142,7 @@ def run(seeds: int, scenario: Path) -> tuple[dict, list[str]]:
             if name is not None and test.get("done"):  # the data's information on it
                 se = test["free_stderr"][name]
                 rec["rel_se"] = se / abs(float(truth[NAMES.index(name)]))
-                rec["wald"] = abs(test["free_values"][name] - factor * float(
-                    truth[NAMES.index(name)])) / se
+                rec["wald"] = abs(test["free_values"][name] - value) / se
             records[label].append(rec)
             lines.append(f"seed {seed} {label}: {rec['by']} (fit check alone: "
                          f"{'refuses' if rec['fit_check'] else 'passes'}) LR {rec['lr']:.2f} "
@@ -130,6 +160,10 @@ def _span(recs: list[dict], key: str, fmt: str = ".2f") -> str:
     if v.size == 0:
         return "-"
     return f"{np.min(v):{fmt}} / {np.median(v):{fmt}} / {np.max(v):{fmt}}"
+
+
+def _refused(recs: list[dict]) -> int:
+    return sum(r["by"] != "passed" for r in recs)
 
 
 def _median(recs: list[dict], key: str, fmt: str = ".2f") -> str:
@@ -158,6 +192,18 @@ def table(records: dict) -> list[str]:
                    f"{_span(recs, 'lr')} | {_median(recs, 'rel_se', '.3f')} | "
                    f"{_median(recs, 'wald')} | {_span(recs, 'sigma')} | "
                    f"{_span(recs, 'slope', '.3f')} |")
+    if "right model, all free" not in records:  # --priors
+        null = [r for name in PITCH for r in records[f"{name} prior at the truth"]]
+        far = [r for name in PITCH for r in records[f"{name} prior 1.3x"]]
+        alarms = sum(r["by"] != "passed" for r in null)
+        caught = sum(r["by"] != "passed" for r in far)
+        return out + ["", f"- Priors 1.3x off (sd {PRIOR_SD_REL:.0%} of the truth) refused: "
+                      f"{caught}/{len(far)}; per coefficient: " + ", ".join(
+                          f"{name} {_refused(records[f'{name} prior 1.3x'])}"
+                          f"/{len(records[f'{name} prior 1.3x'])}" for name in PITCH),
+                      f"- Honest priors (mean drawn from N(truth, sd^2)) refused: {alarms}/"
+                      f"{len(null)} (exact one-sided 95 % upper bound "
+                      f"{100 * upper_bound(alarms, len(null)):.1f} %)"]
     wrong = [r for name in PITCH for f in WRONG_FACTORS for r in records[f"{name} held {f:g}x"]]
     null = [r for name in PITCH for r in records[f"{name} held 1x"]]
     caught = sum(r["by"] != "passed" for r in wrong)
@@ -185,23 +231,27 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--scenario", type=Path, default=SCENARIO)
+    parser.add_argument("--priors", action="store_true",
+                        help="priors on Cma, Cza, Cmq instead of holds")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
     if args.seeds < 1:
         parser.error("--seeds must be >= 1")
-    records, lines = run(args.seeds, args.scenario)
+    records, lines = run(args.seeds, args.scenario, args.priors)
     out = table(records)
     print("\n".join(out))
     if not args.no_write:
-        RESULTS.parent.mkdir(parents=True, exist_ok=True)
+        path = RESULTS_PRIORS if args.priors else RESULTS
+        path.parent.mkdir(parents=True, exist_ok=True)
         stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-        RESULTS.write_text(
+        path.write_text(
             f"# Filter-error's verdicts on pitch-plane errors in turbulence\n\n{stamp}; "
-            f"`python benchmarks/bench_gust_verdict.py --seeds {args.seeds}`"
+            f"`python benchmarks/bench_gust_verdict.py --seeds {args.seeds}"
+            f"{' --priors' if args.priors else ''}`"
             f"{'' if args.scenario == SCENARIO else f' --scenario {args.scenario}'}; "
             f"the flights: {args.scenario.name}, Gaussian IMU, seeds 1-{args.seeds}.\n\n"
             + "\n".join(out) + "\n\n## Runs\n\n```\n" + "\n".join(lines) + "\n```\n")
-        print(f"wrote {RESULTS}")
+        print(f"wrote {path}")
 
 
 if __name__ == "__main__":
