@@ -151,3 +151,25 @@ def test_the_freed_problem_starts_at_the_held_fit(turbulent_flight, reference_sc
     assert freed_nll == pytest.approx(held_nll, rel=SAME_RTOL)
     assert freed.unpack(start[None])[0] == pytest.approx(problem.unpack(p[None])[0],
                                                          rel=SAME_RTOL)
+
+
+def test_a_failed_free_fit_leaves_the_hold_untested_and_says_so(
+        turbulent_flight, reference_scenario, monkeypatch) -> None:
+    """The free fit diverging (forced: its Fisher scoring raises as a diverged filter does)
+    leaves the held fit's verdict as it was, with a one-line warning, not a silent pass."""
+    calls = []
+    real = _fem_fit.fisher_scoring
+
+    def second_diverges(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise FloatingPointError("a filter diverged (forced)")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(_fem_fit, "fisher_scoring", second_diverges)
+    r = FilterErrorEstimator().fit(turbulent_flight, rng=0,
+                                   holds=_hold(reference_scenario, "Cma", 1.0))
+    assert len(calls) == 2 and r.success, r.message
+    assert not r.info["hold_test"]["done"]
+    said = [w for w in r.warnings if "likelihood-ratio test of Cma (hold) was not done" in w]
+    assert len(said) == 1 and "\n" not in said[0] and "diverged (forced)" in said[0]
