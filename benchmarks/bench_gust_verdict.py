@@ -4,6 +4,9 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
 
     python benchmarks/bench_gust_verdict.py --seeds 40        # writes results
     python benchmarks/bench_gust_verdict.py --seeds 20 --priors   # priors instead of holds
+    python benchmarks/bench_gust_verdict.py --seeds 10 \
+        --scenario studies/scenarios/turbulence_steady.toml  # no gusts: results/..._steady.md
+    python benchmarks/bench_gust_verdict.py --seeds 10 --scenario reference  # still air
     python benchmarks/bench_gust_verdict.py --seeds 2 --no-write
 
 Per seed ``k`` (``rng = k``, seeds 1..N): the turbulence study's flight
@@ -119,7 +122,7 @@ def run(seeds: int, scenario: Path, priors: bool = False) -> tuple[dict, list[st
     """Fit every model on every flight; return per model the records, and the lines."""
     from baselines.filter_error import FilterErrorEstimator
 
-    s = load_scenario(scenario)
+    s = load_scenario(None if str(scenario) == "reference" else scenario)  # still air
     truth = s.coefficient_vector
     noise = make_noise("gaussian")
     models = _models(priors)
@@ -242,6 +245,8 @@ def main() -> None:
     print("\n".join(out))
     if not args.no_write:
         path = RESULTS_PRIORS if args.priors else RESULTS
+        if str(args.scenario) == "reference" or args.scenario.resolve() != SCENARIO:
+            path = path.with_name(f"{path.stem}_{args.scenario.stem}.md")
         path.parent.mkdir(parents=True, exist_ok=True)
         stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
         path.write_text(
