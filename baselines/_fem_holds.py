@@ -148,9 +148,10 @@ def hold_test(problem: _fem_fit.Problem, fit: _fem_fit.Fit, holds: Any, prior: n
     lr, p_value = likelihood_ratio(fit.cost, free_fit.cost, len(names))
     theta, _, sigma = freed.unpack(free_fit.p[None])
     index = [int(np.flatnonzero(freed.free == NAMES.index(n))[0]) for n in names]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        se = np.sqrt(np.diag(np.linalg.pinv(free_fit.information)))[index] * np.abs(
-            freed.scale[index])
+    keep = np.arange(free_fit.p.size) != (freed.i_sigma if free_fit.at_bound else -1)
+    with np.errstate(invalid="ignore", divide="ignore"):  # as the estimator: the intensity
+        cov = np.linalg.pinv(free_fit.information[np.ix_(keep, keep)])  # at its bound left out
+        se = np.sqrt(np.diag(cov))[index] * np.abs(freed.scale[index])
     values = {n: float(theta[0, NAMES.index(n)]) for n in names}
     figures.update({"lr": lr, "p_value": p_value, "done": True,
                     "free_values": values,
