@@ -36,6 +36,9 @@ gusts), Cma 30 % off 0.21-0.40: it needs a null that scales with the turbulence 
 parametric bootstrap of the fitted model in gusts of the fitted intensity; not done).
 
 Figures and the limits' calibration: ``benchmarks/results/filter_error_wrong.md``.
+Pitch-plane errors are not judged here: a coefficient the user holds (or gives a prior)
+is tested by filter-error's likelihood ratio (:mod:`baselines._fem_holds`;
+``benchmarks/bench_gust_verdict.py``, whose table also shows the incidence slope again).
 """
 
 from __future__ import annotations

@@ -32,7 +32,10 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
   (:mod:`baselines._gust_verdict`): a steady along-body-x part larger than Dryden's
   intensity allows refuses the fit (measured: Cx or Clp held 10 % off refused 6/6 in
   Dryden sd 3 m/s, where the fit check passed them; pitch and normal-force errors, Cma
-  held 30 % off, still pass: a passed fit with gusts says so in one line).
+  held 30 % off, still pass: a passed fit with gusts says so in one line). What the user
+  asserts, held coefficients and priors, is tested by a likelihood ratio against a fit
+  with them free (:mod:`baselines._fem_holds`): a pitch-plane coefficient held wrong is
+  refused there.
 """
 
 from __future__ import annotations
@@ -48,7 +51,7 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult, Estimator, failed_result
 from aeroid.flights import INPUTS, MIL_SCALE_LENGTH_M, Flight
 from aeroid.model import N_STATE, NAMES, OUTPUT_CHANNELS, PHI, PSI, THETA, P
-from baselines import _common, _fem_fit, _fem_setup
+from baselines import _common, _fem_fit, _fem_holds, _fem_setup
 from baselines._fem_filter import gust_model
 from baselines._fem_model import N_WIND
 from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
@@ -177,10 +180,14 @@ class FilterErrorEstimator(Estimator):
                                           max_iterations=self.max_iterations, tol=self.tol)
         except FloatingPointError as exc:
             return failed_result(self.name, str(exc))
-        return self._result(flight, problem, fit, noise, tau, speed)
+        test = _fem_holds.hold_test(problem, fit, holds, prior, update_noise=noise.update,
+                                    r_floor=noise.floor, max_iterations=self.max_iterations,
+                                    tol=self.tol, who=self.name)
+        return self._result(flight, problem, fit, noise, tau, speed, test)
 
     def _result(self, flight: Flight, problem: _fem_fit.Problem, fit: _fem_fit.Fit,
-                noise: _fem_setup.Noise, tau: float, speed: float) -> EstimationResult:
+                noise: _fem_setup.Noise, tau: float, speed: float,
+                test: _fem_holds.HoldTest | None = None) -> EstimationResult:
         """Turn the fit into an :class:`EstimationResult` (class docstring, Notes)."""
         n_p, nf, i_s = fit.p.size, problem.free.size, problem.i_sigma
         active = np.array([i != i_s or not fit.at_bound for i in range(n_p)])
@@ -228,13 +235,20 @@ class FilterErrorEstimator(Estimator):
         if success and not verdict.ok:
             success, message = False, verdict.message
         warnings: list[str] = []
+        if test is not None:  # the user's holds and priors against the data
+            info["hold_test"] = test.figures
+            if success and not test.ok:
+                success, message = False, test.message
+            elif test.message:
+                warnings.append(test.message)
         if success and not fit.at_bound:
             warnings.append(
                 f"{self.name}: in turbulence a passed fit is weak evidence of a right model: "
                 "the gust states take up model errors; the gust verdict sees those taken up "
                 "as a steady along-body wind (axial force, roll damping) but not pitch or "
-                f"normal-force ones (measured: Cma held 30 % off passes; here axial z "
-                f"{verdict.figures['axial_z']:.1f}, limit {AXIAL_LIMIT:g})")
+                f"normal-force ones (measured: Cma held 30 % off passes it; here axial z "
+                f"{verdict.figures['axial_z']:.1f}, limit {AXIAL_LIMIT:g}); holds and priors "
+                "are tested by a likelihood ratio, free coefficients are not")
         if np.any(flight.airframe.accel_position_sd > 0):
             warnings.append(f"{self.name}: the airframe's uncertain accelerometer positions "
                             "(accel*_position_sd_m) are taken as given: not estimated, and "
