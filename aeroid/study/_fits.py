@@ -2,8 +2,10 @@
 
 Seeding: run ``i`` owns the stream ``SeedSequence(seed, spawn_key=(i,))``. Its flights
 draw from the child ``spawn_key=(i, 0)``, its estimators from ``spawn_key=(i, 1)`` and,
-with ``prior_offset``, its prior from ``spawn_key=(i, 2)``, so a fit depends only on
-(seed, run index, noise condition, estimator), never on the number or kind of workers.
+with ``prior_offset``, its prior from ``spawn_key=(i, 2)`` and, with ``[perturb]``, its
+drawn airframe constants from ``spawn_key=(i, 3)`` (:mod:`aeroid.study._perturb`), so a
+fit depends only on (seed, run index, noise condition, estimator), never on the number or
+kind of workers.
 Decisions:
 
 - Every estimator of a run gets a fresh generator from the same seed, so all of them
@@ -39,6 +41,7 @@ import numpy as np
 from aeroid.errors import StudyError
 from aeroid.flights import cut_windows
 from aeroid.model import compile_clock
+from aeroid.study._perturb import perturb_fields, run_scenario
 from aeroid.study._provenance import code_id
 from aeroid.study._spec import Study
 from aeroid.study._suite import imu_error_fields, suite_flight
@@ -128,7 +131,7 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
     """
     from aeroid.flights import record_flight
 
-    scenario = study.scenario
+    scenario = run_scenario(study, run)  # with [perturb]: the run's drawn mass
     if study.noise[noise_index].suite is not None:  # a sensor-suite log, reconstructed
         return suite_flight(scenario, study.noise[noise_index],
                             flight_seed(study.seed, run), scenario_key(scenario))
@@ -176,6 +179,7 @@ def base_record(study: Study, task: Task, truth: Any = None) -> dict[str, Any]:
         "message": "", "cost": None,
         "n_evaluations": 0, "n_iterations": 0, "wall_time_s": None, "compile_time_s": None,
         "worker": f"{socket.gethostname()}:{os.getpid()}", "code": study_code_id(study),
+        **perturb_fields(study, run),
     }
 
 
