@@ -194,6 +194,31 @@ def fit_times(wall_time_s: float, compile_s: float) -> dict[str, float | None]:
             "compile_time_s": _clean(compile_s)}
 
 
+def consider_fields(result: Any) -> dict[str, Any]:
+    """Return a record's fields of a fit's consider share and fitted attitude offset.
+
+    ``consider`` (a fit whose airframe gives a mass or inertia sd,
+    :mod:`aeroid.estimation._consider`): the method's own standard errors
+    (``stderr_without``), the constants' share (``stderr_share``) and the re-fits that
+    ended unsuccessful (``refit_messages``), so that a study can tell a widened interval
+    from a failed re-fit. ``attitude_offset``: output-error's ``attitude_prior``
+    (``{"phi": [offset, se], "theta": [offset, se]}`` [rad]). ``{}`` when neither.
+    """
+    out: dict[str, Any] = {}
+    consider = getattr(result, "consider", None)
+    if consider is not None:
+        out["consider"] = {"names": list(consider.names),
+                           "stderr_without": _vector(consider.stderr_without),
+                           "stderr_share": _vector(consider.stderr_share),
+                           "refit_messages": [str(m) for m in consider.refit_messages]}
+    offset = (result.info or {}).get("attitude_offset_rad")
+    if offset:
+        se = result.info.get("attitude_offset_stderr_rad", {})
+        out["attitude_offset"] = {k: [_clean(v), _clean(se.get(k, math.nan))]
+                                  for k, v in offset.items()}
+    return out
+
+
 def failed_record(study: Study, task: Task, message: str) -> dict[str, Any]:
     """Return the record of a fit that failed outside the estimator (a worker died)."""
     record = base_record(study, task)
@@ -245,7 +270,7 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
                   cost=_clean(result.cost), n_evaluations=int(result.n_evaluations),
                   n_iterations=int(result.n_iterations),
                   **fit_times(result.wall_time_s, clock.seconds),
-                  **imu_error_fields(flight, result.info))
+                  **imu_error_fields(flight, result.info), **consider_fields(result))
     if run != HISTORY_RUN:
         return record, None
     history = {}
@@ -257,6 +282,7 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
     return record, history
 
 
-__all__ = ["HISTORY_RUN", "Task", "base_record", "estimator_seed", "failed_record",
+__all__ = ["HISTORY_RUN", "Task", "base_record", "consider_fields", "estimator_seed",
+           "failed_record",
            "fit_task", "fit_times", "flight_seed", "prior_seed", "run_prior", "scenario_key",
            "scenario_truth", "simulate_run", "study_code_id", "turbulent"]

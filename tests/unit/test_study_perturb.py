@@ -152,3 +152,21 @@ def test_draws_the_simulator_would_refuse_are_refused_on_load(tmp_path):
         loads_study(study, base_dir=tmp_path, registry=REGISTRY)
     ok = loads_study(study.replace("0.05", "0.005"), base_dir=tmp_path, registry=REGISTRY)
     assert ok.scenario.manoeuvre.mass_scale == 1.9 and ok.mass_rel_sd == 0.005
+
+
+def test_a_records_consider_fields_tell_the_share_from_the_method_own():
+    from types import SimpleNamespace
+
+    from aeroid.study._fits import consider_fields
+
+    consider = SimpleNamespace(names=("mass_kg",), stderr_without=np.array([0.1, np.inf]),
+                               stderr_share=np.array([0.3, 0.0]),
+                               refit_messages=("mass_kg = 9.7: max_iterations (200) reached",))
+    info = {"attitude_offset_rad": {"phi": 1e-3, "theta": -2e-4},
+            "attitude_offset_stderr_rad": {"phi": 3e-3, "theta": 1e-4}}
+    out = consider_fields(SimpleNamespace(consider=consider, info=info))
+    assert out == {"consider": {"names": ["mass_kg"], "stderr_without": [0.1, None],
+                                "stderr_share": [0.3, 0.0],
+                                "refit_messages": ["mass_kg = 9.7: max_iterations (200) reached"]},
+                   "attitude_offset": {"phi": [1e-3, 3e-3], "theta": [-2e-4, 1e-4]}}
+    assert consider_fields(SimpleNamespace(consider=None, info={})) == {}
