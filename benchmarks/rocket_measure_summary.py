@@ -78,8 +78,11 @@ if with_consider:
             print(f"  run {r['run']}: {r['consider']['refit_messages'][0][:150]}")
     print("median se: own, mass share, total (successful fits)")
     for j, name in enumerate(names):
-        own = np.nanmedian(np.array([r["consider"]["stderr_without"][j]
-                                     for r in with_consider], dtype=float))
+        own_j = np.array([r["consider"]["stderr_without"][j] for r in with_consider],
+                         dtype=float)
+        if not np.any(np.isfinite(own_j)):  # held: no se of its own
+            continue
+        own = np.nanmedian(own_j)
         share = np.nanmedian(np.array([r["consider"]["stderr_share"][j]
                                        for r in with_consider], dtype=float))
         total = np.median([r["stderr"][j] for r in with_consider])
