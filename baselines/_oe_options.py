@@ -8,6 +8,7 @@ from typing import Any
 from aeroid.flights import IMU_ERROR_KINDS, INPUTS
 from baselines._gauss_newton import NOISE_MODELS
 from baselines._oe_aiding import OE_AIDING
+from baselines._oe_attitude import check_attitude_option
 from baselines._oe_constants import MAX_DELAY_S
 from baselines._oe_skew import check_skew_option
 
@@ -35,6 +36,7 @@ def check_options(self: Any) -> None:
     if self.aiding not in OE_AIDING:
         raise ValueError(f"aiding must be one of {', '.join(OE_AIDING)}, got {self.aiding!r}")
     check_skew_option(self.aiding, self.estimate_skew)
+    check_attitude_option(self)
     if self.noise_model not in NOISE_MODELS:
         raise ValueError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, "
                          f"got {self.noise_model!r}")

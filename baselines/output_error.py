@@ -29,7 +29,7 @@ import aeroid
 from aeroid.estimation import EstimationResult, Estimator
 from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common, _held, _oe_airdata, _oe_wind, _tables_fit
+from baselines import _common, _held, _oe_airdata, _oe_attitude, _oe_wind, _tables_fit
 from baselines._gauss_newton import Fit, Problem, gauss_newton, posterior_information, sandwich
 from baselines._oe_aiding import aided_problem, aiding_info, aiding_names, aiding_x0
 from baselines._oe_aiding_report import aiding_warnings
@@ -50,7 +50,6 @@ from baselines._oe_sensors import (
     imu_error_report,
     imu_error_scales,
     position_report,
-    prior_weights,
 )
 from baselines._oe_skew import skew_report, skew_search
 from baselines._oe_starts import (
@@ -65,7 +64,8 @@ from baselines._oe_windows import OutputErrorWindows
 
 @dataclass(frozen=True, kw_only=True)
 class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator,
-                           _oe_wind.WindOption, _oe_airdata.AirDataOption):
+                           _oe_wind.WindOption, _oe_airdata.AirDataOption,
+                           _oe_attitude.AttitudeOption):
     """Output-error maximum likelihood (Gauss-Newton, CasADi AD, Cramér-Rao bounds).
 
     Starts from the airframe's prior coefficients and from equation-error's estimate, the
@@ -115,7 +115,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         Decision: off by default because every force and moment scales with ``V^2``, so
         a free initial speed trades against all nine coefficients at once; on the
         reference flight it inflated the Cramér-Rao sd of Cx, Cza, Cma, Cmd from ~0.1 %
-        to ~1.6 % (measured). The attitude is always taken as measured.
+        to ~1.6 % (measured). The attitude is taken as measured (see ``attitude_prior``).
     initial_velocity_prior : {"none", "flight"}
         With ``estimate_initial_velocity``: ``"flight"`` puts a Gaussian prior on
         ``u, v, w`` at the first sample, centred on the flight's values with the sd in
@@ -244,7 +244,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         """State indices of the estimated initial-state components."""
         free = (X0_VELOCITIES if self.estimate_initial_velocity else ()) + (
             X0_RATES if self.estimate_initial_state else ()) + aiding_x0(self.aiding)
-        return tuple(sorted(free))
+        return tuple(sorted(set(free + _oe_attitude.attitude_x0(self))))
 
     def position_free(self, flight: Flight) -> tuple[int, ...]:
         """Estimated position components (indices into ``[x1, y1, z1, x2, y2, z2]``)."""
@@ -272,7 +272,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         z = _common.measurements(flight)
         scale += imu_error_scales(z, self.imu_errors)
         scale = np.concatenate(scale)
-        weight = prior_weights(self, flight, scale, position_free)
+        weight = _oe_attitude.prior_weights(self, flight, scale, position_free)
         x0 = flight.states()[0]
         x0[_common.RATES] = _common.smoothed_start(z[:, _common.GYROS])
         model = RecordModel(flight, input=self.input, substeps=self.substeps,
@@ -382,6 +382,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             info["delay_s"] = float(phys[i_delay])
             info["delay_stderr_s"] = float(stderr_phys[i_delay])
         warnings += _oe_wind.wind_report(self, position_free, phys, stderr_phys, info)
+        warnings += _oe_attitude.attitude_report(self, flight, phys, stderr_phys, info)
         warnings += airdata_report(self, flight, prob, best.e, phys, stderr_phys, info)
         warnings += skew_report(self.estimate_skew, info, model, best.p, phys, cov_phys, search)
         if model.n_imu:

@@ -3,7 +3,8 @@
 Issue 25: the measure study's failures (max_iterations) come from the 2 % mass error.
 This fits run RUN's flight (the study's own, :func:`aeroid.study._fits.simulate_run`) with
 Cx constant and without the mass sd (the cheapest fit that shows it), once with the file's
-10 kg and, with ``--true-mass``, with the airframe's mass set to the flown 10.2 kg.
+10 kg and, with ``--true-mass``, with the airframe's mass set to the flown one (the run's
+draw of the study's ``[perturb]``; before it, the scenario's fixed 10.2 kg).
 
     python benchmarks/rocket_mass_refit.py RUN [--true-mass]
 """
@@ -18,6 +19,7 @@ import numpy as np
 
 from aeroid.study import load_study
 from aeroid.study._fits import estimator_seed, simulate_run
+from aeroid.study._perturb import run_mass_scale
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("run", type=int)
@@ -27,7 +29,9 @@ study = load_study("studies/rocket_measure.toml")
 flight = simulate_run(study, args.run, 0)
 airframe = flight.airframe.replace(tables=None, mass_sd_kg=0.0)
 if args.true_mass:
-    airframe = airframe.replace(mass_kg=airframe.mass_kg * study.scenario.manoeuvre.mass_scale)
+    drawn = run_mass_scale(study, args.run)  # the run's own draw ([perturb]), else fixed
+    scale = study.scenario.manoeuvre.mass_scale if drawn is None else drawn
+    airframe = airframe.replace(mass_kg=airframe.mass_kg * scale)
 flight = dataclasses.replace(flight, airframe=airframe)
 start = time.perf_counter()
 result = study.estimators[0].estimator.fit(

@@ -14,6 +14,9 @@ A study file is TOML with three parts::
     windows = "5-6,7-8"         # optional: fit these time ranges [s] of each flight
                                 # together (shared coefficients); default: the flight
 
+    [perturb]                   # optional: mass_rel_sd = 0.03 draws each run's flown
+                                # mass (aeroid.study._perturb)
+
     [[noise]]                   # optional, repeatable; default: one "paper" condition
     label = "paper xi=0.05"     # unique
     model = "paper"             # "paper" | "gaussian" | "none" (aeroid.make_noise)
@@ -63,6 +66,7 @@ from aeroid.flights import (
     scenario_from_dict,
 )
 from aeroid.model import read_toml, reference_scenario_data
+from aeroid.study._perturb import check_perturb
 from aeroid.study._spec import EstimatorSpec, NoiseCondition, Study, check_prior_offset
 from aeroid.study._suite import suite_condition
 
@@ -72,7 +76,7 @@ MAX_FILE_BYTES = 1_000_000
 STUDY_KEYS = ("name", "description", "runs", "seed", "scenario", "prior_offset", "windows")
 NOISE_KEYS = ("label", "model")
 ESTIMATOR_KEYS = ("label", "method", "options")
-TOP_LEVEL = ("study", "noise", "estimators")
+TOP_LEVEL = ("study", "noise", "estimators", "perturb")
 
 
 def quick_study_path() -> Path:
@@ -309,7 +313,8 @@ def study_from_dict(data: Mapping[str, Any], *, source: str = "<memory>",
                  noise=tuple(noise), estimators=tuple(estimators),
                  description=str(head.get("description", "")), scenario_ref=scenario_ref,
                  source=source, skipped=tuple(skipped), prior_offset=prior_offset,
-                 windows=windows)
+                 windows=windows, mass_rel_sd=check_perturb(data.get("perturb", {}), scenario,
+                                                            source))
 
 
 def check_study_windows(value: Any, scenario: Any, estimators: list[EstimatorSpec],

@@ -2,8 +2,10 @@
 
 Seeding: run ``i`` owns the stream ``SeedSequence(seed, spawn_key=(i,))``. Its flights
 draw from the child ``spawn_key=(i, 0)``, its estimators from ``spawn_key=(i, 1)`` and,
-with ``prior_offset``, its prior from ``spawn_key=(i, 2)``, so a fit depends only on
-(seed, run index, noise condition, estimator), never on the number or kind of workers.
+with ``prior_offset``, its prior from ``spawn_key=(i, 2)`` and, with ``[perturb]``, its
+drawn airframe constants from ``spawn_key=(i, 3)`` (:mod:`aeroid.study._perturb`), so a
+fit depends only on (seed, run index, noise condition, estimator), never on the number or
+kind of workers.
 Decisions:
 
 - Every estimator of a run gets a fresh generator from the same seed, so all of them
@@ -39,6 +41,7 @@ import numpy as np
 from aeroid.errors import StudyError
 from aeroid.flights import cut_windows
 from aeroid.model import compile_clock
+from aeroid.study._perturb import perturb_fields, run_scenario
 from aeroid.study._provenance import code_id
 from aeroid.study._spec import Study
 from aeroid.study._suite import imu_error_fields, suite_flight
@@ -128,7 +131,7 @@ def simulate_run(study: Study, run: int, noise_index: int) -> Any:
     """
     from aeroid.flights import record_flight
 
-    scenario = study.scenario
+    scenario = run_scenario(study, run)  # with [perturb]: the run's drawn mass
     if study.noise[noise_index].suite is not None:  # a sensor-suite log, reconstructed
         return suite_flight(scenario, study.noise[noise_index],
                             flight_seed(study.seed, run), scenario_key(scenario))
@@ -176,6 +179,7 @@ def base_record(study: Study, task: Task, truth: Any = None) -> dict[str, Any]:
         "message": "", "cost": None,
         "n_evaluations": 0, "n_iterations": 0, "wall_time_s": None, "compile_time_s": None,
         "worker": f"{socket.gethostname()}:{os.getpid()}", "code": study_code_id(study),
+        **perturb_fields(study, run),
     }
 
 
@@ -188,6 +192,31 @@ def fit_times(wall_time_s: float, compile_s: float) -> dict[str, float | None]:
     """
     return {"wall_time_s": _clean(max(float(wall_time_s) - compile_s, 0.0)),
             "compile_time_s": _clean(compile_s)}
+
+
+def consider_fields(result: Any) -> dict[str, Any]:
+    """Return a record's fields of a fit's consider share and fitted attitude offset.
+
+    ``consider`` (a fit whose airframe gives a mass or inertia sd,
+    :mod:`aeroid.estimation._consider`): the method's own standard errors
+    (``stderr_without``), the constants' share (``stderr_share``) and the re-fits that
+    ended unsuccessful (``refit_messages``), so that a study can tell a widened interval
+    from a failed re-fit. ``attitude_offset``: output-error's ``attitude_prior``
+    (``{"phi": [offset, se], "theta": [offset, se]}`` [rad]). ``{}`` when neither.
+    """
+    out: dict[str, Any] = {}
+    consider = getattr(result, "consider", None)
+    if consider is not None:
+        out["consider"] = {"names": list(consider.names),
+                           "stderr_without": _vector(consider.stderr_without),
+                           "stderr_share": _vector(consider.stderr_share),
+                           "refit_messages": [str(m) for m in consider.refit_messages]}
+    offset = (result.info or {}).get("attitude_offset_rad")
+    if offset:
+        se = result.info.get("attitude_offset_stderr_rad", {})
+        out["attitude_offset"] = {k: [_clean(v), _clean(se.get(k, math.nan))]
+                                  for k, v in offset.items()}
+    return out
 
 
 def failed_record(study: Study, task: Task, message: str) -> dict[str, Any]:
@@ -241,7 +270,7 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
                   cost=_clean(result.cost), n_evaluations=int(result.n_evaluations),
                   n_iterations=int(result.n_iterations),
                   **fit_times(result.wall_time_s, clock.seconds),
-                  **imu_error_fields(flight, result.info))
+                  **imu_error_fields(flight, result.info), **consider_fields(result))
     if run != HISTORY_RUN:
         return record, None
     history = {}
@@ -253,6 +282,7 @@ def fit_task(study: Study, task: Task) -> tuple[dict[str, Any], dict[str, np.nda
     return record, history
 
 
-__all__ = ["HISTORY_RUN", "Task", "base_record", "estimator_seed", "failed_record",
+__all__ = ["HISTORY_RUN", "Task", "base_record", "consider_fields", "estimator_seed",
+           "failed_record",
            "fit_task", "fit_times", "flight_seed", "prior_seed", "run_prior", "scenario_key",
            "scenario_truth", "simulate_run", "study_code_id", "turbulent"]

@@ -63,7 +63,8 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
         Columns :data:`TIDY_COLUMNS`; ``error`` = estimate - truth, ``rel_error_pct`` =
         |error| / |truth| * 100, ``covered`` = |error| <= COVERAGE_Z * stderr (NA where
         the fit failed, gave no finite standard error, or held the coefficient: sd 0, no
-        interval to cover anything).
+        interval to cover anything); with a study's ``[perturb]``, also ``mass_scale``
+        (the run's drawn true mass over the file's).
     """
     rows: list[dict[str, Any]] = []
     default = tuple(names)
@@ -83,9 +84,11 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
                 "n_iterations": int(r.get("n_iterations") or 0),
                 "wall_time_s": np.nan if r.get("wall_time_s") is None
                 else float(r["wall_time_s"]),
+                "mass_scale": float(r.get("mass_scale", np.nan)),  # [perturb]'s draw
             })
     frame = pd.DataFrame(rows, columns=[c for c in TIDY_COLUMNS
-                                        if c not in ("error", "rel_error_pct", "covered")])
+                                        if c not in ("error", "rel_error_pct", "covered")]
+                         + ["mass_scale"])
     frame["error"] = frame["estimate"] - frame["truth"]
     frame["rel_error_pct"] = frame["error"].abs() / frame["truth"].abs() * 100.0
     ok = (frame["success"] & np.isfinite(frame["stderr"]) & (frame["stderr"] > 0)  # held: 0
@@ -93,7 +96,8 @@ def tidy(records: Iterable[Mapping[str, Any]], names: Sequence[str] = NAMES) -> 
     covered = frame["error"].abs() <= COVERAGE_Z * frame["stderr"]
     frame["covered"] = pd.array(np.where(ok, covered, False), dtype="boolean")
     frame.loc[~ok, "covered"] = pd.NA
-    return frame[TIDY_COLUMNS]
+    drawn = ["mass_scale"] if frame["mass_scale"].notna().any() else []  # [perturb] only
+    return frame[TIDY_COLUMNS + drawn]
 
 
 def _reduce(group: pd.DataFrame) -> pd.Series:

@@ -39,6 +39,7 @@ from aeroid.study._floors import (
 from aeroid.study._histories import read_history
 from aeroid.study._markdown import _count, _fmt, _table  # noqa: F401 - _fmt, _count: the report's
 from aeroid.study._paper import PAPER_METHODS, paper_condition, paper_errors, paper_results
+from aeroid.study._perturb import perturb_lines
 from aeroid.study._spec import Study
 from aeroid.study._store import (
     DESIGN_FILE,
@@ -144,6 +145,7 @@ def markdown(study: Study, summary: pd.DataFrame, floors: Mapping[str, Mapping[s
                                "median_evaluations"]].itertuples(index=False)), counts=(7,))
     lines.append("")
     lines += suite_lines(records)
+    lines += perturb_lines(records, study)
 
     est_opts = {e["label"]: e["options"] for e in d["estimators"]}
     reach = reachable_floors(study)

@@ -122,6 +122,10 @@ class Study:
         ``"5-6,7-8"``: every run's flight is cut into these time ranges [s] and each
         estimator fits them together, coefficients shared
         (:func:`aeroid.flights.cut_windows`). None (default): the whole flight.
+    mass_rel_sd : float, optional
+        ``[perturb] mass_rel_sd``: each run's truth flies its own mass, the scenario's
+        times ``1 + mass_rel_sd z`` (:mod:`aeroid.study._perturb`); the estimators are
+        told the file's. None (default): every run flies the scenario's mass.
     """
 
     name: str
@@ -136,6 +140,7 @@ class Study:
     skipped: tuple[str, ...] = field(default=())
     prior_offset: tuple[float, float] | None = None
     windows: str | None = None
+    mass_rel_sd: float | None = None
 
     def __post_init__(self) -> None:
         if self.prior_offset is not None:
@@ -185,6 +190,7 @@ class Study:
             "skipped": list(self.skipped),
             "prior_offset": None if self.prior_offset is None else list(self.prior_offset),
             "windows": self.windows,
+            **({} if self.mass_rel_sd is None else {"perturb": {"mass_rel_sd": self.mass_rel_sd}}),
             "fingerprint": self.fingerprint(),
         }
 
@@ -202,6 +208,8 @@ class Study:
             key["prior_offset"] = list(self.prior_offset)
         if self.windows is not None:  # absent: the fingerprint of earlier studies
             key["windows"] = self.windows
+        if self.mass_rel_sd is not None:  # absent: the fingerprint of earlier studies
+            key["perturb"] = {"mass_rel_sd": self.mass_rel_sd}
         text = json.dumps(key, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 

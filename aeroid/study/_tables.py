@@ -28,6 +28,7 @@ from scipy.stats import binomtest
 from aeroid.flights import flight_mach_tables
 from aeroid.model import NAMES, tables
 from aeroid.study import _metrics as metrics
+from aeroid.study._perturb import perturb_lines
 from aeroid.study._spec import Study
 from aeroid.study._store import write_atomic
 
@@ -128,6 +129,7 @@ def write_tables_report(study: Study, out_dir: Path, records: Sequence[Mapping[s
             lines += ["", f"All table points together: {int(points.sum())} of {len(points)} "
                       f"point-fits covered ({points.mean():.3f})."]
         lines.append("")
+    lines += perturb_lines(records, study)
     report = out_dir / "report.md"
     write_atomic(report, "\n".join(lines).encode())
     return report
