@@ -79,9 +79,12 @@ class ConsiderCovariance:
     n_refits : int
         Fits made for ``S`` (two per constant).
     refit_messages : tuple of str
-        The re-fits that ended unsuccessful with a finite estimate (a verdict such as the
-        fit check: a noise-free flight fits no perturbed constant within its noise), one
-        line each; their estimates are used.
+        The re-fits that ended unsuccessful with a finite estimate, one line each. When
+        both ends of a constant are unsuccessful (a verdict such as the fit check: a
+        noise-free flight fits no perturbed constant within its noise) their estimates are
+        used; when one end is (an optimiser stopped at its iteration limit: its estimate
+        is not an optimum, and took Cl0's se to 27x its own on the rocket measure study),
+        the other end's one-sided difference from the fit is used instead, and said.
     wall_time_s : float
         Their time [s].
     """
@@ -107,7 +110,10 @@ class ConsiderCovariance:
         """Return one line: the consider parameters, their sd and the cost of ``S``."""
         given = ", ".join(f"{n} {v:.6g} +- {s:.3g} {_UNITS.get(n, '')}".rstrip()
                           for n, v, s in zip(self.names, self.values, self.sd, strict=True))
-        failed = (f" ({len(self.refit_messages)} ended unsuccessful, their estimates used)"
+        one_sided = any("one-sided difference" in m for m in self.refit_messages)
+        used = ("the other end's one-sided difference where one end did" if one_sided
+                else "their estimates used")
+        failed = (f" ({len(self.refit_messages)} ended unsuccessful, {used})"
                   if self.refit_messages else "")
         return (f"consider parameters (their uncertainty is in the standard errors): {given}; "
                 f"d theta / d c from {self.n_refits} re-fits at +-1 sd{failed}, "
@@ -212,7 +218,7 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
     sensitivity = np.zeros((theta.size, len(names)))
     messages = []
     for k, name in enumerate(names):
-        ends = []
+        ends, ok, said = [], [], []
         for sign in (1.0, -1.0):
             value = float(values[k] + sign * steps[k])
             fit = _refit(estimator, flight, theta if warm_start else None, name,
@@ -220,10 +226,18 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
             if not np.all(np.isfinite(fit.theta)):
                 raise EstimatorError(f"{estimator.name}: the re-fit at {name} = {value:.6g} "
                                      f"for its sd failed: {fit.message}")
-            if not fit.success:
-                messages.append(f"{name} = {value:.6g}: {fit.message}")
-            ends.append(fit.theta)
-        sensitivity[:, k] = (ends[0] - ends[1]) / (2.0 * steps[k])
+            ok.append(bool(fit.success))
+            said.append(f"{name} = {value:.6g}: {fit.message}")
+            ends.append(np.asarray(fit.theta, dtype=float))
+        if ok[0] != ok[1]:  # one end unsuccessful: the other's one-sided difference
+            good = 0 if ok[0] else 1
+            sign = 1.0 if good == 0 else -1.0
+            sensitivity[:, k] = (ends[good] - theta) / (sign * steps[k])
+            messages.append(f"{said[1 - good]} (not used: the one-sided difference at "
+                            f"{name} {'+' if good == 0 else '-'}1 sd instead)")
+        else:
+            sensitivity[:, k] = (ends[0] - ends[1]) / (2.0 * steps[k])
+            messages.extend(m for m, good in zip(said, ok, strict=True) if not good)
     share = sensitivity @ np.diag(sd**2) @ sensitivity.T
     return ConsiderCovariance(
         names=names, values=values, sd=sd, steps=steps, sensitivity=sensitivity,

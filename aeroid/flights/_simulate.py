@@ -40,7 +40,7 @@ from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
 from aeroid.flights._sim_metadata import actuator_metadata, manoeuvre_metadata, switch_metadata
-from aeroid.flights._thrust_flight import sample_thrust
+from aeroid.flights._thrust_flight import recorded_constants, sample_thrust
 from aeroid.flights._truth import Truth, passive_truth
 from aeroid.model import (
     PHI,
@@ -329,7 +329,7 @@ def record_flight(
     coefficients = (as_vector(coefficients) if flown is None
                     else flown.coefficient_array(_parameters(given, flown), states,
                                                  temperature(t)))
-    const = _recorded_constants(manoeuvre.flown(airframe), manoeuvre, truth, k0)
+    const = recorded_constants(manoeuvre.flown(airframe), manoeuvre, truth, k0)
     accel = accelerometers(states, delta, coefficients, const,
                            airframe.accel_positions).reshape(-1, 6)
     channels = {"t": t}
@@ -374,23 +374,6 @@ def record_flight(
     if manoeuvre.mass_scale != 1.0:
         metadata["true_mass_kg"] = manoeuvre.flown(airframe).mass_kg
     return make_flight(channels, seen, metadata)
-
-
-def _recorded_constants(airframe: Airframe, manoeuvre: Manoeuvre, truth: Truth,
-                        k0: int) -> Constants:
-    """The model constants at the recorded samples: the wind per sample where there is one."""
-    const = constants(airframe)
-    if airframe.thrust_curve is not None:  # the true thrust and mass at the samples
-        given = sample_thrust(airframe.thrust_curve, truth.t[k0:], airframe.thrust_n,
-                              manoeuvre.mass_scale)
-        const = const._replace(**given)
-    if manoeuvre.wind is None:
-        return const
-    if truth.wind is None:
-        raise AirframeError("record_flight: the manoeuvre has a wind but the truth none "
-                            "(simulate it with simulate_truth)")
-    wind = truth.wind[k0:]
-    return const._replace(wind_n=wind[:, 0], wind_e=wind[:, 1], wind_d=wind[:, 2])
 
 
 def simulate_scenario(scenario: Scenario, noise: NoiseModel | None = None, *,

@@ -17,12 +17,17 @@ is refused by every estimator (:func:`aeroid.flights.exogenous`), never fitted w
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aeroid.errors import FlightError
+from aeroid.errors import AirframeError, FlightError
 from aeroid.flights._flight import Flight
-from aeroid.model import ThrustCurve
+from aeroid.model import Constants, ThrustCurve, constants
+
+if TYPE_CHECKING:
+    from aeroid.flights._scenario import Manoeuvre
+    from aeroid.model import Airframe
 
 
 def with_thrust_curve(flight: Flight, curve: ThrustCurve | None = None) -> tuple[Flight, str]:
@@ -104,4 +109,23 @@ def sample_thrust(curve: ThrustCurve, t: np.ndarray, thrust_n: float = 0.0,
     return out
 
 
-__all__ = ["sample_thrust", "with_thrust_curve"]
+def recorded_constants(airframe: Airframe, manoeuvre: Manoeuvre, truth: Any,
+                        k0: int) -> Constants:
+    """The model constants at the recorded samples of ``truth`` from sample ``k0``: the
+    thrust and mass of a thrust curve and the wind per sample, where there are ones
+    (:func:`aeroid.flights.record_flight`; ``truth``: an :class:`aeroid.flights.Truth`)."""
+    const = constants(airframe)
+    if airframe.thrust_curve is not None:  # the true thrust and mass at the samples
+        given = sample_thrust(airframe.thrust_curve, truth.t[k0:], airframe.thrust_n,
+                              manoeuvre.mass_scale)
+        const = const._replace(**given)
+    if manoeuvre.wind is None:
+        return const
+    if truth.wind is None:
+        raise AirframeError("record_flight: the manoeuvre has a wind but the truth none "
+                            "(simulate it with simulate_truth)")
+    wind = truth.wind[k0:]
+    return const._replace(wind_n=wind[:, 0], wind_e=wind[:, 1], wind_d=wind[:, 2])
+
+
+__all__ = ["recorded_constants", "sample_thrust", "with_thrust_curve"]

@@ -62,3 +62,30 @@ def test_a_refit_that_still_stops_is_named_in_the_result(coast):
     assert result.success
     assert len(result.consider.refit_messages) == 2
     assert "2 ended unsuccessful, their estimates used" in result.consider.describe()
+
+
+@dataclass(frozen=True, kw_only=True)
+class _LightNeverConverges(_SlowToConverge):
+    """As :class:`_SlowToConverge`, but a re-fit with the mass moved down never converges
+    (it stops at its limit with the wrong 1.3 x nominal), one moved up converges at once."""
+
+    def run(self, flight, rng):
+        mass = flight.airframe.mass_kg
+        converged = mass >= 70.0
+        theta = aeroid.nominal() * (mass / 70.0 if converged else 1.3)
+        return EstimationResult(estimator=self.name, theta=theta,
+                                stderr=np.full(theta.size, 1e-3), success=converged,
+                                message="" if converged else "max_iterations reached")
+
+
+def test_one_unconverged_end_gives_way_to_the_other_ends_one_sided_difference(coast):
+    # the central difference with the stopped end's estimate would be (theta(m + h) -
+    # 1.3 nominal) / 2h, nothing like theta / m; the forward difference from the fit is
+    # the closed form, exactly (theta is linear in m)
+    result = _LightNeverConverges().fit(coast, rng=0)
+    assert result.success
+    np.testing.assert_allclose(result.consider.sensitivity[:, 0], result.theta / 70.0,
+                               rtol=1e-12)
+    (said,) = result.consider.refit_messages
+    assert "max_iterations reached (not used: the one-sided difference at mass_kg +1 sd" in said
+    assert "one-sided difference where one end did" in result.consider.describe()
