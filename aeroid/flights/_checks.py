@@ -292,9 +292,17 @@ def _kinematics(finite: dict[str, np.ndarray], errors: list[str], warns: list[st
             errors.append(f"{line}: " + (altitude_hint(k) if left == ALTITUDE_RATE else
                                          _hint(k, left if left in ("alpha", "beta") else None)))
         elif off > math.log(KINEMATIC_WARN_FACTOR):
-            warns.append(f"{line}: " + ("check the altitude's unit and the time column"
-                                        if left == ALTITUDE_RATE else "check the gyro scale, "
-                                        "the time column and the axis conventions"))
+            warns.append(f"{line}: " + (
+                "check the altitude's unit and the time column" if left == ALTITUDE_RATE
+                else _AIR_HINT if left in ("alpha", "beta")
+                else "check the gyro scale, the time column and the axis conventions"))
+
+
+#: A logged alpha or beta a few tens of % off the inertial angle: moving air (a vane's
+#: angles in wind or turbulence: 0.708 x atan(w/u) in Dryden sd 3 m/s, seen), not a gyro.
+_AIR_HINT = ("a wind or turbulence (the logged angles are then air data, which the "
+             "estimators use or say they ignore), or check the time column and the axis "
+             "conventions")
 
 
 def _scale(y: np.ndarray, x: np.ndarray) -> float | None:

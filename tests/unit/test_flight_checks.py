@@ -122,6 +122,15 @@ def test_scale_error_is_a_warning_and_sign_flip_an_error(paper_flight):
     assert "is -1 x p" in message and "opposite signs" in message
 
 
+def test_a_logged_alpha_off_the_inertial_one_names_moving_air_not_the_gyros(paper_flight):
+    # a vane's alpha in turbulence came out 0.708 x atan(w/u) and was blamed on the gyro
+    # scale; the gyros do not enter eq. 15
+    with pytest.warns(AeroidWarning, match=r"hostile.csv: alpha is 0.7 x atan\(w/u\) "
+                                           r"\(eq. 15\): a wind or turbulence") as seen:
+        _changed(paper_flight, alpha=0.7 * paper_flight["alpha"]).validate()
+    assert not any("gyro" in str(w.message) for w in seen)
+
+
 def test_three_rows(paper_flight):
     short = make_flight({c: paper_flight[c][:3] for c in paper_flight.channels},
                         paper_flight.airframe, {"source": "hostile.csv"})
