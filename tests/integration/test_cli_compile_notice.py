@@ -37,6 +37,10 @@ def _simulate_in(cache_dir, out):
                           check=False)
 
 
+# Two whole processes compiling numba's kernels from an empty disk cache: 26 s of the
+# fast suite's time, which a fresh clone's .ci/run had brought to 902 s (limit 15 min);
+# the notice's wording stays fast below (test_a_command_names_the_function_it_compiles)
+@pytest.mark.slow
 def test_a_fresh_cache_compiles_once_and_says_so_then_never_again(tmp_path):
     first = _simulate_in(tmp_path / "cache", tmp_path / "a.csv")
     assert first.returncode == 0, first.stderr
