@@ -15,6 +15,32 @@ STATES = slice(0, aeroid.model.N_STATE)
 COEFFICIENTS = slice(aeroid.model.N_STATE, aeroid.model.N_STATE + aeroid.model.N_COEFFICIENTS)
 
 
+def buffered_steps(f, h, n_aug: int, delta: np.ndarray, pieces_table: np.ndarray,
+                   exo_table: np.ndarray, pos_flat: np.ndarray):
+    """Return the filters' ``transition(z, k)`` and ``observe(z, k)`` (value, Jacobian)
+    from the CasADi step ``f`` and output ``h`` of an augmented state of ``n_aug``, fed
+    sample k's inputs (:meth:`aeroid.model.Record.symbolic_inputs`) through numpy
+    buffers shared with CasADi: no DM conversion per step (half the call's cost)."""
+    f_buf = Buffered(f, [np.zeros(n_aug), pieces_table[:, 0], exo_table[:, 0],
+                         exo_table[:, 1]])
+    h_buf = Buffered(h, [np.zeros(n_aug), delta[:1], exo_table[:, 0], pos_flat])
+
+    def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        f_buf.set(1, pieces_table[:, k])
+        f_buf.set(2, exo_table[:, k])
+        f_buf.set(3, exo_table[:, k + 1])
+        z_next, F = f_buf(z)
+        return z_next.copy(), F.reshape(n_aug, n_aug).T.copy()  # column-major buffer
+
+    def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        h_buf.set(1, delta[k:k + 1])
+        h_buf.set(2, exo_table[:, k])
+        y, H = h_buf(z)
+        return y.copy(), H.reshape(n_aug, -1).T.copy()
+
+    return transition, observe
+
+
 def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
                     position_free: tuple[int, ...] = ()) -> _kalman.DiscreteModel:
     """Return the augmented model ``[x, theta, d]`` of ``flight`` for the filters.
@@ -37,23 +63,7 @@ def augmented_model(flight: Flight, substeps: int, record: Record | None = None,
     f, h = symbolic.augmented_functions(const, record.dt, substeps, record.n_pieces, varying,
                                         free)
 
-    # numpy buffers shared with CasADi: no DM conversion per step (half the call's cost)
-    f_buf = Buffered(f, [np.zeros(n_aug), pieces_table[:, 0], exo_table[:, 0],
-                         exo_table[:, 1]])
-    h_buf = Buffered(h, [np.zeros(n_aug), delta[:1], exo_table[:, 0], pos_flat])
-
-    def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        f_buf.set(1, pieces_table[:, k])
-        f_buf.set(2, exo_table[:, k])
-        f_buf.set(3, exo_table[:, k + 1])
-        z_next, F = f_buf(z)
-        return z_next.copy(), F.reshape(n_aug, n_aug).T.copy()  # column-major buffer
-
-    def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        h_buf.set(1, delta[k:k + 1])
-        h_buf.set(2, exo_table[:, k])
-        y, H = h_buf(z)
-        return y.copy(), H.reshape(n_aug, -1).T.copy()
+    transition, observe = buffered_steps(f, h, n_aug, delta, pieces_table, exo_table, pos_flat)
 
     def transition_batch(Z: np.ndarray, k: int) -> np.ndarray:
         # numba's serial kernel (numpy without numba): one RK4 step of 37-45 sets is too

@@ -41,8 +41,9 @@ import aeroid
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, flight_record, model_constants
-from aeroid.model import N_STATE, OUTPUT_CHANNELS, Buffered, Constants, MachTables, symbolic
+from aeroid.model import N_STATE, OUTPUT_CHANNELS, Constants, MachTables, symbolic
 from baselines import _common, _kalman, _kalman_verdict
+from baselines._augmented import buffered_steps
 from baselines._oe_airdata import air_channels
 from baselines._tables_fit import data_table_floor, floor_entries, mach_notes
 
@@ -101,23 +102,8 @@ def table_model(flight: Flight, substeps: int, tables: MachTables,
                                      int(record.n_pieces), varying, free, tables)
     n_aug = N_STATE + tables.n_parameters + len(free)
     pos_flat = flight.airframe.accel_positions.ravel()
-    f_buf = Buffered(f, [np.zeros(n_aug), pieces_table[:, 0], exo_table[:, 0],
-                         exo_table[:, 1]])
-    h_buf = Buffered(h, [np.zeros(n_aug), delta[:1], exo_table[:, 0], pos_flat])
+    transition, observe = buffered_steps(f, h, n_aug, delta, pieces_table, exo_table, pos_flat)
     mapped: dict[tuple[str, int], ca.Function] = {}  # the UKF's sigma-point count
-
-    def transition(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        f_buf.set(1, pieces_table[:, k])
-        f_buf.set(2, exo_table[:, k])
-        f_buf.set(3, exo_table[:, k + 1])
-        z_next, F = f_buf(z)
-        return z_next.copy(), F.reshape(n_aug, n_aug).T.copy()  # column-major buffer
-
-    def observe(z: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        h_buf.set(1, delta[k:k + 1])
-        h_buf.set(2, exo_table[:, k])
-        y, H = h_buf(z)
-        return y.copy(), H.reshape(n_aug, -1).T.copy()
 
     def over(fun: ca.Function, n: int) -> ca.Function:
         key = (fun.name(), n)
