@@ -46,7 +46,7 @@ from aeroid.estimation._air_reconstruction import (
 )
 from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
 from aeroid.estimation._signals import smooth
-from aeroid.flights import Flight
+from aeroid.flights import PITOT_KEY, Flight
 from aeroid.model import equations
 
 __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData", "air_data_wind",
@@ -204,9 +204,11 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
     if has_airspeed(flight):
         off = float(np.sqrt(np.mean((flight["airspeed"] - np.sqrt(
             sum(flight[c] ** 2 for c in ("u", "v", "w")))) ** 2)))
+        origin = ("the probe's pressures (Mach, by the pitot formulas)" if PITOT_KEY
+                  in flight.metadata else "the logged airspeed channel")
         return AirData("measured", wind,
                        f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
-                       f"from the logged airspeed channel ({off:.3g} m/s RMS from |u, v, w|)",
+                       f"from {origin} ({off:.3g} m/s RMS from |u, v, w|)",
                        smoothed=kalman)
     warning = (f"{owner}: airspeed taken as |u, v, w| (no airspeed channel): a wind along "
                f"the path of 1 m/s biases every coefficient by about {200.0 / speed:.2g} %, "

@@ -47,6 +47,7 @@ from aeroid.flights import (
     flight_mach_tables,
     speed_of_sound_note,
     unused_note,
+    with_pitot_airspeed,
 )
 from aeroid.model import NAMES, Airframe
 
@@ -171,6 +172,7 @@ class Estimator(abc.ABC):
             every other exception inside the method gives ``success=False``.
         """
         owner = self.name or type(self).__name__
+        flight = with_pitot_airspeed(flight)  # a probe's pressures as its airspeed, said
         windows = flight if isinstance(flight, Windows) else None
         parts = dict(windows.items()) if windows is not None else {"": flight}
         tables = getattr(flight.airframe, "tables", None)

@@ -46,6 +46,15 @@ from aeroid.flights._noise import (
     make_noise,
     noise_from_dict,
 )
+from aeroid.flights._pitot import (
+    PITOT_CHANNELS,
+    PITOT_KEY,
+    mach_from_pitot,
+    pitot_ratio,
+    pitot_ratio_slope,
+    probe_pressures,
+)
+from aeroid.flights._pitot_airspeed import PitotAirspeed, pitot_airspeed, with_pitot_airspeed
 from aeroid.flights._record import (
     INPUTS,
     exogenous,
@@ -131,4 +140,6 @@ __all__ = [
     "sample_thrust", "with_thrust_curve",
     "AIR_TEMPERATURE", "air_temperature", "flight_mach_tables", "speed_of_sound_note",
     "unused_note",
+    "PITOT_CHANNELS", "PITOT_KEY", "PitotAirspeed", "mach_from_pitot", "pitot_airspeed",
+    "pitot_ratio", "pitot_ratio_slope", "probe_pressures", "with_pitot_airspeed",
 ]

@@ -27,8 +27,10 @@ OPTIONAL_CHANNELS: tuple[str, ...] = ("mass", "thrust", "ix", "iy", "iz", "rho",
 ATMOSPHERE_CHANNELS: tuple[str, ...] = ("rho", "altitude", "qbar")
 #: Measured air data beyond the required angles: an air-data probe's airspeed [m/s] (the
 #: air-relative speed at the probe), used by equation-error and by output-error's
-#: ``air_data`` (:mod:`aeroid.estimation._air_data`), said ignored by the other methods.
-AIR_DATA_CHANNELS: tuple[str, ...] = ("airspeed",)
+#: ``air_data`` (:mod:`aeroid.estimation._air_data`), said ignored by the other methods;
+#: or a pitot-static probe's total and static pressures [Pa], which ``Estimator.fit``
+#: turns into the airspeed channel (:mod:`aeroid.flights._pitot`).
+AIR_DATA_CHANNELS: tuple[str, ...] = ("airspeed", "total_pressure", "static_pressure")
 #: Every channel name aeroid knows.
 CHANNELS: tuple[str, ...] = (*REQUIRED_CHANNELS, *OPTIONAL_CHANNELS, *AIR_DATA_CHANNELS)
 #: Channels converted by ``angles_in_degrees`` (rates in deg/s).
@@ -43,6 +45,6 @@ UNITS: dict[str, str] = {
     "u": "m/s", "v": "m/s", "w": "m/s",
     "mass": "kg", "thrust": "N", "ix": "kg m^2", "iy": "kg m^2", "iz": "kg m^2",
     "rho": "kg/m^3", "altitude": "m", "qbar": "Pa",
-    "airspeed": "m/s",
+    "airspeed": "m/s", "total_pressure": "Pa", "static_pressure": "Pa",
     "air_temperature": "K",  # the air's (Mach tables), not a barometer board's
 }

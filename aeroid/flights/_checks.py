@@ -41,6 +41,7 @@ from aeroid.flights._input_checks import (
     range_hint,
 )
 from aeroid.flights._passive_fin import passive_fin_problem
+from aeroid.flights._pitot import pitot_findings
 from aeroid.model import AIRFRAME_LIMITS, Airframe, check_air_temperature
 
 #: Relative spread of the sample interval accepted as a uniform time base.
@@ -124,6 +125,7 @@ def check_flight(data: pd.DataFrame, airframe: Airframe) -> tuple[list[str], lis
     errors.extend(_ranges(finite, airframe, warns))
     check_inputs(finite, airframe, errors, warns)
     errors.extend(airspeed_findings(finite))
+    errors.extend(pitot_findings(values, check_finite=False))  # a pitot-static probe's
     if clean and not errors:
         _kinematics(finite, errors, warns)
     return errors, warns

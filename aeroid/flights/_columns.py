@@ -43,6 +43,7 @@ UNIT_FACTORS: dict[str, tuple[float, str]] = {
     "kg": (1.0, "mass"), "lb": (0.45359237, "mass"),
     "N": (1.0, "force"), "lbf": (4.4482216152605, "force"),
     "Pa": (1.0, "pressure"), "kPa": (1e3, "pressure"), "psf": (47.88025898, "pressure"),
+    "hPa": (1e2, "pressure"), "mbar": (1e2, "pressure"), "psi": (6894.757293168, "pressure"),
     "kg/m^3": (1.0, "density"), "slug/ft^3": (515.3788184, "density"),
     "kg m^2": (1.0, "inertia"), "slug ft^2": (1.3558179483, "inertia"),
     "K": (1.0, "temperature"), "degC": (1.0, "temperature"),
@@ -63,6 +64,7 @@ UNIT_KINDS: dict[str, str] = {
     "ix": "inertia", "iy": "inertia", "iz": "inertia", "rho": "density",
     "altitude": "length", "qbar": "pressure", "airspeed": "speed",
     "air_temperature": "temperature",
+    "total_pressure": "pressure", "static_pressure": "pressure",  # a pitot-static probe's
 }
 
 

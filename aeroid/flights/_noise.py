@@ -24,6 +24,13 @@ white Gaussian noise to them, drawn after everything else (the IMU noise and the
 position error draw the same numbers with or without it). A positive
 ``airspeed_sd_mps`` is what makes the flight log an ``airspeed`` channel (a probe that
 measures one); with 0 it logs none. The paper's noise (eq. 43) has no air data.
+
+A pitot-static probe (``total_pressure_sd_pa``, ``static_pressure_sd_pa``; 0 by default):
+either positive logs both ``total_pressure`` and ``static_pressure`` [Pa], the true ones
+of :func:`aeroid.flights._pitot.probe_pressures` plus white Gaussian noise of these sd
+(:meth:`GaussianNoise.corrupt_pitot`, one (n, 2) draw after everything else, the probe's
+angles and airspeed included). With an ``airspeed_sd_mps`` too it is refused: a log with
+both airspeeds is (:mod:`aeroid.flights._pitot`).
 """
 
 from __future__ import annotations
@@ -38,7 +45,8 @@ from aeroid.errors import AirframeError
 from aeroid.model import ACCEL_CHANNELS, OUTPUT_CHANNELS, RATE_CHANNELS, equations, fileform
 
 #: :class:`GaussianNoise`'s air-data options (module docstring).
-AIR_NOISE_OPTIONS: tuple[str, ...] = ("alpha_sd_rad", "beta_sd_rad", "airspeed_sd_mps")
+AIR_NOISE_OPTIONS: tuple[str, ...] = ("alpha_sd_rad", "beta_sd_rad", "airspeed_sd_mps",
+                                      "total_pressure_sd_pa", "static_pressure_sd_pa")
 
 
 def _check_options(model: Any) -> None:
@@ -184,10 +192,17 @@ class GaussianNoise:
     beta_sd_rad: float = 0.0
     #: noise of a logged ``airspeed`` channel [m/s]; 0: no airspeed channel (module docstring)
     airspeed_sd_mps: float = 0.0
+    #: noise of a pitot-static probe's total and static pressures [Pa]; both 0: no probe
+    total_pressure_sd_pa: float = 0.0
+    static_pressure_sd_pa: float = 0.0
     name: str = field(default="gaussian", init=False)
 
     def __post_init__(self) -> None:
         _check_options(self)
+        if self.logs_pitot and self.airspeed_sd_mps > 0:
+            raise AirframeError("noise model 'gaussian': airspeed_sd_mps and a probe's "
+                                "pressures (total_pressure_sd_pa, static_pressure_sd_pa) log "
+                                "two airspeeds, which the fits refuse; give one of them")
 
     def corrupt(self, channels: dict[str, np.ndarray], rng: np.random.Generator
                 ) -> dict[str, np.ndarray]:
@@ -214,6 +229,24 @@ class GaussianNoise:
     def logs_air_data(self) -> bool:
         """True when the flights carry air data with noise (:meth:`corrupt_air`)."""
         return max(self.alpha_sd_rad, self.beta_sd_rad, self.airspeed_sd_mps) > 0
+
+    @property
+    def logs_pitot(self) -> bool:
+        """True when the flights carry a pitot-static probe's pressures (:meth:`corrupt_pitot`)."""
+        return max(self.total_pressure_sd_pa, self.static_pressure_sd_pa) > 0
+
+    def corrupt_pitot(self, channels: dict[str, np.ndarray],
+                      pressures: tuple[np.ndarray, np.ndarray], rng: np.random.Generator
+                      ) -> dict[str, np.ndarray]:
+        """Return ``channels`` with ``total_pressure`` and ``static_pressure`` [Pa]: the true
+        ``pressures`` ``(total, static)``, each (n,), plus noise of their sd (one (n, 2)
+        draw)."""
+        out = dict(channels)
+        total, static = (np.asarray(p, dtype=float) for p in pressures)
+        e = rng.standard_normal((total.size, 2))
+        out["total_pressure"] = total + self.total_pressure_sd_pa * e[:, 0]
+        out["static_pressure"] = static + self.static_pressure_sd_pa * e[:, 1]
+        return out
 
     def corrupt_air(self, channels: dict[str, np.ndarray], air_velocity: tuple[np.ndarray, ...],
                     rng: np.random.Generator) -> dict[str, np.ndarray]:

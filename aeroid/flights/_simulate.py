@@ -37,6 +37,7 @@ from aeroid.flights._air import flown_tables
 from aeroid.flights._air_temperature import AIR_TEMPERATURE
 from aeroid.flights._flight import STATE_CHANNELS, Flight, air_angles, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
+from aeroid.flights._pitot import probe_pressures, true_air_temperature
 from aeroid.flights._relay_loop import RelayLoop
 from aeroid.flights._scenario import Manoeuvre, Scenario
 from aeroid.flights._sim_metadata import actuator_metadata, manoeuvre_metadata, switch_metadata
@@ -348,6 +349,11 @@ def record_flight(
     corrupt_air = getattr(noise, "corrupt_air", None)  # a probe's readings, drawn last
     if corrupt_air is not None and getattr(noise, "logs_air_data", False):
         channels = corrupt_air(channels, equations.air_velocity(as_state(states), const), rng)
+    if getattr(noise, "logs_pitot", False):  # a pitot-static probe's pressures, drawn last
+        air_t = true_air_temperature(airframe, manoeuvre.air,
+                                     getattr(flown, "speed_of_sound_mps", None), t)
+        channels = getattr(noise, "corrupt_pitot")(channels, probe_pressures(  # noqa: B009
+            equations.air_velocity(as_state(states), const), const.rho, air_t), rng)
     sd = noise.position_sd(positions)  # the estimators are told how uncertain they are
     seen = airframe.replace(accel1_position_m=tuple(positions[0]),
                             accel2_position_m=tuple(positions[1]),
