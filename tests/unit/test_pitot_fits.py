@@ -61,3 +61,23 @@ def test_still_air_fit_is_refused_on_bad_pressures(pair) -> None:
         total_pressure=pressures["static_pressure"] * 0.99))
     with pytest.raises(FlightError, match="must be above 'static_pressure'"):
         EquationErrorEstimator().fit(bad)
+
+
+def test_output_error_sees_the_propagated_airspeed_noise(pair) -> None:
+    """Output-error with the air data as measured outputs estimates the airspeed's noise
+    sd by maximum likelihood; it must equal the pressures' sd propagated by the
+    derivative (:func:`aeroid.flights.pitot_airspeed`) within 3 of its own se (seed 3:
+    0.13 m/s from the total pressure alone, 0.55 from the static, 0.56 together)."""
+    from aeroid.flights import pitot_airspeed
+    from baselines.output_error import OutputErrorEstimator
+
+    pressures = pair[0]
+    r = OutputErrorEstimator(estimate_wind=True, air_data="measured").fit(pressures, rng=0)
+    assert r.success, r.message
+    assert np.all(np.abs(r.theta - pressures.true_coefficients) <= 3 * r.stderr)
+    air = r.info["air_data"]
+    assert air["channels"] == ("alpha", "beta", "airspeed")
+    propagated = pitot_airspeed(pressures).sd
+    assert propagated is not None
+    expected = float(np.sqrt(np.mean(propagated**2)))  # 0.56 m/s for 50 Pa at Mach 1.68
+    assert abs(air["noise_sd"]["airspeed"] - expected) <= 3 * air["noise_sd_stderr"]["airspeed"]
