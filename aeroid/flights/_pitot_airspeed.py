@@ -137,11 +137,13 @@ def pitot_airspeed(flight: Flight, *, total_sd_pa: float | None = None,
 
 def _with_airspeed(flight: Flight) -> Flight:
     if TOTAL_PRESSURE not in flight.channels:
-        if STATIC_PRESSURE in flight.channels:
-            logging.getLogger("aeroid").info(
-                f"{_where(flight)}: {STATIC_PRESSURE} not used (a static pressure without a "
-                f"pitot's {TOTAL_PRESSURE} is a barometer's, not air data)")
-        return flight
+        if STATIC_PRESSURE not in flight.channels:
+            return flight
+        note = (f"{STATIC_PRESSURE} not used (a static pressure without a pitot's "
+                f"{TOTAL_PRESSURE} is a barometer's, not air data)")
+        logging.getLogger("aeroid").info(f"{_where(flight)}: {note}")
+        return Flight(flight.data.drop(columns=STATIC_PRESSURE), flight.airframe,
+                      dict(flight.metadata), notes=(*flight.notes, note))
     derived = pitot_airspeed(flight)
     frame = flight.data.drop(columns=list(PITOT_CHANNELS)).assign(airspeed=derived.airspeed)
     ordered = [c for c in CHANNELS if c in frame] + [c for c in frame if c not in CHANNELS]
@@ -154,7 +156,8 @@ def _with_airspeed(flight: Flight) -> Flight:
 def with_pitot_airspeed(flight: Flight | Windows) -> Flight | Windows:
     """Return ``flight`` (or every window) with a probe's pressures turned into the
     ``airspeed`` channel (the pressure columns dropped; ``metadata[PITOT_KEY]`` and the
-    ``aeroid`` logger say what was done), or unchanged without ``total_pressure``.
+    ``aeroid`` logger say what was done); a static pressure alone dropped (said); else
+    ``flight`` itself.
 
     Raises
     ------

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy import stats
+from scipy.optimize import brentq
 
 from aeroid.errors import AirframeError, FlightError
 from aeroid.flights import (
@@ -105,6 +106,16 @@ def test_inversion_round_trip() -> None:
     np.testing.assert_allclose(mach_from_pitot(pitot_ratio(m)), m, rtol=0, atol=1e-11)
     assert mach_from_pitot(np.ones((2, 2))).shape == (2, 2)
     assert float(mach_from_pitot(1.0)) == 0.0
+
+
+def test_inversion_equals_brentq_on_the_composed_shock() -> None:
+    """A second solver (brentq, per sample) on the second derivation of the formula."""
+    m = np.array([1.0 + 1e-6, 1.2, 1.68, 2.2, 3.7, 9.5])
+    ratio = _normal_shock(m)
+    reference = [brentq(lambda x, r=r: float(_normal_shock(x)) - r, 1.0, MAX_MACH, xtol=1e-14)
+                 for r in ratio]
+    np.testing.assert_allclose(mach_from_pitot(ratio), reference, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(reference, m, rtol=0, atol=1e-10)
 
 
 @pytest.mark.parametrize("ratio", [0.99, np.nan, np.inf, float(pitot_ratio(MAX_MACH)) * 1.01])
@@ -264,7 +275,9 @@ def test_a_static_pressure_alone_is_a_barometer(probe_pair, caplog) -> None:
         columns="total_pressure"))
     assert f.problems() == []
     with caplog.at_level(logging.INFO, logger="aeroid"):
-        assert with_pitot_airspeed(f) is f
+        fitted = with_pitot_airspeed(f)
+    assert "static_pressure" not in fitted.channels and "airspeed" not in fitted.channels
+    assert fitted.channels == tuple(c for c in f.channels if c != "static_pressure")
     assert any("static_pressure not used" in r.getMessage() for r in caplog.records)
 
 
