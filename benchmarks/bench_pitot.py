@@ -1,0 +1,160 @@
+"""Equation-error with a pitot-static probe's pressures against an airspeed channel (issue 26).
+
+Run by hand from the repository root (one process, the fits in turn)::
+
+    nice -n 10 python benchmarks/bench_pitot.py              # 12 seeds, writes results
+    python benchmarks/bench_pitot.py --seeds 2 --no-write
+
+Per seed ``k`` (``rng = k``: the gusts, then the sensor noise, as :func:`aeroid.simulate`):
+the reference scenario (Mach 1.68 at 10 km) with the tactical Gaussian IMU and 0.1 deg
+vanes on alpha and beta, in a steady wind of 5 m/s (north 3, east 4) and in that wind
+with Dryden turbulence of sd 1 m/s (scale length 533.4 m). One truth per seed and air,
+recorded with the same IMU and vane noise (the probe's readings are drawn last) and:
+
+* ``airspeed 0.5 m/s``: an airspeed channel of sd 0.5 m/s (the air-data benchmarks' probe);
+* ``pressures 50 Pa``: a pitot-static probe's total and static pressures, sd 50 Pa each
+  (0.56 m/s of airspeed at Mach 1.68, 10 km: :func:`aeroid.flights.pitot_airspeed`);
+* ``pressures 200 Pa``: the same probe four times noisier (2.3 m/s of airspeed).
+
+Plus ``still / IMU only``: the still-air yardstick (no probe, angles from u, v, w).
+Fits: two-step equation-error with ``air_data = "measured"`` (its default Kalman air
+smoother). Reported: successes (the fit check), the mean over seeds of the mean |relative
+error| of the nine coefficients [%], its ratio to still air, the coverage of the 95 %
+intervals, the median of the largest |error| / se, the RMS of the airspeed's error against
+the true air-relative speed, and, paired with the airspeed channel's fit of the same
+flight, the median and largest |difference| / se.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import datetime as dt  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import aeroid  # noqa: E402
+from aeroid.flights import (  # noqa: E402
+    Wind,
+    make_noise,
+    record_flight,
+    reference_scenario,
+    simulate_truth,
+    with_pitot_airspeed,
+)
+from baselines.equation_error import EquationErrorEstimator  # noqa: E402
+
+RESULTS = Path(__file__).parent / "results" / "pitot.md"
+WIND = (3.0, 4.0, 0.0)
+VANE_RAD = float(np.radians(0.1))
+AIRS = {"wind 5 m/s": Wind(steady_ned_mps=WIND),
+        "wind + Dryden sd 1": Wind(steady_ned_mps=WIND, turbulence_sd_mps=1.0,
+                                   scale_length_m=533.4)}
+PROBES = {"airspeed 0.5 m/s": {"airspeed_sd_mps": 0.5},
+          "pressures 50 Pa": {"total_pressure_sd_pa": 50.0, "static_pressure_sd_pa": 50.0},
+          "pressures 200 Pa": {"total_pressure_sd_pa": 200.0, "static_pressure_sd_pa": 200.0}}
+PAIRED = "airspeed 0.5 m/s"
+
+
+def _true_airspeed(f: aeroid.flights.Flight, wind_ned: np.ndarray) -> np.ndarray:
+    """|u, v, w less the wind in body axes| of the clean states (the model's rotation)."""
+    from aeroid.model import equations
+
+    phi, theta, psi = f["phi"], f["theta"], f["psi"]
+    body = [equations.ned_to_body(phi, theta, psi, *wind_ned.T)[i] for i in range(3)]
+    return np.sqrt(sum((f[c] - b) ** 2 for c, b in zip(("u", "v", "w"), body, strict=True)))
+
+
+def run(seeds: int) -> tuple[dict, list[str]]:
+    """Fit every kind on every seed; return per-kind rows and the log lines."""
+    s = reference_scenario()
+    truth = s.coefficient_vector
+    kinds: dict[str, list] = {}
+    lines: list[str] = []
+    estimator = EquationErrorEstimator(air_data="measured")
+    for seed in range(1, seeds + 1):
+        rng = np.random.default_rng(seed)
+        still = record_flight(s.airframe, truth, s.manoeuvre,
+                              simulate_truth(s.airframe, truth, s.manoeuvre, rng=rng),
+                              make_noise("gaussian"), rng=rng)
+        r = EquationErrorEstimator(air_data="inertial").fit(still)
+        kinds.setdefault("still / IMU only", []).append(
+            (r.success, np.abs(r.theta / truth - 1) * 100, np.abs(r.theta - truth) / r.stderr,
+             np.nan, None))
+        for air, wind in AIRS.items():
+            m = dataclasses.replace(s.manoeuvre, wind=wind)
+            fits = {}
+            for label, options in PROBES.items():
+                rng = np.random.default_rng(seed)
+                t = simulate_truth(s.airframe, truth, m, rng=rng)
+                noise = make_noise("gaussian", alpha_sd_rad=VANE_RAD, beta_sd_rad=VANE_RAD,
+                                   **options)
+                f = record_flight(s.airframe, truth, m, t, noise, rng=rng)
+                k0 = int(round(m.window_s[0] / m.dt))
+                speed = with_pitot_airspeed(f)["airspeed"]
+                v_err = float(np.sqrt(np.mean(
+                    (speed - _true_airspeed(f, np.asarray(t.wind[k0:]))) ** 2)))
+                fits[label] = r = estimator.fit(f, rng=0)
+                err = np.abs(r.theta / truth - 1) * 100
+                z = np.abs(r.theta - truth) / r.stderr
+                kinds.setdefault(f"{air} / {label}", []).append((r.success, err, z, v_err, r))
+                lines.append(f"seed {seed} {air} / {label}: success={r.success} mean |err| "
+                             f"{err.mean():.3f} % max |err|/se {z.max():.2f} airspeed RMS "
+                             f"error {v_err:.3f} m/s {r.message[:80]}")
+                print(lines[-1], flush=True)
+            ref = fits[PAIRED]
+            for label, r in fits.items():
+                if label != PAIRED:
+                    gap = np.abs(r.theta - ref.theta) / np.minimum(r.stderr, ref.stderr)
+                    kinds.setdefault(f"{air} / {label} (paired gap)", []).append(gap)
+    return kinds, lines
+
+
+def table(kinds: dict) -> str:
+    """Return the markdown table of the kinds."""
+    still = np.mean([row[1].mean() for row in kinds["still / IMU only"]])
+    out = ["| air / airspeed from | success | mean abs rel error [%] | x still | coverage | "
+           "median max abs err/se | airspeed RMS error [m/s] | paired gap /se: median, max |",
+           "|---|---|---|---|---|---|---|---|"]
+    for kind, rows in kinds.items():
+        if kind.endswith("(paired gap)"):
+            continue
+        e = np.mean([row[1].mean() for row in rows])
+        cover = np.mean(np.concatenate([row[2] <= 1.96 for row in rows]))
+        gaps = kinds.get(f"{kind} (paired gap)")
+        paired = ("-" if gaps is None else
+                  f"{np.median(np.concatenate(gaps)):.2f}, {np.max(np.concatenate(gaps)):.2f}")
+        v = np.mean([row[3] for row in rows])
+        out.append(f"| {kind} | {sum(row[0] for row in rows)}/{len(rows)} | {e:.3f} | "
+                   f"{e / still:.2f} | {cover:.2f} | "
+                   f"{np.median([row[2].max() for row in rows]):.2f} | "
+                   f"{'-' if np.isnan(v) else f'{v:.3f}'} | {paired} |")
+    return "\n".join(out)
+
+
+def main() -> None:
+    """Run the benchmark and print (and write) the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=12)
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args()
+    kinds, lines = run(args.seeds)
+    text = table(kinds)
+    print(text)
+    if not args.no_write:
+        RESULTS.parent.mkdir(exist_ok=True)
+        RESULTS.write_text(
+            f"# Equation-error: a probe's pressures against an airspeed channel\n\n"
+            f"`nice -n 10 python benchmarks/bench_pitot.py --seeds {args.seeds}` "
+            f"({dt.date.today().isoformat()}, aeroid {aeroid.__version__}; "
+            f"{args.seeds} seeds)\n\n{text}\n\n## Runs\n\n" + "\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
