@@ -223,6 +223,28 @@ def test_speed_of_sound_from_the_logged_temperature(probe_pair) -> None:
     assert "logged air_temperature" in derived.note
 
 
+def test_speed_of_sound_from_the_tables_or_the_altitude_channel(probe_pair) -> None:
+    """The Mach tables' order: ``[tables] temperature_K`` before the ISA; a per-sample
+    ``altitude`` channel gives the ISA temperature of each sample."""
+    from aeroid.model import TableSpec
+
+    f, _ = probe_pair
+    isa = pitot_airspeed(f).airspeed
+    tabled = f.airframe.replace(tables=TableSpec((("Cx", (1.5,)),), temperature_k=240.0))
+    derived = pitot_airspeed(dataclasses.replace(f, airframe=tabled))
+    np.testing.assert_allclose(derived.airspeed / isa, np.sqrt(240.0 / 223.15), rtol=1e-12)
+    assert "[tables] temperature_K = 240 K" in derived.note
+    per_sample = f.airframe.replace(altitude_m=None, atmosphere_channel="altitude")
+    altitude = np.full(f.n_samples, 10000.0)
+    altitude[::2] = 5000.0  # ISA 255.65 K at 5 km
+    derived = pitot_airspeed(dataclasses.replace(f, airframe=per_sample,
+                                                 data=f.data.assign(altitude=altitude)))
+    np.testing.assert_allclose(derived.airspeed[1::2], isa[1::2], rtol=1e-12)
+    np.testing.assert_allclose(derived.airspeed[::2] / isa[::2], np.sqrt(255.65 / 223.15),
+                               rtol=1e-12)
+    assert "ISA at the altitude channel" in derived.note
+
+
 def test_fit_copy_carries_the_airspeed(probe_pair, caplog) -> None:
     f, _ = probe_pair
     with caplog.at_level(logging.INFO, logger="aeroid"):
