@@ -27,7 +27,7 @@ measures one); with 0 it logs none. The paper's noise (eq. 43) has no air data.
 
 A pitot-static probe (``total_pressure_sd_pa``, ``static_pressure_sd_pa``; 0 by default):
 either positive logs both ``total_pressure`` and ``static_pressure`` [Pa], the true ones
-of :func:`aeroid.flights._pitot.probe_pressures` plus white Gaussian noise of these sd
+of :func:`aeroid.flights.probe_pressures` plus white Gaussian noise of these sd
 (:meth:`GaussianNoise.corrupt_pitot`, one (n, 2) draw after everything else, the probe's
 angles and airspeed included). With an ``airspeed_sd_mps`` too it is refused: a log with
 both airspeeds is (:mod:`aeroid.flights._pitot`).
