@@ -4,6 +4,7 @@ Run by hand from the repository root (one process, the fits in turn)::
 
     nice -n 10 python benchmarks/bench_pitot.py              # 12 seeds, writes results
     python benchmarks/bench_pitot.py --seeds 2 --no-write
+    nice -n 10 python benchmarks/bench_pitot.py --timing-only   # the inversion's cost
 
 Per seed ``k`` (``rng = k``: the gusts, then the sensor noise, as :func:`aeroid.simulate`):
 the reference scenario (Mach 1.68 at 10 km) with the tactical Gaussian IMU and 0.1 deg
@@ -138,12 +139,45 @@ def table(kinds: dict) -> str:
     return "\n".join(out)
 
 
+def timing(n: int = 100_000, n_brentq: int = 2_000) -> str:
+    """Time the supersonic inversion: :func:`aeroid.flights.mach_from_pitot` (scipy's
+    vectorised bracketed root finder) on ``n`` ratios of Mach 1.5-1.8 against
+    :func:`scipy.optimize.brentq` per sample on ``n_brentq`` of them (per sample, scaled)."""
+    import time
+
+    from scipy.optimize import brentq
+
+    from aeroid.flights import mach_from_pitot, pitot_ratio
+
+    ratio = pitot_ratio(np.linspace(1.5, 1.8, n))
+    start = time.perf_counter()
+    mach_from_pitot(ratio)
+    vector = time.perf_counter() - start
+    start = time.perf_counter()
+    for r in ratio[:: n // n_brentq][:n_brentq]:
+        brentq(lambda m, r=r: float(pitot_ratio(m)) - r, 1.0, 20.0, xtol=1e-13)
+    per = (time.perf_counter() - start) / n_brentq
+    return (f"supersonic inversion of {n} samples: find_root {vector:.2f} s; brentq per "
+            f"sample {per * 1e6:.0f} us ({per * n:.1f} s for {n})")
+
+
 def main() -> None:
     """Run the benchmark and print (and write) the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=12)
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--timing-only", action="store_true",
+                        help="time the Mach inversion only (results/pitot_timing.md)")
     args = parser.parse_args()
+    if args.timing_only:
+        line = timing()
+        print(line)
+        if not args.no_write:
+            RESULTS.with_name("pitot_timing.md").write_text(
+                f"# The pitot inversion's cost\n\n`nice -n 10 python benchmarks/bench_pitot.py "
+                f"--timing-only` ({dt.date.today().isoformat()}, shared 2-core machine)\n\n"
+                f"{line}\n")
+        return
     kinds, lines = run(args.seeds)
     text = table(kinds)
     print(text)
