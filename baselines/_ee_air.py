@@ -111,21 +111,9 @@ def with_wind_consider(result: EstimationResult, flight: Flight, air: rc.AirData
 def refuse_unseen_gusts(result: EstimationResult, flight: Flight, owner: str
                         ) -> EstimationResult:
     """``result`` refused (``success = False``) when its air data show turbulence and the
-    log has no airspeed channel: the gusts along the path then change the dynamic pressure
-    sample by sample, which the angles cannot see, and the fit is wrong by more than its
-    standard errors say while the fit check often passes it (measured in
-    ``benchmarks/bench_air_verdict.py``: Dryden sd 1 m/s fits ~8x the still-air error
-    accepted by the fit check). Unchanged otherwise (the verdict:
-    :mod:`aeroid.estimation._air_verdict`)."""
-    verdict = result.info.get("air_data_verdict")
-    if (not result.success or verdict is None or verdict["kind"] != "turbulence"
-            or rc.has_airspeed(flight)):
-        return result
-    return dataclasses.replace(result, success=False, message=(
-        f"{owner}: the air data show turbulence (gusts of {verdict['gust_rms_mps']:.2g} m/s "
-        f"RMS beyond the probe noise, above {verdict['gust_limit_mps']:.2g}) and the log has "
-        "no airspeed channel: the gusts along the path change the dynamic pressure sample "
-        "by sample, unseen by the angles; log an airspeed channel"))
+    log has no airspeed channel; unchanged otherwise. Written once, for EBM-PSO and
+    SEBM-PSO too: :func:`aeroid.estimation.refuse_unseen_gusts`."""
+    return rc.refuse_unseen_gusts(result, flight, owner)
 
 
 __all__ = ["WIND_STEP_MPS", "flight_direction", "refuse_unseen_gusts", "with_wind_consider"]

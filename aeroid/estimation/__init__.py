@@ -15,7 +15,9 @@ model says of a flight, its table and JSON info),
 and ``_identifiability`` (what the fit check tests beyond the residuals' size),
 ``_consider`` (an uncertain mass's share of the covariance, by re-fits),
 ``_polish`` (from a swarm's best point to the optimum of its objective),
-``_pso_methods`` (what the paper's methods share), and the methods ``_eam``, ``_ebm``,
+``_pso_methods`` (what the paper's methods share; ``_pso_air`` their air data,
+``_air_refusal`` the turbulence refusal they share with equation-error), and the
+methods ``_eam``, ``_ebm``,
 ``_sebm``, which import none of one another. ``_windows``: what :meth:`Estimator.fit`
 does with several windows (:class:`aeroid.flights.Windows`).
 ``_benchmark_functions`` holds the optimiser test functions (tests and benchmarks).
@@ -33,6 +35,7 @@ from aeroid.estimation._air_data import (
     resolve_air_data,
 )
 from aeroid.estimation._air_reconstruction import reconstruction_wind
+from aeroid.estimation._air_refusal import refuse_unseen_gusts
 from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
 from aeroid.estimation._air_verdict import (
     AirVerdict,
@@ -150,6 +153,7 @@ __all__ = [
     "air_data_verdict",
     "verdict_of",
     "with_air_verdict",
+    "refuse_unseen_gusts",
     "SmoothedWind",
     "smooth_air_wind",
     "has_air_angles",

@@ -21,7 +21,7 @@ smoothed there (Savitzky-Golay, order :data:`WIND_POLYORDER`, over the option
 (Gaussian IMU, vane noise 0.1 deg, 4 seeds, mean |error| of the nine coefficients; still
 air 1.3 %): steady 5 m/s wind 6.5 % unsmoothed, 3.0 % over 0.1 s, 2.4 % over 0.2 s;
 with Dryden turbulence of sd 3 m/s 6.8 %, 6.0 % and 8.2 % (a long window smooths the
-gusts away). Default 0.1 s (EBM-PSO, SEBM-PSO). ``window_s = None`` instead smooths it
+gusts away). ``window_s = None`` (equation-error's, EBM-PSO's, SEBM-PSO's default) smooths it
 with a Kalman smoother whose gust intensity the data choose
 (:mod:`aeroid.estimation._air_smoother`): equation-error's default, measured in
 ``benchmarks/bench_air_data.py`` (steady wind: the whole record's weighted mean; 0.1

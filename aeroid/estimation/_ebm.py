@@ -19,6 +19,7 @@ from aeroid.estimation._estimator import prior_bounds
 from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._objectives import EBM_ROWS, ebm_cost
 from aeroid.estimation._polish import polish_info
+from aeroid.estimation._pso_air import step_one_air, with_step_one_air
 from aeroid.estimation._pso_methods import (
     StepOneOptions,
     check_swarm_size,
@@ -27,7 +28,6 @@ from aeroid.estimation._pso_methods import (
     reconstruction_info,
     run_pso,
     step_one,
-    step_one_air,
 )
 from aeroid.estimation._reconstruct import (
     ebm_regression,
@@ -85,8 +85,13 @@ class EBMPSO(StepOneOptions):
         when the flight has them (auto), from those or a one-line refusal (measured),
         or with the reconstruction's steady wind (reconstruction), as equation-error's
         option of that name.
-    air_data_window_s : float
-        Step 2: smoothing of the wind the logged angles imply [s] (default 0.1; 0: none).
+    air_data_window_s : float or None
+        Step 2: smoothing of the wind the logged angles imply, in north-east-down axes:
+        None (default, as equation-error's) a Kalman smoother whose gust intensity the
+        data choose by maximum likelihood, or a Savitzky-Golay window of that many
+        seconds (0.1 the former default; 0: none); :mod:`aeroid.estimation._pso_air`.
+        No consider term: this method reports no standard errors to carry the smoothed
+        wind's uncertainty in.
     """
 
     name: ClassVar[str] = "ebm-pso"
@@ -106,7 +111,7 @@ class EBMPSO(StepOneOptions):
             holds: CoefficientSpec | None = None) -> EstimationResult:
         """Reconstruct, smooth and fit (see class docstring)."""
         rec = step_one(self, flight)
-        air, air_lines = step_one_air(self, flight)
+        air = step_one_air(self, flight)
         rows = (0, 1, 2, 3, 4, 5) if self.lateral else EBM_ROWS
         cost = ebm_cost(flight, rec, weighting=self.weighting, smoothing=self.smoothing,
                         rows=rows, guard_fraction=self.guard_fraction, wind=air.wind)
@@ -122,8 +127,8 @@ class EBMPSO(StepOneOptions):
             info["polish"] = polish_info(polished)
         X, y = ebm_regression(flight, rec, smoothing=self.smoothing, wind=air.wind)
         info.update(regression_fit(rec, X, y, res.x, tuple(rows)))
-        info["air_data"] = air.source
-        return EstimationResult(
+        return with_step_one_air(EstimationResult(  # air_data's info, lines and refusal
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
-            message=res.message, warnings=(*warnings, *air_lines), n_evaluations=res.n_evaluations,
-            n_iterations=res.n_iterations, history=pso_history(res), info=info)
+            message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,
+            n_iterations=res.n_iterations, history=pso_history(res), info=info),
+            self, flight, air)

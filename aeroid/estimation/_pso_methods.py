@@ -14,7 +14,6 @@ machine out of memory; each bound below says why it is where it is.
 from __future__ import annotations
 
 import dataclasses
-import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -22,14 +21,7 @@ from typing import Any, Literal
 import numpy as np
 
 from aeroid.estimation import _pso as pso
-from aeroid.estimation._air_data import (
-    AIR_DATA_CHOICES,
-    WIND_WINDOW_S,
-    AirData,
-    ignored_air_data_warning,
-    resolve_air_data,
-)
-from aeroid.estimation._air_verdict import air_data_verdict
+from aeroid.estimation._air_data import AIR_DATA_CHOICES
 from aeroid.estimation._estimator import Estimator
 from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._holds_fit import free_cost
@@ -139,7 +131,7 @@ class StepOneOptions(PSOMethodOptions):
     derivative_window: int = DERIVATIVE_WINDOW
     roll_derivative_window: int = ROLL_DERIVATIVE_WINDOW
     air_data: Literal["inertial", "auto", "measured", "reconstruction"] = "inertial"
-    air_data_window_s: float = WIND_WINDOW_S
+    air_data_window_s: float | None = None  # the Kalman smoother, as equation-error's
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -158,23 +150,10 @@ def check_step_one_options(est: Any) -> None:
     if est.air_data not in AIR_DATA_CHOICES:
         raise ValueError(f"air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
                          f"got {est.air_data!r}")
-    if not (np.isfinite(est.air_data_window_s) and est.air_data_window_s >= 0):
-        raise ValueError(f"air_data_window_s must be >= 0 [s], got {est.air_data_window_s}")
-
-
-def step_one_air(est: Any, flight: Flight) -> tuple[AirData, list[str]]:
-    """The aerodynamic angles of the step-2 regression (the option ``air_data``, as
-    equation-error's: :func:`aeroid.estimation.resolve_air_data`; its note logged, logger
-    ``aeroid``, INFO) and the result's lines: the airspeed warning and the verdict with
-    the logged ones, else the warning that the flight's air data are ignored."""
-    air = resolve_air_data(flight, est.air_data, est.name, est.air_data_window_s)
-    if air.source == "inertial":
-        ignored = ignored_air_data_warning(flight, est.name)
-        return air, [ignored] if ignored else []
-    logging.getLogger("aeroid").info(air.note)  # what was done, as equation-error says it
-    verdict = air_data_verdict(flight, est.name)
-    return air, ([air.warning] if air.warning else []) + (
-        [verdict.line] if verdict is not None else [])
+    if est.air_data_window_s is not None and not (
+            np.isfinite(est.air_data_window_s) and est.air_data_window_s >= 0):
+        raise ValueError(f"air_data_window_s must be >= 0 [s] or None (the Kalman smoother), "
+                         f"got {est.air_data_window_s}")
 
 
 def step_one(est: Any, flight: Flight) -> Reconstruction:

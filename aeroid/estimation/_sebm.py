@@ -17,13 +17,13 @@ from aeroid.estimation._estimator import prior_bounds
 from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._objectives import SEBM_PROBLEMS, sebm_costs
 from aeroid.estimation._polish import polish_info
+from aeroid.estimation._pso_air import step_one_air, with_step_one_air
 from aeroid.estimation._pso_methods import (
     StepOneOptions,
     check_swarm_size,
     reconstruction_info,
     run_pso,
     step_one,
-    step_one_air,
 )
 from aeroid.estimation._reconstruct import (
     ebm_regression,
@@ -82,8 +82,13 @@ class SEBMPSO(StepOneOptions):
         when the flight has them (auto), from those or a one-line refusal (measured),
         or with the reconstruction's steady wind (reconstruction), as equation-error's
         option of that name.
-    air_data_window_s : float
-        Step 2: smoothing of the wind the logged angles imply [s] (default 0.1; 0: none).
+    air_data_window_s : float or None
+        Step 2: smoothing of the wind the logged angles imply, in north-east-down axes:
+        None (default, as equation-error's) a Kalman smoother whose gust intensity the
+        data choose by maximum likelihood, or a Savitzky-Golay window of that many
+        seconds (0.1 the former default; 0: none); :mod:`aeroid.estimation._pso_air`.
+        No consider term: this method reports no standard errors to carry the smoothed
+        wind's uncertainty in.
 
     Notes
     -----
@@ -121,7 +126,7 @@ class SEBMPSO(StepOneOptions):
                                  f"{', '.join(NAMES[c] for c in missing)} (SEBM_PROBLEMS, "
                                  "aeroid/estimation/_objectives.py)")
         rec = step_one(self, flight)
-        air, air_lines = step_one_air(self, flight)
+        air = step_one_air(self, flight)
         bounds = prior_bounds(flight.airframe, self.box)
         theta = np.empty(len(NAMES))
         closed = np.empty(len(NAMES))
@@ -164,8 +169,6 @@ class SEBMPSO(StepOneOptions):
                                                    for s in subproblems.values()))})
         X, y = ebm_regression(flight, rec, smoothing=self.smoothing, wind=air.wind)
         info.update(regression_fit(rec, X, y, theta, tuple(row for _, row, _, _ in SEBM_PROBLEMS)))
-        info["air_data"] = air.source
-        warnings += air_lines
         success = all(res.success for _, res in runs)
         messages = sorted({res.message for _, res in runs})
         total = float(hist_cost[-1])
@@ -174,11 +177,11 @@ class SEBMPSO(StepOneOptions):
             total = float(sum(res.cost for _, res in runs))
             info["polish"] = {key: float(sum(p[key] for p in polishes))
                               for key in ("swarm_cost", "polished_cost", "reference_cost")}
-        return EstimationResult(
+        return with_step_one_air(EstimationResult(  # air_data's info, lines and refusal
             estimator=self.name, theta=theta, cost=total, success=success,
             message="; ".join(messages), warnings=tuple(warnings),
             n_evaluations=sum(r.n_evaluations for _, r in runs),
             n_iterations=max(r.n_iterations for _, r in runs),
             history={"axis": "iteration", "step": np.arange(n_steps), "cost": hist_cost,
                      "theta": hist_theta},
-            info=info)
+            info=info), self, flight, air)
