@@ -60,6 +60,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from scipy.stats import binomtest  # noqa: E402
 
 import aeroid  # noqa: E402
 from aeroid.flights import (  # noqa: E402
@@ -95,6 +96,14 @@ def fits(sd: float, given_sd: float | None = None) -> dict[str, tuple[str, str, 
         "ekf-gustonly-given": ("ekf", "turbulent", {"gust_sd_mps": given}),
         "ekf-gustonly-est": ("ekf", "turbulent", {"estimate_gust_sd": True}),
         "ukf-gustonly-est": ("ukf", "turbulent", {"estimate_gust_sd": True}),
+        "ekf-gustonly-onestep": ("ekf", "turbulent", {"estimate_gust_sd": True,
+                                                      "gust_stderr": "one-step"}),
+        "ekf-gustonly-filtered": ("ekf", "turbulent", {"estimate_gust_sd": True,
+                                                       "gust_stderr": "filtered"}),
+        "ukf-gustonly-onestep": ("ukf", "turbulent", {"estimate_gust_sd": True,
+                                                      "gust_stderr": "one-step"}),
+        "ekf-gust-still-onestep": ("ekf", "still", {"estimate_gust_sd": True,
+                                                    "gust_stderr": "one-step"}),
         "fe": ("filter-error", "turbulent", {}),
         "ekf-gustonly-air": ("ekf", "turbulent-probe", {"estimate_gust_sd": True,
                                                         "air_data": "measured"}),
@@ -176,8 +185,16 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
                     fig = r.info["gust_verdict"]
                     extra += f" axial z {fig['axial_z']:.2f} roll ratio {fig['roll_ratio']:.2f}"
                 free = r.stderr > 0  # held coefficients (sd 0) cover nothing: left out
+                sd_f = r.info.get("stderr_filtered", r.stderr)  # gust_stderr's other se
+                z_f = np.abs(r.info.get("theta_filtered", r.theta) - truth) / sd_f
+                if "stderr_filtered" in r.info:
+                    extra += (f" z(filtered se) {np.nanmax(z_f):.2f} se/filtered "
+                              f"{np.nanmin(r.stderr[free] / sd_f[free]):.2f}-"
+                              f"{np.nanmax(r.stderr[free] / sd_f[free]):.2f}")
                 kinds[label].append({"success": r.success, "rel": rel,
                                      "covered": int(np.sum(z[free] <= Z95)),
+                                     "covered_filtered": int(np.sum(z_f[free] <= Z95)),
+                                     "within_filtered": bool(np.all(z_f[free] < WITHIN_SE)),
                                      "n_cover": int(np.sum(free)),
                                      "zmax": float(np.nanmax(z)),
                                      "within": bool(np.all(z[np.isfinite(z)] < WITHIN_SE)),
@@ -194,12 +211,17 @@ def summary(kinds: dict) -> str:
     def mean_rel(name: str) -> float:
         return float(np.mean([row["rel"] for row in kinds[name]])) if name in kinds else np.nan
 
-    def coverage(rows: list[dict]) -> float:
-        return sum(r["covered"] for r in rows) / max(sum(r["n_cover"] for r in rows), 1)
+    def coverage(rows: list[dict], key: str = "covered") -> str:
+        k, n = sum(r[key] for r in rows), sum(r["n_cover"] for r in rows)
+        if n == 0:
+            return "-"
+        ci = binomtest(k, n).proportion_ci(0.95)  # exact (Clopper-Pearson)
+        return f"{k / n:.3f} ({ci.low:.2f}-{ci.high:.2f})"
 
     out = ["| fit | success | mean abs rel error [%] | x ekf-still | x oe-wind | x fe "
-           "| max err/se | all within 3 se | coverage 95 % | wall [s] (median) |",
-           "|---|---|---|---|---|---|---|---|---|---|"]
+           "| max err/se | all within 3 se | coverage 95 % (exact 95 % CI) "
+           "| the filtered se: within 3 se, coverage | wall [s] (median) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, rows in kinds.items():
         rel = mean_rel(name)
         out.append(f"| {name} | {sum(row['success'] for row in rows)}/{len(rows)} | "
@@ -207,7 +229,9 @@ def summary(kinds: dict) -> str:
                    f"{rel / mean_rel('oe-wind'):.2f} | {rel / mean_rel('fe'):.2f} | "
                    f"{max(row['zmax'] for row in rows):.2f} | "
                    f"{sum(row['within'] for row in rows)}/{len(rows)} | "
-                   f"{coverage(rows):.3f} | {np.median([row['wall'] for row in rows]):.1f} |")
+                   f"{coverage(rows)} | {sum(row['within_filtered'] for row in rows)}/"
+                   f"{len(rows)}, {coverage(rows, 'covered_filtered')} | "
+                   f"{np.median([row['wall'] for row in rows]):.1f} |")
     return "\n".join(out)
 
 
