@@ -61,7 +61,8 @@ class InnovationCovariance:
     score : ndarray, shape (n_free + 1,)
         The gradient of the negative log-likelihood (plus the priors') there.
     gust_sd_mps, gust_sd_stderr_mps : float
-        The intensity at which it was evaluated, and its sd from ``M^-1``.
+        The intensity at which it was evaluated, and its sd from ``M^-1`` (NaN when held:
+        ``sigma_free`` False).
     noise_source : str
         Where the measurement noise came from (``metadata`` or ``innovations``).
     R : ndarray, shape (m,)
@@ -138,10 +139,12 @@ def noise_at(problem: _fem_fit.Problem, noise: _fem_setup.Noise, gust_sd_mps: fl
 
 
 def innovation_covariance(problem: _fem_fit.Problem, noise: _fem_setup.Noise,
-                          gust_sd_mps: float, R: np.ndarray | None = None
-                          ) -> InnovationCovariance:
+                          gust_sd_mps: float, R: np.ndarray | None = None, *,
+                          sigma_free: bool = True) -> InnovationCovariance:
     """The information ``M`` at ``problem.theta_base`` and ``gust_sd_mps``, and its inverse
-    (``R``: the noise variances, default :func:`noise_at`'s)."""
+    (``R``: the noise variances, default :func:`noise_at`'s). ``sigma_free`` False: the
+    intensity is held (at its search's lower bound: still air, as filter-error's
+    ``at_bound``), its row and column of ``M`` left out of the inverse."""
     free, nf = problem.free, problem.free.size
     p = np.concatenate([problem.theta_base[free] / problem.scale, [math.log(gust_sd_mps)]])
     R = noise_at(problem, noise, gust_sd_mps) if R is None else R
@@ -151,11 +154,14 @@ def innovation_covariance(problem: _fem_fit.Problem, noise: _fem_setup.Noise,
     g[:nf] += problem.prior_info * problem.scale * (p[:nf] * problem.scale
                                                    - problem.prior_mean)
     cov = np.zeros((len(NAMES), len(NAMES)))
+    used = nf + 1 if sigma_free else nf
+    cov_p = np.full_like(M, np.nan)
     try:
-        cov_p = np.linalg.inv(M)
+        cov_p[:used, :used] = np.linalg.inv(M[:used, :used])
     except np.linalg.LinAlgError:
-        cov_p, ok = np.full_like(M, np.nan), False
-    ok = ok and bool(np.all(np.isfinite(cov_p)) and np.all(np.diag(cov_p) > 0))
+        ok = False
+    diag = np.diag(cov_p)[:used]
+    ok = ok and bool(np.all(np.isfinite(diag)) and np.all(diag > 0))
     cov[np.ix_(free, free)] = cov_p[:nf, :nf] * np.outer(problem.scale, problem.scale)
     sd_sigma = gust_sd_mps * math.sqrt(abs(cov_p[nf, nf]))  # delta method: sigma = e^p
     return InnovationCovariance(cov, np.sqrt(np.abs(np.diag(cov))), M, g, float(gust_sd_mps),
@@ -172,7 +178,9 @@ def one_step(problem: _fem_fit.Problem, found: InnovationCovariance
     free = problem.free
     p = np.concatenate([problem.theta_base[free] / problem.scale,
                         [math.log(found.gust_sd_mps)]])
-    step = -np.linalg.solve(found.information, found.score)
+    used = found.score.size if math.isfinite(found.gust_sd_stderr_mps) else p.size - 1
+    step = np.zeros(p.size)  # a held intensity (nan sd) stays
+    step[:used] = -np.linalg.solve(found.information[:used, :used], found.score[:used])
     rows = np.vstack([p] + [p + a * step for a in _fem_fit.STEP_LENGTHS])
     cost = _fem_fit.nll(problem.run(rows, found.R)) + problem.prior_cost(rows)
     best = int(np.argmin(cost))
@@ -196,8 +204,9 @@ UNCALIBRATED_WARNING = (
     "method filter-error give calibrated ones")
 #: Measured coverage quoted in :data:`UNCALIBRATED_WARNING`.
 INNOVATIONS_COVERAGE = "0.87 (exact 95 % CI 0.81-0.92)"
-#: Below this likelihood intensity [m/s] the air is taken as calm and nothing is said: the
-#: still-air flights' estimate is the search's lower bound, 0.1 m/s (README).
+#: Below this likelihood intensity [m/s] the air is taken as calm: the intensity is held
+#: (at the search's lower bound, 0.1 m/s, where the still-air flights' estimate is: README)
+#: and the warning is not said.
 CALM_GUST_SD_MPS = 0.2
 
 
@@ -259,7 +268,9 @@ def with_gust_stderr(est: Any, flight: Flight, result: EstimationResult, holds: 
                                   substeps=est.substeps, input_mode=est.input,
                                   delay_s=est.delay_s, holds=holds)
     R = noise_at(problem, noise, float(result.info["gust_sd_mps"]))
-    found = innovation_covariance(problem, noise, likelihood_gust_sd(problem, R), R=R)
+    sd = likelihood_gust_sd(problem, R)
+    calm = sd < CALM_GUST_SD_MPS  # at the search's lower bound: held there
+    found = innovation_covariance(problem, noise, sd, R=R, sigma_free=not calm)
     if not found.ok:
         return dataclasses.replace(result, warnings=(*result.warnings, FILTERED_WARNING.format(
             who=est.name, why="the innovations' information was not invertible at the "
@@ -272,7 +283,7 @@ def with_gust_stderr(est: Any, flight: Flight, result: EstimationResult, holds: 
         said.append(f"{est.name}: gust_stderr = one-step: the estimate is the filter's moved "
                     f"by one Fisher-scoring step of the innovations' likelihood (Le Cam's "
                     f"one-step estimator; step length {length:g}, at most {moved:.2f} se)")
-    elif found.gust_sd_mps > CALM_GUST_SD_MPS:
+    elif not calm:
         said.append(UNCALIBRATED_WARNING.format(who=est.name, coverage=INNOVATIONS_COVERAGE))
     free = found.stderr > 0
     ratio = found.stderr[free] / result.stderr[free]

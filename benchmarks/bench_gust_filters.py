@@ -26,6 +26,11 @@ alone, filter-error's study). Fits (``--fits``, default all):
 * ``ekf-gustonly-given``, ``ekf-gustonly-est``, ``ukf-gustonly-est``: gust states
   without the steady wind's states (the gusts carry the steady wind too) on the
   turbulent flight, the intensity given or estimated;
+* ``ekf-gustonly-onestep``, ``ukf-gustonly-onestep``: ``ekf-gustonly-est`` with
+  ``gust_stderr = one-step`` (one Fisher-scoring step of filter-error's likelihood from the
+  filter's estimate, :mod:`baselines._kalman_information`); ``ekf-gustonly-filtered``: with
+  ``gust_stderr = filtered`` (the filtered covariance, as before ``gust_stderr``);
+  ``ekf-gust-still-onestep``: ``ekf-gust-still`` with ``one-step``;
 * ``fe``: the filter-error method (defaults) on the same turbulent flight, so the EKF's
   gust states and filter-error are compared on the SAME flights (issue 26's "within 1.5x");
 * ``ekf-gustonly-air``, ``ekf-gust-air``, ``ukf-gustonly-air``: the gust fits with
@@ -38,7 +43,12 @@ Reported per fit: successes (after the fit check and the passes' verdict), the m
 seeds of the mean |relative error| of the nine coefficients [%], its ratio to
 ``ekf-still``'s and to ``oe-wind``'s, the largest |error| / se and how many runs have
 every coefficient within 3 se, the coverage of the 95 % intervals (``|error| <= 1.96 se``
-over all coefficient-runs; a held coefficient, sd 0, is left out) and the ratio of the
+over all coefficient-runs; a held coefficient, sd 0, is left out) with its exact
+(Clopper-Pearson) 95 % interval, which takes the coefficient-runs as independent (the nine
+of one run are correlated: the interval is too narrow by an unknown factor; the runs'
+"all within 3 se" count is the independent figure), the same two figures with the filter's
+own estimate and filtered covariance (``info['theta_filtered']``,
+``info['stderr_filtered']``, where ``gust_stderr`` replaced them), and the ratio of the
 mean error to ``fe``'s. With ``--holds NAME=FACTOR ...`` every chosen fit is also run
 with that coefficient held at FACTOR x its truth (a known-wrong model), and each run's
 line shows the gust verdict's figures (:mod:`baselines._gust_verdict`: axial z, roll
@@ -187,6 +197,10 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
                 free = r.stderr > 0  # held coefficients (sd 0) cover nothing: left out
                 sd_f = r.info.get("stderr_filtered", r.stderr)  # gust_stderr's other se
                 z_f = np.abs(r.info.get("theta_filtered", r.theta) - truth) / sd_f
+                if any("intervals are not calibrated" in w for w in r.warnings):
+                    extra += " [said: not calibrated]"
+                if "gust_information" in r.info:
+                    extra += f" likelihood sd {r.info['gust_information']['gust_sd_mps']:.2f}"
                 if "stderr_filtered" in r.info:
                     extra += (f" z(filtered se) {np.nanmax(z_f):.2f} se/filtered "
                               f"{np.nanmin(r.stderr[free] / sd_f[free]):.2f}-"

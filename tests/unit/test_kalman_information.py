@@ -168,3 +168,19 @@ def test_where_not_built_the_filtered_se_are_kept_and_said(turbulent) -> None:
     plain = aeroid.make_estimator("ekf", {"max_passes": 1}).fit(turbulent, rng=1)
     assert "stderr_filtered" not in plain.info  # no gust states: untouched
     assert not any("filtered covariance" in w for w in plain.warnings)
+
+
+def test_in_still_air_the_intensity_is_held_and_nothing_is_said(reference_scenario) -> None:
+    """Gust states on a still-air flight: the likelihood's intensity is at the search's lower
+    bound, held there (no sd), and the not-calibrated warning is not said (its false alarm;
+    over 12 still-air flights: ``benchmarks/results/gust_stderr_stillair.md``)."""
+    s = reference_scenario
+    flight = simulate(s.airframe, s.coefficient_vector, s.manoeuvre, GaussianNoise(), rng=2)
+    result = aeroid.make_estimator("ekf", {"gust_sd_mps": 0.5, "max_passes": 2}).fit(
+        flight, rng=2)
+    found = result.info["gust_information"]
+    assert found["gust_sd_mps"] < _kalman_information.CALM_GUST_SD_MPS
+    assert math.isnan(found["gust_sd_stderr_mps"])
+    assert not any("not calibrated" in w for w in result.warnings), result.warnings
+    z = np.abs(result.theta - s.coefficient_vector) / result.stderr
+    assert np.all(z < WITHIN_SE), dict(zip(NAMES, z.round(2), strict=True))
