@@ -38,9 +38,11 @@ filter-error alone is cheaper (5 s against 25 s per fit, measured on a loaded ma
 
 Not built (one line each, ``gust_stderr = filtered`` with a warning under ``auto``): with
 ``estimate_wind``, IMU-error, aiding, air-data or sensor-position states, which
-filter-error's filter does not have. Not tried: the Dryden transverse components as
-second-order states (filter-error's first-order gusts give calibrated intervals at its
-optimum, so the gusts' order is not what the filtered covariance lacks).
+filter-error's filter does not have, nor on a flight with saturated samples (the filters
+leave them out of their likelihood, filter-error's filter does not). Not tried: the
+Dryden transverse components as second-order states (filter-error's first-order gusts
+give calibrated intervals at its optimum, so the gusts' order is not what the filtered
+covariance lacks).
 """
 
 from __future__ import annotations
@@ -55,8 +57,8 @@ from scipy.optimize import minimize_scalar
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
-from aeroid.flights import Flight
-from aeroid.model import NAMES
+from aeroid.flights import Flight, used_samples
+from aeroid.model import NAMES, OUTPUT_CHANNELS
 from baselines import _common, _fem_fit, _fem_setup, _kalman_air
 from baselines._fem_filter import gust_model
 from baselines._kalman_gust import GUST_SD_BOUNDS_MPS
@@ -245,7 +247,9 @@ def _not_built(est: Any, flight: Flight) -> str:
                      (est.imu_errors != "none", f"imu_errors = {est.imu_errors}"),
                      (est.aiding != "none", f"aiding = {est.aiding}"),
                      (_kalman_air.air_plan(est, flight) is not None, "air data as measurements"),
-                     (bool(est.position_free(flight)), "estimated sensor positions")):
+                     (bool(est.position_free(flight)), "estimated sensor positions"),
+                     (used_samples(flight.metadata, OUTPUT_CHANNELS, flight.n_samples)
+                      is not None, "saturated samples left out")):
         if on:
             return what
     return ""

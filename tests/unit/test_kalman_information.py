@@ -167,12 +167,19 @@ def test_the_option_is_listed_checked_and_refused_where_not_built(capsys, turbul
 
 
 def test_where_not_built_the_filtered_se_are_kept_and_said(turbulent) -> None:
-    """``auto`` with ``estimate_wind``: the filtered covariance, with the one-line warning."""
+    """``auto`` with ``estimate_wind`` or saturated samples: the filtered covariance, with
+    the one-line warning."""
     result = aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0, "estimate_wind": True,
                                            "max_passes": 1}).fit(turbulent, rng=1)
     assert "stderr_filtered" not in result.info
     said = [w for w in result.warnings if "final filtered covariance's" in w]
     assert len(said) == 1 and "with estimate_wind" in said[0], result.warnings
+    clipped = dataclasses.replace(turbulent, metadata={**turbulent.metadata,
+                                                       "saturated": {"az1": np.array([5])}})
+    saturated = aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0, "max_passes": 1}).fit(
+        clipped, rng=1)
+    assert "stderr_filtered" not in saturated.info
+    assert sum("with saturated samples left out" in w for w in saturated.warnings) == 1
     plain = aeroid.make_estimator("ekf", {"max_passes": 1}).fit(turbulent, rng=1)
     assert "stderr_filtered" not in plain.info  # no gust states: untouched
     assert not any("filtered covariance" in w for w in plain.warnings)
