@@ -155,9 +155,8 @@ def noise_at(problem: _fem_fit.Problem, noise: _fem_setup.Noise, gust_sd_mps: fl
         return noise.R
     p = np.concatenate([problem.theta_base[problem.free] / problem.scale,
                         [math.log(gust_sd_mps)]])
-    center = problem.run(p[None], noise.R)
-    state_part = np.diagonal(center.S[0], axis1=-2, axis2=-1) - noise.R
-    return np.maximum(np.mean(center.innovation[0] ** 2 - state_part, axis=0), noise.floor)
+    # filter-error's own update (same package; written once there)
+    return _fem_fit._innovation_noise(problem.run(p[None], noise.R), noise.R, noise.floor)
 
 
 def innovation_covariance(problem: _fem_fit.Problem, noise: _fem_setup.Noise,
