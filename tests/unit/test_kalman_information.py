@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import aeroid
+from aeroid.estimation import CoefficientSpec
 from aeroid.flights import GaussianNoise, Wind, simulate
 from aeroid.model import NAMES
 from baselines import _fem_fit, _kalman_information
@@ -89,6 +90,27 @@ def test_at_filter_errors_estimate_it_is_filter_errors_covariance(turbulent, fe_
     assert profile == pytest.approx(sd, rel=PROFILE_RTOL)
     theta, _ = _kalman_information.one_step(problem, found)
     assert np.max(np.abs(theta - fe_fit.theta) / fe_fit.stderr) < AT_OPTIMUM_SE
+
+
+def test_with_a_hold_and_a_prior_it_is_filter_errors_covariance(turbulent,
+                                                                  reference_scenario) -> None:
+    """The held coefficient leaves the information (se 0 here, NaN in filter-error) and a
+    prior's information joins it, as in filter-error at its own optimum."""
+    truth = reference_scenario.coefficient_vector
+    cmq = NAMES.index("Cmq")
+    spec = CoefficientSpec.from_mapping({"hold": {"Czq": float(truth[NAMES.index("Czq")])},
+                                         "prior": {"Cmq": [float(truth[cmq]),
+                                                           0.1 * abs(float(truth[cmq]))]}})
+    fe = FilterErrorEstimator(max_iterations=8).fit(turbulent, rng=1, holds=spec)
+    problem, noise = _kalman_information.gust_problem(
+        turbulent, fe.theta, scale_length_m=aeroid.flights.MIL_SCALE_LENGTH_M, substeps=1,
+        input_mode="auto", delay_s=0.0, holds=spec)
+    found = _kalman_information.innovation_covariance(problem, noise, fe.info["gust_sd_mps"])
+    free = spec.free_index
+    assert found.stderr[NAMES.index("Czq")] == 0.0
+    np.testing.assert_allclose(found.stderr[free], fe.stderr[free], rtol=SAME_RTOL)
+    np.testing.assert_allclose(found.covariance, fe.covariance, rtol=SAME_RTOL,
+                               atol=SAME_RTOL * np.max(np.abs(fe.covariance)))
 
 
 def test_the_information_is_the_likelihoods_curvature(turbulent, fe_fit) -> None:
