@@ -29,6 +29,7 @@ from baselines import (
     _kalman,
     _kalman_air,
     _kalman_gust,
+    _kalman_information,
     _kalman_smoother,
     _kalman_wind,
 )
@@ -69,6 +70,17 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         measured worse in turbulence (55 % against 14-48 %, 2 seeds). ``"auto"``
         (default): ``smoothed`` with ``estimate_wind`` and no gust states (said in a
         one-line notice), else ``carried`` (still air: unchanged).
+    gust_stderr : {"auto", "filtered", "innovations", "one-step"}
+        With gust states, where the standard errors come from
+        (:mod:`baselines._kalman_information`): ``innovations``, the inverse of the
+        innovations' information (filter-error's likelihood) at the estimate;
+        ``one-step``, the same with the estimate moved by one Fisher-scoring step of that
+        likelihood (Le Cam's one-step estimator: calibrated intervals in turbulence,
+        measured); ``filtered``, the final filtered covariance (too small in turbulence,
+        measured). ``auto`` (default): ``innovations`` where built (gust states without
+        ``estimate_wind``, IMU-error, aiding, air-data or sensor-position states), else
+        ``filtered``; each with a one-line warning saying what its intervals covered.
+        Without gust states: unused.
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
@@ -79,9 +91,11 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         "augmented-state extended Kalman filter (filterpy, RK4 model, CasADi Jacobians)")
 
     passes: Literal["auto", "carried", "smoothed"] = "auto"
+    gust_stderr: Literal["auto", "filtered", "innovations", "one-step"] = "auto"
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        _kalman_information.check_gust_stderr(self)
         if self.passes not in ("auto", "carried", "smoothed"):
             raise ValueError(f"passes must be auto, carried or smoothed, got {self.passes!r}")
 
@@ -98,6 +112,7 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         if self.passes_used() == "smoothed" and self.estimate_gust_sd:  # trials share no pass
             raise EstimatorError(f"{self.name}: passes = smoothed with estimate_gust_sd is not "
                                  "available; give gust_sd_mps or set passes = carried")
+        _kalman_information.refuse(self, flight)
         smoothed: list[Any] = []  # "smoothed": the first pass's prior, the last trajectory
 
         def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
@@ -123,6 +138,7 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
             return run_table_passes(self, flight, tables, one_pass,
                                     lambda _model: flight.n_samples, holds)
         result = self.run_imu_passes(flight, one_pass, lambda _model: flight.n_samples)
+        result = _kalman_information.with_gust_stderr(self, flight, result, holds)
         if self.passes == "auto" and self.passes_used() == "smoothed":
             notice = ("ekf: passes = smoothed (auto, with estimate_wind): each pass "
                       "after the first linearises along the last one's smoothed trajectory "

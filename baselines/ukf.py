@@ -22,7 +22,15 @@ import numpy as np
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, Windows
-from baselines import _common, _held, _kalman, _kalman_air, _kalman_gust, _kalman_wind
+from baselines import (
+    _common,
+    _held,
+    _kalman,
+    _kalman_air,
+    _kalman_gust,
+    _kalman_information,
+    _kalman_wind,
+)
 from baselines._imu_states import ImuFilterOptions
 from baselines._kalman_tables import refuse_windows, run_table_passes
 from baselines._kalman_ukf_smoother import run_ipls
@@ -57,6 +65,11 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         :mod:`baselines._kalman_ukf_smoother`). ``"auto"`` (default): ``smoothed`` with
         ``estimate_wind`` and no gust states (said in a one-line notice), else
         ``carried`` (still air: unchanged).
+    gust_stderr : {"auto", "filtered", "innovations", "one-step"}
+        As the EKF's (:class:`baselines.ekf.ExtendedKalmanEstimator`): with gust states the
+        standard errors from the innovations' information at the estimate (filter-error's
+        EKF likelihood, :mod:`baselines._kalman_information`) where built, or with
+        ``one-step`` also one Fisher-scoring step of that likelihood from the estimate.
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held
@@ -70,9 +83,11 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
     beta: float = 2.0
     kappa: float = 0.0
     passes: Literal["auto", "carried", "smoothed"] = "auto"
+    gust_stderr: Literal["auto", "filtered", "innovations", "one-step"] = "auto"
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        _kalman_information.check_gust_stderr(self)
         if not 0 < self.alpha <= 1:
             raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
         if self.passes not in ("auto", "carried", "smoothed"):
@@ -91,6 +106,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         if self.passes_used() == "smoothed" and self.estimate_gust_sd:  # trials share no pass
             raise EstimatorError(f"{self.name}: passes = smoothed with estimate_gust_sd is not "
                                  "available; give gust_sd_mps or set passes = carried")
+        _kalman_information.refuse(self, flight)
         smoothed: list[Any] = []  # "smoothed": the first pass's prior, the last posterior
 
         def filter_pass(model: _kalman.DiscreteModel, setup: _common.FilterSetup
@@ -119,6 +135,7 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
                                     holds)
         result = self.run_imu_passes(
             flight, one_pass, lambda model: (2 * model.dim_x + 1) * flight.n_samples)
+        result = _kalman_information.with_gust_stderr(self, flight, result, holds)
         if self.passes == "auto" and self.passes_used() == "smoothed":
             notice = ("ukf: passes = smoothed (auto, with estimate_wind): each pass after the "
                       "first starts from the original prior, its sigma-point regressions on "

@@ -26,6 +26,11 @@ alone, filter-error's study). Fits (``--fits``, default all):
 * ``ekf-gustonly-given``, ``ekf-gustonly-est``, ``ukf-gustonly-est``: gust states
   without the steady wind's states (the gusts carry the steady wind too) on the
   turbulent flight, the intensity given or estimated;
+* ``ekf-gustonly-onestep``, ``ukf-gustonly-onestep``: ``ekf-gustonly-est`` with
+  ``gust_stderr = one-step`` (one Fisher-scoring step of filter-error's likelihood from the
+  filter's estimate, :mod:`baselines._kalman_information`); ``ekf-gustonly-filtered``: with
+  ``gust_stderr = filtered`` (the filtered covariance, as before ``gust_stderr``);
+  ``ekf-gust-still-onestep``: ``ekf-gust-still`` with ``one-step``;
 * ``fe``: the filter-error method (defaults) on the same turbulent flight, so the EKF's
   gust states and filter-error are compared on the SAME flights (issue 26's "within 1.5x");
 * ``ekf-gustonly-air``, ``ekf-gust-air``, ``ukf-gustonly-air``: the gust fits with
@@ -38,7 +43,12 @@ Reported per fit: successes (after the fit check and the passes' verdict), the m
 seeds of the mean |relative error| of the nine coefficients [%], its ratio to
 ``ekf-still``'s and to ``oe-wind``'s, the largest |error| / se and how many runs have
 every coefficient within 3 se, the coverage of the 95 % intervals (``|error| <= 1.96 se``
-over all coefficient-runs; a held coefficient, sd 0, is left out) and the ratio of the
+over all coefficient-runs; a held coefficient, sd 0, is left out) with its exact
+(Clopper-Pearson) 95 % interval, which takes the coefficient-runs as independent (the nine
+of one run are correlated: the interval is too narrow by an unknown factor; the runs'
+"all within 3 se" count is the independent figure), the same two figures with the filter's
+own estimate and filtered covariance (``info['theta_filtered']``,
+``info['stderr_filtered']``, where ``gust_stderr`` replaced them), and the ratio of the
 mean error to ``fe``'s. With ``--holds NAME=FACTOR ...`` every chosen fit is also run
 with that coefficient held at FACTOR x its truth (a known-wrong model), and each run's
 line shows the gust verdict's figures (:mod:`baselines._gust_verdict`: axial z, roll
@@ -60,6 +70,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from scipy.stats import binomtest  # noqa: E402
 
 import aeroid  # noqa: E402
 from aeroid.flights import (  # noqa: E402
@@ -95,6 +106,14 @@ def fits(sd: float, given_sd: float | None = None) -> dict[str, tuple[str, str, 
         "ekf-gustonly-given": ("ekf", "turbulent", {"gust_sd_mps": given}),
         "ekf-gustonly-est": ("ekf", "turbulent", {"estimate_gust_sd": True}),
         "ukf-gustonly-est": ("ukf", "turbulent", {"estimate_gust_sd": True}),
+        "ekf-gustonly-onestep": ("ekf", "turbulent", {"estimate_gust_sd": True,
+                                                      "gust_stderr": "one-step"}),
+        "ekf-gustonly-filtered": ("ekf", "turbulent", {"estimate_gust_sd": True,
+                                                       "gust_stderr": "filtered"}),
+        "ukf-gustonly-onestep": ("ukf", "turbulent", {"estimate_gust_sd": True,
+                                                      "gust_stderr": "one-step"}),
+        "ekf-gust-still-onestep": ("ekf", "still", {"estimate_gust_sd": True,
+                                                    "gust_stderr": "one-step"}),
         "fe": ("filter-error", "turbulent", {}),
         "ekf-gustonly-air": ("ekf", "turbulent-probe", {"estimate_gust_sd": True,
                                                         "air_data": "measured"}),
@@ -176,8 +195,20 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
                     fig = r.info["gust_verdict"]
                     extra += f" axial z {fig['axial_z']:.2f} roll ratio {fig['roll_ratio']:.2f}"
                 free = r.stderr > 0  # held coefficients (sd 0) cover nothing: left out
+                sd_f = r.info.get("stderr_filtered", r.stderr)  # gust_stderr's other se
+                z_f = np.abs(r.info.get("theta_filtered", r.theta) - truth) / sd_f
+                if any("intervals are not calibrated" in w for w in r.warnings):
+                    extra += " [said: not calibrated]"
+                if "gust_information" in r.info:
+                    extra += f" likelihood sd {r.info['gust_information']['gust_sd_mps']:.2f}"
+                if "stderr_filtered" in r.info:
+                    extra += (f" z(filtered se) {np.nanmax(z_f):.2f} se/filtered "
+                              f"{np.nanmin(r.stderr[free] / sd_f[free]):.2f}-"
+                              f"{np.nanmax(r.stderr[free] / sd_f[free]):.2f}")
                 kinds[label].append({"success": r.success, "rel": rel,
                                      "covered": int(np.sum(z[free] <= Z95)),
+                                     "covered_filtered": int(np.sum(z_f[free] <= Z95)),
+                                     "within_filtered": bool(np.all(z_f[free] < WITHIN_SE)),
                                      "n_cover": int(np.sum(free)),
                                      "zmax": float(np.nanmax(z)),
                                      "within": bool(np.all(z[np.isfinite(z)] < WITHIN_SE)),
@@ -194,12 +225,17 @@ def summary(kinds: dict) -> str:
     def mean_rel(name: str) -> float:
         return float(np.mean([row["rel"] for row in kinds[name]])) if name in kinds else np.nan
 
-    def coverage(rows: list[dict]) -> float:
-        return sum(r["covered"] for r in rows) / max(sum(r["n_cover"] for r in rows), 1)
+    def coverage(rows: list[dict], key: str = "covered") -> str:
+        k, n = sum(r[key] for r in rows), sum(r["n_cover"] for r in rows)
+        if n == 0:
+            return "-"
+        ci = binomtest(k, n).proportion_ci(0.95)  # exact (Clopper-Pearson)
+        return f"{k / n:.3f} ({ci.low:.2f}-{ci.high:.2f})"
 
     out = ["| fit | success | mean abs rel error [%] | x ekf-still | x oe-wind | x fe "
-           "| max err/se | all within 3 se | coverage 95 % | wall [s] (median) |",
-           "|---|---|---|---|---|---|---|---|---|---|"]
+           "| max err/se | all within 3 se | coverage 95 % (exact 95 % CI) "
+           "| the filtered se: within 3 se, coverage | wall [s] (median) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, rows in kinds.items():
         rel = mean_rel(name)
         out.append(f"| {name} | {sum(row['success'] for row in rows)}/{len(rows)} | "
@@ -207,7 +243,9 @@ def summary(kinds: dict) -> str:
                    f"{rel / mean_rel('oe-wind'):.2f} | {rel / mean_rel('fe'):.2f} | "
                    f"{max(row['zmax'] for row in rows):.2f} | "
                    f"{sum(row['within'] for row in rows)}/{len(rows)} | "
-                   f"{coverage(rows):.3f} | {np.median([row['wall'] for row in rows]):.1f} |")
+                   f"{coverage(rows)} | {sum(row['within_filtered'] for row in rows)}/"
+                   f"{len(rows)}, {coverage(rows, 'covered_filtered')} | "
+                   f"{np.median([row['wall'] for row in rows]):.1f} |")
     return "\n".join(out)
 
 
