@@ -32,6 +32,10 @@ WITHIN_SE = 3.0
 #: most 0.25 se apart, benchmarks/results/fem_steady_wind.md).
 AGREE_SE = 0.1
 SE_RTOL = 0.05
+#: The hold test's likelihood ratio against twice the cost difference of two independent
+#: fits: both stop within tol = 0.01 sd of the optimum, i.e. ~1e-4 in the cost (0.05 as
+#: test_fem_holds.py's turbulence check).
+LR_ABS = 0.05
 #: Monte-Carlo paths of the verdict's null and the share of them it may refuse: the limit
 #: is a 3-sd z-score per component (0.27 % each, ~0.8 % for the largest of three); 2 % of
 #: 1000 paths is 4 binomial sd above 0.8 %.
@@ -112,3 +116,18 @@ def test_the_verdict_passes_the_air_and_refuses_a_steady_part() -> None:
     # with the wind estimated the remedy is not offered again
     v = steady_verdict(offset, allowed, sigma, dt, who="filter-error", estimated=True)
     assert not v.ok and "estimate_wind" not in v.message
+
+
+def test_the_hold_test_reaches_the_free_optimum_along_a_flat_valley(steady_flight) -> None:
+    """With the steady wind free, Cma trades with the along-path wind (correlation ~0.999):
+    the hold test's free fit, started at the held optimum, stopped after one damped step
+    0.7 % of the way (LR 0.018 where the two fits' costs say 1.58): the convergence test
+    read the damped step. Reference: an independent free fit from the prior."""
+    truth = steady_flight.true_coefficients
+    est = FilterErrorEstimator(estimate_wind=True)
+    free = est.fit(steady_flight, rng=0)
+    held = est.fit(steady_flight, rng=0, holds={"hold": {"Cma": float(truth[6])}})
+    test = held.info["hold_test"]
+    assert free.success and held.success and test["done"], (free.message, held.message)
+    assert test["lr"] == pytest.approx(2.0 * (held.cost - free.cost), abs=LR_ABS)
+    assert abs(test["free_values"]["Cma"] - free.theta[6]) < AGREE_SE * free.stderr[6]
