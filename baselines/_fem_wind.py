@@ -22,8 +22,9 @@ wind given instead the same fits are within 2.2 se; ``benchmarks/bench_fem_stead
   the fit is output-error's with ``estimate_wind`` (seeds 1-10: within 0.25 se of it,
   every coefficient within 2.5 se of the truth; the along-path component as poorly
   determined: its sd ~5 m/s from an IMU alone). In turbulence it is not identified
-  against the gusts (Dryden sd 3 m/s: not converged in 30 iterations, north 63 +- 137
-  m/s, seed 1): there the zero-mean default is the method.
+  against the gusts (Dryden sd 3 m/s, seeds 1-4: 0/4 converged in 30 iterations, the
+  north wind's sd 122-201 m/s, the coefficients' mean relative se 53-72 %): there the
+  zero-mean default is the method.
 - **The verdict** (:func:`steady_verdict`): the filtered wind's time average (NED, each
   component; with ``estimate_wind`` the gusts' only) against the sd Dryden's
   first-order process of the fit's own intensity allows for a time average over the

@@ -26,6 +26,8 @@ steady-wind verdict's z, and the mean relative se. With ``--turbulence-seeds`` a
 (``turbulence.toml``: the same steady wind plus Dryden sd 3 m/s) and in still air (the
 reference scenario): how often the steady-wind verdict refuses those right fits. With
 ``--turbulence-wind-seeds``: filter-error with ``estimate_wind`` on the turbulence flights.
+With ``--hold-seeds``: Cma, then Cza, held at its truth with ``estimate_wind`` on the
+steady-wind flights (the hold test's null; with the zero-mean gusts it refused 3/20).
 The likelihood ratio of the zero-mean gusts against the steady wind free is twice the
 difference of the two filter-error fits' costs.
 """
@@ -218,11 +220,39 @@ def turbulent_wind(seeds: int) -> tuple[str, list[str]]:
             f"{np.mean([r['relse'] for r in rs]):.2f} %"), lines
 
 
+def right_holds(seeds: int) -> tuple[str, list[str]]:
+    """Filter-error with ``estimate_wind`` and Cma, then Cza, held at its truth on the
+    steady-wind flights: the likelihood-ratio test's null (:mod:`baselines._fem_holds`)."""
+    s = load_scenario(STEADY)
+    truth = s.coefficient_vector
+    lrs, refused, lines = [], 0, []
+    for seed in range(1, seeds + 1):
+        flight = simulate(s.airframe, truth, s.manoeuvre, make_noise("gaussian"), rng=seed)
+        for name in ("Cma", "Cza"):
+            hold = {"hold": {name: float(truth[NAMES.index(name)])}}
+            r = FilterErrorEstimator(estimate_wind=True).fit(flight, holds=hold)
+            test = r.info.get("hold_test", {})
+            lr = test.get("lr", np.nan)
+            lrs.append(lr)
+            refused += not r.success
+            lines.append(f"holds seed {seed} {name} held at its truth, estimate_wind: "
+                         f"{_refused_by(r)} LR {lr:.2f} p {test.get('p_value', np.nan):.3g} "
+                         f"{r.message[:80]}")
+            print(lines[-1], flush=True)
+    n = 2 * seeds
+    return (f"- Cma or Cza held at its truth, filter-error with estimate_wind on the steady-wind"
+            f" flights, seeds 1-{seeds}: refused {refused}/{n}; likelihood ratio mean "
+            f"{np.nanmean(lrs):.2f} (chi-square(1): 1), above 6.63 on "
+            f"{int(np.sum(np.array(lrs) > 6.63))}/{n}"), lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--turbulence-seeds", type=int, default=0)
     parser.add_argument("--still-seeds", type=int, default=0)
+    parser.add_argument("--hold-seeds", type=int, default=0,
+                        help="Cma, Cza held at their truth with estimate_wind (steady wind)")
     parser.add_argument("--turbulence-wind-seeds", type=int, default=0,
                         help="filter-error with estimate_wind on the turbulence flights")
     parser.add_argument("--no-write", action="store_true")
@@ -236,10 +266,12 @@ def main() -> None:
             text += "\n" + ("\n" if "still" not in label or not args.turbulence_seeds else "")
             text += summary
             lines += more
-    if args.turbulence_wind_seeds:
-        summary, more = turbulent_wind(args.turbulence_wind_seeds)
-        text += "\n" + summary
-        lines += more
+    for n, part in ((args.hold_seeds, right_holds),
+                    (args.turbulence_wind_seeds, turbulent_wind)):
+        if n:
+            summary, more = part(n)
+            text += "\n" + summary
+            lines += more
     print(text)
     if not args.no_write:
         # without the steady-wind flights (--seeds 0): the other parts in a file of their own
@@ -249,7 +281,8 @@ def main() -> None:
             f"# Filter-error on a steady wind without gusts ({dt.date.today()})\n\n"
             f"`python benchmarks/bench_fem_steady_wind.py --seeds {args.seeds} "
             f"--turbulence-seeds {args.turbulence_seeds} --still-seeds {args.still_seeds}"
-            f" --turbulence-wind-seeds {args.turbulence_wind_seeds}` "
+            f" --hold-seeds {args.hold_seeds} --turbulence-wind-seeds "
+            f"{args.turbulence_wind_seeds}` "
             f"(one process, fits in turn)\n\n{text}\n\nPer run:\n\n```\n"
             + "\n".join(lines) + "\n```\n")
         print(f"wrote {path}")
