@@ -218,7 +218,9 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
                    tol: float) -> Fit:
     """Minimise :func:`nll` (plus the priors) from ``p0`` (module docstring).
 
-    Converged when no free parameter's step exceeds ``tol`` of its Cramér-Rao sd (and,
+    Converged when no free parameter's undamped Fisher-scoring step (``M^-1 g``: the
+    distance to the optimum of the quadratic model, not the damped step taken) exceeds
+    ``tol`` of its Cramér-Rao sd (and,
     with ``update_noise``, the noise variances changed by less than 1 %). ``R`` (m,): the
     measurement-noise variances, re-estimated from the innovations after every iteration
     when ``update_noise``.
@@ -251,6 +253,10 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
             cov_a = np.linalg.inv(Ma)
         except np.linalg.LinAlgError:
             cov_a = np.full_like(Ma, np.nan)
+        # the distance to the optimum: the undamped Fisher-scoring step in Cramér-Rao sd
+        # (not the step taken: the damping shrinks it along a flat valley, measured 0.7 %
+        # of the way to an optimum 1.25 sd off, and a damped step below tol is no optimum)
+        remaining = np.abs(cov_a @ ga) / np.sqrt(np.abs(np.diag(cov_a)))
         while True:
             A = Ma + damping * np.diag(np.diag(Ma))
             step = np.zeros(n_p)
@@ -268,17 +274,14 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
             damping *= DAMPING[1]
             if damping > DAMPING[3]:
                 # no step lowers the cost: at the optimum within rounding
-                size = np.abs(step[active]) / np.sqrt(np.abs(np.diag(cov_a)))
-                converged = bool(np.all(size < 10 * tol))
+                converged = bool(np.all(remaining < 10 * tol))
                 message = ("converged: no step lowers the likelihood's cost further"
                            if converged else "stopped: no step lowers the cost")
                 return Fit(p, cost, M, R, center, converged, message, iteration, n_eval,
                            at_bound, history_p, history_cost)
-        taken = trials[best] - p
         p = trials[best]
         history_p.append(p.copy())
         damping = max(damping * DAMPING[2], 1e-12)
-        size = np.abs(taken[active]) / np.sqrt(np.abs(np.diag(cov_a)))
         settled = True
         if update_noise:
             new_R = _innovation_noise(FilterRuns(trial_runs.innovation[best:best + 1],
@@ -287,7 +290,7 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
                                                  trial_runs.x[best:best + 1]), R, r_floor)
             settled = bool(np.all(np.abs(new_R / R - 1.0) < 0.01))
             R = new_R
-        if np.all(size < tol) and settled:
+        if np.all(remaining < tol) and settled:
             converged, message = True, f"converged after {iteration} iterations"
             break
     center, dnu, dS, _ = sensitivities(problem, p, R)

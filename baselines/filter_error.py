@@ -15,13 +15,14 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
   Jacobians; :mod:`baselines._fem_model`).
 - **Parameters**: the free coefficients (held ones and priors through
   :class:`aeroid.estimation.CoefficientSpec`) and ``log sigma``. Measurement noise:
-  :mod:`baselines._fem_setup`. A steady wind is not a parameter: over a record about
-  ``L / V`` long the gusts' initial state carries it (reference flight, 5 m/s steady plus
-  Dryden sd 3 m/s, seeds 1-2: every coefficient within 1.9 se, the fit check passed;
-  ``benchmarks/bench_filter_error.py --checks``); as three more parameters
-  (:class:`baselines._fem_fit.Problem`'s ``estimate_wind``) the along-path component was
-  not identifiable (seeds 1-2: not converged in 30 iterations, 60 +- 130 m/s; measured by
-  hand), so the estimator does not offer it.
+  :mod:`baselines._fem_setup`. A steady wind is a parameter only with ``estimate_wind``
+  (:mod:`baselines._fem_wind`); by default the gusts are zero-mean and, in turbulence,
+  carry a steady wind a few sd of theirs (reference flight, 5 m/s steady plus Dryden sd
+  3 m/s, seeds 1-2: every coefficient within 1.9 se, the fit check passed;
+  ``benchmarks/bench_filter_error.py --checks``). Without turbulence they cannot: the
+  along-path part is pulled to zero and the coefficients take it up; a steady part of the
+  filtered wind beyond what the fitted intensity allows refuses the fit
+  (:func:`baselines._fem_wind.steady_verdict`).
 - **Criterion and optimizer**: the innovations' negative log-likelihood, Fisher scoring
   with central-difference sensitivities of the whole filter; standard errors (the
   Cramér-Rao bound) from the innovations' Fisher information (:mod:`baselines._fem_fit`).
@@ -51,7 +52,7 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult, Estimator, failed_result
 from aeroid.flights import INPUTS, MIL_SCALE_LENGTH_M, Flight
 from aeroid.model import N_STATE, NAMES, OUTPUT_CHANNELS, PHI, PSI, THETA, P
-from baselines import _common, _fem_fit, _fem_holds, _fem_setup
+from baselines import _common, _fem_fit, _fem_holds, _fem_setup, _fem_wind
 from baselines._fem_filter import gust_model
 from baselines._fem_model import N_WIND
 from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
@@ -62,7 +63,7 @@ MAX_SAMPLES = 5000
 
 
 @dataclass(frozen=True, kw_only=True)
-class FilterErrorEstimator(Estimator):
+class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
     """Filter-error maximum likelihood: an EKF with NED gust states inside the likelihood.
 
     Starts from the airframe's prior coefficients and ``gust_sd_start_mps``; the module
@@ -99,6 +100,12 @@ class FilterErrorEstimator(Estimator):
     compile_model : bool
         Compile the model's CasADi functions to C (default True; falls back to CasADi's
         virtual machine, the same numbers; ``info['compiled']`` says which ran).
+    estimate_wind : bool
+        Also estimate a steady wind (north, east, down [m/s]; default False: the gusts
+        are zero-mean), the gusts decaying towards it; reported in
+        ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a one-line notice:
+        for a steady wind without turbulence (in turbulence the along-path part is not
+        identified; :mod:`baselines._fem_wind`).
 
     Notes
     -----
@@ -111,7 +118,8 @@ class FilterErrorEstimator(Estimator):
     ``parameter_stderr``, and
     ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each
     sample, ``state_filtered`` (n, N_STATE): the filtered state, ``gust_verdict``: the gust
-    verdict's figures (:class:`baselines._gust_verdict.GustVerdict`).
+    verdict's figures (:class:`baselines._gust_verdict.GustVerdict`) and the steady-wind
+    verdict's (:class:`baselines._fem_wind.SteadyVerdict`).
     """
 
     name: ClassVar[str] = "filter-error"
@@ -147,7 +155,7 @@ class FilterErrorEstimator(Estimator):
 
     def parameter_names(self, free_names: tuple[str, ...]) -> tuple[str, ...]:
         """Names of the estimated parameters, in the order of ``info['parameters']``."""
-        return (*free_names, "gust_sd_mps")
+        return (*free_names, "gust_sd_mps", *_fem_wind.wind_names(self))
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
@@ -172,8 +180,9 @@ class FilterErrorEstimator(Estimator):
             mean = np.where(info_prior > 0, all_mean[free], 0.0)
         problem = _fem_fit.Problem(
             gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model),
-            zs, x0, P0x, decay, theta_base, free, scale, False, mean, info_prior)
-        p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)]])
+            zs, x0, P0x, decay, theta_base, free, scale, self.estimate_wind, mean, info_prior)
+        p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)],
+                             np.zeros(len(_fem_wind.wind_names(self)))])
         try:
             fit = _fem_fit.fisher_scoring(problem, p0, noise.R, update_noise=noise.update,
                                           r_floor=noise.floor,
@@ -204,7 +213,7 @@ class FilterErrorEstimator(Estimator):
         phys[i_s] = math.exp(fit.p[i_s])
         cov_phys = cov_p * np.outer(jac, jac)
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
-        theta, _, _ = problem.unpack(fit.p[None])
+        theta, steady, _ = problem.unpack(fit.p[None])
         cov = np.zeros((len(NAMES), len(NAMES)))
         cov[np.ix_(problem.free, problem.free)] = cov_phys[:nf, :nf]
         stderr = np.full(len(NAMES), np.nan)
@@ -227,14 +236,21 @@ class FilterErrorEstimator(Estimator):
                               for j, c in enumerate(OUTPUT_CHANNELS)},
         }
         x = runs.x[0]
-        verdict = gust_verdict(x[:, -N_WIND:], x[:, [PHI, THETA, PSI]], x[:, P],
+        gust = x[:, -N_WIND:] - steady[0]  # the gusts alone (steady: 0 unless estimated)
+        verdict = gust_verdict(gust, x[:, [PHI, THETA, PSI]], x[:, P],
                                float(phys[i_s]), tau, flight.dt, who=self.name,
                                velocity=x[:, :3])
-        info["gust_verdict"] = verdict.figures
+        steady_check = _fem_wind.steady_verdict(
+            gust, verdict.figures["axial_mean_sd_mps"], float(phys[i_s]), flight.dt,
+            who=self.name, estimated=self.estimate_wind)
+        info["gust_verdict"] = verdict.figures | steady_check.figures
         success, message = fit.converged, fit.message
         if success and not verdict.ok:
             success, message = False, verdict.message
-        warnings: list[str] = []
+        if success and not steady_check.ok:
+            success, message = False, steady_check.message
+        warnings: list[str] = _fem_wind.wind_report(
+            self.name, steady[0] if self.estimate_wind else None, stderr_phys[i_s + 1:], info)
         if test is not None:  # the user's holds and priors against the data
             info["hold_test"] = test.figures
             if success and not test.ok:
