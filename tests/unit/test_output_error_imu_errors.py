@@ -170,8 +170,9 @@ def test_a_reconstructed_velocity_taken_as_exact_is_a_warning(clean_suite):
     # a free initial speed trades against every coefficient (V^2): on noise-free data
     # Gauss-Newton creeps, 82 iterations measured (9 on the noisy suite flights). The fit
     # from the prior is the one asserted (the best end): the equation-error start, which
-    # ran to its 200-iteration limit unconverged and was discarded (25 s of this test's
-    # 34 s CPU, measured), is left out; the prior's fit is the same numbers either way
+    # ran to its 200-iteration limit unconverged and was discarded (9 s of CPU measured on
+    # a quiet machine, 25 s under load 12), is left out; the prior's fit is the same
+    # numbers either way
     fitted = OutputErrorEstimator(imu_errors="bias+scale", estimate_initial_velocity=True,
                                   initial_velocity_prior="flight", equation_error_start=False,
                                   max_iterations=200).fit(given, rng=0)
