@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from table_truths import ALPHA_TABLE, MACH_SWEEP, SWEEP_WINDOW_S, table_truth
 
 import aeroid
 from aeroid.errors import EstimatorError
@@ -24,9 +25,7 @@ from aeroid.flights import (
     GaussianNoise,
     cut_windows,
     flight_record,
-    load_scenario,
     record_flight,
-    simulate_truth,
 )
 from aeroid.model import N_STATE, TableSpec
 from baselines._augmented import augmented_model
@@ -69,9 +68,7 @@ SMOOTHED_SE_RTOL = 0.1
 def alpha_flight():
     """1 s at Mach 1.7 (studies/scenarios/alpha_table.toml), Cma a table in the total angle
     of attack, Cx given a Mach table too (2 knots), tactical IMU."""
-    scenario = load_scenario(SCENARIOS / "alpha_table.toml")
-    truth = simulate_truth(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                           tables=scenario.tables)
+    scenario, _, _, truth = table_truth(ALPHA_TABLE)
     flight = record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                            truth, GaussianNoise(), rng=0, tables=scenario.tables)
     spec = TableSpec((("Cx", (1.6, 1.8)),), None, (("Cma", (0.2, 1.2, 2.2)),))
@@ -80,10 +77,7 @@ def alpha_flight():
 
 @pytest.fixture(scope="module")
 def sweep():
-    scenario = load_scenario(SCENARIOS / "mach_sweep.toml")
-    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(0.5, 6.5))
-    p = np.array(scenario.coefficients, dtype=float)
-    truth = simulate_truth(scenario.airframe, p, manoeuvre, tables=scenario.tables)
+    scenario, manoeuvre, p, truth = table_truth(MACH_SWEEP, SWEEP_WINDOW_S)
     flight = record_flight(scenario.airframe, p, manoeuvre, truth, GaussianNoise(), rng=0,
                            tables=scenario.tables)
     flight = dataclasses.replace(flight, airframe=flight.airframe.replace(

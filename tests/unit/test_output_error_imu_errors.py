@@ -168,10 +168,15 @@ def test_a_reconstructed_velocity_taken_as_exact_is_a_warning(clean_suite):
     held = OutputErrorEstimator(imu_errors="bias+scale").fit(given, rng=0)
     assert any("initial_velocity_prior = flight" in w for w in held.warnings)
     # a free initial speed trades against every coefficient (V^2): on noise-free data
-    # Gauss-Newton creeps, 82 iterations measured (9 on the noisy suite flights)
+    # Gauss-Newton creeps, 82 iterations measured (9 on the noisy suite flights). The fit
+    # from the prior is the one asserted (the best end): the equation-error start, which
+    # ran to its 200-iteration limit unconverged and was discarded (9 s of CPU measured on
+    # a quiet machine, 25 s under load 12), is left out; the prior's fit is the same
+    # numbers either way
     fitted = OutputErrorEstimator(imu_errors="bias+scale", estimate_initial_velocity=True,
-                                  initial_velocity_prior="flight",
+                                  initial_velocity_prior="flight", equation_error_start=False,
                                   max_iterations=200).fit(given, rng=0)
+    assert fitted.n_iterations < 200  # converged from the prior, not stopped at the limit
     assert fitted.success, fitted.message
     assert not any("initial_velocity_prior" in w for w in fitted.warnings)
     # noise-free, the flight's velocity is the truth: measured 1.2e-7 relative

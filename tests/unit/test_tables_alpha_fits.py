@@ -4,10 +4,10 @@ whose Cma varies by +-10 % across its 0.3-2.0 deg (studies/scenarios/alpha_table
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from table_truths import ALPHA_TABLE, table_truth
 
 import aeroid
 from aeroid.errors import EstimatorError
@@ -18,11 +18,10 @@ from aeroid.flights import (
     cut_windows,
     load_scenario,
     record_flight,
-    simulate_truth,
 )
 from aeroid.model import TableSpec
 
-SCENARIO = Path(__file__).parents[2] / "studies" / "scenarios" / "alpha_table.toml"
+SCENARIO = ALPHA_TABLE
 #: Output-error on noise-free data integrates the same table the truth was simulated
 #: with, but with 2 RK4 steps per 2 ms sample against the truth's 8 at a 60-90 rad/s roll
 #: rate: measured 1.4e-6 relative on Czq (the table points 1e-7); 1e-5 leaves room for
@@ -42,9 +41,7 @@ FLOOR_BAND = (0.7, 1.3)
 @pytest.fixture(scope="module")
 def flights():
     """The scenario's truth recorded noise-free and with the tactical IMU (seed 0)."""
-    scenario = load_scenario(SCENARIO)
-    truth = simulate_truth(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                           tables=scenario.tables)
+    scenario, _, _, truth = table_truth(SCENARIO)
     out = [record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                          truth, noise, rng=0, tables=scenario.tables)
            for noise in (NoNoise(), GaussianNoise())]

@@ -14,10 +14,10 @@ gives the held fit; several windows share the points a hold names.
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from table_truths import ALPHA_TABLE, table_truth
 
 import aeroid
 from aeroid.errors import EstimatorError
@@ -26,13 +26,11 @@ from aeroid.flights import (
     GaussianNoise,
     Windows,
     cut_windows,
-    load_scenario,
     record_flight,
-    simulate_truth,
 )
 from aeroid.model import TableSpec
 
-SCENARIO = Path(__file__).parents[2] / "studies" / "scenarios" / "alpha_table.toml"
+SCENARIO = ALPHA_TABLE
 HELD = "Cma@A1.2deg"
 #: Every table point within this many of its own standard errors of the truth (issue 23).
 Z_LIMIT = 3.0
@@ -51,9 +49,7 @@ LIMIT_RTOL = 1e-6
 
 @pytest.fixture(scope="module")
 def flight():
-    scenario = load_scenario(SCENARIO)
-    truth = simulate_truth(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
-                           tables=scenario.tables)
+    scenario, _, _, truth = table_truth(SCENARIO)
     noisy = record_flight(scenario.airframe, scenario.coefficient_vector, scenario.manoeuvre,
                           truth, GaussianNoise(), rng=0, tables=scenario.tables)
     return noisy, dict(zip(scenario.tables.parameter_names(), scenario.coefficients,

@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from table_truths import MACH_SWEEP, SWEEP_WINDOW_S, table_truth
 
 import aeroid
-from aeroid.flights import GaussianNoise, NoNoise, load_scenario, record_flight, simulate_truth
+from aeroid.flights import GaussianNoise, NoNoise, record_flight
 from aeroid.model import TableSpec
 
-MACH_SWEEP = Path(__file__).parents[2] / "studies" / "scenarios" / "mach_sweep.toml"
 #: The fits' knots: the truth's (the scenario's) within Mach 1.68-2.19 of the first 6 s.
 KNOTS = (1.65, 1.925, 2.2)
 #: Equation-error on noise-free data: the axial force regresses on Cx with no
@@ -27,10 +26,7 @@ EE_MOMENT_TOL = 2e-3
 @pytest.fixture(scope="module")
 def sweep_flights():
     """The first 6 s of the Mach sweep, noise-free and with the tactical IMU's noise."""
-    scenario = load_scenario(MACH_SWEEP)
-    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(0.5, 6.5))
-    truth = simulate_truth(scenario.airframe, scenario.coefficient_vector, manoeuvre,
-                           tables=scenario.tables)
+    scenario, manoeuvre, _, truth = table_truth(MACH_SWEEP, SWEEP_WINDOW_S)
     spec = TableSpec((("Cx", KNOTS), ("Cmq", KNOTS)))
     flights = []
     for noise in (NoNoise(), GaussianNoise()):

@@ -12,18 +12,17 @@ to the tolerances of the free table fits (tests/unit/test_tables_fits.py).
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from table_truths import MACH_SWEEP, SWEEP_WINDOW_S, table_truth
 
 import aeroid
 from aeroid.errors import EstimatorError
 from aeroid.estimation import CoefficientSpec, table_holds
-from aeroid.flights import GaussianNoise, NoNoise, load_scenario, record_flight, simulate_truth
+from aeroid.flights import GaussianNoise, NoNoise, record_flight
 from aeroid.model import NAMES, TableSpec
 
-MACH_SWEEP = Path(__file__).parents[2] / "studies" / "scenarios" / "mach_sweep.toml"
 #: The fits' knots within Mach 1.68-2.19 of the sweep's first 6 s (the truth's knots).
 KNOTS = (1.65, 1.925, 2.2)
 #: Noise-free recovery (tests/unit/test_tables_fits.py): equation-error's axial row has
@@ -47,13 +46,9 @@ LIMIT_RTOL = 1e-6
 
 
 def _flight(theta_changes: dict[str, float], noise, *, passive: bool = False):
-    scenario = load_scenario(MACH_SWEEP)
-    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(0.5, 6.5))
-    parameters = np.array(scenario.coefficients, dtype=float)
+    scenario, manoeuvre, parameters, truth = table_truth(MACH_SWEEP, SWEEP_WINDOW_S,
+                                                         theta_changes)
     names = scenario.tables.parameter_names()
-    for name, value in theta_changes.items():
-        parameters[names.index(name)] = value
-    truth = simulate_truth(scenario.airframe, parameters, manoeuvre, tables=scenario.tables)
     flight = record_flight(scenario.airframe, parameters, manoeuvre, truth, noise, rng=0,
                            tables=scenario.tables)
     airframe = flight.airframe.replace(tables=TableSpec((("Cx", KNOTS), ("Cmq", KNOTS))))

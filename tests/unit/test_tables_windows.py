@@ -10,10 +10,10 @@ point informed by one window or another.
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from table_truths import MACH_SWEEP, SWEEP_WINDOW_S, table_truth
 
 import aeroid
 from aeroid.errors import EstimatorError
@@ -21,13 +21,10 @@ from aeroid.flights import (
     NoNoise,
     Windows,
     cut_windows,
-    load_scenario,
     record_flight,
-    simulate_truth,
 )
 from aeroid.model import TableSpec
 
-MACH_SWEEP = Path(__file__).parents[2] / "studies" / "scenarios" / "mach_sweep.toml"
 #: The truth's knots within the sweep's first 6 s (Mach 2.19 -> 1.68).
 KNOTS = (1.65, 1.925, 2.2)
 #: One window stacked once is the same problem: equation-error's least squares to
@@ -45,10 +42,7 @@ GAPPED = "0.5-2.5,4.5-6.5"
 
 @pytest.fixture(scope="module")
 def sweep():
-    scenario = load_scenario(MACH_SWEEP)
-    manoeuvre = dataclasses.replace(scenario.manoeuvre, window_s=(0.5, 6.5))
-    truth = simulate_truth(scenario.airframe, scenario.coefficient_vector, manoeuvre,
-                           tables=scenario.tables)
+    scenario, manoeuvre, _, truth = table_truth(MACH_SWEEP, SWEEP_WINDOW_S)
     flight = record_flight(scenario.airframe, scenario.coefficient_vector, manoeuvre, truth,
                            NoNoise(), rng=0, tables=scenario.tables)
     flight = dataclasses.replace(flight, airframe=flight.airframe.replace(
