@@ -197,6 +197,10 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         seconds (0.1 the former default, :mod:`aeroid.estimation._air_data`; 0: none).
         With the Kalman smoother the record-mean wind's uncertainty is a consider term of
         the covariance (:mod:`baselines._ee_air`).
+    air_data_smoother : {"random-walk", "dryden"}
+        The Kalman smoother's wind: a random walk in NED (default) or a steady wind plus
+        Dryden gusts (:mod:`aeroid.estimation._air_dryden`; measured in
+        benchmarks/bench_air_data.py).
     along_path_wind_sd_mps : float or None
         Logged angles without an airspeed channel: the sd [m/s] of the unseen steady wind
         along the path that the covariance considers (default: the steady wind the air
@@ -232,6 +236,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     air_data: Literal["auto", "inertial", "measured", "reconstruction"] = "auto"
     air_data_window_s: float | None = None
     along_path_wind_sd_mps: float | None = None
+    air_data_smoother: Literal["random-walk", "dryden"] = "random-walk"
 
     def __post_init__(self) -> None:
         if self.smoothing not in rc.SMOOTHING_CHOICES:
@@ -249,13 +254,16 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                 np.isfinite(self.along_path_wind_sd_mps) and self.along_path_wind_sd_mps >= 0):
             raise ValueError("along_path_wind_sd_mps must be >= 0 [m/s], got "
                              f"{self.along_path_wind_sd_mps}")
+        if self.air_data_smoother not in rc.SMOOTHER_MODELS:
+            raise ValueError(f"air_data_smoother must be one of {', '.join(rc.SMOOTHER_MODELS)}"
+                             f", got {self.air_data_smoother!r}")
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
         """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
         the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
         air = rc.resolve_air_data(flight, self.air_data, self.name,
-                                     self.air_data_window_s)
+                                     self.air_data_window_s, self.air_data_smoother)
         tables = _tables_fit.flight_tables(flight)
         if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
             if air.source != "inertial":
@@ -314,7 +322,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         covariance beyond plain least squares, no fit check, no floor (a start for another
         method; the same point as :meth:`run` with ``positions = "known"``)."""
         air = rc.resolve_air_data(flight, self.air_data, self.name,
-                                     self.air_data_window_s)
+                                     self.air_data_window_s, self.air_data_smoother)
         return self._solve(flight, theta_only=True, wind=air.wind).theta
 
     def _solve(self, flight: Flight, *, theta_only: bool = False,

@@ -33,7 +33,7 @@ from aeroid.estimation._air_data import (
     resolve_air_data,
 )
 from aeroid.estimation._air_reconstruction import reconstruction_wind
-from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
+from aeroid.estimation._air_smoother import SMOOTHER_MODELS, SmoothedWind, smooth_air_wind
 from aeroid.estimation._air_verdict import (
     AirVerdict,
     air_data_verdict,
@@ -152,6 +152,7 @@ __all__ = [
     "with_air_verdict",
     "SmoothedWind",
     "smooth_air_wind",
+    "SMOOTHER_MODELS",
     "has_air_angles",
     "has_air_data",
     "has_airspeed",
