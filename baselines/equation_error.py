@@ -101,6 +101,7 @@ from baselines._ee_least_squares import (  # the sub-problems' names are read fr
     solve_subproblems,
     with_position_consider,
 )
+from baselines._ee_roll import roll_window_blocks
 
 __all__ = ["COLLINEAR_R", "LATERAL", "SUBPROBLEMS", "EquationErrorEstimator",
            "affine_accelerations", "roll_floor", "solve_subproblems"]
@@ -336,9 +337,8 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         y = rc.regression_target(rec, smoothing=self.smoothing)
         window = rec.smoothing_window
 
-        def blocks():  # the regressors a time block at a time (rc.ebm_regression's X)
-            return rc.regressor_blocks(flight, smoothing=self.smoothing, window=window,
-                                       block=BLOCK_SAMPLES, wind=wind)
+        blocks = roll_window_blocks(flight, lambda: rc.regressor_blocks(  # X by time blocks,
+            flight, smoothing=self.smoothing, window=window, block=BLOCK_SAMPLES, wind=wind))
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,

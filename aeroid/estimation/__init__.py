@@ -121,6 +121,8 @@ from aeroid.estimation._result import (
     failed_result,
 )
 from aeroid.estimation._signals import (
+    ROLL_DERIVATIVE_WINDOW,
+    ROLL_POLYORDER,
     difference_noise_sd,
     estimate_noise_law,
     estimate_noise_sd,
@@ -153,6 +155,8 @@ __all__ = [
     "SmoothedWind",
     "smooth_air_wind",
     "SMOOTHER_MODELS",
+    "ROLL_DERIVATIVE_WINDOW",
+    "ROLL_POLYORDER",
     "has_air_angles",
     "has_air_data",
     "has_airspeed",
