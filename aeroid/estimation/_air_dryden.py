@@ -50,7 +50,7 @@ LENGTH_FACTORS = 2.0 ** np.arange(-2.0, 4.01, 1.0)
 #: The profile log-likelihood of the best scale length must exceed MIL-F-8785C's by this
 #: to be taken (else the record cannot tell it): half the chi-square(1) point of 5 %
 #: Bonferroni-split over the other lengths (3.48; the plain 95 % point, 1.92, took a
-#: wrong length on 7 of 40 records of MIL's gusts, this one on 2 of 40:
+#: wrong length on 6 of 40 records of MIL's gusts, this one on 2 of 40:
 #: benchmarks/bench_air_data_dryden.py).
 LENGTH_LOGLIK_MARGIN = 0.5 * float(stats.chi2.ppf(1 - 0.05 / (len(LENGTH_FACTORS) - 1), 1))
 #: The diffuse start of the steady wind [m/s] (as the random walk's).
