@@ -19,6 +19,16 @@ target and regressors see one window (to the trapezoid's O(dt^2)); the other row
 untouched. Measured on the true-wind fits of the same 8 flights (Dryden sd 3): the roll
 moment's residual 0.75-1.63x its noise (2.6-3.4x before), Cl0's mean |error| 0.83 %
 (1.30 % before); in still air both within 0.02 % of before.
+
+The roll pair's standard errors (:func:`with_roll_covariance`). The target's noise is the
+p gyro's white noise through ``D``, whose gain vanishes at zero frequency: the residual's
+autocovariances sum to ~0 and the Newey-West estimate of its long-run variance, which
+sums them, was too small where the slow regressors look (Cl0's and Clp's intervals ~1.4x
+too narrow: mean z^2 2.0 over 30 still-air flights, coverage 0.83). The structure is
+known, so the covariance is the sandwich ``s^2 (A^T A)^-1 A^T D D^T A (A^T A)^-1`` with
+the scale ``s^2`` from the residual (:func:`roll_covariance`; ``D`` applied in its bands,
+:func:`derivative_adjoint`): mean z^2 1.02 over the same 30 flights, 0.93 on 30 Dryden
+sd 3 flights with the true wind (benchmarks/bench_air_data.py for the smoothed winds).
 """
 
 from __future__ import annotations
@@ -27,7 +37,7 @@ from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
-from scipy.signal import savgol_filter
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from aeroid import estimation as rc
 from aeroid.flights import Flight
@@ -70,7 +80,75 @@ def roll_window_blocks(flight: Flight, blocks: Callable[[], Blocks]
             part[:, ROLL_ROW, :] = seen[start:stop]
             yield start, stop, part
 
+    replaced.roll_row = seen  # type: ignore[attr-defined]  # for roll_covariance
     return replaced
 
 
-__all__ = ["ROLL_ROW", "roll_window", "roll_window_blocks", "through_roll_window"]
+def _derivative_rows(flight: Flight) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The p derivative operator ``D`` (n, n) in bands: the interior rows' weights (w,),
+    the first and the last ``w // 2`` rows' (their window's polynomial fit, as
+    ``savgol_filter(mode="interp")``), each (w // 2, w)."""
+    w, dt = roll_window(flight), flight.dt
+    m = w // 2
+
+    def coeffs(pos: int | None) -> np.ndarray:
+        return savgol_coeffs(w, rc.ROLL_POLYORDER, deriv=1, delta=dt, pos=pos, use="dot")
+
+    return (coeffs(None), np.stack([coeffs(k) for k in range(m)]),
+            np.stack([coeffs(w - m + k) for k in range(m)]))
+
+
+def derivative_adjoint(flight: Flight, x: np.ndarray) -> np.ndarray:
+    """``D^T x`` for ``x`` (n, c), ``D`` the p derivative operator (banded, O(n w))."""
+    h, head, tail = _derivative_rows(flight)
+    n, w, m = len(x), len(h), len(h) // 2
+    out = np.zeros(x.shape)
+    inner = x[m:n - m]
+    for i, weight in enumerate(h):  # row k (m <= k < n - m) puts h[i] x_k at k - m + i
+        out[i:i + len(inner)] += weight * inner
+    out[:w] += head.T @ x[:m]
+    out[n - w:] += tail.T @ x[n - m:]
+    return out
+
+
+def roll_covariance(flight: Flight, regressors: np.ndarray, target: np.ndarray,
+                    theta: np.ndarray) -> np.ndarray:
+    """The covariance of the roll sub-problem's least squares from its noise's known
+    structure (module docstring): ``s^2 (A^T A)^-1 A^T D D^T A (A^T A)^-1``.
+
+    ``regressors`` ``A`` (n, k) the roll row's (through the window), ``target`` (n,) its
+    loads, ``theta`` (k,) their estimate. The target's noise is the p gyro's white noise
+    through ``D`` times a constant ``s``, fitted to the residual: ``E|e|^2 = s^2 (|D|_F^2
+    - tr((A^T A)^-1 A^T D D^T A))``.
+    """
+    h, head, tail = _derivative_rows(flight)
+    n = len(target)
+    frobenius = (n - 2 * (len(h) // 2)) * h @ h + np.sum(head**2) + np.sum(tail**2)
+    g = derivative_adjoint(flight, regressors)  # D^T A
+    inv = np.linalg.inv(regressors.T @ regressors)
+    dd = g.T @ g  # A^T D D^T A
+    e = target - regressors @ theta
+    s2 = float(e @ e) / (frobenius - float(np.trace(inv @ dd)))
+    cov = s2 * inv @ dd @ inv
+    return 0.5 * (cov + cov.T)
+
+
+def with_roll_covariance(flight: Flight, blocks: Callable, y: np.ndarray, theta: np.ndarray,
+                         cov: np.ndarray, covariance: str, holds: object = None,
+                         smoothing: str = "none") -> np.ndarray:
+    """``cov`` with the roll sub-problem's block from :func:`roll_covariance`, in place of
+    the Newey-West default (``covariance = "hac"``), on unsmoothed loads (``smoothing =
+    "none"``, the default: smoothed ones have another noise structure) and without holds
+    (whose priors and held terms the sub-problem's least squares then carries);
+    ``blocks`` from :func:`roll_window_blocks`."""
+    if covariance != "hac" or holds is not None or smoothing != "none":
+        return cov
+    cols = list(next(p.coefficients for p in rc.SEBM_PROBLEMS if p.row == ROLL_ROW))
+    a = blocks.roll_row[:, cols]
+    out = np.array(cov, dtype=float)
+    out[np.ix_(cols, cols)] = roll_covariance(flight, a, y[:, ROLL_ROW], theta[cols])
+    return out
+
+
+__all__ = ["ROLL_ROW", "derivative_adjoint", "roll_covariance", "roll_window",
+           "roll_window_blocks", "through_roll_window", "with_roll_covariance"]

@@ -101,7 +101,7 @@ from baselines._ee_least_squares import (  # the sub-problems' names are read fr
     solve_subproblems,
     with_position_consider,
 )
-from baselines._ee_roll import roll_window_blocks
+from baselines._ee_roll import roll_window_blocks, with_roll_covariance
 
 __all__ = ["COLLINEAR_R", "LATERAL", "SUBPROBLEMS", "EquationErrorEstimator",
            "affine_accelerations", "roll_floor", "solve_subproblems"]
@@ -200,8 +200,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         the covariance (:mod:`baselines._ee_air`).
     air_data_smoother : {"random-walk", "dryden"}
         The Kalman smoother's wind: a random walk in NED (default) or a steady wind plus
-        Dryden gusts (:mod:`aeroid.estimation._air_dryden`; measured in
-        benchmarks/bench_air_data.py).
+        Dryden gusts (:mod:`aeroid.estimation._air_dryden`; benchmarks/bench_air_data.py).
     along_path_wind_sd_mps : float or None
         Logged angles without an airspeed channel: the sd [m/s] of the unseen steady wind
         along the path that the covariance considers (default: the steady wind the air
@@ -343,6 +342,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
             covariance=covariance, held=_held.held_dict(holds), holds=holds)
+        cov = with_roll_covariance(flight, blocks, y, theta, cov, covariance, holds, self.smoothing)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
         rows = tuple(row for _, row, _ in SUBPROBLEMS)
