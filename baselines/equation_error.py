@@ -174,11 +174,11 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's
         four sub-problems).
     covariance : {"hac", "ols"}
-        Standard errors: "hac" (default) the Newey-West covariance, because step 1, the
-        SG derivatives and the smoothing make the residuals correlated over up to ~100
-        samples; "ols" ``sigma^2 (X^T X)^-1``, which assumes white residuals and gave
-        95 % intervals that held the truth in only 59 % of coefficient-runs (two-step)
-        and 80 % (one-step) with Gaussian noise (tests/statistical/test_coverage.py).
+        Standard errors: "hac" (default) the Newey-West covariance (the roll pair's from
+        its noise's known structure, :mod:`baselines._ee_roll`), as step 1 and the SG
+        derivatives correlate the residuals over ~100 samples; "ols" ``sigma^2 (X^T
+        X)^-1``, which assumes white residuals: 95 % intervals held the truth in 59 % of
+        coefficient-runs (two-step), 80 % (one-step; tests/statistical/test_coverage.py).
     positions : {"consider", "known"}
         Accelerometer-position components the airframe calls uncertain (sd > 0): their
         effect on the estimate is added to the covariance (default ``consider``; module
