@@ -16,9 +16,14 @@ with the same window) annihilates constants, so ``D[p] = D[integral of pdot dt]`
 target is ``S[Ixx pdot]`` with ``S[x] = D[cumulative trapezoid of x]``, ends included.
 :func:`roll_window_blocks` passes the roll row's regressors through the same ``S``, so
 target and regressors see one window (to the trapezoid's O(dt^2)); the other rows are
-untouched. Measured on the true-wind fits of the same 8 flights (Dryden sd 3): the roll
-moment's residual 0.75-1.63x its noise (2.6-3.4x before), Cl0's mean |error| 0.83 %
-(1.30 % before); in still air both within 0.02 % of before.
+untouched. It is used where the regressors take a wind that varies per sample (the air
+data's), else the row stays per sample: measured over 30 true-wind fits
+(``python benchmarks/bench_air_data_roll.py``), tactical IMU: in Dryden sd 3 the roll
+moment's residual 0.69-1.96x its noise (2.17-3.47x per sample: 8/30 refused), Cl0's mean
+|error| 0.87 % (1.11 %); in still air the same as per sample (0.82 %); but under the
+paper's noise (``--noise paper``: 5 % on p, which then also sits in Clp's regressor) the
+window takes Cl0 from 89 to 222 % (still air) and from 80 to 267 % (Dryden sd 3), so it
+is not used without air data.
 
 The roll pair's standard errors (:func:`with_roll_covariance`). The target's noise is the
 p gyro's white noise through ``D``, whose gain vanishes at zero frequency: the residual's
@@ -63,24 +68,28 @@ def through_roll_window(flight: Flight, x: np.ndarray) -> np.ndarray:
                          delta=flight.dt, axis=0, mode="interp")
 
 
-def roll_window_blocks(flight: Flight, blocks: Callable[[], Blocks]
+def roll_window_blocks(flight: Flight, wind: np.ndarray | None, blocks: Callable[[], Blocks]
                        ) -> Callable[[], Iterator[tuple[int, int, np.ndarray]]]:
     """Return a callable like ``blocks`` (yielding ``(start, stop, X[start:stop])`` with
-    ``X`` (n, 6, n_coefficients)) whose roll-moment row went through :func:`through_roll_window`.
+    ``X`` (n, 6, n_coefficients)) whose roll-moment row went through
+    :func:`through_roll_window` when the regressors' ``wind`` (n, 3) [m/s] varies from
+    sample to sample (the air data's; module docstring), else ``blocks`` itself.
 
-    One pass over ``blocks()`` collects that row (n, n_coefficients); each call of the
-    returned callable then yields ``blocks()``'s blocks with it replaced.
+    One pass over ``blocks()`` collects that row (n, n_coefficients), kept as the
+    callable's ``roll_row`` for :func:`with_roll_covariance`.
     """
+    windowed = wind is not None and bool(np.any(np.ptp(wind, axis=0) > 0))
     row = np.concatenate([part[:, ROLL_ROW, :] for _, _, part in blocks()], axis=0)
-    seen = through_roll_window(flight, row)
+    seen = through_roll_window(flight, row) if windowed else row
 
     def replaced() -> Iterator[tuple[int, int, np.ndarray]]:
         for start, stop, part in blocks():
-            part = np.array(part, dtype=float)
-            part[:, ROLL_ROW, :] = seen[start:stop]
+            if windowed:
+                part = np.array(part, dtype=float)
+                part[:, ROLL_ROW, :] = seen[start:stop]
             yield start, stop, part
 
-    replaced.roll_row = seen  # type: ignore[attr-defined]  # for roll_covariance
+    replaced.roll_row = seen  # type: ignore[attr-defined]  # for with_roll_covariance
     return replaced
 
 

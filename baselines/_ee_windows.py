@@ -37,7 +37,6 @@ from baselines._ee_least_squares import (
     solve_subproblems,
     with_position_consider,
 )
-from baselines._ee_roll import roll_window_blocks
 from baselines._tables_windows import equation_error_windows
 
 __all__ = ["run_windows"]
@@ -49,15 +48,13 @@ def _two_step(est: Any, windows: Windows, covariance: str, theta_only: bool,
     ys = [rc.regression_target(rec, smoothing=est.smoothing) for rec in recs]
     y = np.vstack(ys)
 
-    per_window = [roll_window_blocks(flight, lambda flight=flight, rec=rec: rc.regressor_blocks(
-        flight, smoothing=est.smoothing, window=rec.smoothing_window,
-        block=rc.REGRESSION_BLOCK)) for flight, rec in zip(windows, recs, strict=True)]
-
     def blocks(w: int | None = None) -> Iterator[tuple[int, int, np.ndarray]]:
         offset = 0
-        for k, flight in enumerate(windows):
-            if w is None or w == k:  # the roll row as its window sees it: _ee_roll.py
-                for a, b, part in per_window[k]():
+        for k, (flight, rec) in enumerate(zip(windows, recs, strict=True)):
+            if w is None or w == k:
+                for a, b, part in rc.regressor_blocks(
+                        flight, smoothing=est.smoothing, window=rec.smoothing_window,
+                        block=rc.REGRESSION_BLOCK):
                     yield (a + offset, b + offset, part) if w is None else (a, b, part)
             offset += flight.n_samples
 

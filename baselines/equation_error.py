@@ -336,7 +336,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         y = rc.regression_target(rec, smoothing=self.smoothing)
         window = rec.smoothing_window
 
-        blocks = roll_window_blocks(flight, lambda: rc.regressor_blocks(  # X by time blocks,
+        blocks = roll_window_blocks(flight, wind, lambda: rc.regressor_blocks(  # _ee_roll.py
             flight, smoothing=self.smoothing, window=window, block=BLOCK_SAMPLES, wind=wind))
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(

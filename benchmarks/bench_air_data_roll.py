@@ -8,11 +8,12 @@ Per seed ``k`` (``rng = k``: the gusts, then the sensor noise, as
 ``benchmarks/bench_air_data.py``): the reference flight with the tactical Gaussian IMU in
 still air and in the 3/4 wind with Dryden turbulence of sd 3 m/s, the simulator's wind
 per sample given to the regressors (the true wind: no probe noise, so what is left is the
-roll row's own consistency). The roll sub-problem (Cl0, Clp on the roll moment) three
-ways: its regressors per sample with the Newey-West covariance (equation-error before
-:mod:`baselines._ee_roll`), through the p derivative's window with Newey-West, and through
-the window with the known-structure covariance (:func:`baselines._ee_roll.roll_covariance`,
-equation-error's default now). Reported: the fits whose roll-moment residual is above the
+roll row's own consistency). The roll sub-problem (Cl0, Clp on the roll moment) four
+ways: its regressors per sample or through the p derivative's window, each with the
+Newey-West covariance (equation-error before :mod:`baselines._ee_roll`: per sample) and
+with the known-structure covariance (:func:`baselines._ee_roll.roll_covariance`;
+equation-error now: through the window when its regressors take a wind per sample, the
+air data's, else per sample). Reported: the fits whose roll-moment residual is above the
 fit check's limit (3x its noise level, the reconstruction's ``fm_sd``), the range of that
 ratio, Cl0's and Clp's mean |error|, the coverage of their 95 % intervals and the mean of
 z^2 = (error / se)^2 (1 when the se are right).
@@ -44,18 +45,18 @@ from baselines._ee_roll import ROLL_ROW, roll_covariance, through_roll_window  #
 
 AIRS = {"still": None,
         "wind + Dryden sd 3": Wind(steady_ned_mps=(3.0, 4.0, 0.0), turbulence_sd_mps=3.0)}
-WAYS = ("per sample, Newey-West", "window, Newey-West", "window, known structure")
+WAYS = ("per sample, Newey-West", "per sample, known structure", "window, Newey-West",
+        "window, known structure")
 
 
-def fits(air: str, seed: int) -> dict[str, tuple]:
+def fits(air: str, seed: int, noise: str = "gaussian") -> dict[str, tuple]:
     """The seed's roll sub-problem three ways: ``(ratio, rel errors %, z)`` each."""
     s = reference_scenario()
     wind = AIRS[air]
     m = s.manoeuvre if wind is None else dataclasses.replace(s.manoeuvre, wind=wind)
     rng = np.random.default_rng(seed)
     truth = simulate_truth(s.airframe, s.coefficient_vector, m, rng=rng)
-    f = record_flight(s.airframe, s.coefficient_vector, m, truth, make_noise("gaussian"),
-                      rng=rng)
+    f = record_flight(s.airframe, s.coefficient_vector, m, truth, make_noise(noise), rng=rng)
     k0 = int(round(m.window_s[0] / m.dt))
     w = (np.zeros((f.n_samples, 3)) if truth.wind is None
          else np.asarray(truth.wind[k0:], dtype=float))
@@ -81,13 +82,15 @@ def main() -> None:
     """Fit and print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=30)
+    parser.add_argument("--noise", default="gaussian", help="noise model (make_noise)")
     args = parser.parse_args()
-    print("| air | roll row | refused by MX (> 3x noise) | MX / noise | Cl0, Clp mean abs err "
-          "[%] | Cl0, Clp coverage | mean z^2 |\n|---|---|---|---|---|---|---|")
+    print(f"noise: {args.noise}\n\n| air | roll row | refused by MX (> 3x noise) | MX / noise "
+          "| Cl0, Clp mean abs err [%] | Cl0, Clp coverage | mean z^2 |\n"
+          "|---|---|---|---|---|---|---|")
     for air in AIRS:
         rows = {way: [] for way in WAYS}
         for seed in range(1, args.seeds + 1):
-            for way, r in fits(air, seed).items():
+            for way, r in fits(air, seed, args.noise).items():
                 rows[way].append(r)
         for way, rs in rows.items():
             ratio = np.array([r[0] for r in rs])

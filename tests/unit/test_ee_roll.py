@@ -26,7 +26,13 @@ from aeroid.flights import (
     reference_scenario,
     simulate_truth,
 )
-from baselines._ee_roll import ROLL_ROW, derivative_adjoint, roll_window, through_roll_window
+from baselines._ee_roll import (
+    ROLL_ROW,
+    derivative_adjoint,
+    roll_window,
+    roll_window_blocks,
+    through_roll_window,
+)
 from baselines.equation_error import EquationErrorEstimator
 
 #: Rounding beyond the trapezoid's own error (relative to the largest pdot).
@@ -133,3 +139,24 @@ def test_roll_pair_standard_errors_hold_their_errors(reference_scenario) -> None
     z2 = np.mean(np.square(z), axis=0)
     low, high = stats.chi2.ppf([1e-3, 1 - 1e-3], 20) / 20
     assert np.all((low < z2) & (z2 < high)), z2
+
+
+def test_window_only_for_a_wind_that_varies(clean_flight) -> None:
+    """Per sample (the blocks themselves) without a wind or with a steady one: under the
+    paper's noise the window costs Cl0 and Clp ~2.5x (benchmarks/bench_air_data_roll.py
+    --noise paper), so it is used where the air data give a wind per sample only."""
+    f = clean_flight
+
+    def blocks():
+        return rc.regressor_blocks(f, smoothing="none", block=100)
+
+    plain = np.concatenate([p for _, _, p in blocks()])
+    steady = np.broadcast_to([3.0, 4.0, 0.0], (f.n_samples, 3))
+    for wind in (None, steady):
+        got = np.concatenate([p for _, _, p in roll_window_blocks(f, wind, blocks)()])
+        np.testing.assert_array_equal(got, plain)
+    moving = steady + np.linspace(0.0, 1.0, f.n_samples)[:, None]
+    got = np.concatenate([p for _, _, p in roll_window_blocks(f, moving, blocks)()])
+    np.testing.assert_allclose(got[:, ROLL_ROW], through_roll_window(f, plain[:, ROLL_ROW]))
+    others = [r for r in range(plain.shape[1]) if r != ROLL_ROW]
+    np.testing.assert_array_equal(got[:, others], plain[:, others])
