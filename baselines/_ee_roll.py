@@ -32,7 +32,8 @@ sums them, was too small where the slow regressors look (Cl0's and Clp's interva
 too narrow: mean z^2 2.0 over 30 still-air flights, coverage 0.83). The structure is
 known, so the covariance is the sandwich ``s^2 (A^T A)^-1 A^T D D^T A (A^T A)^-1`` with
 the scale ``s^2`` from the residual (:func:`roll_covariance`; ``D`` applied in its bands,
-:func:`derivative_adjoint`): mean z^2 1.02 over the same 30 flights, 0.93 on 30 Dryden
+:func:`derivative_adjoint`): mean z^2 1.00 over the same 30 flights (0.91 under the
+paper's noise), 0.93 on 30 Dryden
 sd 3 flights with the true wind (benchmarks/bench_air_data.py for the smoothed winds).
 """
 
