@@ -103,7 +103,8 @@ def with_wind_consider(result: EstimationResult, flight: Flight, air: rc.AirData
     info = {**result.info, "air_data_wind_consider": {
         "covariance_mps2": s, "sensitivity": g, "direction_ned": direction,
         "along_path_sd_mps": along, "along_path_sensitivity": g_along,
-        "mean_sd_mps": np.sqrt(np.diag(s))}}
+        "mean_sd_mps": np.sqrt(np.diag(s))},
+        "air_data_smoother": {"model": air.smoothed.model, **(air.smoothed.dryden or {})}}
     return dataclasses.replace(result, covariance=cov, stderr=np.sqrt(np.abs(np.diag(cov))),
                                info=info, warnings=tuple(warnings))
 

@@ -101,6 +101,7 @@ from baselines._ee_least_squares import (  # the sub-problems' names are read fr
     solve_subproblems,
     with_position_consider,
 )
+from baselines._ee_roll import roll_window_blocks, with_roll_covariance
 
 __all__ = ["COLLINEAR_R", "LATERAL", "SUBPROBLEMS", "EquationErrorEstimator",
            "affine_accelerations", "roll_floor", "solve_subproblems"]
@@ -173,11 +174,11 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         Add the F_AY and M_Z rows with the symmetry ties (default False, the paper's
         four sub-problems).
     covariance : {"hac", "ols"}
-        Standard errors: "hac" (default) the Newey-West covariance, because step 1, the
-        SG derivatives and the smoothing make the residuals correlated over up to ~100
-        samples; "ols" ``sigma^2 (X^T X)^-1``, which assumes white residuals and gave
-        95 % intervals that held the truth in only 59 % of coefficient-runs (two-step)
-        and 80 % (one-step) with Gaussian noise (tests/statistical/test_coverage.py).
+        Standard errors: "hac" (default) the Newey-West covariance (the roll pair's from
+        its noise's known structure, :mod:`baselines._ee_roll`), as step 1 and the SG
+        derivatives correlate the residuals over ~100 samples; "ols" ``sigma^2 (X^T
+        X)^-1``, which assumes white residuals: 95 % intervals held the truth in 59 % of
+        coefficient-runs (two-step), 80 % (one-step; tests/statistical/test_coverage.py).
     positions : {"consider", "known"}
         Accelerometer-position components the airframe calls uncertain (sd > 0): their
         effect on the estimate is added to the covariance (default ``consider``; module
@@ -197,6 +198,9 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         seconds (0.1 the former default, :mod:`aeroid.estimation._air_data`; 0: none).
         With the Kalman smoother the record-mean wind's uncertainty is a consider term of
         the covariance (:mod:`baselines._ee_air`).
+    air_data_smoother : {"random-walk", "dryden"}
+        The Kalman smoother's wind: a random walk in NED (default) or a steady wind plus
+        Dryden gusts (:mod:`aeroid.estimation._air_dryden`; benchmarks/bench_air_data.py).
     along_path_wind_sd_mps : float or None
         Logged angles without an airspeed channel: the sd [m/s] of the unseen steady wind
         along the path that the covariance considers (default: the steady wind the air
@@ -232,6 +236,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
     air_data: Literal["auto", "inertial", "measured", "reconstruction"] = "auto"
     air_data_window_s: float | None = None
     along_path_wind_sd_mps: float | None = None
+    air_data_smoother: Literal["random-walk", "dryden"] = "random-walk"
 
     def __post_init__(self) -> None:
         if self.smoothing not in rc.SMOOTHING_CHOICES:
@@ -249,13 +254,16 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
                 np.isfinite(self.along_path_wind_sd_mps) and self.along_path_wind_sd_mps >= 0):
             raise ValueError("along_path_wind_sd_mps must be >= 0 [m/s], got "
                              f"{self.along_path_wind_sd_mps}")
+        if self.air_data_smoother not in rc.SMOOTHER_MODELS:
+            raise ValueError(f"air_data_smoother must be one of {', '.join(rc.SMOOTHER_MODELS)}"
+                             f", got {self.air_data_smoother!r}")
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
             ) -> EstimationResult:
         """Solve the least-squares problems (deterministic; ``holds``: held terms moved to
         the left side, priors as pseudo-observations, :func:`baselines._held.ee_prior_rows`)."""
         air = rc.resolve_air_data(flight, self.air_data, self.name,
-                                     self.air_data_window_s)
+                                     self.air_data_window_s, self.air_data_smoother)
         tables = _tables_fit.flight_tables(flight)
         if tables is not None:  # the airframe's [tables]: baselines/_tables_fit.py
             if air.source != "inertial":
@@ -314,7 +322,7 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         covariance beyond plain least squares, no fit check, no floor (a start for another
         method; the same point as :meth:`run` with ``positions = "known"``)."""
         air = rc.resolve_air_data(flight, self.air_data, self.name,
-                                     self.air_data_window_s)
+                                     self.air_data_window_s, self.air_data_smoother)
         return self._solve(flight, theta_only=True, wind=air.wind).theta
 
     def _solve(self, flight: Flight, *, theta_only: bool = False,
@@ -328,13 +336,13 @@ class EquationErrorEstimator(_tables_fit.FitsTables, Estimator):
         y = rc.regression_target(rec, smoothing=self.smoothing)
         window = rec.smoothing_window
 
-        def blocks():  # the regressors a time block at a time (rc.ebm_regression's X)
-            return rc.regressor_blocks(flight, smoothing=self.smoothing, window=window,
-                                       block=BLOCK_SAMPLES, wind=wind)
+        blocks = roll_window_blocks(flight, wind, lambda: rc.regressor_blocks(  # _ee_roll.py
+            flight, smoothing=self.smoothing, window=window, block=BLOCK_SAMPLES, wind=wind))
 
         theta, cov, corr, sigma2, cost, bandwidth = solve_subproblems(
             blocks(), y, rc.estimate_noise_sd(rec.fm), lateral_rows=self.lateral_rows,
             covariance=covariance, held=_held.held_dict(holds), holds=holds)
+        cov = with_roll_covariance(flight, blocks, y, theta, cov, covariance, holds, self.smoothing)
         info = {"sigma2": sigma2, "subproblems": [s[0] for s in SUBPROBLEMS],
                 "reconstruction_rank": rec.rank, "hac_bandwidth": bandwidth}
         rows = tuple(row for _, row, _ in SUBPROBLEMS)

@@ -20,6 +20,11 @@ said):
   maximum likelihood (:mod:`aeroid.estimation._air_smoother`);
 * ``window 0.1 s``: the former default (Savitzky-Golay over ``air_data_window_s`` =
   ``--window-s``, default 0.1 s);
+* ``kalman, Dryden``: the Kalman smoother with a steady wind plus Dryden gusts, their sd
+  and scale length by maximum likelihood (``air_data_smoother = "dryden"``,
+  :mod:`aeroid.estimation._air_dryden`);
+* ``Dryden told the truth``: that smoother given the simulator's gust sd and scale
+  length (what a perfect gust model would leave: the floor of smoothing the air data);
 * ``kalman, no airspeed``: the same probe without its airspeed channel (the along-path
   wind unseen);
 * ``true wind``: the simulator's wind per sample given to the regressors (what no probe
@@ -30,8 +35,9 @@ Reported: successes (the fit check's verdict, and equation-error's refusal of tu
 without an airspeed channel, :func:`baselines._ee_air.refuse_unseen_gusts`), the mean
 over seeds of the mean |relative error| of the nine coefficients [%], its ratio to still
 air (IMU only), the coverage of the 95 % intervals (coefficient-runs with |error| <= 1.96
-se), the median over seeds of the largest |error| / se, and Czq's mean |error| (the
-coefficient the vane noise moves most).
+se), the median over seeds of the largest |error| / se, Czq's mean |error| (the
+coefficient the vane noise moves most) and, for the smoothers, the RMS of the smoothed
+wind's error against the simulator's wind (over samples and NED axes, mean over seeds).
 The Cramér-Rao floor of the IMU channels in still air (:func:`aeroid.estimation.
 cramer_rao_sd`, as a mean |error|: sd sqrt(2/pi)) is printed beside it: no floor of the
 air-data channels in turbulence exists in aeroid (the gusts are a random process there).
@@ -48,12 +54,14 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import datetime as dt  # noqa: E402
+import math  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 import aeroid  # noqa: E402
+from aeroid import estimation as rc  # noqa: E402
 from aeroid.estimation import cramer_rao_sd  # noqa: E402
 from aeroid.flights import (  # noqa: E402
     Wind,
@@ -62,6 +70,7 @@ from aeroid.flights import (  # noqa: E402
     reference_scenario,
     simulate_truth,
 )
+from baselines._ee_air import with_wind_consider  # noqa: E402
 from baselines.equation_error import EquationErrorEstimator  # noqa: E402
 
 RESULTS = Path(__file__).parent / "results" / "air_data.md"
@@ -93,6 +102,35 @@ class TrueWind(EquationErrorEstimator):
         return self._solve(flight, wind=flight.metadata["bench_true_wind"])
 
 
+class ToldDryden(EquationErrorEstimator):
+    """Equation-error with the Dryden smoother given the simulator's gust sd and scale
+    length (``metadata["bench_gusts"]``), its consider term as the default fit's."""
+
+    def run(self, flight, rng, holds=None):  # noqa: D102
+        sd, length = flight.metadata["bench_gusts"]
+        smoothed = rc.smooth_air_wind(flight, rc.air_data_wind(flight), model="dryden",
+                                      gust_sd_mps=sd, scale_length_m=length)
+        air = rc.AirData("measured", smoothed.wind, "told", smoothed=smoothed)
+        result = self._solve(flight, wind=smoothed.wind)
+        return with_wind_consider(result, flight, air, lambda wind: self._solve(
+            flight, theta_only=True, wind=wind).theta, self.name)
+
+
+def wind_error(estimator, flight) -> float | None:
+    """RMS [m/s] of the wind ``estimator`` smooths from ``flight``'s air data against the
+    simulator's (None for fits without a smoother)."""
+    if isinstance(estimator, ToldDryden):
+        sd, length = flight.metadata["bench_gusts"]
+        wind = rc.smooth_air_wind(flight, rc.air_data_wind(flight), model="dryden",
+                                  gust_sd_mps=sd, scale_length_m=length).wind
+    elif estimator.air_data == "measured" and not isinstance(estimator, TrueWind):
+        wind = rc.resolve_air_data(flight, "measured", "bench", estimator.air_data_window_s,
+                                   estimator.air_data_smoother).wind
+    else:
+        return None
+    return float(np.sqrt(np.mean((wind - flight.metadata["bench_true_wind"]) ** 2)))
+
+
 def flights(air: str, seed: int, vane_deg: float) -> dict[str, aeroid.flights.Flight]:
     """The seed's flights of ``air``: with the probe, without its airspeed, IMU only."""
     s = reference_scenario()
@@ -107,7 +145,9 @@ def flights(air: str, seed: int, vane_deg: float) -> dict[str, aeroid.flights.Fl
         k0 = int(round(m.window_s[0] / m.dt))
         true_wind = (np.zeros((f.n_samples, 3)) if truth.wind is None
                      else np.asarray(truth.wind[k0:], dtype=float))
-        out[label] = dataclasses.replace(f, metadata={**f.metadata,
+        gusts = (0.0, SCALE_LENGTH_M) if wind is None else (wind.turbulence_sd_mps,
+                                                            wind.scale_length_m)
+        out[label] = dataclasses.replace(f, metadata={**f.metadata, "bench_gusts": gusts,
                                                       "bench_true_wind": true_wind})
     return out
 
@@ -124,6 +164,10 @@ def run(seeds: int, vane_deg: float = VANE_SD_DEG, airs: tuple[str, ...] = tuple
             fits = {f"{air} / kalman": (EquationErrorEstimator(air_data="measured"), "probe"),
                     f"{air} / window {window_s:g} s": (EquationErrorEstimator(
                         air_data="measured", air_data_window_s=window_s), "probe"),
+                    f"{air} / kalman, Dryden": (EquationErrorEstimator(
+                        air_data="measured", air_data_smoother="dryden"), "probe"),
+                    f"{air} / Dryden told the truth": (ToldDryden(air_data="measured"),
+                                                       "probe"),
                     f"{air} / kalman, no airspeed": (EquationErrorEstimator(
                         air_data="measured"), "no airspeed"),
                     f"{air} / true wind": (TrueWind(), "imu")}
@@ -134,12 +178,18 @@ def run(seeds: int, vane_deg: float = VANE_SD_DEG, airs: tuple[str, ...] = tuple
                 r = estimator.fit(f[which])
                 err = np.abs(r.theta / truth - 1.0) * 100.0
                 z = np.abs(r.theta - truth) / r.stderr
-                kinds.setdefault(kind, []).append((r.success, err, z))
+                seconds = time.perf_counter() - start
+                werr = wind_error(estimator, f[which])
+                kinds.setdefault(kind, []).append((r.success, err, z, werr))
                 q = r.info.get("air_data_wind_intensity")
+                told = r.info.get("air_data_smoother", {})
                 lines.append(f"seed {seed} {kind}: success={r.success} mean |err| "
                              f"{err.mean():.3f} % max |err|/se {z.max():.1f} "
                              f"q {'-' if q is None else f'{q:.3g}'} "
-                             f"{time.perf_counter() - start:.2f} s {r.message[:90]}")
+                             f"gust sd {told.get('gust_sd_mps', math.nan):.3g} "
+                             f"L {told.get('scale_length_m', math.nan):.4g} "
+                             f"wind err {math.nan if werr is None else werr:.3f} m/s "
+                             f"{seconds:.2f} s {r.message[:90]}")
                 print(lines[-1], flush=True)
     return kinds, lines
 
@@ -158,13 +208,16 @@ def table(kinds: dict) -> str:
     still = np.mean([r[1].mean() for r in kinds["still / IMU only"]])
     czq = aeroid.NAMES.index("Czq")
     out = ["| air / fit | success | mean abs rel error [%] | x still | coverage "
-           "| median max abs err/se | Czq mean abs err [%] |", "|---|---|---|---|---|---|---|"]
+           "| median max abs err/se | Czq mean abs err [%] | wind RMS err [m/s] |",
+           "|---|---|---|---|---|---|---|---|"]
     for kind, rows in kinds.items():
         e = np.mean([r[1].mean() for r in rows])
         cover = np.mean(np.concatenate([r[2] <= 1.96 for r in rows]))
         out.append(f"| {kind} | {sum(r[0] for r in rows)}/{len(rows)} | {e:.3f} | "
                    f"{e / still:.2f} | {cover:.2f} | {np.median([r[2].max() for r in rows]):.1f}"
-                   f" | {np.mean([r[1][czq] for r in rows]):.2f} |")
+                   f" | {np.mean([r[1][czq] for r in rows]):.2f} | "
+                   + ("-" if rows[0][3] is None else f"{np.mean([r[3] for r in rows]):.3f}")
+                   + " |")
     out += ["", "Mean |relative error| per coefficient [%]:", "",
             "| air / fit | " + " | ".join(aeroid.NAMES) + " |",
             "|---|" + "---|" * len(aeroid.NAMES)]

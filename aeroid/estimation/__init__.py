@@ -36,7 +36,7 @@ from aeroid.estimation._air_data import (
 )
 from aeroid.estimation._air_reconstruction import reconstruction_wind
 from aeroid.estimation._air_refusal import refuse_unseen_gusts
-from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
+from aeroid.estimation._air_smoother import SMOOTHER_MODELS, SmoothedWind, smooth_air_wind
 from aeroid.estimation._air_verdict import (
     AirVerdict,
     air_data_verdict,
@@ -124,6 +124,8 @@ from aeroid.estimation._result import (
     failed_result,
 )
 from aeroid.estimation._signals import (
+    ROLL_DERIVATIVE_WINDOW,
+    ROLL_POLYORDER,
     difference_noise_sd,
     estimate_noise_law,
     estimate_noise_sd,
@@ -156,6 +158,9 @@ __all__ = [
     "refuse_unseen_gusts",
     "SmoothedWind",
     "smooth_air_wind",
+    "SMOOTHER_MODELS",
+    "ROLL_DERIVATIVE_WINDOW",
+    "ROLL_POLYORDER",
     "has_air_angles",
     "has_air_data",
     "has_airspeed",

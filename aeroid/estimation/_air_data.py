@@ -44,7 +44,7 @@ from aeroid.estimation._air_reconstruction import (
     reconstruction_note,
     reconstruction_wind,
 )
-from aeroid.estimation._air_smoother import SmoothedWind, smooth_air_wind
+from aeroid.estimation._air_smoother import SmoothedWind, dryden_note, smooth_air_wind
 from aeroid.estimation._signals import smooth
 from aeroid.flights import PITOT_KEY, Flight
 from aeroid.model import equations
@@ -148,10 +148,12 @@ def air_data_wind(flight: Flight, window_s: float = 0.0) -> np.ndarray:
 
 
 def resolve_air_data(flight: Flight, choice: str, owner: str,
-                     window_s: float | None = WIND_WINDOW_S) -> AirData:
+                     window_s: float | None = WIND_WINDOW_S,
+                     smoother: str = "random-walk") -> AirData:
     """Return the angles a fit of ``owner`` uses on ``flight`` for the option ``choice``
     (the implied wind smoothed over ``window_s`` [s]; None: by the Kalman smoother whose
-    gust intensity is fitted, :mod:`aeroid.estimation._air_smoother`).
+    gust intensity is fitted, :mod:`aeroid.estimation._air_smoother`, its wind model
+    ``smoother``: ``"random-walk"`` or ``"dryden"``).
 
     Raises
     ------
@@ -185,11 +187,15 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
                                                      flight["beta"] - beta]) ** 2)))
     if window_s is not None and not (np.isfinite(window_s) and window_s >= 0):
         raise FlightError(f"{owner}: air_data_window_s must be >= 0 [s], got {window_s!r}")
+    if window_s is not None and smoother != "random-walk":
+        raise FlightError(f"{owner}: the {smoother} smoother is the Kalman smoother's; "
+                          f"air_data_window_s = {window_s:g} s smooths with a fixed window")
     kalman = None
     if window_s is None:
-        kalman = smooth_air_wind(flight, air_data_wind(flight))
+        kalman = smooth_air_wind(flight, air_data_wind(flight), model=smoother)
         wind = kalman.wind
-        smoothed = ("the wind they imply Kalman-smoothed in NED axes (a random walk of "
+        smoothed = dryden_note(kalman) if kalman.model == "dryden" else (
+                    "the wind they imply Kalman-smoothed in NED axes (a random walk of "
                     f"intensity {kalman.intensity:.3g} (m/s)^2/s by maximum likelihood, "
                     f"0: steady; probe noise {_body_sd(kalman)} m/s along body x, y, z)")
     else:

@@ -7,12 +7,14 @@ import dataclasses
 import numpy as np
 import pytest
 from closeness import assert_close_in_norm
+from scipy.signal import savgol_filter
 
 import aeroid
 from aeroid.estimation import _reconstruct as rc
 from aeroid.flights._noise import GaussianNoise
 from aeroid.flights._scenario import reference_scenario
 from aeroid.flights._simulate import simulate_scenario
+from baselines._ee_roll import ROLL_ROW, roll_window
 from baselines.equation_error import SUBPROBLEMS, EquationErrorEstimator, affine_accelerations
 
 #: Two-step on noise-free data: the step-1 rate-derivative rows use SG derivatives of
@@ -90,7 +92,8 @@ def test_two_step_equals_independent_least_squares(noisy_flight, smoothing):
 
 @pytest.mark.parametrize("smoothing", ["none", "both"])
 def test_hac_covariance_equals_the_direct_newey_west_sum(noisy_flight, smoothing):
-    """Default covariance: (A^T A)^-1 G^T W G (A^T A)^-1 with the Bartlett matrix
+    """Default covariance (the roll row's unsmoothed: its known structure, below):
+    (A^T A)^-1 G^T W G (A^T A)^-1 with the Bartlett matrix
     W_ts = max(0, 1 - |t - s| / (L + 1)) written out in full (O(n^2), independent of the
     estimator's lag loop), L = twice the first lag of insignificant autocorrelation
     (found here with numpy.correlate), scaled by n / (n - k)."""
@@ -112,6 +115,14 @@ def test_hac_covariance_equals_the_direct_newey_west_sum(noisy_flight, smoothing
         G = A * e[:, None]
         bread = np.linalg.inv(A.T @ A)
         cov = bread @ (G.T @ W @ G) @ bread * n / (n - len(cols))
+        if row == ROLL_ROW and smoothing == "none":  # the roll row's known noise structure
+            # (baselines/_ee_roll.py): the p derivative D written out densely, its noise
+            # s D eps, s^2 from the residual's expectation s^2 tr((I - H) D D^T)
+            D = savgol_filter(np.eye(n), roll_window(noisy_flight), rc.ROLL_POLYORDER,
+                              deriv=1, delta=noisy_flight.dt, axis=0, mode="interp")
+            DDt = D @ D.T
+            s2 = (e @ e) / np.trace(DDt - A @ bread @ A.T @ DDt)
+            cov = s2 * bread @ A.T @ DDt @ A @ bread
         np.testing.assert_allclose(res.covariance[np.ix_(cols, cols)], cov, rtol=1e-6,
                                    err_msg=label)
 
