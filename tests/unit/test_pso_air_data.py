@@ -21,7 +21,7 @@ import aeroid.estimation as rc
 from aeroid.errors import FlightError
 from aeroid.estimation import _ebm, _sebm, get_estimator
 from aeroid.flights import GaussianNoise, NoNoise, Wind, simulate
-from aeroid.model import as_state, constants, equations
+from aeroid.model import NAMES, as_state, constants, equations
 from baselines.equation_error import EquationErrorEstimator
 
 #: Noise-free crosswind flight, the logged angles, polished PSO: the rounding of the
@@ -161,9 +161,16 @@ def test_the_wind_and_the_estimate_are_equation_error_s(probed, monkeypatch) -> 
         assert np.array_equal(seen[name], air.wind), name  # one code path: to the bit
         assert r.info["air_data_wind_intensity"] == ee.info["air_data_wind_intensity"]
         assert r.info["air_data_note"] == air.note.replace("equation-error", name)
-        # the same regression solved twice: EBM-PSO's quadratic form, equation-error's lstsq
-        np.testing.assert_allclose(r.info["closed_form_theta"], ee.theta,
-                                   rtol=CLOSED_FORM_RTOL)
+        # the same regression solved twice: EBM-PSO's quadratic form, equation-error's lstsq;
+        # the roll pair (Cl0, Clp) excepted: with a per-sample wind equation-error passes the
+        # roll row's regressors through the p derivative's window (baselines/_ee_roll.py,
+        # branch eesd3), the paper's EBM regression does not; there the two differ by a
+        # fraction of a standard error (measured 1.8e-5 relative, under 0.05 se)
+        theta = np.asarray(r.info["closed_form_theta"])
+        roll = [NAMES.index("Cl0"), NAMES.index("Clp")]
+        rest = [k for k in range(len(NAMES)) if k not in roll]
+        np.testing.assert_allclose(theta[rest], ee.theta[rest], rtol=CLOSED_FORM_RTOL)
+        assert np.all(np.abs(theta[roll] - ee.theta[roll]) < 0.05 * ee.stderr[roll])
         assert r.stderr is None  # no covariance to carry the wind's consider term
         assert "air_data_wind_consider" in ee.info and "air_data_wind_consider" not in r.info
 
