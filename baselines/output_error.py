@@ -137,8 +137,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         Also start from equation-error's closed-form estimate of the flight (default
         True; :mod:`baselines._oe_starts`): a start that does not depend on the prior.
     staged_start : bool
-        Fit the prior start's ``Cx`` (and its table points) first, the other coefficients
-        held, then all from there (default False; :func:`baselines._oe_warm.staged_start`).
+        Fit the prior start's ``Cx`` (and its table points) first, everything else held,
+        then all from there (default False; :func:`baselines._oe_warm.staged_start`: a
+        told mass a few % off, where the prior start fails).
     n_starts : int
         Starts from the prior: the prior itself, then ``n_starts - 1`` draws
         ``prior * (1 + 0.2 N(0, 1))`` from ``rng`` (default 1). The likeliest converged end
