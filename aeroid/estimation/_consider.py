@@ -24,9 +24,22 @@ constant costs two fits: on the reference flight (``benchmarks/bench_consider.py
 mass only, ``benchmarks/results/consider.md``) 0.27 s for output-error (its fit 0.13 s),
 1.7 s for the EKF (fit 1.1 s), 0.21 s for equation-error (fit 0.21 s; every re-fit also
 runs the fit check); an earlier run on a busier machine measured 2.2, 3.1 and 1.2 s. A
-warm start (``warm_start=True``: the airframe's prior replaced by the estimate) was
+warm start by the airframe's prior replaced with the estimate (``warm_start=True``) was
 measured and is not the default: slower in both runs (0.52, 2.4 and 0.49 s), and it would
 change what the prior means to a method (the PSO methods' box is centred on it).
+
+A method may offer its own warm start, ``estimator.warm_started(result)``: the same
+method started from every parameter the fit estimated, the prior left as it is
+(output-error: the tables' points, initial state, IMU errors and attitude offsets too;
+:mod:`baselines._oe_warm`). Where it does, the re-fits start there by default
+(``warm_start=None``) and the consider line says "started from the estimate". Measured on
+the rocket measure study's coast (Cx as a Mach table, 10 kg +- 0.3 kg; ``python
+benchmarks/rocket_consider_refit.py 0 --cold``, shared machine at load ~12): the two re-fits
+took 67 s from the estimate against 286 s from the prior, with the same share (Cx 0.0134
+at every knot, Cza 0.255 against 0.256, Czq 3.99 against 3.94; the moments' shares below
+1e-3 of their own se in both); from the prior, re-fits at 9.7 kg ended unsuccessful in 10
+of 48 fits of that study before (studies/rocket_measure.md), from the estimate in none of
+its re-run's fits.
 
 A flight with a per-sample channel of the constant (``mass``, ``ix``, ...) is refused:
 the sd is the airframe constant's, which such a flight does not use.
