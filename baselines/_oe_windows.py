@@ -18,8 +18,9 @@ windows' data together. Per-window parameters are reported per window
 (``info['window_parameters']``, ``info['window_parameter_stderr']``), named by window in
 ``info['parameter_names']`` (``"w1:p0"``).
 
-Not for several windows: the PSO warm start (``pso_warm_start``) and the consider
-analysis of the positions (``positions="consider"``): refused in one line.
+Not for several windows: the PSO warm start (``pso_warm_start``), the staged start
+(``staged_start``) and the consider analysis of the positions (``positions="consider"``):
+refused in one line.
 """
 
 from __future__ import annotations
@@ -216,6 +217,9 @@ def run_windows(est: Any, windows: Windows, rng: np.random.Generator, holds: Any
     if est.pso_warm_start:
         raise EstimatorError(f"{owner}: pso_warm_start is not available for several windows; "
                              "set pso_warm_start = false")
+    if getattr(est, "staged_start", False):
+        raise EstimatorError(f"{owner}: staged_start is not available for several windows; "
+                             "set staged_start = false")
     if getattr(est, "air_data", "inertial") != "inertial":
         raise EstimatorError(f"{owner}: air_data = {est.air_data} is not available for several "
                              "windows yet (one flight at a time); set air_data = inertial")

@@ -52,13 +52,8 @@ from baselines._oe_sensors import (
     position_report,
 )
 from baselines._oe_skew import skew_report, skew_search
-from baselines._oe_starts import (
-    Start,
-    best_end,
-    equation_error_start,
-    start_report,
-    warm_start_point,
-)
+from baselines._oe_starts import best_end, start_report
+from baselines._oe_warm import make_starts, warm_started
 from baselines._oe_windows import OutputErrorWindows
 
 
@@ -141,6 +136,10 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     equation_error_start : bool
         Also start from equation-error's closed-form estimate of the flight (default
         True; :mod:`baselines._oe_starts`): a start that does not depend on the prior.
+    staged_start : bool
+        Fit the prior start's ``Cx`` (and its table points) first, everything else held,
+        then all from there (default False; :func:`baselines._oe_warm.staged_start`: a
+        told mass a few % off, where the prior start fails).
     n_starts : int
         Starts from the prior: the prior itself, then ``n_starts - 1`` draws
         ``prior * (1 + 0.2 N(0, 1))`` from ``rng`` (default 1). The likeliest converged end
@@ -211,6 +210,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     max_iterations: int = 50
     tol: float = 1e-3
     equation_error_start: bool = True
+    staged_start: bool = False
     n_starts: int = 1
     pso_warm_start: bool = False
     pso_particles: int = 30
@@ -226,6 +226,10 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     def __post_init__(self) -> None:
         check_options(self)  # one ValueError per bad option: baselines/_oe_options.py
         _oe_airdata.check_air_data_options(self)
+
+    def warm_started(self, result: EstimationResult) -> OutputErrorEstimator | None:
+        """This method started from ``result``'s parameters (consider re-fits: _oe_warm)."""
+        return warm_started(self, result)
 
     # ----------------------------------------------------------------------------------
     def parameter_names(self, position_free: tuple[int, ...] = ()) -> tuple[str, ...]:
@@ -312,17 +316,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         i_delay = model.n_graph
         if self.estimate_delay:
             first[i_delay] = self.delay_s / scale[i_delay]
-        extra_evals = 0
-        if self.pso_warm_start:
-            theta_pso, extra_evals = warm_start_point(self, prob, flight, rng)
-            first[:n_c] = theta_pso / scale[:n_c]
-        starts = [Start("pso" if self.pso_warm_start else "prior", first)]
-        if self.equation_error_start:
-            starts.append(equation_error_start(flight, first, scale, rng))
-        for k in range(self.n_starts - 1):
-            p = first.copy()
-            p[:n_c] = prior * (1.0 + 0.2 * rng.standard_normal(n_c)) / scale[:n_c]
-            starts.append(Start(f"random {k + 1}", p))
+        starts, extra_evals = make_starts(self, prob, flight, first, prior, scale, rng, names,
+                                          holds)
         fits, labels, failures = [], [], []
         for start in starts:
             try:

@@ -6,7 +6,10 @@ flight (the study's own, with the run's drawn mass) with the study's estimator a
 per parameter, the estimate, the truth, the method's own se, the mass share's se, the total
 and |error|/se, then the re-fits' messages and the fitted initial-attitude offset.
 
-    python benchmarks/rocket_consider_refit.py RUN
+With ``--cold`` it also makes the re-fits from the airframe's prior (``warm_start=False``,
+the default before 2026-11-26 12:00) and prints both: their time, messages and shares.
+
+    python benchmarks/rocket_consider_refit.py RUN [--cold]
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ import time
 
 import numpy as np
 
+from aeroid.estimation import consider_covariance
 from aeroid.study import load_study
 from aeroid.study._fits import estimator_seed, simulate_run
 from aeroid.study._perturb import run_mass_scale
@@ -24,6 +28,7 @@ from aeroid.study._tables import parameter_truth
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("run", type=int)
 parser.add_argument("--study", default="studies/rocket_measure.toml")
+parser.add_argument("--cold", action="store_true", help="also the re-fits from the prior")
 args = parser.parse_args()
 study = load_study(args.study)
 flight = simulate_run(study, args.run, 0)
@@ -49,3 +54,18 @@ if consider is not None:
         print("  re-fit:", line[:300])
 print("  attitude offset [rad]:", result.info.get("attitude_offset_rad"), "+-",
       result.info.get("attitude_offset_stderr_rad"))
+if args.cold and consider is not None:
+    import dataclasses
+
+    plain = dataclasses.replace(result, stderr=consider.stderr_without,
+                                covariance=consider.covariance_without)
+    for warm in (True, False):
+        again = consider_covariance(study.estimators[0].estimator, flight, plain,
+                                    rng=estimator_seed(study.seed, args.run),
+                                    warm_start=None if warm else False)
+        print(f"  from {again.started}: {again.wall_time_s:.1f} s, "
+              f"{len(again.refit_messages)} re-fit(s) unsuccessful; share se "
+              + " ".join(f"{n}={v:.3g}" for n, v in zip(result.names, again.stderr_share,
+                                                          strict=True)))
+        for line in again.refit_messages:
+            print("    re-fit:", line[:200])

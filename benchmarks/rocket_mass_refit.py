@@ -6,7 +6,7 @@ Cx constant and without the mass sd (the cheapest fit that shows it), once with 
 10 kg and, with ``--true-mass``, with the airframe's mass set to the flown one (the run's
 draw of the study's ``[perturb]``; before it, the scenario's fixed 10.2 kg).
 
-    python benchmarks/rocket_mass_refit.py RUN [--true-mass]
+    python benchmarks/rocket_mass_refit.py RUN [--true-mass] [--staged]
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ from aeroid.study._perturb import run_mass_scale
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("run", type=int)
 parser.add_argument("--true-mass", action="store_true")
+parser.add_argument("--staged", action="store_true",
+                    help="output-error's staged_start (Cx first, then all)")
 args = parser.parse_args()
 study = load_study("studies/rocket_measure.toml")
 flight = simulate_run(study, args.run, 0)
@@ -34,9 +36,18 @@ if args.true_mass:
     airframe = airframe.replace(mass_kg=airframe.mass_kg * scale)
 flight = dataclasses.replace(flight, airframe=airframe)
 start = time.perf_counter()
-result = study.estimators[0].estimator.fit(
+estimator = study.estimators[0].estimator
+if args.staged:
+    estimator = dataclasses.replace(estimator, staged_start=True)
+result = estimator.fit(
     flight, rng=np.random.default_rng(estimator_seed(study.seed, args.run)))
 print(f"run {args.run}, mass {airframe.mass_kg:g} kg: success {result.success} "
       f"({result.message}), {time.perf_counter() - start:.1f} s")
 for name, value, se in zip(result.names, result.theta, result.stderr, strict=True):
     print(f"  {name:6s} {value:12.5g} {se:10.3g}")
+info = result.info
+for key in ("start_labels", "start_converged", "start_costs", "start_distance_sd",
+            "failed_starts", "iterations"):
+    print(f"  {key}: {info.get(key)}")
+for line in result.warnings:
+    print(f"  warning: {line}")

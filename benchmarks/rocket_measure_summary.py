@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.stats import binomtest
+from scipy.stats import chi2 as chi2_dist
 
 from aeroid.study import load_study
 from aeroid.study._report import write_report
@@ -39,10 +40,18 @@ print(f"runs {len(records)} (0-{records[-1]['run']}); success {len(ok)} of {len(
 for message, n in collections.Counter(r["message"][:110] for r in records
                                       if not r["success"]).items():
     print(f"  failed x{n}: {message}")
+for r in records:
+    if not r["success"]:
+        print(f"  run {r['run']}: mass scale {r.get('mass_scale', float('nan')):.4f}: "
+              f"{r['message'][:110]}")
 drawn = np.array([r["mass_scale"] for r in records if "mass_scale" in r])
 if drawn.size:
-    print(f"drawn mass scale: mean {drawn.mean():.4f}, sd {drawn.std(ddof=1):.4f}, "
-          f"range {drawn.min():.4f}-{drawn.max():.4f}")
+    rel_sd = study.scenario.airframe.mass_sd_kg / study.scenario.airframe.mass_kg
+    chi2 = (drawn.size - 1) * drawn.var(ddof=1) / rel_sd**2
+    print(f"drawn mass scale: mean {drawn.mean():.4f}, sd {drawn.std(ddof=1):.4f} (stated "
+          f"{rel_sd:g}; chi-square lower tail p {chi2_dist.cdf(chi2, drawn.size - 1):.3g}), "
+          f"range {drawn.min():.4f}-{drawn.max():.4f}, beyond 1.96 sd "
+          f"{int(np.sum(np.abs(drawn - 1.0) > 1.96 * rel_sd))} of {drawn.size}")
 
 
 def cover_line(label, z):

@@ -24,9 +24,22 @@ constant costs two fits: on the reference flight (``benchmarks/bench_consider.py
 mass only, ``benchmarks/results/consider.md``) 0.27 s for output-error (its fit 0.13 s),
 1.7 s for the EKF (fit 1.1 s), 0.21 s for equation-error (fit 0.21 s; every re-fit also
 runs the fit check); an earlier run on a busier machine measured 2.2, 3.1 and 1.2 s. A
-warm start (``warm_start=True``: the airframe's prior replaced by the estimate) was
+warm start by the airframe's prior replaced with the estimate (``warm_start=True``) was
 measured and is not the default: slower in both runs (0.52, 2.4 and 0.49 s), and it would
 change what the prior means to a method (the PSO methods' box is centred on it).
+
+A method may offer its own warm start, ``estimator.warm_started(result)``: the same
+method started from every parameter the fit estimated, the prior left as it is
+(output-error: the tables' points, initial state, IMU errors and attitude offsets too;
+:mod:`baselines._oe_warm`). Where it does, the re-fits start there by default
+(``warm_start=None``) and the consider line says "started from the estimate". Measured on
+the rocket measure study's coast (Cx as a Mach table, 10 kg +- 0.3 kg; ``python
+benchmarks/rocket_consider_refit.py 0 --cold``, shared machine at load ~12): the two re-fits
+took 67 s from the estimate against 286 s from the prior, with the same share (Cx 0.0134
+at every knot, Cza 0.255 against 0.256, Czq 3.99 against 3.94; the moments' shares below
+1e-3 of their own se in both); from the prior, re-fits at 9.7 kg ended unsuccessful in 10
+of 48 fits of that study before (studies/rocket_measure.md), from the estimate in none of
+its re-run's fits.
 
 A flight with a per-sample channel of the constant (``mass``, ``ix``, ...) is refused:
 the sd is the airframe constant's, which such a flight does not use.
@@ -87,6 +100,9 @@ class ConsiderCovariance:
         the other end's one-sided difference from the fit is used instead, and said.
     wall_time_s : float
         Their time [s].
+    started : str
+        Where the re-fits started: ``"the estimate"`` (every parameter the fit estimated:
+        the method's ``warm_started``) or ``"the prior"`` (the airframe's, as the fit did).
     """
 
     names: tuple[str, ...]
@@ -100,6 +116,7 @@ class ConsiderCovariance:
     n_refits: int
     wall_time_s: float
     refit_messages: tuple[str, ...] = ()
+    started: str = "the prior"
 
     @property
     def stderr_share(self) -> np.ndarray:
@@ -116,7 +133,8 @@ class ConsiderCovariance:
         failed = (f" ({len(self.refit_messages)} ended unsuccessful, {used})"
                   if self.refit_messages else "")
         return (f"consider parameters (their uncertainty is in the standard errors): {given}; "
-                f"d theta / d c from {self.n_refits} re-fits at +-1 sd{failed}, "
+                f"d theta / d c from {self.n_refits} re-fits at +-1 sd started from "
+                f"{self.started}{failed}, "
                 f"{self.wall_time_s:.3g} s")
 
     def to_json_dict(self) -> dict[str, Any]:
@@ -130,7 +148,7 @@ class ConsiderCovariance:
                 "stderr_share": listed(self.stderr_share),
                 "stderr_without": listed(self.stderr_without),
                 "n_refits": self.n_refits, "wall_time_s": self.wall_time_s,
-                "refit_messages": list(self.refit_messages)}
+                "refit_messages": list(self.refit_messages), "started": self.started}
 
 
 def check_consider(flight: Flight, owner: str) -> None:
@@ -180,7 +198,7 @@ def _refit(estimator: Any, flight: Flight | Windows, theta: np.ndarray | None, n
 
 def consider_covariance(estimator: Any, flight: Flight | Windows, result: EstimationResult, *,
                         rng: np.random.Generator | int | None = None,
-                        warm_start: bool = False) -> ConsiderCovariance:
+                        warm_start: bool | None = None) -> ConsiderCovariance:
     """Return the consider covariance of ``result`` for the flight airframe's uncertain constants.
 
     Parameters
@@ -196,9 +214,13 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
         The fit, with finite ``theta``.
     rng : Generator, int or None
         Source of the re-fits' common seed (both re-fits of a constant draw from it).
-    warm_start : bool
-        Start the re-fits from ``result.theta`` (the airframe's prior replaced by it)
-        instead of the airframe's prior as the fit did (default False: module docstring).
+    warm_start : bool or None
+        ``None`` (default): start the re-fits from the fit's estimate when the method
+        offers it (``estimator.warm_started(result)``: output-error, every parameter it
+        estimated, tables included), else from the airframe's prior as the fit did.
+        ``True``: also for the other methods, by replacing the airframe's nine-coefficient
+        prior with ``result.theta`` (a table fit refused: one line). ``False``: from the
+        prior (module docstring).
 
     Raises
     ------
@@ -217,12 +239,12 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
     steps = sd.copy()
     sensitivity = np.zeros((theta.size, len(names)))
     messages = []
+    refitter, prior, started = _refitter(estimator, flight, result, warm_start)
     for k, name in enumerate(names):
         ends, ok, said = [], [], []
         for sign in (1.0, -1.0):
             value = float(values[k] + sign * steps[k])
-            fit = _refit(estimator, flight, theta if warm_start else None, name,
-                         sign * steps[k], seed)
+            fit = _refit(refitter, flight, prior, name, sign * steps[k], seed)
             if not np.all(np.isfinite(fit.theta)):
                 raise EstimatorError(f"{estimator.name}: the re-fit at {name} = {value:.6g} "
                                      f"for its sd failed: {fit.message}")
@@ -243,7 +265,26 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
         names=names, values=values, sd=sd, steps=steps, sensitivity=sensitivity,
         covariance=share, stderr_without=result.stderr, covariance_without=result.covariance,
         n_refits=2 * len(names), wall_time_s=time.perf_counter() - start,
-        refit_messages=tuple(messages))
+        refit_messages=tuple(messages), started=started)
+
+
+def _refitter(estimator: Any, flight: Flight | Windows, result: EstimationResult,
+              warm_start: bool | None) -> tuple[Any, np.ndarray | None, str]:
+    """Return the re-fits' estimator, the prior to give them (None: the airframe's) and
+    where they start (:func:`consider_covariance`'s ``warm_start``)."""
+    if warm_start is False:
+        return estimator, None, "the prior"
+    maker = getattr(estimator, "warm_started", None)  # one flight's parameters: not windows
+    warm = maker(result) if maker is not None and not isinstance(flight, Windows) else None
+    if warm is not None:
+        return warm, None, "the estimate"
+    if warm_start is None:
+        return estimator, None, "the prior"
+    if getattr(flight.airframe, "tables", None) is not None:
+        raise EstimatorError(f"{estimator.name}: warm_start=True replaces the airframe's "
+                             "nine-coefficient prior by the estimate, and this fit has "
+                             "[tables]: give warm_start=None or False")
+    return estimator, np.asarray(result.theta, dtype=float), "the estimate"
 
 
 def add_consider(estimator: Any, flight: Flight | Windows, result: EstimationResult, *,

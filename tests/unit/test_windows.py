@@ -194,7 +194,7 @@ def test_the_windows_sample_limit_is_output_errors():
 
 
 def test_output_error_refuses_options_it_cannot_apply_to_windows(clean_windows):
-    for options in ({"pso_warm_start": True}, {"positions": "consider"}):
+    for options in ({"pso_warm_start": True}, {"positions": "consider"}, {"staged_start": True}):
         with pytest.raises(EstimatorError, match="not available for several windows"):
             OutputErrorEstimator(**options).fit(clean_windows, rng=0)
 
