@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from aeroid import estimation
 from aeroid.errors import AeroidError, EstimatorError
 from aeroid.flights import Flight, noise_from_dict
-from aeroid.model import OUTPUT_CHANNELS, PSI, U, W
+from aeroid.model import NAMES, OUTPUT_CHANNELS, PSI, U, W
 from baselines import _common
 
 #: Floor of each channel's noise variance as a fraction of its mean square (output-error's
@@ -118,3 +118,19 @@ def gust_decay(flight: Flight, scale_length_m: float) -> tuple[float, float, flo
 def say(note: str) -> None:
     """Log a one-line notice (logger ``aeroid``, INFO)."""
     logging.getLogger("aeroid").info(note)
+
+
+def free_parameters(prior: np.ndarray, holds: Any = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The fitted coefficients' indices, their scale (the prior's value, 1 where it is 0)
+    and their Gaussian priors' means and information (zero without ``holds``, an
+    :class:`aeroid.estimation.Holds`): what filter-error's :class:`_fem_fit.Problem` takes,
+    written once for the fit and for the gust filters' information."""
+    free = np.arange(len(NAMES)) if holds is None else holds.free_index
+    scale = np.where(prior[free] != 0.0, prior[free], 1.0)
+    mean, info_prior = np.zeros(free.size), np.zeros(free.size)
+    if holds is not None:
+        all_mean, _ = holds.prior_mean_sd()
+        info_prior = holds.prior_information()[free]
+        mean = np.where(info_prior > 0, all_mean[free], 0.0)
+    return free, scale, mean, info_prior

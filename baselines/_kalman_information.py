@@ -114,15 +114,9 @@ def gust_problem(flight: Flight, theta: np.ndarray, *, scale_length_m: float,
     noise = _fem_setup.measurement_noise(flight, zs, "auto", "gust information")
     x0, P0x = _fem_setup.initial_state(flight, zs, noise.R)
     decay, _, _ = _fem_setup.gust_decay(flight, scale_length_m)
-    free = np.arange(len(NAMES)) if holds is None else holds.free_index
     base = np.array(theta, dtype=float) if holds is None else holds.with_held(theta)
-    prior = flight.airframe.prior_vector()
-    scale = np.where(prior[free] != 0.0, prior[free], 1.0)
-    mean, info_prior = np.zeros(free.size), np.zeros(free.size)
-    if holds is not None:
-        all_mean, _ = holds.prior_mean_sd()
-        info_prior = holds.prior_information()[free]
-        mean = np.where(info_prior > 0, all_mean[free], 0.0)
+    free, scale, mean, info_prior = _fem_setup.free_parameters(
+        flight.airframe.prior_vector(), holds)
     problem = _fem_fit.Problem(gust_model(flight, substeps, input_mode, delay_s), zs, x0,
                                P0x, decay, base, free, scale, False, mean, info_prior)
     return problem, noise

@@ -170,14 +170,8 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         x0, P0x = _fem_setup.initial_state(flight, zs, noise.R)
         decay, tau, speed = _fem_setup.gust_decay(flight, self.scale_length_m)
         prior = flight.airframe.prior_vector()
-        free = np.arange(len(NAMES)) if holds is None else holds.free_index
         theta_base = prior.copy() if holds is None else holds.with_held(prior)
-        scale = np.where(prior[free] != 0.0, prior[free], 1.0)
-        mean, info_prior = np.zeros(free.size), np.zeros(free.size)
-        if holds is not None:
-            all_mean, _ = holds.prior_mean_sd()
-            info_prior = holds.prior_information()[free]
-            mean = np.where(info_prior > 0, all_mean[free], 0.0)
+        free, scale, mean, info_prior = _fem_setup.free_parameters(prior, holds)
         problem = _fem_fit.Problem(
             gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model),
             zs, x0, P0x, decay, theta_base, free, scale, self.estimate_wind, mean, info_prior)
