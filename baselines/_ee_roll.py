@@ -57,8 +57,7 @@ Blocks = Iterable[tuple[int, int, np.ndarray]]
 def roll_window(flight: Flight) -> int:
     """The p derivative's window [samples] of :func:`aeroid.estimation.reconstruct` with
     its defaults on ``flight`` (clipped to the record as it clips it)."""
-    n = flight.n_samples
-    return min(rc.ROLL_DERIVATIVE_WINDOW, n - 1 + n % 2)
+    return rc.roll_window_samples(flight.n_samples)
 
 
 def through_roll_window(flight: Flight, x: np.ndarray) -> np.ndarray:

@@ -100,6 +100,9 @@ class ConsiderCovariance:
         the other end's one-sided difference from the fit is used instead, and said.
     wall_time_s : float
         Their time [s].
+    one_sided : bool
+        A constant's sensitivity was taken from one end's one-sided difference (the other
+        end unsuccessful; ``refit_messages`` names it).
     started : str
         Where the re-fits started: ``"the estimate"`` (every parameter the fit estimated:
         the method's ``warm_started``) or ``"the prior"`` (the airframe's, as the fit did).
@@ -117,6 +120,7 @@ class ConsiderCovariance:
     wall_time_s: float
     refit_messages: tuple[str, ...] = ()
     started: str = "the prior"
+    one_sided: bool = False
 
     @property
     def stderr_share(self) -> np.ndarray:
@@ -127,8 +131,7 @@ class ConsiderCovariance:
         """Return one line: the consider parameters, their sd and the cost of ``S``."""
         given = ", ".join(f"{n} {v:.6g} +- {s:.3g} {_UNITS.get(n, '')}".rstrip()
                           for n, v, s in zip(self.names, self.values, self.sd, strict=True))
-        one_sided = any("one-sided difference" in m for m in self.refit_messages)
-        used = ("the other end's one-sided difference where one end did" if one_sided
+        used = ("the other end's one-sided difference where one end did" if self.one_sided
                 else "their estimates used")
         failed = (f" ({len(self.refit_messages)} ended unsuccessful, {used})"
                   if self.refit_messages else "")
@@ -148,7 +151,8 @@ class ConsiderCovariance:
                 "stderr_share": listed(self.stderr_share),
                 "stderr_without": listed(self.stderr_without),
                 "n_refits": self.n_refits, "wall_time_s": self.wall_time_s,
-                "refit_messages": list(self.refit_messages), "started": self.started}
+                "refit_messages": list(self.refit_messages), "started": self.started,
+                "one_sided": self.one_sided}
 
 
 def check_consider(flight: Flight, owner: str) -> None:
@@ -238,7 +242,7 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
     sd = np.array([uncertain[n] for n in names])
     steps = sd.copy()
     sensitivity = np.zeros((theta.size, len(names)))
-    messages = []
+    messages, one_sided = [], False
     refitter, prior, started = _refitter(estimator, flight, result, warm_start)
     for k, name in enumerate(names):
         ends, ok, said = [], [], []
@@ -255,6 +259,7 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
             good = 0 if ok[0] else 1
             sign = 1.0 if good == 0 else -1.0
             sensitivity[:, k] = (ends[good] - theta) / (sign * steps[k])
+            one_sided = True
             messages.append(f"{said[1 - good]} (not used: the one-sided difference at "
                             f"{name} {'+' if good == 0 else '-'}1 sd instead)")
         else:
@@ -265,7 +270,7 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
         names=names, values=values, sd=sd, steps=steps, sensitivity=sensitivity,
         covariance=share, stderr_without=result.stderr, covariance_without=result.covariance,
         n_refits=2 * len(names), wall_time_s=time.perf_counter() - start,
-        refit_messages=tuple(messages), started=started)
+        refit_messages=tuple(messages), started=started, one_sided=one_sided)
 
 
 def _refitter(estimator: Any, flight: Flight | Windows, result: EstimationResult,

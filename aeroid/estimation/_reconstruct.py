@@ -49,6 +49,7 @@ from aeroid.estimation._signals import (
     SMOOTHING_WINDOW,
     estimate_noise_sd,
     rate_derivatives,
+    roll_window_samples,
     smooth,
 )
 from aeroid.flights import Flight, sample_constants
@@ -255,7 +256,7 @@ def reconstruct(flight: Flight, *, rate_rows: bool = True, rate_weight: float = 
     z[:, :n_accel] -= sensor_offset(const, positions, omega)
     wdot_sg = None
     if rate_rows:
-        roll_window = min(roll_derivative_window, n - 1 + n % 2)
+        roll_window = roll_window_samples(n, roll_derivative_window)
         wdot_sg = rate_derivatives(flight, window=derivative_window,
                                    polyorder=derivative_polyorder, roll_window=roll_window)
         gains = [np.linalg.norm(savgol_coeffs(w, o, deriv=1, delta=flight.dt, use="dot"))

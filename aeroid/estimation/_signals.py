@@ -31,6 +31,12 @@ ROLL_DERIVATIVE_WINDOW = 101
 ROLL_POLYORDER = 2
 
 
+def roll_window_samples(n: int, window: int = ROLL_DERIVATIVE_WINDOW) -> int:
+    """The roll rate's derivative window [samples] on a record of ``n`` samples: ``window``
+    clipped to the longest odd window the record holds."""
+    return min(window, n - 1 + n % 2)
+
+
 def smooth(x: np.ndarray, window: int = SMOOTHING_WINDOW, polyorder: int = SMOOTHING_POLYORDER,
            axis: int = 0) -> np.ndarray:
     """Savitzky-Golay smoother of eq. 32 (``scipy.signal.savgol_filter``).
