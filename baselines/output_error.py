@@ -20,13 +20,13 @@ Gaussian-noise flights the 95 % intervals covered the truth in 96 % of coefficie
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 
 import aeroid
-from aeroid.estimation import EstimationResult, Estimator
+from aeroid.estimation import NOT_AN_OPTION, EstimationResult, Estimator
 from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common, _held, _oe_airdata, _oe_attitude, _oe_wind, _tables_fit
@@ -222,6 +222,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                     "gnss-velocity+gnss-position+baro-altitude"] = "none"
     estimate_skew: Literal["none", "gnss", "ins", "gnss+ins"] = "none"
     compile_model: bool = True
+    #: Where warm_started's fit starts (a previous fit's parameters), no option: _oe_warm.
+    start_parameters: tuple[float, ...] | None = field(default=None, metadata=NOT_AN_OPTION)
 
     def __post_init__(self) -> None:
         check_options(self)  # one ValueError per bad option: baselines/_oe_options.py
