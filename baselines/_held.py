@@ -101,12 +101,15 @@ def held_template(prob: Problem, p0: np.ndarray, holds: CoefficientSpec) -> np.n
     return template
 
 
-def held_fit(est: Any, prob: Problem, p0: np.ndarray, holds: CoefficientSpec | None) -> Fit:
+def held_fit(est: Any, prob: Problem, p0: np.ndarray, holds: CoefficientSpec | None,
+             stop: Any = None) -> Fit:
     """Run ``est.gauss_newton`` on the free parameters from full ``p0``; the fit in the
-    full parameters (held Jacobian columns zero). Without holds, on ``prob`` itself."""
+    full parameters (held Jacobian columns zero). Without holds, on ``prob`` itself.
+    ``stop``: Gauss-Newton's (:func:`baselines._oe_starts.give_up`), None for none."""
     if _empty(holds) or holds is None or not holds.held:
-        return est.gauss_newton(prob, p0)
-    return restricted_fit(est, prob, _keep(holds, len(p0)), held_template(prob, p0, holds))
+        return est.gauss_newton(prob, p0, *(() if stop is None else (stop,)))
+    return restricted_fit(est, prob, _keep(holds, len(p0)), held_template(prob, p0, holds),
+                          stop)
 
 
 def held_inverse(information: np.ndarray, holds: CoefficientSpec | None) -> np.ndarray:

@@ -60,13 +60,16 @@ def restricted_problem(prob: Problem, keep: np.ndarray, template: np.ndarray) ->
         prior_weight=None if prob.prior_weight is None else prob.prior_weight[keep])
 
 
-def restricted_fit(est: Any, prob: Problem, keep: np.ndarray, template: np.ndarray) -> Fit:
+def restricted_fit(est: Any, prob: Problem, keep: np.ndarray, template: np.ndarray,
+                   stop: Any = None) -> Fit:
     """Run ``est.gauss_newton`` over the parameters ``keep`` from ``template`` (full scaled
     vector, the others fixed there); return the fit in the full parameters (``p``,
-    ``history_p``; the fixed parameters' Jacobian columns zero)."""
+    ``history_p``; the fixed parameters' Jacobian columns zero). ``stop``: Gauss-Newton's,
+    None for none."""
     reduced = restricted_problem(prob, keep, template)
     model: ReducedModel = reduced.model  # type: ignore[assignment]
-    fit = est.gauss_newton(reduced, np.asarray(template, dtype=float)[keep])
+    fit = est.gauss_newton(reduced, np.asarray(template, dtype=float)[keep],
+                           *(() if stop is None else (stop,)))
     J = np.zeros((*fit.J.shape[:2], template.size))
     J[:, :, keep] = fit.J
     return dataclasses.replace(fit, p=model.full(fit.p), J=J,

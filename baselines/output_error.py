@@ -52,7 +52,7 @@ from baselines._oe_sensors import (
     position_report,
 )
 from baselines._oe_skew import skew_report, skew_search
-from baselines._oe_starts import best_end, start_report
+from baselines._oe_starts import best_end, give_up, start_report
 from baselines._oe_warm import make_starts, warm_started
 from baselines._oe_windows import OutputErrorWindows
 
@@ -293,9 +293,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
             prior_weight=weight if has_prior else None), self.estimate_skew))
 
-    def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
+    def gauss_newton(self, prob: Problem, p0: np.ndarray, stop: Any = None) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
-        return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol)
+        return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol, stop=stop)
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
@@ -325,7 +325,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             try:
                 if start.p0 is None:
                     raise FloatingPointError(start.failure)
-                fits.append(_held.held_fit(self, prob, start.p0, holds))
+                fits.append(_held.held_fit(self, prob, start.p0, holds, give_up(fits, self)))
                 labels.append(start.label)
             except FloatingPointError as exc:
                 failures.append(f"{start.label}: {exc}")

@@ -28,6 +28,7 @@ from pathlib import Path
 from unittest import mock
 
 import numpy as np
+from _before_after import assert_same_result, timed_fit
 
 import baselines.equation_error as ee
 from aeroid import estimation as rc
@@ -58,20 +59,8 @@ def before(flight, wind, blocks: Callable) -> Callable[[], Iterator]:
 
 
 def _fit(flight, options: dict, old: bool):
-    est = ee.EquationErrorEstimator(**options)
-    if not old:
-        start = time.perf_counter()
-        return est.fit(flight, rng=0), time.perf_counter() - start
-    with mock.patch.object(ee, "roll_window_blocks", before):
-        start = time.perf_counter()
-        result = est.fit(flight, rng=0)
-        return result, time.perf_counter() - start
-
-
-def _same(a, b) -> None:
-    for field in ("theta", "stderr", "covariance"):
-        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
-    assert a.cost == b.cost and a.success == b.success and a.message == b.message
+    patch = mock.patch.object(ee, "roll_window_blocks", before) if old else None
+    return timed_fit(ee.EquationErrorEstimator(**options), flight, patch)
 
 
 def measure(rounds: int) -> list[str]:
@@ -79,13 +68,14 @@ def measure(rounds: int) -> list[str]:
     lines = ["| form | before [s] | after [s] | saved [s] | one pass over the blocks [s] |",
              "|---|---:|---:|---:|---:|"]
     for label, options in FORMS:
-        _same(_fit(flight, options, True)[0], _fit(flight, options, False)[0])  # and warm up
+        # and warms up
+        assert_same_result(_fit(flight, options, True)[0], _fit(flight, options, False)[0])
         times: dict[bool, list[float]] = {True: [], False: []}
         for _ in range(rounds):
             for old in (True, False):
                 result, seconds = _fit(flight, options, old)
                 times[old].append(seconds)
-        _same(_fit(flight, options, True)[0], result)
+        assert_same_result(_fit(flight, options, True)[0], result)
         smoothing = options.get("smoothing", ee.EquationErrorEstimator().smoothing)
         window = rc.reconstruct(flight).smoothing_window
         passes = []
