@@ -18,9 +18,6 @@ median fit time of each and the time of one pass over the blocks alone.
 from __future__ import annotations
 
 import argparse
-import datetime as dt
-import os
-import platform
 import statistics
 import time
 from collections.abc import Callable, Iterator
@@ -28,7 +25,7 @@ from pathlib import Path
 from unittest import mock
 
 import numpy as np
-from _before_after import assert_same_result, timed_fit
+from _before_after import assert_same_result, measured, timed_fit
 
 import baselines.equation_error as ee
 from aeroid import estimation as rc
@@ -96,23 +93,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--write", action="store_true", help=f"write {RESULTS.name}")
     args = parser.parse_args(argv)
-    load = os.getloadavg()
-    start = time.time()
-    lines = measure(args.rounds)
-    text = "\n".join([
-        "# Equation-error: the roll row in the fit's own pass", "",
-        f"Command: `nice -n 10 python benchmarks/bench_ee_roll_pass.py --rounds {args.rounds}"
-        f"{' --write' if args.write else ''}` (repository root), "
-        f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC, {time.time() - start:.0f} s.",
-        f"Machine: {platform.machine()}, {os.cpu_count()} CPU cores, Python "
-        f"{platform.python_version()}, numpy {np.__version__}; load average at the start "
-        f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (shared machine).", "",
-        f"Reference scenario, paper's noise, seed 1; median of {args.rounds} fits each, "
-        "before and after alternating; results bit-identical (asserted).", "",
-        *lines, ""])
-    print(text)
-    if args.write:
-        RESULTS.write_text(text)
+    measured("Equation-error: the roll row in the fit's own pass",
+             lambda: measure(args.rounds), RESULTS, args.write,
+             f"Reference scenario, paper's noise, seed 1; median of {args.rounds} fits each, "
+             "before and after alternating; results bit-identical (asserted).")
     return 0
 
 

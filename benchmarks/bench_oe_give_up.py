@@ -29,8 +29,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
-import datetime as dt  # noqa: E402
-import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -42,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT / "tests") not in sys.path:
     sys.path.insert(0, str(ROOT / "tests"))
 
-from _before_after import assert_same_result, timed_fit  # noqa: E402
+from _before_after import assert_same_result, measured, timed_fit  # noqa: E402
 from suite_flights import clean_suite_flight, gnss_aiding, suite_flight  # noqa: E402
 
 import baselines.output_error as oe  # noqa: E402
@@ -103,24 +101,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help=f"write {RESULTS.name}")
     args = parser.parse_args(argv)
-    load = os.getloadavg()
-    start = time.time()
-    lines = measure()
-    text = "\n".join([
-        "# Output-error: the equation-error start given up early", "",
-        f"Command: `nice -n 10 python benchmarks/bench_oe_give_up.py"
-        f"{' --write' if args.write else ''}` (repository root), "
-        f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC, {time.time() - start:.0f} s.",
-        f"Machine: {platform.machine()}, {os.cpu_count()} CPU cores, Python "
-        f"{platform.python_version()}, numpy {np.__version__}; load average at the start "
-        f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (shared machine).", "",
-        "Noise-free default-suite flights (seed 3), output-error with `imu_errors = "
-        "bias+scale`; each fit before (no give-up) and now in one session; the estimate, "
-        "standard errors, covariance, success, message, warnings and parameters asserted "
-        "identical.", "", *lines, ""])
-    print(text)
-    if args.write:
-        RESULTS.write_text(text)
+    measured("Output-error: the equation-error start given up early", measure, RESULTS,
+             args.write,
+             "Noise-free default-suite flights (seed 3), output-error with `imu_errors = "
+             "bias+scale`; each fit before (no give-up) and now in one session; the estimate, "
+             "standard errors, covariance, success, message, warnings and parameters asserted "
+             "identical.")
     return 0
 
 
