@@ -68,29 +68,56 @@ def through_roll_window(flight: Flight, x: np.ndarray) -> np.ndarray:
                          delta=flight.dt, axis=0, mode="interp")
 
 
-def roll_window_blocks(flight: Flight, wind: np.ndarray | None, blocks: Callable[[], Blocks]
-                       ) -> Callable[[], Iterator[tuple[int, int, np.ndarray]]]:
-    """Return a callable like ``blocks`` (yielding ``(start, stop, X[start:stop])`` with
-    ``X`` (n, 6, n_coefficients)) whose roll-moment row went through
-    :func:`through_roll_window` when the regressors' ``wind`` (n, 3) [m/s] varies from
-    sample to sample (the air data's; module docstring), else ``blocks`` itself.
+class RollBlocks:
+    """A callable like ``blocks`` (yielding ``(start, stop, X[start:stop])`` with ``X``
+    (n, 6, n_coefficients)) whose roll-moment row went through :func:`through_roll_window`
+    when the regressors' ``wind`` (n, 3) [m/s] varies from sample to sample (the air data's;
+    module docstring), else the blocks themselves.
 
-    One pass over ``blocks()`` collects that row (n, n_coefficients), kept as the
-    callable's ``roll_row`` for :func:`with_roll_covariance`.
+    :attr:`roll_row` (n, n_coefficients), that row as the fit saw it, for
+    :func:`with_roll_covariance`. Windowed, the window needs the whole row first: one pass
+    over ``blocks()`` collects it before the fit's. Per sample, the fit's own first full
+    pass collects it (a pass of its own only if asked before one).
     """
-    windowed = wind is not None and bool(np.any(np.ptp(wind, axis=0) > 0))
-    row = np.concatenate([part[:, ROLL_ROW, :] for _, _, part in blocks()], axis=0)
-    seen = through_roll_window(flight, row) if windowed else row
 
-    def replaced() -> Iterator[tuple[int, int, np.ndarray]]:
-        for start, stop, part in blocks():
-            if windowed:
+    def __init__(self, flight: Flight, wind: np.ndarray | None, blocks: Callable[[], Blocks]):
+        self._blocks = blocks
+        self.windowed = wind is not None and bool(np.any(np.ptp(wind, axis=0) > 0))
+        self._row: np.ndarray | None = None
+        if self.windowed:
+            self._row = through_roll_window(flight, _collect(blocks()))
+
+    def __call__(self) -> Iterator[tuple[int, int, np.ndarray]]:
+        """Yield the blocks (the roll row windowed, or collected on this pass)."""
+        rows: list[np.ndarray] | None = [] if self._row is None else None
+        for start, stop, part in self._blocks():
+            if self.windowed:
                 part = np.array(part, dtype=float)
-                part[:, ROLL_ROW, :] = seen[start:stop]
+                part[:, ROLL_ROW, :] = self._row[start:stop]
+            elif rows is not None:
+                rows.append(np.array(part[:, ROLL_ROW, :], dtype=float))
             yield start, stop, part
+        if rows is not None:  # a whole pass: its row
+            self._row = np.concatenate(rows, axis=0)
 
-    replaced.roll_row = seen  # type: ignore[attr-defined]  # for with_roll_covariance
-    return replaced
+    @property
+    def roll_row(self) -> np.ndarray:
+        """The roll-moment row of the regressors the fit saw, shape (n, n_coefficients)."""
+        if self._row is None:
+            self._row = _collect(self._blocks())
+        return self._row
+
+
+def _collect(blocks: Blocks) -> np.ndarray:
+    """The roll-moment row of ``blocks`` concatenated, shape (n, n_coefficients)."""
+    return np.concatenate([part[:, ROLL_ROW, :] for _, _, part in blocks], axis=0)
+
+
+def roll_window_blocks(flight: Flight, wind: np.ndarray | None, blocks: Callable[[], Blocks]
+                       ) -> RollBlocks:
+    """Return ``blocks`` with the roll row through the window where ``wind`` varies
+    (:class:`RollBlocks`)."""
+    return RollBlocks(flight, wind, blocks)
 
 
 def _derivative_rows(flight: Flight) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -142,7 +169,7 @@ def roll_covariance(flight: Flight, regressors: np.ndarray, target: np.ndarray,
     return 0.5 * (cov + cov.T)
 
 
-def with_roll_covariance(flight: Flight, blocks: Callable, y: np.ndarray, theta: np.ndarray,
+def with_roll_covariance(flight: Flight, blocks: RollBlocks, y: np.ndarray, theta: np.ndarray,
                          cov: np.ndarray, covariance: str, holds: object = None,
                          smoothing: str = "none") -> np.ndarray:
     """``cov`` with the roll sub-problem's block from :func:`roll_covariance`, in place of
@@ -159,5 +186,5 @@ def with_roll_covariance(flight: Flight, blocks: Callable, y: np.ndarray, theta:
     return out
 
 
-__all__ = ["ROLL_ROW", "derivative_adjoint", "roll_covariance", "roll_window",
+__all__ = ["ROLL_ROW", "RollBlocks", "derivative_adjoint", "roll_covariance", "roll_window",
            "roll_window_blocks", "through_roll_window", "with_roll_covariance"]

@@ -12,6 +12,7 @@ per-sample noise law (``signal``) the re-estimate is that law's likelihood maxim
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -232,8 +233,13 @@ class Fit:
     message: str
 
 
-def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: float) -> Fit:
+def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: float,
+                 stop: Callable[[int, list], str | None] | None = None) -> Fit:
     """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``.
+
+    ``stop(iteration, history_cost)``, when given, is asked after every step that did not
+    converge: a text ends the fit there, unconverged, with that text as its message
+    (:func:`baselines._oe_starts.give_up`).
 
     Each iteration: the Fisher information ``M`` and gradient ``g`` at the current
     point with the current ``R``; if the undamped Gauss-Newton step ``M^-1 g`` is
@@ -374,6 +380,10 @@ def gauss_newton(prob: Problem, p0: np.ndarray, *, max_iterations: int, tol: flo
             # never met; nearly undamped steps have stopped moving the parameters
             converged = True
             message = f"converged after {it} iterations (parameters stalled)"
+            break
+        said = None if stop is None else stop(it, history_cost)
+        if said:
+            message = said
             break
     else:
         message = f"max_iterations ({max_iterations}) reached"

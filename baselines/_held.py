@@ -31,37 +31,13 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import CoefficientSpec, free_cost
 from aeroid.model import N_STATE, NAMES
 from baselines import _kalman
-from baselines._gauss_newton import Fit, Problem, SmoothRegion
+from baselines._gauss_newton import Fit, Problem
+from baselines._restricted import restricted_fit, restricted_problem
 
 __all__ = ["ee_full", "ee_full_matrix", "ee_held_check", "ee_one_step", "ee_prior_rows",
            "expand_output", "held_dict", "held_filter_model", "held_fit", "held_inverse",
-           "held_pass", "reduce_setup", "reduced_problem", "swarm_problem", "with_priors"]
-
-
-class _ReducedModel:
-    """An output model over the free parameters: ``y(p_free) = model.y(expand(p_free))``."""
-
-    def __init__(self, model: Any, keep: np.ndarray, template: np.ndarray) -> None:
-        self.model, self.keep, self.template = model, keep, template
-        if hasattr(model, "smooth_region"):
-            self.smooth_region = self._smooth_region
-            self.edge_note = getattr(model, "edge_note", "at an edge of a smooth region")
-
-    def full(self, p: np.ndarray) -> np.ndarray:
-        out = self.template.copy()
-        out[self.keep] = p
-        return out
-
-    def outputs(self, p: np.ndarray) -> np.ndarray:
-        return self.model.outputs(self.full(p))
-
-    def outputs_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        y, J = self.model.outputs_jacobian(self.full(p))
-        return y, J[:, :, self.keep]
-
-    def _smooth_region(self, p: np.ndarray) -> SmoothRegion:
-        region = self.model.smooth_region(self.full(p))
-        return SmoothRegion(*(np.asarray(a)[self.keep] for a in region))
+           "held_pass", "held_template", "reduce_setup", "reduced_problem", "swarm_problem",
+           "with_priors"]
 
 
 def _empty(holds: CoefficientSpec | None) -> bool:
@@ -114,28 +90,26 @@ def reduced_problem(prob: Problem, p0: np.ndarray, holds: CoefficientSpec) -> Pr
     ``p0`` (n_p,): a full scaled vector whose entries other than the held ones are the
     template of the mapping (never used: they are replaced by the free parameters).
     """
+    return restricted_problem(prob, _keep(holds, p0.size), held_template(prob, p0, holds))
+
+
+def held_template(prob: Problem, p0: np.ndarray, holds: CoefficientSpec) -> np.ndarray:
+    """``p0`` (n_p,) with the held parameters at their scaled values."""
     scale = np.asarray(prob.model.scale, dtype=float)  # type: ignore[attr-defined]
     template = np.array(p0, dtype=float, copy=True)
     template[holds.held_index] = holds.held_values() / scale[holds.held_index]
-    keep = _keep(holds, scale.size)
-    return dataclasses.replace(
-        prob, model=_ReducedModel(prob.model, keep, template),
-        prior_mean=None if prob.prior_mean is None else prob.prior_mean[keep],
-        prior_weight=None if prob.prior_weight is None else prob.prior_weight[keep])
+    return template
 
 
-def held_fit(est: Any, prob: Problem, p0: np.ndarray, holds: CoefficientSpec | None) -> Fit:
+def held_fit(est: Any, prob: Problem, p0: np.ndarray, holds: CoefficientSpec | None,
+             stop: Any = None) -> Fit:
     """Run ``est.gauss_newton`` on the free parameters from full ``p0``; the fit in the
-    full parameters (held Jacobian columns zero). Without holds, on ``prob`` itself."""
+    full parameters (held Jacobian columns zero). Without holds, on ``prob`` itself.
+    ``stop``: Gauss-Newton's (:func:`baselines._oe_starts.give_up`), None for none."""
     if _empty(holds) or holds is None or not holds.held:
-        return est.gauss_newton(prob, p0)
-    reduced = reduced_problem(prob, p0, holds)
-    model: _ReducedModel = reduced.model  # type: ignore[assignment]
-    fit = est.gauss_newton(reduced, np.asarray(p0, dtype=float)[model.keep])
-    J = np.zeros((*fit.J.shape[:2], model.template.size))
-    J[:, :, model.keep] = fit.J
-    return dataclasses.replace(fit, p=model.full(fit.p), J=J,
-                               history_p=[model.full(p) for p in fit.history_p])
+        return est.gauss_newton(prob, p0, *(() if stop is None else (stop,)))
+    return restricted_fit(est, prob, _keep(holds, len(p0)), held_template(prob, p0, holds),
+                          stop)
 
 
 def held_inverse(information: np.ndarray, holds: CoefficientSpec | None) -> np.ndarray:

@@ -4,29 +4,31 @@
 OutputErrorEstimator.run`: the airframe's prior (or the PSO warm start's best point),
 equation-error's estimate and the random draws (:mod:`baselines._oe_starts`).
 
-``warm_class(OutputErrorEstimator)`` is output-error started from every parameter a previous fit
+:func:`warm_started` is output-error started from every parameter a previous fit
 estimated, not only the nine coefficients: the tables' points, the initial state, the
-IMU errors, the attitude offsets, the positions, the aiding terms (``start_parameters``:
-that fit's ``info['parameters']``). It is what :meth:`OutputErrorEstimator.warm_started`
-returns and what :func:`aeroid.estimation.consider_covariance` re-fits with: a re-fit at
-the mass +-1 sd then starts one sd's worth of change from its optimum instead of from the
-design tool's ``[prior]`` (from which a 3 % mass error is past the rocket coast's region of
-convergence: ``studies/rocket_measure.md``). It is not registered (:func:`warm_class`
-makes it from the estimator's own class): it is no method a user chooses, and its one
-start replaces the fit's starts (the airframe's prior still scales the parameters, so its
-meaning is unchanged).
+IMU errors, the attitude offsets, the positions, the aiding terms (the field
+``start_parameters``: that fit's ``info['parameters']``). It is what
+:meth:`OutputErrorEstimator.warm_started` returns and what
+:func:`aeroid.estimation.consider_covariance` re-fits with: a re-fit at the mass +-1 sd
+then starts one sd's worth of change from its optimum instead of from the design tool's
+``[prior]`` (from which a 3 % mass error is past the rocket coast's region of
+convergence: ``studies/rocket_measure.md``). ``start_parameters`` is no option
+(:data:`aeroid.estimation.NOT_AN_OPTION`: not in ``options()``, ``from_options`` or
+``aeroid methods``): it is set by code, not chosen by a user, and its one start replaces
+the fit's starts (the airframe's prior still scales the parameters, so its meaning is
+unchanged).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 from typing import Any
 
 import numpy as np
 
-from baselines._held import _ReducedModel  # the mapping a hold uses (this package)
+from baselines._held import held_template
 from baselines._oe_starts import Start, equation_error_start, warm_start_point
+from baselines._restricted import restricted_fit
 
 
 def make_starts(est: Any, prob: Any, flight: Any, first: np.ndarray, prior: np.ndarray,
@@ -40,7 +42,7 @@ def make_starts(est: Any, prob: Any, flight: Any, first: np.ndarray, prior: np.n
     ``staged_start`` the prior start is :func:`staged_start`'s.
     """
     n_c = prior.size
-    warm = getattr(est, "start_parameters", None)
+    warm = est.start_parameters
     if warm is not None:
         return [warm_start(prob, warm)], 0
     extra_evals = 0
@@ -78,28 +80,21 @@ def staged_start(est: Any, prob: Any, first: np.ndarray, names: tuple[str, ...],
     (run 13: max_iterations, theta offset -9e-3 rad). A stage one that raises or ends
     non-finite leaves ``first`` as it is (said in the label).
     """
-    n_p = first.size
-    keep = np.zeros(n_p, dtype=bool)
+    keep = np.zeros(first.size, dtype=bool)
     keep[:len(names)] = [n == "Cx" or n.startswith("Cx@") for n in names]
-    template = np.array(first, dtype=float, copy=True)
+    template = first
     if holds is not None and getattr(holds, "held", None):
-        template[holds.held_index] = holds.held_values() / prob.model.scale[holds.held_index]
+        template = held_template(prob, first, holds)
         keep[holds.held_index] = False
     if not np.any(keep[:len(names)]):
         return Start(label, first), 0
-    reduced = dataclasses.replace(
-        prob, model=_ReducedModel(prob.model, keep, template),
-        prior_mean=None if prob.prior_mean is None else prob.prior_mean[keep],
-        prior_weight=None if prob.prior_weight is None else prob.prior_weight[keep])
     try:
-        fit = est.gauss_newton(reduced, template[keep])
+        fit = restricted_fit(est, prob, keep, template)
     except FloatingPointError:
         return Start(f"{label} (stage one failed)", first), 0
-    if not np.all(np.isfinite(fit.p)):
+    if not np.all(np.isfinite(fit.p[keep])):
         return Start(f"{label} (stage one failed)", first), fit.n_evaluations
-    p0 = template.copy()
-    p0[keep] = fit.p
-    return Start(f"{label}, Cx first", p0), fit.n_evaluations
+    return Start(f"{label}, Cx first", fit.p), fit.n_evaluations
 
 
 def warm_start(prob: Any, parameters: tuple[float, ...]) -> Start:
@@ -117,28 +112,13 @@ def warm_start(prob: Any, parameters: tuple[float, ...]) -> Start:
     return Start("estimate", (phys - getattr(model, "phys_offset", 0.0)) / scale)
 
 
-@functools.cache
-def warm_class(base: type) -> type:
-    """Return ``base`` (an output-error class) with the option ``start_parameters``.
-
-    Made from the class it extends (so this module imports no estimator): the fit
-    :func:`make_starts` then starts from those physical parameters alone.
-    """
-    return dataclasses.make_dataclass(
-        f"Warm{base.__name__}",
-        [("start_parameters", tuple[float, ...] | None, dataclasses.field(default=None))],
-        bases=(base,), frozen=True, kw_only=True)
-
-
 def warm_started(est: Any, result: Any) -> Any:
-    """Return ``est`` started from ``result``'s parameters (its ``info['parameters']``).
+    """Return ``est`` started from ``result``'s parameters (its ``info['parameters']``,
+    the field ``start_parameters``, no option).
 
     ``None`` when the result keeps no finite parameters (a failed fit).
     """
     parameters = result.info.get("parameters")
     if parameters is None or not np.all(np.isfinite(parameters)):
         return None
-    options = est.options()
-    base = type(est).__mro__[1] if "start_parameters" in options else type(est)
-    options.pop("start_parameters", None)
-    return warm_class(base)(**options, start_parameters=tuple(float(v) for v in parameters))
+    return dataclasses.replace(est, start_parameters=tuple(float(v) for v in parameters))

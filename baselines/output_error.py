@@ -20,13 +20,13 @@ Gaussian-noise flights the 95 % intervals covered the truth in 96 % of coefficie
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 
 import aeroid
-from aeroid.estimation import EstimationResult, Estimator
+from aeroid.estimation import NOT_AN_OPTION, EstimationResult, Estimator
 from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
 from baselines import _common, _held, _oe_airdata, _oe_attitude, _oe_wind, _tables_fit
@@ -52,7 +52,7 @@ from baselines._oe_sensors import (
     position_report,
 )
 from baselines._oe_skew import skew_report, skew_search
-from baselines._oe_starts import best_end, start_report
+from baselines._oe_starts import best_end, give_up, start_report
 from baselines._oe_warm import make_starts, warm_started
 from baselines._oe_windows import OutputErrorWindows
 
@@ -222,6 +222,8 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                     "gnss-velocity+gnss-position+baro-altitude"] = "none"
     estimate_skew: Literal["none", "gnss", "ins", "gnss+ins"] = "none"
     compile_model: bool = True
+    #: Where warm_started's fit starts (a previous fit's parameters), no option: _oe_warm.
+    start_parameters: tuple[float, ...] | None = field(default=None, metadata=NOT_AN_OPTION)
 
     def __post_init__(self) -> None:
         check_options(self)  # one ValueError per bad option: baselines/_oe_options.py
@@ -291,9 +293,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             noise_model=self.noise_model, prior_mean=np.zeros(scale.size) if has_prior else None,
             prior_weight=weight if has_prior else None), self.estimate_skew))
 
-    def gauss_newton(self, prob: Problem, p0: np.ndarray) -> Fit:
+    def gauss_newton(self, prob: Problem, p0: np.ndarray, stop: Any = None) -> Fit:
         """Run damped Gauss-Newton with the R relaxation from scaled parameters ``p0``."""
-        return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol)
+        return gauss_newton(prob, p0, max_iterations=self.max_iterations, tol=self.tol, stop=stop)
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
@@ -323,7 +325,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
             try:
                 if start.p0 is None:
                     raise FloatingPointError(start.failure)
-                fits.append(_held.held_fit(self, prob, start.p0, holds))
+                fits.append(_held.held_fit(self, prob, start.p0, holds, give_up(fits, self)))
                 labels.append(start.label)
             except FloatingPointError as exc:
                 failures.append(f"{start.label}: {exc}")

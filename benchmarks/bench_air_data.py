@@ -46,53 +46,42 @@ Target (issue 26): measured air data within 2x the still-air error.
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
-import datetime as dt  # noqa: E402
-import math  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-import aeroid  # noqa: E402
-from aeroid import estimation as rc  # noqa: E402
-from aeroid.estimation import cramer_rao_sd  # noqa: E402
-from aeroid.flights import (  # noqa: E402
-    Wind,
-    make_noise,
-    record_flight,
-    reference_scenario,
-    simulate_truth,
+from _air_flights import (  # first: one BLAS thread before numpy loads
+    AIRS,
+    AIRSPEED_SD_MPS,
+    SCALE_LENGTH_M,
+    VANE_SD_DEG,
+    WIND,
+    coefficient_table,
+    probe_noise,
+    windy_flight,
 )
-from baselines._ee_air import with_wind_consider  # noqa: E402
-from baselines.equation_error import EquationErrorEstimator  # noqa: E402
+
+# isort: split
+import argparse
+import dataclasses
+import datetime as dt
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+import aeroid
+from aeroid import estimation as rc
+from aeroid.estimation import cramer_rao_sd
+from aeroid.flights import make_noise, reference_scenario
+from baselines._ee_air import with_wind_consider
+from baselines.equation_error import EquationErrorEstimator
 
 RESULTS = Path(__file__).parent / "results" / "air_data.md"
-WIND = (3.0, 4.0, 0.0)
-VANE_SD_DEG = 0.1
-AIRSPEED_SD_MPS = 0.5
-SCALE_LENGTH_M = 533.4
-AIRS = {"still": None, "crosswind 5 m/s": Wind(steady_ned_mps=(0.0, 5.0, 0.0)),
-        "wind 5 m/s": Wind(steady_ned_mps=WIND),
-        "wind + Dryden sd 1": Wind(steady_ned_mps=WIND, turbulence_sd_mps=1.0,
-                                   scale_length_m=SCALE_LENGTH_M),
-        "wind + Dryden sd 3": Wind(steady_ned_mps=WIND, turbulence_sd_mps=3.0,
-                                   scale_length_m=SCALE_LENGTH_M)}
 IMU = make_noise("gaussian")
 
 
 def probes(vane_deg: float) -> tuple[aeroid.flights.NoiseModel, aeroid.flights.NoiseModel]:
     """The IMU with a probe of ``vane_deg`` on alpha and beta: with its airspeed, without."""
     vane = float(np.radians(vane_deg))
-    return (make_noise("gaussian", alpha_sd_rad=vane, beta_sd_rad=vane,
-                       airspeed_sd_mps=AIRSPEED_SD_MPS),
-            make_noise("gaussian", alpha_sd_rad=vane, beta_sd_rad=vane))
+    return probe_noise(vane, airspeed_sd_mps=AIRSPEED_SD_MPS), probe_noise(vane)
 
 
 class TrueWind(EquationErrorEstimator):
@@ -133,18 +122,11 @@ def wind_error(estimator, flight) -> float | None:
 
 def flights(air: str, seed: int, vane_deg: float) -> dict[str, aeroid.flights.Flight]:
     """The seed's flights of ``air``: with the probe, without its airspeed, IMU only."""
-    s = reference_scenario()
     wind = AIRS[air]
-    m = s.manoeuvre if wind is None else dataclasses.replace(s.manoeuvre, wind=wind)
     out = {}
     probe, no_airspeed = probes(vane_deg)
     for label, noise in (("probe", probe), ("no airspeed", no_airspeed), ("imu", IMU)):
-        rng = np.random.default_rng(seed)
-        truth = simulate_truth(s.airframe, s.coefficient_vector, m, rng=rng)
-        f = record_flight(s.airframe, s.coefficient_vector, m, truth, noise, rng=rng)
-        k0 = int(round(m.window_s[0] / m.dt))
-        true_wind = (np.zeros((f.n_samples, 3)) if truth.wind is None
-                     else np.asarray(truth.wind[k0:], dtype=float))
+        f, true_wind = windy_flight(wind, noise, seed)
         gusts = (0.0, SCALE_LENGTH_M) if wind is None else (wind.turbulence_sd_mps,
                                                             wind.scale_length_m)
         out[label] = dataclasses.replace(f, metadata={**f.metadata, "bench_gusts": gusts,
@@ -218,12 +200,7 @@ def table(kinds: dict) -> str:
                    f" | {np.mean([r[1][czq] for r in rows]):.2f} | "
                    + ("-" if rows[0][3] is None else f"{np.mean([r[3] for r in rows]):.3f}")
                    + " |")
-    out += ["", "Mean |relative error| per coefficient [%]:", "",
-            "| air / fit | " + " | ".join(aeroid.NAMES) + " |",
-            "|---|" + "---|" * len(aeroid.NAMES)]
-    for kind, rows in kinds.items():
-        per = np.mean([r[1] for r in rows], axis=0)
-        out.append(f"| {kind} | " + " | ".join(f"{v:.2f}" for v in per) + " |")
+    out += coefficient_table({kind: [r[1] for r in rows] for kind, rows in kinds.items()})
     return "\n".join(out)
 
 

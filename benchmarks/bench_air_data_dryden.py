@@ -20,21 +20,19 @@ m/s along, across and down (a 0.5 m/s airspeed, 0.1 deg vanes), smoothed by
 
 from __future__ import annotations
 
-import os
+from _air_flights import WIND  # first: one BLAS thread before numpy loads
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
 
-import argparse  # noqa: E402
+import numpy as np
+from scipy import stats
 
-import numpy as np  # noqa: E402
-from scipy import stats  # noqa: E402
-
-from aeroid.estimation import _air_dryden as ad  # noqa: E402
-from aeroid.flights import MIL_SCALE_LENGTH_M, Wind  # noqa: E402
+from aeroid.estimation import _air_dryden as ad
+from aeroid.flights import MIL_SCALE_LENGTH_M, Wind
 
 SD, DT, N, SPEED = 3.0, 0.002, 501, 500.0
-STEADY = np.array([3.0, 4.0, 0.0])
+STEADY = np.array(WIND)
 NOISE_SD = np.array([0.5, 0.87, 0.87])
 
 

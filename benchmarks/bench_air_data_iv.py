@@ -20,22 +20,22 @@ coefficients [%] and of Czq, Cmq.
 
 from __future__ import annotations
 
-import os
+from _air_flights import (  # first: one BLAS thread before numpy loads
+    AIRSPEED_SD_MPS,
+    dryden,
+    probe_noise,
+    windy_flight,
+)
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
 
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-import aeroid  # noqa: E402
-from aeroid import estimation as rc  # noqa: E402
-from aeroid.flights import GaussianNoise, Wind, reference_scenario, simulate  # noqa: E402
-from baselines.equation_error import SUBPROBLEMS  # noqa: E402
-
-VANE_RAD = float(np.radians(0.1))
+import aeroid
+from aeroid import estimation as rc
+from aeroid.flights import reference_scenario
+from baselines.equation_error import SUBPROBLEMS
 
 
 def main() -> None:
@@ -44,14 +44,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--sd", type=float, default=3.0, help="Dryden sd [m/s]")
     args = parser.parse_args()
-    s = reference_scenario()
-    truth = s.coefficient_vector
-    m = dataclasses.replace(s.manoeuvre, wind=Wind(
-        steady_ned_mps=(3.0, 4.0, 0.0), turbulence_sd_mps=args.sd, scale_length_m=533.4))
-    noise = GaussianNoise(alpha_sd_rad=VANE_RAD, beta_sd_rad=VANE_RAD, airspeed_sd_mps=0.5)
+    truth = reference_scenario().coefficient_vector
+    noise = probe_noise(airspeed_sd_mps=AIRSPEED_SD_MPS)
     errors: dict[str, list[np.ndarray]] = {"least squares": [], "instrumental variables": []}
     for seed in range(1, args.seeds + 1):
-        f = simulate(s.airframe, truth, m, noise, rng=seed)
+        f, _ = windy_flight(dryden(args.sd), noise, seed)
         y = rc.regression_target(rc.reconstruct(f), smoothing="none")
         wind = rc.smooth_air_wind(f, rc.air_data_wind(f)).wind
         x = np.concatenate([b[2] for b in rc.regressor_blocks(f, smoothing="none", wind=wind)])

@@ -35,29 +35,24 @@ and SEBM-PSO (polished) with the logged angles in a 5 m/s crosswind (:func:`pso_
 
 from __future__ import annotations
 
-import os
+from _air_flights import AIRSPEED_SD_MPS, VANE_RAD, WIND  # first: one BLAS thread
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
+import dataclasses
+import datetime as dt
+import time
+from pathlib import Path
 
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
-import datetime as dt  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-import aeroid  # noqa: E402
-from aeroid.estimation import air_data_verdict  # noqa: E402
-from aeroid.flights import Wind, make_noise, reference_scenario, simulate  # noqa: E402
-from aeroid.model import as_state, constants, equations  # noqa: E402
-from baselines.output_error import OutputErrorEstimator  # noqa: E402
+import aeroid
+from aeroid.estimation import air_data_verdict
+from aeroid.flights import Wind, make_noise, reference_scenario, simulate
+from aeroid.model import as_state, constants, equations
+from baselines.output_error import OutputErrorEstimator
 
 RESULTS = Path(__file__).parent / "results" / "air_data_outputs.md"
-WIND = (3.0, 4.0, 0.0)
-VANE_SD = np.radians(0.1)
-AIRSPEED_SD = 0.5
 CALIBRATION = {"alpha_factor": 0.02, "beta_factor": 0.02, "alpha_offset_rad": 0.002,
                "beta_offset_rad": -0.001}
 FITS = {"off": {}, "wind": {"estimate_wind": True},
@@ -74,10 +69,10 @@ def with_probe(flight: aeroid.flights.Flight, wind: tuple[float, float, float],
     n, c = flight.n_samples, CALIBRATION
     return dataclasses.replace(flight, data=flight.data.assign(
         alpha=(1 + c["alpha_factor"]) * alpha + c["alpha_offset_rad"]
-        + VANE_SD * rng.standard_normal(n),
+        + VANE_RAD * rng.standard_normal(n),
         beta=(1 + c["beta_factor"]) * beta + c["beta_offset_rad"]
-        + VANE_SD * rng.standard_normal(n),
-        airspeed=speed + AIRSPEED_SD * rng.standard_normal(n)))
+        + VANE_RAD * rng.standard_normal(n),
+        airspeed=speed + AIRSPEED_SD_MPS * rng.standard_normal(n)))
 
 
 def run(seeds: int) -> tuple[dict, list[str]]:
@@ -132,8 +127,8 @@ def verdicts(seeds: int) -> list[str]:
                          rng=seed)
             gen = np.random.default_rng([seed, 26])
             f = dataclasses.replace(f, data=f.data.assign(
-                alpha=f["alpha"] + VANE_SD * gen.standard_normal(f.n_samples),
-                beta=f["beta"] + VANE_SD * gen.standard_normal(f.n_samples)))
+                alpha=f["alpha"] + VANE_RAD * gen.standard_normal(f.n_samples),
+                beta=f["beta"] + VANE_RAD * gen.standard_normal(f.n_samples)))
             found.append(air_data_verdict(f, "verdict"))
         kinds = [v.kind for v in found]
         gusts = [v.gust_rms_mps for v in found]
@@ -153,7 +148,7 @@ def reconstruction_winds(seeds: int) -> list[str]:
 
     s = reference_scenario()
     wind = np.array([3.0, 4.0, -0.5])
-    sd = {"alpha": float(VANE_SD), "beta": float(VANE_SD), "airspeed": AIRSPEED_SD}
+    sd = {"alpha": float(VANE_RAD), "beta": float(VANE_RAD), "airspeed": AIRSPEED_SD_MPS}
     rows = []
     for seed in range(1, seeds + 1):
         sim = simulate_suite(s.airframe, s.coefficient_vector, s.manoeuvre,
@@ -204,8 +199,8 @@ def pso_rows(seeds: int) -> list[str]:
                 if wind is not None:
                     gen = np.random.default_rng([seed, 26])
                     f = dataclasses.replace(f, data=f.data.assign(
-                        alpha=f["alpha"] + VANE_SD * gen.standard_normal(f.n_samples),
-                        beta=f["beta"] + VANE_SD * gen.standard_normal(f.n_samples)))
+                        alpha=f["alpha"] + VANE_RAD * gen.standard_normal(f.n_samples),
+                        beta=f["beta"] + VANE_RAD * gen.standard_normal(f.n_samples)))
                 for angles in (("inertial",) if wind is None else ("measured", "inertial")):
                     r = get_estimator(name)(air_data=angles, polish=True).fit(f, rng=seed)
                     err = float(np.mean(np.abs(r.theta / truth - 1.0)) * 100.0)

@@ -21,30 +21,21 @@ z^2 = (error / se)^2 (1 when the se are right).
 
 from __future__ import annotations
 
-import os
+from _air_flights import AIRS as ALL_AIRS  # first: one BLAS thread before numpy loads
+from _air_flights import windy_flight
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
 
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
+from aeroid import estimation as rc
+from aeroid.estimation._fitcheck import RATIO_LIMIT
+from aeroid.flights import make_noise, reference_scenario
+from baselines._ee_least_squares import _lstsq
+from baselines._ee_roll import ROLL_ROW, roll_covariance, through_roll_window
 
-from aeroid import estimation as rc  # noqa: E402
-from aeroid.estimation._fitcheck import RATIO_LIMIT  # noqa: E402
-from aeroid.flights import (  # noqa: E402
-    Wind,
-    make_noise,
-    record_flight,
-    reference_scenario,
-    simulate_truth,
-)
-from baselines._ee_least_squares import _lstsq  # noqa: E402
-from baselines._ee_roll import ROLL_ROW, roll_covariance, through_roll_window  # noqa: E402
-
-AIRS = {"still": None,
-        "wind + Dryden sd 3": Wind(steady_ned_mps=(3.0, 4.0, 0.0), turbulence_sd_mps=3.0)}
+AIRS = {air: ALL_AIRS[air] for air in ("still", "wind + Dryden sd 3")}
 WAYS = ("per sample, Newey-West", "per sample, known structure", "window, Newey-West",
         "window, known structure")
 
@@ -52,14 +43,7 @@ WAYS = ("per sample, Newey-West", "per sample, known structure", "window, Newey-
 def fits(air: str, seed: int, noise: str = "gaussian") -> dict[str, tuple]:
     """The seed's roll sub-problem three ways: ``(ratio, rel errors %, z)`` each."""
     s = reference_scenario()
-    wind = AIRS[air]
-    m = s.manoeuvre if wind is None else dataclasses.replace(s.manoeuvre, wind=wind)
-    rng = np.random.default_rng(seed)
-    truth = simulate_truth(s.airframe, s.coefficient_vector, m, rng=rng)
-    f = record_flight(s.airframe, s.coefficient_vector, m, truth, make_noise(noise), rng=rng)
-    k0 = int(round(m.window_s[0] / m.dt))
-    w = (np.zeros((f.n_samples, 3)) if truth.wind is None
-         else np.asarray(truth.wind[k0:], dtype=float))
+    f, w = windy_flight(AIRS[air], make_noise(noise), seed)
     rec = rc.reconstruct(f)
     X, y = rc.ebm_regression(f, rec, smoothing="none", wind=w)
     cols = list(next(p.coefficients for p in rc.SEBM_PROBLEMS if p.row == ROLL_ROW))

@@ -28,35 +28,22 @@ flight, the median and largest |difference| / se.
 
 from __future__ import annotations
 
-import os
+from _air_flights import AIRS as ALL_AIRS  # first: one BLAS thread before numpy loads
+from _air_flights import probe_noise, windy_flight
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# isort: split
+import argparse
+import datetime as dt
+from pathlib import Path
 
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
-import datetime as dt  # noqa: E402
-from pathlib import Path  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-import aeroid  # noqa: E402
-from aeroid.flights import (  # noqa: E402
-    Wind,
-    make_noise,
-    record_flight,
-    reference_scenario,
-    simulate_truth,
-    with_pitot_airspeed,
-)
-from baselines.equation_error import EquationErrorEstimator  # noqa: E402
+import aeroid
+from aeroid.flights import make_noise, reference_scenario, with_pitot_airspeed
+from baselines.equation_error import EquationErrorEstimator
 
 RESULTS = Path(__file__).parent / "results" / "pitot.md"
-WIND = (3.0, 4.0, 0.0)
-VANE_RAD = float(np.radians(0.1))
-AIRS = {"wind 5 m/s": Wind(steady_ned_mps=WIND),
-        "wind + Dryden sd 1": Wind(steady_ned_mps=WIND, turbulence_sd_mps=1.0,
-                                   scale_length_m=533.4)}
+AIRS = {air: ALL_AIRS[air] for air in ("wind 5 m/s", "wind + Dryden sd 1")}
 PROBES = {"airspeed 0.5 m/s": {"airspeed_sd_mps": 0.5},
           "pressures 50 Pa": {"total_pressure_sd_pa": 50.0, "static_pressure_sd_pa": 50.0},
           "pressures 200 Pa": {"total_pressure_sd_pa": 200.0, "static_pressure_sd_pa": 200.0}}
@@ -80,27 +67,17 @@ def run(seeds: int) -> tuple[dict, list[str]]:
     lines: list[str] = []
     estimator = EquationErrorEstimator(air_data="measured")
     for seed in range(1, seeds + 1):
-        rng = np.random.default_rng(seed)
-        still = record_flight(s.airframe, truth, s.manoeuvre,
-                              simulate_truth(s.airframe, truth, s.manoeuvre, rng=rng),
-                              make_noise("gaussian"), rng=rng)
+        still, _ = windy_flight(None, make_noise("gaussian"), seed)
         r = EquationErrorEstimator(air_data="inertial").fit(still)
         kinds.setdefault("still / IMU only", []).append(
             (r.success, np.abs(r.theta / truth - 1) * 100, np.abs(r.theta - truth) / r.stderr,
              np.nan, None))
         for air, wind in AIRS.items():
-            m = dataclasses.replace(s.manoeuvre, wind=wind)
             fits = {}
             for label, options in PROBES.items():
-                rng = np.random.default_rng(seed)
-                t = simulate_truth(s.airframe, truth, m, rng=rng)
-                noise = make_noise("gaussian", alpha_sd_rad=VANE_RAD, beta_sd_rad=VANE_RAD,
-                                   **options)
-                f = record_flight(s.airframe, truth, m, t, noise, rng=rng)
-                k0 = int(round(m.window_s[0] / m.dt))
+                f, true_wind = windy_flight(wind, probe_noise(**options), seed)
                 speed = with_pitot_airspeed(f)["airspeed"]
-                v_err = float(np.sqrt(np.mean(
-                    (speed - _true_airspeed(f, np.asarray(t.wind[k0:]))) ** 2)))
+                v_err = float(np.sqrt(np.mean((speed - _true_airspeed(f, true_wind)) ** 2)))
                 fits[label] = r = estimator.fit(f, rng=0)
                 err = np.abs(r.theta / truth - 1) * 100
                 z = np.abs(r.theta - truth) / r.stderr

@@ -38,63 +38,45 @@ methods report no standard errors, so no coverage.
 
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # shared 2-core machine
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
-import datetime as dt  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-import aeroid  # noqa: E402
-from aeroid.estimation import get_estimator  # noqa: E402
-from aeroid.flights import (  # noqa: E402
-    Wind,
-    make_noise,
-    record_flight,
-    reference_scenario,
-    simulate_truth,
+from _air_flights import AIRS as WINDS  # first: one BLAS thread before numpy loads
+from _air_flights import (
+    AIRSPEED_SD_MPS,
+    SCALE_LENGTH_M,
+    WIND,
+    coefficient_table,
+    probe_noise,
+    windy_flight,
 )
-from baselines.equation_error import EquationErrorEstimator  # noqa: E402
+
+# isort: split
+import argparse
+import datetime as dt
+import time
+from pathlib import Path
+
+import numpy as np
+
+import aeroid
+from aeroid.estimation import get_estimator
+from aeroid.flights import make_noise, reference_scenario
+from baselines.equation_error import EquationErrorEstimator
 
 RESULTS = Path(__file__).parent / "results" / "pso_air_data.md"
-WIND = (3.0, 4.0, 0.0)
-VANE_RAD = float(np.radians(0.1))
-AIRSPEED_SD_MPS = 0.5
-SCALE_LENGTH_M = 533.4
+#: The airs whose vanes-only flight (no airspeed channel) is fitted too.
+BLIND = ("crosswind 5 m/s", "wind + Dryden sd 1")
 #: air -> (its wind, whether the vanes-only flight is fitted too)
-AIRS = {"still": (None, False),
-        "crosswind 5 m/s": (Wind(steady_ned_mps=(0.0, 5.0, 0.0)), True),
-        "wind 5 m/s": (Wind(steady_ned_mps=WIND), False),
-        "wind + Dryden sd 1": (Wind(steady_ned_mps=WIND, turbulence_sd_mps=1.0,
-                                    scale_length_m=SCALE_LENGTH_M), True),
-        "wind + Dryden sd 3": (Wind(steady_ned_mps=WIND, turbulence_sd_mps=3.0,
-                                    scale_length_m=SCALE_LENGTH_M), False)}
-NOISES = {"probe": make_noise("gaussian", alpha_sd_rad=VANE_RAD, beta_sd_rad=VANE_RAD,
-                              airspeed_sd_mps=AIRSPEED_SD_MPS),
-          "no airspeed": make_noise("gaussian", alpha_sd_rad=VANE_RAD, beta_sd_rad=VANE_RAD),
+AIRS = {air: (wind, air in BLIND) for air, wind in WINDS.items()}
+NOISES = {"probe": probe_noise(airspeed_sd_mps=AIRSPEED_SD_MPS),
+          "no airspeed": probe_noise(),
           "imu": make_noise("gaussian")}
 METHODS = ("equation-error", "ebm-pso", "sebm-pso")
 
 
 def flights(air: str, seed: int) -> dict[str, aeroid.flights.Flight]:
     """The seed's flights of ``air``, one per noise model of :data:`NOISES` it needs."""
-    s = reference_scenario()
     wind, blind = AIRS[air]
-    m = s.manoeuvre if wind is None else dataclasses.replace(s.manoeuvre, wind=wind)
     wanted = ("imu",) if wind is None else ("probe", "no airspeed") if blind else ("probe",)
-    out = {}
-    for label in wanted:
-        rng = np.random.default_rng(seed)
-        truth = simulate_truth(s.airframe, s.coefficient_vector, m, rng=rng)
-        out[label] = record_flight(s.airframe, s.coefficient_vector, m, truth, NOISES[label],
-                                   rng=rng)
-    return out
+    return {label: windy_flight(wind, NOISES[label], seed)[0] for label in wanted}
 
 
 def estimator(method: str, air_data: str, window_s: float | None):
@@ -168,12 +150,8 @@ def table(kinds: dict) -> str:
         out.append(f"| {method}: {kind.replace(' / kalman', '')} | {d.mean():+.3f} +- "
                    f"{d.std(ddof=1) / np.sqrt(d.size) if d.size > 1 else np.nan:.3f} | "
                    f"{int(np.sum(d < 0))}/{d.size} |")
-    out += ["", "Mean |relative error| per coefficient [%]:", "",
-            "| method: air / fit | " + " | ".join(aeroid.NAMES) + " |",
-            "|---|" + "---|" * len(aeroid.NAMES)]
-    for (method, kind), rows in kinds.items():
-        per = np.mean([r[1] for r in rows], axis=0)
-        out.append(f"| {method}: {kind} | " + " | ".join(f"{v:.2f}" for v in per) + " |")
+    out += coefficient_table({f"{method}: {kind}": [r[1] for r in rows]
+                              for (method, kind), rows in kinds.items()}, "method: air / fit")
     return "\n".join(out)
 
 

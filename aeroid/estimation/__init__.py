@@ -87,7 +87,7 @@ from aeroid.estimation._objectives import (
     ebm_cost,
     sebm_costs,
 )
-from aeroid.estimation._options import OptionInfo
+from aeroid.estimation._options import NOT_AN_OPTION, OptionInfo
 from aeroid.estimation._polish import Polished, polish, polish_info
 from aeroid.estimation._predict import (
     coefficient_frame,
@@ -196,6 +196,7 @@ __all__ = [
     "Estimator",
     "MAX_ITERATIONS",
     "MAX_PARTICLES",
+    "NOT_AN_OPTION",
     "OptionInfo",
     "OutputErrorCost",
     "PSOResult",

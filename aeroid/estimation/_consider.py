@@ -41,6 +41,11 @@ at every knot, Cza 0.255 against 0.256, Czq 3.99 against 3.94; the moments' shar
 of 48 fits of that study before (studies/rocket_measure.md), from the estimate in none of
 its re-run's fits.
 
+The re-fits hold and give priors to what the fit did (``fit(holds=...)``, read back from
+the result's ``held`` and ``priors``; the airframe's own, a passive fin's or its
+``[hold]``, it declares again): a held coefficient stays at its value in both, so its
+sensitivity is zero and it keeps no standard error.
+
 A flight with a per-sample channel of the constant (``mass``, ``ix``, ...) is refused:
 the sd is the airframe constant's, which such a flight does not use.
 """
@@ -56,7 +61,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aeroid.errors import EstimatorError
+from aeroid.estimation._holds import CoefficientSpec, airframe_holds
+from aeroid.estimation._holds_fit import holds_of
 from aeroid.estimation._result import EstimationResult
+from aeroid.estimation._table_holds import fit_tables, table_holds
 from aeroid.flights import Windows
 from aeroid.model import MASS_SD_FIELDS
 
@@ -64,7 +72,7 @@ if TYPE_CHECKING:
     from aeroid.flights import Flight
 
 __all__ = ["CONSTANT_CHANNELS", "ConsiderCovariance", "add_consider", "check_consider",
-           "consider_covariance", "exact_mass_note"]
+           "consider_covariance", "exact_mass_note", "refit_holds"]
 
 #: Each mass constant -> the flight channel that would replace it per sample.
 CONSTANT_CHANNELS = {"mass_kg": "mass", "ix_kgm2": "ix", "iy_kgm2": "iy", "iz_kgm2": "iz"}
@@ -181,9 +189,30 @@ def check_consider(flight: Flight, owner: str) -> None:
 REFIT_ITERATION_FACTOR = 4
 
 
+def refit_holds(flight: Flight | Windows, result: EstimationResult) -> CoefficientSpec | None:
+    """Return the holds and priors a re-fit of ``result`` is given (None: none).
+
+    What the fit was given (``fit(holds=...)``), read back from ``result.held`` and
+    ``result.priors`` (with tables: their points), less what the flight's airframe declares
+    itself (:func:`aeroid.estimation.airframe_holds`: a re-fit's airframe declares it again,
+    and the same table named twice would be refused).
+    """
+    recorded = holds_of(result)
+    if recorded is None:
+        return None
+    own: Any = airframe_holds(flight.airframe)
+    if getattr(flight.airframe, "tables", None) is not None and not own.empty:
+        own = table_holds(own, fit_tables(flight))  # the same points the fit recorded
+    held = {n: v for n, v in recorded.held.items() if own.held.get(n) != v}
+    priors = {n: p for n, p in recorded.priors.items()
+              if tuple(own.priors.get(n, ())) != tuple(p)}
+    return CoefficientSpec(held=held, priors=priors) if held or priors else None
+
+
 def _refit(estimator: Any, flight: Flight | Windows, theta: np.ndarray | None, name: str,
-           step: float, seed: int) -> EstimationResult:
-    """Re-fit with the constant ``name`` moved by ``step`` (in each window, from its own value)."""
+           step: float, seed: int, holds: CoefficientSpec | None = None) -> EstimationResult:
+    """Re-fit with the constant ``name`` moved by ``step`` (in each window, from its own value),
+    with the fit's ``holds`` (:func:`refit_holds`)."""
     if "max_iterations" in estimator.option_names():
         with contextlib.suppress(TypeError, ValueError):  # beyond the method's bound: as is
             estimator = dataclasses.replace(estimator, max_iterations=REFIT_ITERATION_FACTOR
@@ -196,8 +225,9 @@ def _refit(estimator: Any, flight: Flight | Windows, theta: np.ndarray | None, n
         return dataclasses.replace(part, airframe=part.airframe.replace(**exact, **changes))
 
     if isinstance(flight, Windows):
-        return estimator.fit(Windows(tuple(moved(f) for f in flight), flight.names), rng=seed)
-    return estimator.fit(moved(flight), rng=seed)
+        return estimator.fit(Windows(tuple(moved(f) for f in flight), flight.names), rng=seed,
+                             holds=holds)
+    return estimator.fit(moved(flight), rng=seed, holds=holds)
 
 
 def consider_covariance(estimator: Any, flight: Flight | Windows, result: EstimationResult, *,
@@ -244,11 +274,12 @@ def consider_covariance(estimator: Any, flight: Flight | Windows, result: Estima
     sensitivity = np.zeros((theta.size, len(names)))
     messages, one_sided = [], False
     refitter, prior, started = _refitter(estimator, flight, result, warm_start)
+    holds = refit_holds(flight, result)  # held coefficients stay held
     for k, name in enumerate(names):
         ends, ok, said = [], [], []
         for sign in (1.0, -1.0):
             value = float(values[k] + sign * steps[k])
-            fit = _refit(refitter, flight, prior, name, sign * steps[k], seed)
+            fit = _refit(refitter, flight, prior, name, sign * steps[k], seed, holds)
             if not np.all(np.isfinite(fit.theta)):
                 raise EstimatorError(f"{estimator.name}: the re-fit at {name} = {value:.6g} "
                                      f"for its sd failed: {fit.message}")
@@ -312,7 +343,10 @@ def add_consider(estimator: Any, flight: Flight | Windows, result: EstimationRes
     changes: dict[str, Any] = {"consider": consider}
     if result.covariance is not None:
         total = np.asarray(result.covariance, dtype=float) + consider.covariance
-        changes.update(covariance=total, stderr=np.sqrt(np.clip(np.diag(total), 0.0, None)))
+        stderr = np.sqrt(np.clip(np.diag(total), 0.0, None))
+        if result.stderr is not None:  # none of its own (a held coefficient): none in total
+            stderr = np.where(np.isnan(result.stderr), np.nan, stderr)
+        changes.update(covariance=total, stderr=stderr)
     else:
         changes["warnings"] = (*result.warnings, (
             f"{estimator.name} gives no covariance: the mass uncertainty's share of the "

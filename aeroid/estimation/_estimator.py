@@ -28,7 +28,7 @@ from aeroid.estimation._fitcheck import apply_fit_check, data_noise_levels, floo
 from aeroid.estimation._holds import CoefficientSpec, airframe_holds
 from aeroid.estimation._holds_fit import apply_holds, check_free
 from aeroid.estimation._identifiability import record_findings, record_verdict
-from aeroid.estimation._options import OptionInfo, coerce, describe_options, parse_value
+from aeroid.estimation._options import OptionInfo, coerce, describe_options, options_of, parse_value
 from aeroid.estimation._progress import ProgressCallback, progress_listener
 from aeroid.estimation._result import EstimationResult, failed_result
 from aeroid.estimation._table_holds import TableHolds, fit_tables, table_holds
@@ -334,12 +334,12 @@ class Estimator(abc.ABC):
 
     def options(self) -> dict[str, Any]:
         """Return the options as a dict (field name -> value)."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return {f.name: getattr(self, f.name) for f in options_of(self)}
 
     @classmethod
     def option_names(cls) -> tuple[str, ...]:
         """Return the names of the options."""
-        return tuple(f.name for f in dataclasses.fields(cls))
+        return tuple(f.name for f in options_of(cls))
 
     @classmethod
     def describe_options(cls) -> list[OptionInfo]:

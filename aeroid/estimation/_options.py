@@ -9,6 +9,10 @@ line naming the estimator and the option.
 :func:`describe_options` lists an estimator's options (type, default and the first
 sentence of the option's entry in the class docstring's ``Options``, ``Attributes`` or
 ``Parameters`` section) for ``aeroid methods --options NAME``.
+
+A field with the metadata :data:`NOT_AN_OPTION` is set by code, not by users (output-error's
+``start_parameters``, the consider re-fits' warm start): :func:`options_of` leaves it
+out, so it is no option (``options()``, ``option_names()``, ``from_options``, this list).
 """
 
 from __future__ import annotations
@@ -24,7 +28,16 @@ from typing import Any
 
 from aeroid.errors import EstimatorError
 
-__all__ = ["OptionInfo", "coerce", "describe_options", "parse_value", "type_name"]
+__all__ = ["NOT_AN_OPTION", "OptionInfo", "coerce", "describe_options", "options_of",
+           "parse_value", "type_name"]
+
+#: ``dataclasses.field(metadata=NOT_AN_OPTION)``: an estimator's field that is no option.
+NOT_AN_OPTION = types.MappingProxyType({"option": False})
+
+
+def options_of(estimator: Any) -> tuple[dataclasses.Field, ...]:
+    """Return the fields of an estimator (class or instance) that are options."""
+    return tuple(f for f in dataclasses.fields(estimator) if f.metadata.get("option", True))
 
 _SECTIONS = ("Options", "Attributes", "Parameters")
 _TRUE = ("true", "yes", "on", "1")
@@ -185,7 +198,7 @@ def describe_options(cls: type) -> list[OptionInfo]:
             docs.setdefault(key, text)
     hints = typing.get_type_hints(cls)
     out = []
-    for f in dataclasses.fields(cls):
+    for f in options_of(cls):
         if f.default is not dataclasses.MISSING:
             default = f.default
         elif f.default_factory is not dataclasses.MISSING:

@@ -116,3 +116,26 @@ def test_warm_start_true_without_the_methods_own_refuses_a_table_fit(table_coast
         consider_covariance(estimator, table_coast, result, rng=0, warm_start=True)
     cold = consider_covariance(estimator, table_coast, result, rng=0)
     assert cold.started == "the prior"
+
+
+def test_the_warm_start_is_a_field_but_no_option(noisy_coast):
+    """``start_parameters`` is set by ``warm_started`` on the method's own class and is no
+    option: not in options(), option_names() or the option list, refused by from_options
+    in one line; the warm estimator's options are the fit's."""
+    estimator = make_estimator("output-error", {"max_iterations": 30})
+    cls = type(estimator)
+    assert "start_parameters" not in cls.option_names()
+    assert "start_parameters" not in [o.name for o in cls.describe_options()]
+    with pytest.raises(EstimatorError, match="start_parameters") as info:
+        make_estimator("output-error", {"start_parameters": [0.0]})
+    assert "\n" not in str(info.value)
+    parameters = np.arange(1.0, 5.0)
+    result = dataclasses.replace(estimator.fit(noisy_coast, rng=0),
+                                 info={"parameters": parameters})
+    warm = estimator.warm_started(result)
+    assert type(warm) is cls and warm.start_parameters == (1.0, 2.0, 3.0, 4.0)
+    assert warm.options() == estimator.options()
+    again = warm.warm_started(dataclasses.replace(result, info={"parameters": parameters * 2}))
+    assert type(again) is cls and again.start_parameters == (2.0, 4.0, 6.0, 8.0)
+    assert estimator.warm_started(dataclasses.replace(
+        result, info={"parameters": np.array([1.0, np.nan])})) is None

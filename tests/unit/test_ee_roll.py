@@ -160,3 +160,37 @@ def test_window_only_for_a_wind_that_varies(clean_flight) -> None:
     np.testing.assert_allclose(got[:, ROLL_ROW], through_roll_window(f, plain[:, ROLL_ROW]))
     others = [r for r in range(plain.shape[1]) if r != ROLL_ROW]
     np.testing.assert_array_equal(got[:, others], plain[:, others])
+
+
+def test_roll_row_is_collected_in_the_fits_own_pass(clean_flight) -> None:
+    """Per sample, the roll row comes from the first full pass the fit makes (one pass
+    over the blocks in all, not two) and equals the blocks' row; windowed, the window
+    needs it first (two passes). Reference: the blocks' row concatenated by hand."""
+    f = clean_flight
+    passes = []
+
+    def blocks():
+        passes.append(1)
+        return rc.regressor_blocks(f, smoothing="none", block=100)
+
+    plain = np.concatenate([p for _, _, p in blocks()])[:, ROLL_ROW]
+    passes.clear()
+    rolled = roll_window_blocks(f, None, blocks)
+    assert not passes
+    for _ in rolled():  # the fit's pass
+        pass
+    assert len(passes) == 1
+    np.testing.assert_array_equal(rolled.roll_row, plain)
+    for _ in rolled():  # a later pass (the fit check's) leaves the row as it was
+        pass
+    assert len(passes) == 2
+    np.testing.assert_array_equal(rolled.roll_row, plain)
+    passes.clear()
+    asked_first = roll_window_blocks(f, None, blocks)  # asked before any pass: one of its own
+    np.testing.assert_array_equal(asked_first.roll_row, plain)
+    assert len(passes) == 1
+    passes.clear()
+    moving = np.linspace(0.0, 1.0, f.n_samples)[:, None] * np.ones(3)
+    windowed = roll_window_blocks(f, moving, blocks)
+    np.testing.assert_array_equal(windowed.roll_row, through_roll_window(f, plain))
+    assert len(passes) == 1
