@@ -206,6 +206,17 @@ def sensitivities(problem: Problem, p: np.ndarray, R: np.ndarray, *, central: bo
     return center, dnu, dS, bool(np.all(runs.ok))
 
 
+def information(problem: Problem, p: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The innovations' Fisher information (n_p, n_p) at the scaled parameters ``p`` with
+    noise variances ``R`` (central differences, the priors' added): its inverse is the
+    Cramér-Rao covariance there, e.g. at the truth of a simulated flight."""
+    center, dnu, dS, _ = sensitivities(problem, p, R)
+    _, M = score_information(center.innovation[0], center.S[0], dnu, dS)
+    nf = problem.free.size
+    M[:nf, :nf] += np.diag(problem.prior_info * problem.scale**2)
+    return M
+
+
 @dataclass
 class Fit:
     """The end of :func:`fisher_scoring` (scaled parameters)."""

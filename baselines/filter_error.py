@@ -47,7 +47,7 @@ from __future__ import annotations
 import contextlib
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 
@@ -59,6 +59,21 @@ from baselines import _common, _fem_air, _fem_fit, _fem_holds, _fem_setup, _fem_
 from baselines._fem_filter import gust_model
 from baselines._fem_model import N_WIND
 from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
+
+
+class Start(NamedTuple):
+    """The likelihood's problem, the scaled start ``p0``, the measurement noise, the air
+    data used (or None), the gusts' time constant [s], the record's speed [m/s] and the
+    airframe's prior coefficients (:meth:`FilterErrorEstimator.start`)."""
+
+    problem: _fem_fit.Problem
+    p0: np.ndarray
+    noise: _fem_setup.Noise
+    air: _fem_air.FemAirPlan | None
+    tau: float
+    speed: float
+    prior: np.ndarray
+
 
 #: Samples at most: the filter keeps every perturbed run's innovation covariances
 #: (2 n_p + 1 runs x n x 9 x 9 doubles: 15 kB per sample with 10 parameters).
@@ -107,8 +122,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
         Also estimate a steady wind (north, east, down [m/s]; default False: the gusts
         are zero-mean), the gusts decaying towards it; reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a one-line notice:
-        for a steady wind without turbulence (in turbulence the along-path part is not
-        identified; :mod:`baselines._fem_wind`).
+        for a steady wind without turbulence, or in turbulence with an airspeed channel
+        (``air_data = measured``; from an IMU alone the along-path part is not
+        identified there; :mod:`baselines._fem_wind`).
     air_data : {"inertial", "auto", "measured"}
         The flight's air data (alpha, beta that differ from the inertial ones, airspeed)
         as measured outputs: ``measured`` or ``auto`` (when the flight has them);
@@ -171,9 +187,8 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
         (``calibration``: the air data's, last)."""
         return (*free_names, "gust_sd_mps", *_fem_wind.wind_names(self), *calibration)
 
-    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
-            ) -> EstimationResult:
-        """Fit the flight (no random draws: ``rng`` is unused)."""
+    def start(self, flight: Flight, holds: Any = None) -> Start:
+        """The likelihood's problem on a validated ``flight`` and where the fit starts."""
         if flight.n_samples > MAX_SAMPLES:
             raise EstimatorError(f"{self.name}: {flight.n_samples} samples; it fits at most "
                                  f"{MAX_SAMPLES} at once (the perturbed filters' innovation "
@@ -203,6 +218,12 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
         p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)],
                              np.zeros(len(_fem_wind.wind_names(self))),
                              _fem_air.calibration_start(air)])
+        return Start(problem, p0, noise, air, tau, speed, prior)
+
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
+        """Fit the flight (no random draws: ``rng`` is unused)."""
+        problem, p0, noise, air, tau, speed, prior = self.start(flight, holds)
         try:
             fit = _fem_fit.fisher_scoring(problem, p0, noise.R, update_noise=noise.update,
                                           r_floor=noise.floor,
