@@ -76,7 +76,8 @@ class Start(NamedTuple):
 
 
 #: Samples at most: the filter keeps every perturbed run's innovation covariances
-#: (2 n_p + 1 runs x n x 9 x 9 doubles: 15 kB per sample with 10 parameters).
+#: (2 n_p + 1 runs x n x m x m doubles: 15 kB per sample with 10 parameters and the IMU's
+#: 9 outputs; 33 kB with the air data's 3 outputs and 4 calibration parameters).
 MAX_SAMPLES = 5000
 
 
@@ -209,10 +210,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
         prior = flight.airframe.prior_vector()
         theta_base = prior.copy() if holds is None else holds.with_held(prior)
         free, scale, mean, info_prior = _fem_setup.free_parameters(prior, holds)
-        model = (gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model)
-                 if air is None else
-                 gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model,
-                            air.channels, air.calibration, air.probe))
+        probe = () if air is None else (air.channels, air.calibration, air.probe)
+        model = gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model,
+                           *probe)
         problem = _fem_fit.Problem(model, zs, x0, P0x, decay, theta_base, free, scale,
                                    self.estimate_wind, mean, info_prior)
         p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)],
