@@ -27,7 +27,7 @@ min of 5), innovations the same to 7e-13.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import casadi as ca
@@ -75,6 +75,11 @@ class GustModel:
     positions: np.ndarray
     dt: float
     compiled: bool
+    #: Air-data channels measured after the IMU's, their calibration parameters, the
+    #: probe's position [m, body] (:mod:`baselines._fem_air`; none by default).
+    air_channels: tuple[str, ...] = ()
+    calibration: tuple[str, ...] = ()
+    probe: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def n_samples(self) -> int:
@@ -83,9 +88,12 @@ class GustModel:
 
 
 def gust_model(flight: Flight, substeps: int, input: str, delay_s: float,  # noqa: A002
-               compile_model: bool = True) -> GustModel:
+               compile_model: bool = True, channels: tuple[str, ...] = (),
+               calibration: tuple[str, ...] = (), probe: np.ndarray | None = None
+               ) -> GustModel:
     """The model of ``flight`` with the wind as states, accelerometers at the airframe's
-    positions (:func:`baselines._fem_model.step_functions`)."""
+    positions (:func:`baselines._fem_model.step_functions`); with air-data ``channels``
+    measured at ``probe`` [m, body] with ``calibration`` parameters after the IMU's."""
     record = flight_record(flight, input, delay_s)
     const = Constants(*(float(v) for v in model_constants(flight)))
     varying = record.exogenous is not None
@@ -94,9 +102,12 @@ def gust_model(flight: Flight, substeps: int, input: str, delay_s: float,  # noq
     delta, pieces, exo = record.symbolic_inputs()
     predict, update, compiled = step_functions(const, float(record.dt), int(substeps),
                                                int(record.n_pieces), varying,
-                                               len(OUTPUT_CHANNELS), compile_model)
+                                               len(OUTPUT_CHANNELS), compile_model,
+                                               tuple(channels), tuple(calibration))
     return GustModel(predict, update, delta[0], pieces, exo,
-                     flight.airframe.accel_positions.ravel(), float(record.dt), compiled)
+                     flight.airframe.accel_positions.ravel(), float(record.dt), compiled,
+                     tuple(channels), tuple(calibration),
+                     np.zeros(3) if probe is None else np.asarray(probe, dtype=float))
 
 
 _WIND = slice(N_STATE, N_FILTER)
@@ -104,7 +115,7 @@ _WIND = slice(N_STATE, N_FILTER)
 
 def run_filters(model: GustModel, theta: np.ndarray, steady: np.ndarray, sigma: np.ndarray,
                 decay: float, x0: np.ndarray, P0x: np.ndarray, R: np.ndarray,
-                zs: np.ndarray) -> FilterRuns:
+                zs: np.ndarray, cal: np.ndarray | None = None) -> FilterRuns:
     """Run ``r`` gust filters over the measurements ``zs`` (module docstring).
 
     Parameters
@@ -125,6 +136,9 @@ def run_filters(model: GustModel, theta: np.ndarray, steady: np.ndarray, sigma: 
     R : ndarray, shape (m,) or (n, m)
         Measurement-noise variances (per channel, or per sample and channel).
     zs : ndarray, shape (n, m)
+        The IMU's outputs, then the model's air-data channels (``model.air_channels``).
+    cal : ndarray, shape (r, len(model.calibration)), optional
+        The air data's calibration parameters of each run (zeros when not given).
 
     Returns
     -------
@@ -146,9 +160,14 @@ def run_filters(model: GustModel, theta: np.ndarray, steady: np.ndarray, sigma: 
                                          [False] * 2),
                        [x.T, np.hstack(list(P)), theta.T, steady.T, [decay], q[None],
                         model.pieces[:, 0], model.exo[:, 0], model.exo[:, 0]])
-    update = Buffered(model.update.map(r, [False] * 3 + [True] * 5, [False] * 4),
+    air: list = []  # the calibration per run, the probe shared
+    if model.air_channels:
+        cal = np.zeros((r, len(model.calibration))) if cal is None else np.asarray(cal, float)
+        air = [np.ascontiguousarray(cal.T), model.probe]
+    update = Buffered(model.update.map(r, [False] * 3 + [True] * 5 + [False, True][:len(air)],
+                                       [False] * 4),
                       [x.T, np.hstack(list(P)), theta.T, model.delta[:1], model.exo[:, 0],
-                       model.positions, zs[0], R[0]])
+                       model.positions, zs[0], R[0], *air])
     innovation = np.empty((r, n, m))
     S_all = np.empty((r, n, m, m))
     xs = np.empty((r, n, N_FILTER))

@@ -35,6 +35,7 @@ import numpy as np
 
 from baselines._fem_filter import FilterRuns, GustModel, run_filters
 from baselines._fem_model import N_WIND
+from baselines._oe_airdata import calibration_scales
 
 #: Central-difference step of the scaled parameters: the innovations are smooth in them
 #: (truncation ~h^2 = 1e-8 relative), rounding ~eps / h = 2e-12 relative.
@@ -79,6 +80,9 @@ class Problem:
         module docstring).
     prior_mean, prior_info : ndarray, shape (n_free,)
         Gaussian priors on the free coefficients (information 0: none), physical units.
+
+    With air data (``model.calibration``: their calibration parameters, scaled by
+    :func:`baselines._oe_airdata.calibration_scales`) those come last in ``p``.
     """
 
     model: GustModel
@@ -95,8 +99,20 @@ class Problem:
 
     @property
     def n_parameters(self) -> int:
-        """Scaled parameters: the free coefficients, log sigma, the wind if estimated."""
-        return self.free.size + 1 + (N_WIND if self.estimate_wind else 0)
+        """Scaled parameters: the free coefficients, log sigma, the wind if estimated, the
+        air data's calibration."""
+        return self.free.size + 1 + (N_WIND if self.estimate_wind else 0) + self.n_calibration
+
+    @property
+    def n_calibration(self) -> int:
+        """The air data's calibration parameters (last in ``p``; 0 without air data)."""
+        return len(self.model.calibration)
+
+    def calibration(self, p: np.ndarray) -> np.ndarray:
+        """The air data's calibration (r, n_calibration) of the rows ``p`` (r, n_p), physical
+        (factors, offsets [rad])."""
+        n_cal = self.n_calibration
+        return p[:, p.shape[1] - n_cal:] * calibration_scales(list(self.model.calibration))
 
     @property
     def i_sigma(self) -> int:
@@ -109,14 +125,15 @@ class Problem:
         theta = np.tile(self.theta_base, (p.shape[0], 1))
         theta[:, self.free] = p[:, :self.free.size] * self.scale
         sigma = np.exp(p[:, self.i_sigma])
-        wind = p[:, self.i_sigma + 1:] if self.estimate_wind else np.zeros((p.shape[0], N_WIND))
+        wind = (p[:, self.i_sigma + 1:self.i_sigma + 1 + N_WIND] if self.estimate_wind
+                else np.zeros((p.shape[0], N_WIND)))
         return theta, wind, sigma
 
     def run(self, p: np.ndarray, R: np.ndarray) -> FilterRuns:
         """The filters of the parameter rows ``p`` (r, n_p) with noise variances ``R``."""
         theta, wind, sigma = self.unpack(p)
         return run_filters(self.model, theta, wind, sigma, self.decay, self.x0, self.P0x, R,
-                           self.zs)
+                           self.zs, self.calibration(p) if self.n_calibration else None)
 
     def prior_cost(self, p: np.ndarray) -> np.ndarray:
         """``1/2 sum ((theta - mu) / s)^2`` of each row of ``p`` (r,)."""
@@ -189,6 +206,17 @@ def sensitivities(problem: Problem, p: np.ndarray, R: np.ndarray, *, central: bo
     return center, dnu, dS, bool(np.all(runs.ok))
 
 
+def information(problem: Problem, p: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The innovations' Fisher information (n_p, n_p) at the scaled parameters ``p`` with
+    noise variances ``R`` (central differences, the priors' added): its inverse is the
+    Cramér-Rao covariance there, e.g. at the truth of a simulated flight."""
+    center, dnu, dS, _ = sensitivities(problem, p, R)
+    _, M = score_information(center.innovation[0], center.S[0], dnu, dS)
+    nf = problem.free.size
+    M[:nf, :nf] += np.diag(problem.prior_info * problem.scale**2)
+    return M
+
+
 @dataclass
 class Fit:
     """The end of :func:`fisher_scoring` (scaled parameters)."""
@@ -207,14 +235,17 @@ class Fit:
     history_cost: list[float] = field(default_factory=list)
 
 
-def _innovation_noise(runs: FilterRuns, R: np.ndarray, floor: np.ndarray) -> np.ndarray:
-    """FVSysID-style noise update: ``R_c = mean_k(nu_c^2 - (H P^- H^T)_cc)``, floored."""
+def _innovation_noise(runs: FilterRuns, R: np.ndarray, floor: np.ndarray,
+                      which: np.ndarray | bool = True) -> np.ndarray:
+    """FVSysID-style noise update: ``R_c = mean_k(nu_c^2 - (H P^- H^T)_cc)``, floored, of
+    the channels ``which`` (all by default; the others keep ``R``)."""
     state_part = np.diagonal(runs.S[0], axis1=-2, axis2=-1) - R
-    return np.maximum(np.mean(runs.innovation[0] ** 2 - state_part, axis=0), floor)
+    new = np.maximum(np.mean(runs.innovation[0] ** 2 - state_part, axis=0), floor)
+    return np.where(which, new, R)
 
 
 def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
-                   update_noise: bool, r_floor: np.ndarray, max_iterations: int,
+                   update_noise: bool | np.ndarray, r_floor: np.ndarray, max_iterations: int,
                    tol: float) -> Fit:
     """Minimise :func:`nll` (plus the priors) from ``p0`` (module docstring).
 
@@ -223,7 +254,8 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
     ``tol`` of its Cramér-Rao sd (and,
     with ``update_noise``, the noise variances changed by less than 1 %). ``R`` (m,): the
     measurement-noise variances, re-estimated from the innovations after every iteration
-    when ``update_noise``.
+    when ``update_noise`` (a bool, or one per channel: the IMU's held from the metadata,
+    the probe's re-estimated).
     """
     p = np.array(p0, dtype=float)
     n_p = p.size
@@ -283,11 +315,12 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
         history_p.append(p.copy())
         damping = max(damping * DAMPING[2], 1e-12)
         settled = True
-        if update_noise:
+        if np.any(update_noise):
             new_R = _innovation_noise(FilterRuns(trial_runs.innovation[best:best + 1],
                                                  trial_runs.S[best:best + 1],
                                                  trial_runs.ok[best:best + 1],
-                                                 trial_runs.x[best:best + 1]), R, r_floor)
+                                                 trial_runs.x[best:best + 1]), R, r_floor,
+                                      np.asarray(update_noise, dtype=bool))
             settled = bool(np.all(np.abs(new_R / R - 1.0) < 0.01))
             R = new_R
         if np.all(remaining < tol) and settled:

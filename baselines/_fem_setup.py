@@ -34,7 +34,7 @@ class Noise(NamedTuple):
 
     R: np.ndarray  # (m,) variances
     floor: np.ndarray  # (m,)
-    update: bool  # re-estimated from the innovations
+    update: bool | np.ndarray  # re-estimated from the innovations (or per channel)
     source: str  # "metadata" or "innovations"
     note: str
 

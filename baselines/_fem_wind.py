@@ -65,8 +65,9 @@ class FemWindOption:
         Also estimate a steady wind (north, east, down [m/s]; default False: the gusts
         are zero-mean), the gusts decaying towards it; reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a one-line notice:
-        for a steady wind without turbulence (in turbulence the along-path part is not
-        identified; :mod:`baselines._fem_wind`).
+        for a steady wind without turbulence, or in turbulence with an airspeed channel
+        (``air_data = measured``; from an IMU alone the along-path part is not
+        identified there; :mod:`baselines._fem_wind`).
     """
 
     estimate_wind: bool = False
@@ -119,7 +120,8 @@ def steady_verdict(gust_ned: np.ndarray, allowed_sd: float, sigma: float, dt: fl
         return SteadyVerdict(True, "", figures)
     remedy = ("" if estimated else "; estimate it: --option estimate_wind=true, or "
               "output-error with estimate_wind (without turbulence: in turbulence the "
-              "along-path part is not identified from an IMU)")
+              "along-path part is not identified from an IMU; with an airspeed channel, "
+              "air_data = measured, it is)")
     shown = ", ".join(f"{v:+.2f}" for v in mean)
     return SteadyVerdict(False, (
         f"{who}: the filtered wind holds a steady ({shown}) m/s NED, {float(np.max(z)):.1f} "

@@ -37,6 +37,9 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
   asserts, held coefficients and priors, is tested by a likelihood ratio against a fit
   with them free (:mod:`baselines._fem_holds`): a pitch-plane coefficient held wrong is
   refused there.
+- **Air data** (``air_data``, default ``inertial``): a probe's alpha, beta and airspeed as
+  measured outputs of the filter, their calibration as parameters
+  (:mod:`baselines._fem_air`).
 """
 
 from __future__ import annotations
@@ -44,7 +47,7 @@ from __future__ import annotations
 import contextlib
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 
@@ -52,18 +55,34 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult, Estimator, failed_result
 from aeroid.flights import INPUTS, MIL_SCALE_LENGTH_M, Flight
 from aeroid.model import N_STATE, NAMES, OUTPUT_CHANNELS, PHI, PSI, THETA, P
-from baselines import _common, _fem_fit, _fem_holds, _fem_setup, _fem_wind
+from baselines import _common, _fem_air, _fem_fit, _fem_holds, _fem_setup, _fem_wind
 from baselines._fem_filter import gust_model
 from baselines._fem_model import N_WIND
 from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
 
+
+class Start(NamedTuple):
+    """The likelihood's problem, the scaled start ``p0``, the measurement noise, the air
+    data used (or None), the gusts' time constant [s], the record's speed [m/s] and the
+    airframe's prior coefficients (:meth:`FilterErrorEstimator.start`)."""
+
+    problem: _fem_fit.Problem
+    p0: np.ndarray
+    noise: _fem_setup.Noise
+    air: _fem_air.FemAirPlan | None
+    tau: float
+    speed: float
+    prior: np.ndarray
+
+
 #: Samples at most: the filter keeps every perturbed run's innovation covariances
-#: (2 n_p + 1 runs x n x 9 x 9 doubles: 15 kB per sample with 10 parameters).
+#: (2 n_p + 1 runs x n x m x m doubles: 15 kB per sample with 10 parameters and the IMU's
+#: 9 outputs; 33 kB with the air data's 3 outputs and 4 calibration parameters).
 MAX_SAMPLES = 5000
 
 
 @dataclass(frozen=True, kw_only=True)
-class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
+class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estimator):
     """Filter-error maximum likelihood: an EKF with NED gust states inside the likelihood.
 
     Starts from the airframe's prior coefficients and ``gust_sd_start_mps``; the module
@@ -104,8 +123,15 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         Also estimate a steady wind (north, east, down [m/s]; default False: the gusts
         are zero-mean), the gusts decaying towards it; reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a one-line notice:
-        for a steady wind without turbulence (in turbulence the along-path part is not
-        identified; :mod:`baselines._fem_wind`).
+        for a steady wind without turbulence, or in turbulence with an airspeed channel
+        (``air_data = measured``; from an IMU alone the along-path part is not
+        identified there; :mod:`baselines._fem_wind`).
+    air_data : {"inertial", "auto", "measured"}
+        The flight's air data (alpha, beta that differ from the inertial ones, airspeed)
+        as measured outputs: ``measured`` or ``auto`` (when the flight has them);
+        ``inertial`` (default) leaves them out, said in one line
+        (:class:`baselines._fem_air.FemAirOption`, also ``air_data_calibration`` and
+        ``air_data_noise``).
 
     Notes
     -----
@@ -119,7 +145,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
     ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each
     sample, ``state_filtered`` (n, N_STATE): the filtered state, ``gust_verdict``: the gust
     verdict's figures (:class:`baselines._gust_verdict.GustVerdict`) and the steady-wind
-    verdict's (:class:`baselines._fem_wind.SteadyVerdict`).
+    verdict's (:class:`baselines._fem_wind.SteadyVerdict`). With air data ``air_data``
+    (:func:`baselines._fem_air.air_report`), the probe's channels in ``fit_residuals``
+    and ``R`` after the IMU's, the calibration last in ``parameters``.
     """
 
     name: ClassVar[str] = "filter-error"
@@ -152,14 +180,16 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         for key in ("scale_length_m", "gust_sd_start_mps", "tol"):
             if not (math.isfinite(getattr(self, key)) and getattr(self, key) > 0):
                 raise ValueError(f"{key} must be a positive number, got {getattr(self, key)}")
+        self.check_air_options()
 
-    def parameter_names(self, free_names: tuple[str, ...]) -> tuple[str, ...]:
-        """Names of the estimated parameters, in the order of ``info['parameters']``."""
-        return (*free_names, "gust_sd_mps", *_fem_wind.wind_names(self))
+    def parameter_names(self, free_names: tuple[str, ...], calibration: tuple[str, ...] = ()
+                        ) -> tuple[str, ...]:
+        """Names of the estimated parameters, in the order of ``info['parameters']``
+        (``calibration``: the air data's, last)."""
+        return (*free_names, "gust_sd_mps", *_fem_wind.wind_names(self), *calibration)
 
-    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
-            ) -> EstimationResult:
-        """Fit the flight (no random draws: ``rng`` is unused)."""
+    def start(self, flight: Flight, holds: Any = None) -> Start:
+        """The likelihood's problem on a validated ``flight`` and where the fit starts."""
         if flight.n_samples > MAX_SAMPLES:
             raise EstimatorError(f"{self.name}: {flight.n_samples} samples; it fits at most "
                                  f"{MAX_SAMPLES} at once (the perturbed filters' innovation "
@@ -168,15 +198,32 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         noise = _fem_setup.measurement_noise(flight, zs, self.measurement_noise, self.name)
         _fem_setup.say(noise.note)
         x0, P0x = _fem_setup.initial_state(flight, zs, noise.R)
+        air = _fem_air.air_plan(self, flight)  # the probe's channels after the IMU's
+        if air is not None:
+            noise = noise._replace(
+                R=np.concatenate([noise.R, air.var]),
+                floor=np.concatenate([noise.floor, air.floor]),
+                update=np.concatenate([np.full(zs.shape[1], noise.update),
+                                       np.full(len(air.channels), not air.held)]))
+            zs = np.hstack([zs, air.z])
         decay, tau, speed = _fem_setup.gust_decay(flight, self.scale_length_m)
         prior = flight.airframe.prior_vector()
         theta_base = prior.copy() if holds is None else holds.with_held(prior)
         free, scale, mean, info_prior = _fem_setup.free_parameters(prior, holds)
-        problem = _fem_fit.Problem(
-            gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model),
-            zs, x0, P0x, decay, theta_base, free, scale, self.estimate_wind, mean, info_prior)
+        probe = () if air is None else (air.channels, air.calibration, air.probe)
+        model = gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model,
+                           *probe)
+        problem = _fem_fit.Problem(model, zs, x0, P0x, decay, theta_base, free, scale,
+                                   self.estimate_wind, mean, info_prior)
         p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)],
-                             np.zeros(len(_fem_wind.wind_names(self)))])
+                             np.zeros(len(_fem_wind.wind_names(self))),
+                             _fem_air.calibration_start(air)])
+        return Start(problem, p0, noise, air, tau, speed, prior)
+
+    def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None
+            ) -> EstimationResult:
+        """Fit the flight (no random draws: ``rng`` is unused)."""
+        problem, p0, noise, air, tau, speed, prior = self.start(flight, holds)
         try:
             fit = _fem_fit.fisher_scoring(problem, p0, noise.R, update_noise=noise.update,
                                           r_floor=noise.floor,
@@ -186,13 +233,15 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         test = _fem_holds.hold_test(problem, fit, holds, prior, update_noise=noise.update,
                                     r_floor=noise.floor, max_iterations=self.max_iterations,
                                     tol=self.tol, who=self.name)
-        return self._result(flight, problem, fit, noise, tau, speed, test)
+        return self._result(flight, problem, fit, noise, tau, speed, test, air)
 
     def _result(self, flight: Flight, problem: _fem_fit.Problem, fit: _fem_fit.Fit,
                 noise: _fem_setup.Noise, tau: float, speed: float,
-                test: _fem_holds.HoldTest | None = None) -> EstimationResult:
+                test: _fem_holds.HoldTest | None = None,
+                air: _fem_air.FemAirPlan | None = None) -> EstimationResult:
         """Turn the fit into an :class:`EstimationResult` (class docstring, Notes)."""
         n_p, nf, i_s = fit.p.size, problem.free.size, problem.i_sigma
+        n_cal = problem.n_calibration
         active = np.array([i != i_s or not fit.at_bound for i in range(n_p)])
         cov_p = np.full((n_p, n_p), np.nan)
         with contextlib.suppress(np.linalg.LinAlgError):  # then NaN: no standard errors
@@ -205,6 +254,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         phys = fit.p.copy()
         phys[:nf] *= problem.scale
         phys[i_s] = math.exp(fit.p[i_s])
+        if n_cal:  # the calibration: scaled as output-error's
+            phys[n_p - n_cal:] = problem.calibration(fit.p[None])[0]
+            jac[n_p - n_cal:] = _fem_air.calibration_scales(list(problem.model.calibration))
         cov_phys = cov_p * np.outer(jac, jac)
         stderr_phys = np.sqrt(np.abs(np.diag(cov_phys)))
         theta, steady, _ = problem.unpack(fit.p[None])
@@ -215,8 +267,10 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         runs = fit.runs
         S_diag = np.diagonal(runs.S[0], axis1=-2, axis2=-1)
         free_names = tuple(NAMES[i] for i in problem.free)
+        channels = (*OUTPUT_CHANNELS, *problem.model.air_channels)
         info: dict[str, Any] = {
-            "parameter_names": self.parameter_names(free_names), "parameters": phys,
+            "parameter_names": self.parameter_names(free_names, problem.model.calibration),
+            "parameters": phys,
             "parameter_stderr": stderr_phys, "parameter_covariance": cov_phys,
             "fisher": fit.information, "gust_sd_mps": float(phys[i_s]),
             "gust_sd_stderr_mps": float(stderr_phys[i_s]), "gust_sd_at_bound": fit.at_bound,
@@ -226,8 +280,7 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
             "iterations": fit.n_iterations,
             "wind_filtered_ned_mps": runs.x[0][:, -N_WIND:],
             "state_filtered": runs.x[0][:, :N_STATE],
-            "fit_residuals": {c: runs.innovation[0][:, j]
-                              for j, c in enumerate(OUTPUT_CHANNELS)},
+            "fit_residuals": {c: runs.innovation[0][:, j] for j, c in enumerate(channels)},
         }
         x = runs.x[0]
         gust = x[:, -N_WIND:] - steady[0]  # the gusts alone (steady: 0 unless estimated)
@@ -244,7 +297,14 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, Estimator):
         if success and not steady_check.ok:
             success, message = False, steady_check.message
         warnings: list[str] = _fem_wind.wind_report(
-            self.name, steady[0] if self.estimate_wind else None, stderr_phys[i_s + 1:], info)
+            self.name, steady[0] if self.estimate_wind else None,
+            stderr_phys[i_s + 1:n_p - n_cal], info)
+        if air is not None:
+            m = len(OUTPUT_CHANNELS)
+            info["air_data"], said = _fem_air.air_report(
+                air, phys[n_p - n_cal:], stderr_phys[n_p - n_cal:], fit.R[m:], self.name,
+                flight)
+            warnings += said
         if test is not None:  # the user's holds and priors against the data
             info["hold_test"] = test.figures
             if success and not test.ok:

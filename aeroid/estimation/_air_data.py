@@ -243,4 +243,5 @@ def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:
          if has_air_angles(flight) else []) + (["airspeed"] if has_airspeed(flight) else []))
     return (f"{owner}: takes the aerodynamic angles from u, v, w and ignores the flight's "
             f"{logged}; equation-error, EBM-PSO and SEBM-PSO use them (option air_data), "
-            "output-error, the EKF and the UKF as measured outputs (option air_data = measured)")
+            "output-error, the EKF, the UKF and filter-error as measured outputs (option "
+            "air_data = measured)")
