@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from aeroid.errors import EstimatorError
+from aeroid.errors import EstimatorError, FlightError
 from aeroid.estimation import estimate_noise_sd, get_estimator, predict, switch_free_samples
 from aeroid.estimation._predict_air import prediction_air
 from aeroid.flights import GaussianNoise, Wind, simulate
@@ -126,3 +126,26 @@ def test_bad_air_is_one_line(ee_windy, windy) -> None:
     with pytest.raises(EstimatorError) as info:
         predict(bad, windy)
     assert "wind_ned_mps" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_ebm_pso_is_drawn_in_equation_error_s_wind(ee_windy, windy) -> None:
+    small = {"n_particles": 20, "n_iterations": 5, "polish": True, "air_data": "measured"}
+    ebm = get_estimator("ebm-pso")(**small).fit(windy, rng=1)
+    ours, theirs = prediction_air(ebm, windy), prediction_air(ee_windy, windy)
+    assert ours.source == theirs.source == "measured"
+    np.testing.assert_array_equal(ours.wind, theirs.wind)  # one code path, to the bit
+    np.testing.assert_allclose(ours.wind.mean(axis=0), WIND, atol=0.3)
+
+
+def test_the_reconstruction_s_wind(ee_windy, windy) -> None:
+    carried = dataclasses.replace(windy, metadata={
+        **windy.metadata, "wind_ned_mps": [3.0, 4.0, 0.0], "wind_stderr_mps": [0.1] * 3})
+    result = dataclasses.replace(ee_windy, info={**ee_windy.info,
+                                                 "air_data": "reconstruction"})
+    air = prediction_air(result, carried)
+    assert air.source == "reconstruction"
+    assert air.label == "in the reconstruction's steady wind N +3.00, E +4.00, D +0.00 m/s"
+    np.testing.assert_array_equal(air.wind, np.tile([3.0, 4.0, 0.0], (windy.n_samples, 1)))
+    with pytest.raises(FlightError) as info:  # the flight lacks that wind
+        prediction_air(result, windy)
+    assert "carries no reconstruction's steady wind" in str(info.value)
