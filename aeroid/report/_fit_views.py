@@ -140,7 +140,9 @@ def _filter_view(result: EstimationResult, flight: Flight, prediction: Any,
              "again from the filtered states the result keeps, and its innovations "
              "(measured minus prediction), the residuals its fit check judged; from the "
              f"second sample (the first is the fit's start); the ratios below over t >= "
-             f"{flight.t[max(start, 1)]:g} s, the samples the fit check read. Dashed: the "
+             f"{flight.t[max(start, 1)]:g} s" + (" (the fit check also read the first sample)"
+                                                 if start <= 1 else ", the samples the "
+                                                 "fit check read") + ". Dashed: the "
              f"open-loop simulation at the estimate {label}; in turbulence it shows the "
              "gusts' effect, not the fit."]
     return FitView("filter", channels, lines, _filter_wind(result.info, n))
