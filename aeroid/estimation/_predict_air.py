@@ -60,7 +60,7 @@ class PredictionAir:
     def apply(self, const: Constants, record: Record) -> tuple[Constants, Record]:
         """The model's constants and record in this air."""
         if self.steady is not None:
-            return with_steady_wind(const, record, self.steady)
+            return with_steady_wind(const, record, self.steady.tolist())
         if self.wind is not None:
             return const, with_wind_series(const, record, self.wind)
         return const, record

@@ -50,8 +50,8 @@ _WIND = [EXOGENOUS.index(name) for name in EXOGENOUS if name.startswith("wind_")
 
 def has_filter_states(info: Mapping[str, Any], n: int) -> bool:
     """Whether ``info`` keeps a gust filter's filtered states and wind for ``n`` samples."""
-    return (np.shape(info.get("state_filtered")) == (n, N_STATE)
-            and np.shape(info.get("wind_filtered_ned_mps")) == (n, len(_WIND))
+    return (np.shape(info.get("state_filtered", ())) == (n, N_STATE)
+            and np.shape(info.get("wind_filtered_ned_mps", ())) == (n, len(_WIND))
             and isinstance(info.get("gust_time_constant_s"), float | int))
 
 
@@ -116,7 +116,7 @@ def _ekf_states(result: Any, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
     if kept:
         return (f"the EKF's states of {' and '.join(kept)} are not kept per sample, so its "
                 "one-step prediction cannot be made again")
-    arrays = (info.get("state"), info.get("gust_ned_mps"), history.get("theta"))
+    arrays = (info.get("state", ()), info.get("gust_ned_mps", ()), history.get("theta", ()))
     if [np.shape(a) for a in arrays] != [(n, N_STATE), (n, len(_WIND)),
                                          (n, np.size(result.theta))]:
         return "the EKF's filtered states per sample are not in the result"

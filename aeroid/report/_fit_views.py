@@ -110,10 +110,10 @@ def fit_view(result: EstimationResult, flight: Flight, prediction: Any,
 
 
 def _filter_wind(info: Mapping[str, Any], n: int) -> tuple[np.ndarray, str] | None:
-    wind = info.get("wind_filtered_ned_mps")  # filter-error: steady + gusts
+    wind = info.get("wind_filtered_ned_mps", ())  # filter-error: steady + gusts
     if np.shape(wind) == (n, 3):
         return np.asarray(wind, dtype=float), "the filter's wind (filtered: steady + gusts)"
-    gust = info.get("gust_ned_mps")  # the EKF's gust states
+    gust = info.get("gust_ned_mps", ())  # the EKF's gust states
     if np.shape(gust) == (n, 3):
         return np.asarray(gust, dtype=float), "the filter's gusts (filtered)"
     return None
