@@ -125,3 +125,22 @@ def test_filters_that_keep_too_little_are_drawn_open_loop(ekf, gusty) -> None:
     assert view.kind == "open-loop"
     assert any(line.startswith("Not drawn from the filter: ukf's one-step prediction")
                for line in view.lines)
+
+
+def test_filter_error_s_steady_wind_is_where_its_gusts_decay_to(reference_scenario) -> None:
+    s = reference_scenario
+    m = dataclasses.replace(s.manoeuvre, wind=Wind(steady_ned_mps=(3.0, 4.0, 0.0),
+                                                   turbulence_sd_mps=1.0, scale_length_m=533.4))
+    flight = simulate(s.airframe, s.coefficient_vector, m, GaussianNoise(), rng=1)
+    result, innovations = _fit_with_innovations("filter-error", {"estimate_wind": True},
+                                                flight)
+    assert result.info["wind_ned_mps"] is not None
+    frame = predict(result, flight)
+    assert frame.attrs["air"] == "steady"  # the open-loop trace in the fitted wind
+    outputs, _ = filter_prediction(result, flight, frame.attrs["input"],
+                                   frame.attrs["delay_s"])
+    assert outputs is not None
+    for j, name in enumerate(OUTPUT_CHANNELS):  # measured 1.5e-12
+        theirs = innovations[name][1:]
+        ours = flight[name][1:] - outputs[1:, j]
+        assert np.max(np.abs(ours - theirs)) < INNOVATION_RTOL * np.sqrt(np.mean(theirs ** 2))
