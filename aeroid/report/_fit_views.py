@@ -106,6 +106,8 @@ def fit_view(result: EstimationResult, flight: Flight, prediction: Any,
                      "effect.")
     wind = None if air == "still" else (np.asarray(attrs["wind_ned_mps"], dtype=float),
                                         f"wind per sample: the model is drawn {label}")
+    if wind is None and why:  # a gust filter drawn open-loop: its gusts beside it
+        wind = _filter_wind(result.info, n)
     return FitView("open-loop", channels, lines, wind)
 
 

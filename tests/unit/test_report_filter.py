@@ -122,7 +122,8 @@ def test_filters_that_keep_too_little_are_drawn_open_loop(ekf, gusty) -> None:
                                          frame.attrs["delay_s"])
         assert outputs is None and words in why and "\n" not in why
     view = fit_view(cases["sigma points"], gusty, frame, _levels(result))
-    assert view.kind == "open-loop"
+    assert view.kind == "open-loop" and view.wind is not None  # the filter's gusts
+    np.testing.assert_array_equal(view.wind[0], result.info["gust_ned_mps"])
     assert any(line.startswith("Not drawn from the filter: ukf's one-step prediction")
                for line in view.lines)
 
