@@ -236,12 +236,12 @@ def ignored_air_data_warning(flight: Flight, owner: str) -> str | None:
             return None
         return (f"{owner}: takes the aerodynamic angles from u, v, w (still air) and ignores "
                 f"the reconstruction's steady wind the flight carries (metadata {WIND_KEY}); "
-                "equation-error, EBM-PSO and SEBM-PSO use it (option air_data), output-error "
+                "equation-error and the PSO methods use it (option air_data), output-error "
                 "estimates its own (estimate_wind)")
     logged = " and ".join(
         (["logged alpha, beta (they differ: wind, or a vane's calibration)"]
          if has_air_angles(flight) else []) + (["airspeed"] if has_airspeed(flight) else []))
     return (f"{owner}: takes the aerodynamic angles from u, v, w and ignores the flight's "
-            f"{logged}; equation-error, EBM-PSO and SEBM-PSO use them (option air_data), "
+            f"{logged}; equation-error and the PSO methods use them (option air_data), "
             "output-error, the EKF, the UKF and filter-error as measured outputs (option "
             "air_data = measured)")

@@ -3,6 +3,8 @@
 Every particle's coefficients are simulated over the whole record (batched RK4 over the
 swarm, :func:`aeroid.model.propagate`) and the predicted triad-1 accelerations and
 rates are compared with the measured ones (:class:`aeroid.estimation.OutputErrorCost`).
+With ``air_data`` the swarm flies in the wind the logged air data imply
+(:mod:`aeroid.estimation._eam_air`).
 """
 
 from __future__ import annotations
@@ -13,13 +15,12 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from aeroid.errors import EstimatorError
+from aeroid.estimation._eam_air import WindOutputErrorCost, check_air_options
 from aeroid.estimation._estimator import prior_bounds
 from aeroid.estimation._holds import CoefficientSpec
-from aeroid.estimation._objectives import (
-    EAM_ROLL_WINDOW,
-    OutputErrorCost,
-)
+from aeroid.estimation._objectives import EAM_ROLL_WINDOW
 from aeroid.estimation._polish import polish_info
+from aeroid.estimation._pso_air import step_one_air, with_step_one_air
 from aeroid.estimation._pso_methods import (
     MAX_SUBSTEPS,
     PSOMethodOptions,
@@ -86,6 +87,15 @@ class EAMPSO(PSOMethodOptions):
         point, within the box (default False, the paper's method; see Notes).
     polish_initial_rates : bool
         With ``polish``: also fit the initial body rates p, q, r (default True; see Notes).
+    air_data : {"inertial", "auto", "measured", "reconstruction"}
+        The air the swarm's simulation flies in: still air (default inertial, the paper's:
+        the flight's logged air data are said ignored), the wind the logged alpha, beta
+        and airspeed imply when the flight has them (auto), those or a one-line refusal
+        (measured), or the reconstruction's steady wind (reconstruction), as EBM-PSO's
+        option of that name (:mod:`aeroid.estimation._eam_air`).
+    air_data_window_s : float or None
+        Smoothing of that wind, as EBM-PSO's: None (default) the Kalman smoother whose
+        gust intensity the data choose, or a Savitzky-Golay window of that many seconds.
 
     Notes
     -----
@@ -104,6 +114,7 @@ class EAMPSO(PSOMethodOptions):
 
     name: ClassVar[str] = "eam-pso"
     supports_holds: ClassVar[bool] = True  # the search over the free ones: held_search
+    uses_air_data: ClassVar[bool] = True  # option air_data (_eam_air.py)
     description: ClassVar[str] = ("output error (eq. 23): batched RK4 of the whole swarm, "
                                   "modified PSO (paper, 450 x 200)")
 
@@ -116,10 +127,13 @@ class EAMPSO(PSOMethodOptions):
     input: Literal["auto", "hold", "midpoint", "events", "law"] = "auto"
     delay_s: float = 0.0
     polish_initial_rates: bool = True
+    air_data: Literal["inertial", "auto", "measured", "reconstruction"] = "inertial"
+    air_data_window_s: float | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
         check_swarm_size(self.n_particles)
+        check_air_options(self)
         if self.roll_window < 1 or self.roll_window % 2 == 0:
             raise ValueError(f"roll_window must be a positive odd integer, got {self.roll_window}")
         if not 1 <= self.substeps <= MAX_SUBSTEPS:
@@ -146,7 +160,8 @@ class EAMPSO(PSOMethodOptions):
                 f"{MAX_SWARM_STATE_BYTES / 2**30:.0f} GiB): use fewer particles or a "
                 "shorter window")
         bounds = prior_bounds(flight.airframe, self.box)
-        cost = OutputErrorCost(flight, weighting=self.weighting,
+        air = step_one_air(self, flight)  # the wind of the logged air data, or still air
+        cost = WindOutputErrorCost(flight, air.wind, weighting=self.weighting,
                                guard_fraction=self.guard_fraction, substeps=self.substeps,
                                initial_state=self.initial_state, roll_window=self.roll_window,
                                input=self.input, delay_s=self.delay_s)
@@ -165,7 +180,8 @@ class EAMPSO(PSOMethodOptions):
             info["polish"] = polish_info(polished)
         info["fit_residuals"] = {name: info["measured"][:, j] - info["predicted"][:, j]
                                  for j, name in enumerate(info["outputs"])}
-        return EstimationResult(
+        return with_step_one_air(EstimationResult(  # air_data's info, lines and refusal
             estimator=self.name, theta=res.x, cost=res.cost, success=res.success,
             message=res.message, warnings=warnings, n_evaluations=res.n_evaluations,
-            n_iterations=res.n_iterations, history=pso_history(res), info=info)
+            n_iterations=res.n_iterations, history=pso_history(res), info=info),
+            self, flight, air)

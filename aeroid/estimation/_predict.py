@@ -10,6 +10,8 @@ own view of the flight wherever the result records it:
   option, else none);
 * the accelerometer positions: the estimated ``info["accel_positions_m"]``, else the
   airframe's;
+* the air: the wind the fit used (a fitted steady wind, the air data's per-sample wind,
+  the reconstruction's), else still air (:mod:`aeroid.estimation._predict_air`);
 * RK4 steps per sample: the fit's ``substeps`` option, else :data:`PREDICT_SUBSTEPS`;
 * the IMU's errors: a fit that estimated them (``info["imu_errors"]``: biases ``b`` and
   scale factors ``s`` + channel, output-error's and the EKF/UKF's ``imu_errors`` option)
@@ -36,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from aeroid.errors import EstimatorError
+from aeroid.estimation._predict_air import prediction_air
 from aeroid.estimation._signals import estimate_noise_sd, smooth, switch_free_samples
 from aeroid.flights import IMU_ERROR_KINDS
 from aeroid.model import NAMES, STATE_NAMES
@@ -221,8 +224,8 @@ def _initial_state(result: FitResult, flight: Flight, model: ForwardModel,
 
 
 def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
-            initial_state: np.ndarray | None = None, imu_errors: bool = True
-            ) -> pd.DataFrame:
+            initial_state: np.ndarray | None = None, imu_errors: bool = True,
+            air: str = "fit") -> pd.DataFrame:
     """Return the model's outputs at the flight's samples (module docstring).
 
     Parameters
@@ -237,6 +240,8 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
     imu_errors : bool
         Apply the fit's IMU errors, ``(1 + s) model + b`` (default; :func:`sensor_law`);
         ``False``: the model's own accelerations and rates.
+    air : {"fit", "still"}
+        The wind the fit used (default; :mod:`aeroid.estimation._predict_air`) or still air.
 
     Returns
     -------
@@ -245,7 +250,9 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
         accelerations [m/s^2], then p, q, r [rad/s]); ``attrs``: ``input``, ``delay_s``,
         ``substeps``, ``accel_positions_m``, ``initial_state``, ``initial_state_from``,
         ``estimator``, ``imu_errors`` (the biases and scale factors applied, ``{}`` for
-        none) and ``imu_errors_note`` (one line saying what was done).
+        none), ``imu_errors_note`` (one line saying what was done), ``air`` (``still``,
+        ``steady``, ``measured``, ``reconstruction``), ``air_label`` and ``wind_ned_mps``
+        (the wind per sample, n x 3 NED [m/s], as lists).
         NaN where the simulation diverged (or every value, for NaN coefficients).
 
     Raises
@@ -259,7 +266,7 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
                              f"coefficients; this result has {len(result.names)} parameters "
                              "(coefficient tables in Mach: aeroid.report.fitted_tables)")
     from aeroid.flights import flight_record, model_constants
-    from aeroid.model import ForwardModel, with_steady_wind
+    from aeroid.model import ForwardModel
 
     options = _options(result)
     input_mode = str(result.input or result.info.get("input", options.get("input", "hold")))
@@ -272,8 +279,8 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
                  else np.asarray(positions, dtype=float).reshape(-1, 3))
     record = flight_record(flight, input_mode, delay)
     const = model_constants(flight)
-    if result.info.get("wind_ned_mps") is not None:  # the fit's steady wind (output-error)
-        const, record = with_steady_wind(const, record, result.info["wind_ned_mps"])
+    drawn = prediction_air(result, flight, air)  # the fit's wind: _predict_air.py
+    const, record = drawn.apply(const, record)
     model = ForwardModel(const, record, positions, substeps=steps)
     bias, scale, applied = sensor_law(result, tuple(model.output_names))
     if not imu_errors:
@@ -293,7 +300,9 @@ def predict(result: FitResult, flight: Flight, *, substeps: int | None = None,
     frame.attrs.update(input=input_mode, delay_s=delay, substeps=steps,
                        accel_positions_m=positions.tolist(), initial_state=x0.tolist(),
                        initial_state_from=source, estimator=result.estimator,
-                       imu_errors=applied if imu_errors else {}, imu_errors_note=note)
+                       imu_errors=applied if imu_errors else {}, imu_errors_note=note,
+                       air=drawn.source, air_label=drawn.label,
+                       wind_ned_mps=drawn.series(flight.n_samples).tolist())
     return frame
 
 

@@ -13,7 +13,9 @@ below the command line:
   -o OUT --report DIR``).
 
 Modules: ``_files`` (atomic writes), ``_figures`` (the figures), ``_fit`` (one fit's
-report), ``_compare`` (several methods), ``_html`` (a report as one HTML page),
+report), ``_fit_views`` (what its channel figures draw: the model in the fit's air, or
+the filter's one-step predictions), ``_compare`` (several methods), ``_html`` (a report
+as one HTML page),
 ``_reconstruction`` (a reconstruction's report), ``_windows`` (a fit of several windows:
 :func:`write_windows_report`, one set of model panels per window), ``_tables`` (fitted
 coefficient tables in Mach: CSV, JSBSim fragment, figure), ``_reference_curve`` (a
@@ -34,6 +36,7 @@ from aeroid.report._figures import (
     channel_figure,
     correlation_figure,
     deflection_figure,
+    wind_figure,
 )
 from aeroid.report._files import (
     make_directory,
@@ -42,6 +45,7 @@ from aeroid.report._files import (
     write_text_atomic,
 )
 from aeroid.report._fit import REPORT_NAME, report_figures, report_markdown, write_report
+from aeroid.report._fit_views import FitView, fit_view
 from aeroid.report._html import FORMATS, html_page, report_name
 from aeroid.report._log_fit import write_log_report
 from aeroid.report._reconstruction import (
@@ -100,6 +104,9 @@ __all__ = [
     "comparison_text",
     "correlation_figure",
     "deflection_figure",
+    "wind_figure",
+    "FitView",
+    "fit_view",
     "html_page",
     "make_directory",
     "options_note",

@@ -10,6 +10,7 @@ axes name their channel and unit, so a test (or a notebook) can read them; writi
   the +-1.96/sqrt(n) band of white noise;
 - :func:`deflection_figure`: the logged deflection and the one the fit's model used
   (its input between samples and its delay);
+- :func:`wind_figure`: the wind the model is drawn in, or the filter's wind, per sample;
 - :func:`correlation_figure`: the estimates' correlation matrix.
 """
 
@@ -32,7 +33,9 @@ WHITE_Z = 1.96
 
 
 def channel_figure(name: str, unit: str, t: np.ndarray, measured: np.ndarray,
-                   model: np.ndarray, noise_sd: float | None) -> Figure:
+                   model: np.ndarray, noise_sd: float | None, *, model_label: str = "model",
+                   index: np.ndarray | None = None, second: np.ndarray | None = None,
+                   second_label: str = "") -> Figure:
     """Measured and model output of one channel, and the residual with its noise band.
 
     Parameters
@@ -45,22 +48,35 @@ def channel_figure(name: str, unit: str, t: np.ndarray, measured: np.ndarray,
         The logged channel and the model's prediction (:meth:`EstimationResult.predict`).
     noise_sd : float or None
         The channel's noise level (the fit check's); the band is +- :data:`BAND_SD` of it.
+    model_label : str
+        What the model line is (the legend: ``"model in still air"``, ``"filter's one-step
+        prediction"``).
+    index : ndarray of int, optional
+        The samples ``model`` is given at (default all).
+    second, second_label : ndarray, shape (n,), and str, optional
+        A second model trace at every sample, dashed, and its legend (no residual drawn).
     """
+    index = np.arange(np.size(t)) if index is None else np.asarray(index)
     fig = Figure(figsize=(8.0, 5.0))
     fig.subplots_adjust(left=0.12, right=0.97, top=0.93, bottom=0.1, hspace=0.3)
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
     top.plot(t, measured, ".", ms=2.5, color="0.45", label="measured")
-    top.plot(t, model, "-", lw=1.2, color="C0", label="model")
+    top.plot(t[index], model, "-", lw=1.2, color="C0", label=model_label)
+    if second is not None:
+        top.plot(t, second, "--", lw=0.9, color="C1", label=second_label)
+    top.legend(loc="best", fontsize="x-small")
     top.set_ylabel(f"{name} [{unit}]")
-    top.set_title(f"{name} [{unit}]: measured (grey dots) and model (blue line)")
-    residual = measured - model
-    bottom.plot(t, residual, "-", lw=0.8, color="C3")
+    top.set_title(f"{name} [{unit}]: measured (grey dots) and {model_label} (blue line)",
+                  fontsize="medium" if model_label == "model" else "small")
+    residual = measured[index] - model
+    bottom.plot(t[index], residual, "-", lw=0.8, color="C3")
     band = ""
     if noise_sd is not None and np.isfinite(noise_sd):
         bottom.axhspan(-BAND_SD * noise_sd, BAND_SD * noise_sd, color="C2", alpha=0.2)
         band = f"; green: +-{BAND_SD:g} noise sd ({noise_sd:.3g} {unit})"
     bottom.axhline(0.0, color="0.3", lw=0.6)
-    bottom.set_title(f"residual (measured - model){band}", fontsize="medium")
+    what = "innovation" if "one-step" in model_label else "residual"
+    bottom.set_title(f"{what} (measured - {model_label}){band}", fontsize="small")
     bottom.set_ylabel(f"{name} residual [{unit}]")
     bottom.set_xlabel("t [s]")
     return fig
@@ -122,6 +138,20 @@ def deflection_figure(t: np.ndarray, delta: np.ndarray, knot_t: np.ndarray,
     ax.set_ylabel("delta [deg]")
     ax.set_title("delta [deg]: fin deflection logged and used by the model")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize="small")
+    return fig
+
+
+def wind_figure(t: np.ndarray, wind: np.ndarray, label: str) -> Figure:
+    """The wind per sample, north, east and down [m/s] (``wind`` shape (n, 3))."""
+    fig = Figure(figsize=(8.0, 3.6))
+    fig.subplots_adjust(left=0.1, right=0.97, top=0.9, bottom=0.27)
+    ax = fig.subplots()
+    for j, axis in enumerate(("north", "east", "down")):
+        ax.plot(t, np.asarray(wind)[:, j], "-", lw=1.0, color=f"C{j}", label=f"wind {axis}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("wind [m/s]")
+    ax.set_title(f"wind [m/s], NED: {label}", fontsize="small")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, fontsize="small")
     return fig
 
 

@@ -7,12 +7,14 @@ for every output channel with the residual and its noise band; the residual
 autocorrelation; the deflection the model used; the correlation of the estimates.
 
 The model is :meth:`aeroid.estimation.EstimationResult.predict`: an open-loop simulation
-with the fit's input, delay, positions and start, and the fit's IMU errors (biases and
-scale factors: ``reading = (1 + s) model + b``) when it estimated them, so the residuals
-are the ones the fit had. For the filters that is not what they
-fitted (their residuals are one-step innovations) and for the equation-error and EBM
-methods neither (theirs are forces and moments): the fit check's numbers are the method's
-own, the figures the model's outputs; the report says so.
+with the fit's input, delay, positions and start, the fit's IMU errors (biases and scale
+factors: ``reading = (1 + s) model + b``) when it estimated them, and **in the air the fit
+used** (its fitted steady wind, the wind its air data imply, the reconstruction's; the
+still-air model then a second, dashed trace: :mod:`aeroid.report._fit_views`), so the
+residuals are the ones the fit had. For the filters that is not what they fitted (their
+residuals are one-step innovations) and for the equation-error and EBM methods neither
+(theirs are forces and moments): the fit check's numbers are the method's own, the
+figures the model's outputs; the report says so.
 """
 
 from __future__ import annotations
@@ -41,8 +43,10 @@ from aeroid.report._figures import (
     channel_figure,
     correlation_figure,
     deflection_figure,
+    wind_figure,
 )
 from aeroid.report._files import make_directory, write_figure_atomic, write_text_atomic
+from aeroid.report._fit_views import FitView, fit_view, view_lines
 from aeroid.report._html import html_page, report_name
 from aeroid.report._reference_curve import ReferenceCurve, reference_lines
 from aeroid.report._tables import has_tables, write_tables_report
@@ -82,24 +86,29 @@ def _schedule_knots(flight: Flight, input_mode: str, delay: float
 
 
 def report_figures(result: EstimationResult, flight: Flight,
-                   prediction: Any | None = None) -> dict[str, Any]:
+                   prediction: Any | None = None, view: FitView | None = None
+                   ) -> dict[str, Any]:
     """Return the report's figures by file stem: one per output channel, ``autocorrelation``,
-    ``deflection`` and, with a covariance, ``correlation`` (matplotlib Figures).
+    ``deflection``, ``wind`` (moving air: :mod:`aeroid.report._fit_views`) and, with a
+    covariance, ``correlation`` (matplotlib Figures).
 
-    ``prediction``: :meth:`EstimationResult.predict` of the flight, when already made.
-    No model figures when the estimates are not finite (a failed method).
+    ``prediction``: :meth:`EstimationResult.predict` of the flight, ``view``: its
+    :func:`fit_view`, when already made. No model figures when the estimates are not
+    finite (a failed method).
     """
     figures: dict[str, Any] = {}
     if np.all(np.isfinite(result.theta)):
         frame = result.predict(flight) if prediction is None else prediction
         levels = _noise_levels(result, flight)
+        view = fit_view(result, flight, frame, levels) if view is None else view
         residuals = {}
         for name in OUTPUT_CHANNELS:
-            measured = flight[name]
-            model = frame[name].to_numpy()
-            residuals[name] = measured - model
-            figures[name] = channel_figure(name, UNITS[name], flight.t, measured, model,
-                                           levels[name])
+            measured, drawn = flight[name], view.channels[name]
+            residuals[name] = measured[drawn.index] - drawn.model
+            figures[name] = channel_figure(name, UNITS[name], flight.t, measured, drawn.model,
+                                           levels[name], model_label=drawn.label,
+                                           index=drawn.index, second=drawn.second,
+                                           second_label=drawn.second_label)
         figures["autocorrelation"] = autocorrelation_figure(residuals, flight.dt)
         times, values = _schedule_knots(flight, frame.attrs["input"], frame.attrs["delay_s"])
         label = f"model's delta (input {frame.attrs['input']}"
@@ -107,6 +116,8 @@ def report_figures(result: EstimationResult, flight: Flight,
             else ")"
         figures["deflection"] = deflection_figure(flight.t, flight["delta"], times, values,
                                                   label)
+        if view.wind is not None:
+            figures["wind"] = wind_figure(flight.t, *view.wind)
     matrix = _correlation(result)
     if matrix is not None:
         figures["correlation"] = correlation_figure(matrix, result.names)
@@ -197,8 +208,9 @@ def _with_holds(frame: Any, result: EstimationResult) -> Any:
 
 def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[str],
                     notes: Sequence[str] = (), prediction: Any | None = None,
-                    floor: np.ndarray | None = None) -> str:
-    """Return the report's markdown, linking the figure files ``figures`` (stems)."""
+                    floor: np.ndarray | None = None, view: FitView | None = None) -> str:
+    """Return the report's markdown, linking the figure files ``figures`` (stems);
+    ``view``: what the channel figures draw (:func:`aeroid.report._fit_views.fit_view`)."""
     source = flight.metadata.get("source", "flight")
     status = "ok" if result.success else "FAILED"
     lines = [f"# {result.estimator} on {source}", "",
@@ -243,8 +255,11 @@ def report_markdown(result: EstimationResult, flight: Flight, figures: Sequence[
                 result.info["fit_check"].get("ratio", {})):
             lines += ["This method fits forces and moments, not these outputs: the fit "
                       "check above is on its own channels.", ""]
+        lines += view_lines(view) if view is not None else []
     for stem in figures:
-        lines += [f"![{_caption(stem)}]({stem}.png)", ""]
+        drawn = None if view is None else view.channels.get(stem)
+        lines += [f"![{_caption(stem, 'model' if drawn is None else drawn.label)}]"
+                  f"({stem}.png)", ""]
     lines += _details(result)
     return "\n".join(lines).rstrip() + "\n"
 
@@ -281,11 +296,13 @@ def _positions(positions: Sequence[Sequence[float]]) -> str:
     return "; ".join("(" + ", ".join(f"{v:.4g}" for v in row) + ")" for row in positions)
 
 
-def _caption(stem: str) -> str:
+def _caption(stem: str, label: str = "model") -> str:
     if stem in UNITS:
-        return f"{stem} [{UNITS[stem]}]: measured, model and residual"
+        what = "innovation" if "one-step" in label else "residual"
+        return f"{stem} [{UNITS[stem]}]: measured, {label} and {what}"
     return {"autocorrelation": "residual autocorrelation [-] of every output channel",
             "deflection": "delta [deg]: logged and used by the model",
+            "wind": "wind [m/s] per sample, north, east, down",
             "correlation": "correlation of the estimates [-]"}.get(stem, stem)
 
 
@@ -335,10 +352,12 @@ def write_report(result: EstimationResult, flight: Flight, directory: str | Path
     if finite:
         floor = data_floor(flight, result.theta, prediction.attrs["input"],  # type: ignore
                            holds=holds_of(result))  # held: no floor; priors added
-    figures = report_figures(result, flight, prediction)
+    view = None if prediction is None else fit_view(result, flight, prediction,
+                                                     _noise_levels(result, flight))
+    figures = report_figures(result, flight, prediction, view)
     for stem, fig in figures.items():
         write_figure_atomic(fig, folder / f"{stem}.png", DPI)
-    text = report_markdown(result, flight, list(figures), notes, prediction, floor)
+    text = report_markdown(result, flight, list(figures), notes, prediction, floor, view)
     text += "\n" + "\n".join(extra) if extra else ""
     if fmt == "html":
         source = flight.metadata.get("source", "flight")

@@ -32,14 +32,16 @@ _IMU_NAMES = frozenset(imu_error_names("bias+scale"))
 
 
 def window_view(result: EstimationResult, name: str) -> EstimationResult:
-    """The result as seen by window ``name``: its start, delay, input and IMU errors.
+    """The result as seen by window ``name``: its start, delay, input, IMU errors and wind.
 
     ``info`` keeps the shared entries and takes the window's ``initial_state``,
     ``delay_s`` and ``imu_errors`` from ``info['window_parameters'][name]`` (when the method
-    estimated them) and its input from ``info['window_input'][name]``.
+    estimated them), its input from ``info['window_input'][name]`` and its steady wind
+    from ``info['window_wind'][name]`` (drawn in it: :mod:`aeroid.report._fit_views`).
     """
     info = {k: v for k, v in result.info.items()
-            if k not in ("initial_state", "delay_s", "imu_errors", "imu_error_stderr")}
+            if k not in ("initial_state", "delay_s", "imu_errors", "imu_error_stderr",
+                         "wind_ned_mps")}
     own = (result.info.get("window_parameters") or {}).get(name, {})
     if "initial_state" in own:
         info["initial_state"] = np.asarray(own["initial_state"], dtype=float)
@@ -48,6 +50,9 @@ def window_view(result: EstimationResult, name: str) -> EstimationResult:
     imu = {k: float(v) for k, v in own.items() if k in _IMU_NAMES}
     if imu:
         info["imu_errors"] = imu
+    wind = (result.info.get("window_wind") or {}).get(name, {}).get("wind_ned_mps")
+    if wind is not None:  # the window's own steady wind (output-error's estimate_wind)
+        info["wind_ned_mps"] = wind
     choice = (result.info.get("window_input") or {}).get(name, {})
     used = choice.get("input", result.input)
     return dataclasses.replace(result, info=info, input=used)

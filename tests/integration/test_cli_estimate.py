@@ -503,7 +503,8 @@ def test_html_report_of_several_methods(flight_csv, tmp_path, capsys) -> None:
     for method in ("equation-error", "ebm-pso"):
         assert f'<a href="{method}/report.html">{method}: report</a>' in page
         report = (tmp_path / method / "report.html").read_text()
-        assert '<img src="q.png" alt="q [rad/s]: measured, model and residual"' in report
+        assert '<img src="q.png" alt="q [rad/s]: measured, model in still air and residual"' \
+            in report  # the caption says the air (issue 26)
         assert not (tmp_path / method / "report.md").exists()
 
 

@@ -65,7 +65,8 @@ def test_report_files_exist_and_the_markdown_links_them(oe_result, paper_flight,
         assert png.read_bytes()[:8] == PNG, stem
         assert f"]({stem}.png)" in text
     for name in OUTPUT_CHANNELS:
-        assert f"![{name} [{UNITS[name]}]: measured, model and residual]({name}.png)" in text
+        assert f"![{name} [{UNITS[name]}]: measured, model in still air and residual]" \
+            f"({name}.png)" in text  # the caption says the air (issue 26)
     assert not list((tmp_path / "fit").glob("*.tmp"))
     # the coefficient table: estimate, standard error, prior, floor, truth
     assert "| coefficient | estimate | std err | prior (start) | Cramér-Rao floor | truth |" \
@@ -171,7 +172,7 @@ def test_the_html_report_has_the_markdown_report_content(oe_result, paper_flight
     assert sorted(parser.images) == pngs and len(pngs) == len(OUTPUT_CHANNELS) + 3
     for name in OUTPUT_CHANNELS:
         assert parser.images[f"{name}.png"] == \
-            f"{name} [{UNITS[name]}]: measured, model and residual"
+            f"{name} [{UNITS[name]}]: measured, model in still air and residual"
     # the same tables: every markdown table cell is a cell of the page
     md_cells = [c.strip().replace("\\|", "|") for line in md.read_text().splitlines()
                 if line.startswith("| ") for c in line.strip().strip("|").split(" | ")]
