@@ -108,7 +108,7 @@ class Reconstruction:
     innovation_tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected",
-                  aiding: bool = False, air: bool = True) -> Flight:
+                  aiding: bool = False, air: str = "auto") -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
 
         Channels: the IMU readings (corrected by default), ``u v w phi theta psi``
@@ -138,10 +138,11 @@ class Reconstruction:
             Also pass the log's GNSS velocity and INS attitude samples within the flight's
             times, as logged and at their own times, in ``metadata["aiding"]`` (output-error's
             ``aiding``; :mod:`aeroid.reconstruction._aiding`).
-        air : bool
-            The log's air group's channels resampled to the IMU's times (linear
-            interpolation; the probe's position in ``metadata["air_data_probe"]``:
-            :mod:`aeroid.reconstruction._air_samples`); False: the steady wind only.
+        air : {"auto", "samples", "interpolate", "wind"}
+            The log's air group's channels at the IMU's times where it samples there
+            (``"auto"``: else the steady wind only; ``"samples"``: else refused), linearly
+            interpolated (``"interpolate"``), or the steady wind only (``"wind"``); the
+            probe's position in ``metadata["air_data_probe"]`` (:mod:`._air_samples`).
         """
         where = self.metadata.get("source", "suite log")
         if atmosphere not in ATMOSPHERES:

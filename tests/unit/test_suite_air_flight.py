@@ -65,7 +65,7 @@ def test_a_probe_off_the_cg_taken_at_it_is_seen(scenario) -> None:
 
 def test_the_air_samples_in_the_flight(scenario) -> None:
     sim, rec = _rec(scenario, AirProbe(position_m=(0.5, 0.0, 0.0)))
-    flight, group = rec.to_flight(), sim.log["air"]
+    flight, group = rec.to_flight(air="interpolate"), sim.log["air"]
     t = flight["t"]
     k = np.arange(0, t.size, 10)  # the probe's instants: its samples as logged
     np.testing.assert_allclose(t[k], group.t, rtol=0, atol=1e-12)
@@ -77,19 +77,28 @@ def test_the_air_samples_in_the_flight(scenario) -> None:
     note = next(n for n in flight.metadata["notes"] if n.startswith("air: "))
     assert "linearly interpolated to the IMU's 1001 instants" in note and "10 IMU" in note
     assert flight.metadata["wind_ned_mps"] == rec.metadata["wind_ned_mps"]
-    plain = rec.to_flight(air=False)
-    assert "airspeed" not in plain.channels and "air_data_probe" not in plain.metadata
-    assert any("not carried (air=False" in n for n in plain.metadata["notes"])
+    for air in ("auto", "wind"):  # 100 Hz is not the IMU's clock: the steady wind only
+        plain = rec.to_flight(air=air)
+        assert "airspeed" not in plain.channels and "air_data_probe" not in plain.metadata
+        note = next(n for n in plain.metadata["notes"] if n.startswith("air: "))
+        assert "not carried" in note and "\n" not in note
+        assert plain.metadata["wind_ned_mps"] == rec.metadata["wind_ned_mps"]
+    with pytest.raises(FlightError, match="needs an air sample at every IMU instant"):
+        rec.to_flight(air="samples")
+    with pytest.raises(FlightError, match="air must be one of"):
+        rec.to_flight(air="yes")
 
 
-def test_on_the_imus_clock_the_samples_as_logged(scenario) -> None:
+@pytest.mark.parametrize("air", ["auto", "samples"])
+def test_on_the_imus_clock_the_samples_as_logged(scenario, air) -> None:
     sim, rec = _rec(scenario, AirProbe(rate_hz=1000.0, airspeed_sd_mps=0.0,
                                        total_pressure_sd_pa=50.0, static_pressure_sd_pa=50.0))
-    flight, group = rec.to_flight(), sim.log["air"]
+    flight, group = rec.to_flight(air=air), sim.log["air"]
     for c in ("alpha", "beta", "total_pressure", "static_pressure"):
         np.testing.assert_array_equal(flight[c], group.channels[c])
     assert any("at the IMU's instants (the same clock): as logged" in n
                for n in flight.metadata["notes"])
+    assert flight.metadata["air_data_probe"] == {"position_m": [0.0, 0.0, 0.0]}
 
 
 def test_an_air_group_short_of_the_imu_is_refused(scenario) -> None:
@@ -99,6 +108,21 @@ def test_an_air_group_short_of_the_imu_is_refused(scenario) -> None:
                                 channels={c: v[:-5] for c, v in group.channels.items()})
     rec = reconstruct(dataclasses.replace(sim.log, groups={**sim.log.groups, "air": short}))
     with pytest.raises(FlightError, match="not resampled beyond its times") as info:
-        rec.to_flight()
+        rec.to_flight(air="interpolate")
     assert "\n" not in str(info.value)
-    assert "airspeed" not in rec.to_flight(air=False).channels
+    assert "airspeed" not in rec.to_flight(air="wind").channels
+
+
+def test_without_an_air_group_samples_are_refused(scenario) -> None:
+    _, rec = _rec(scenario, None)
+    assert "airspeed" not in rec.to_flight().channels
+    with pytest.raises(FlightError, match="needs an air group in the log"):
+        rec.to_flight(air="samples")
+
+
+def test_in_dryden_turbulence_the_wind_is_not_steady(scenario) -> None:
+    gusty = dataclasses.replace(scenario, manoeuvre=dataclasses.replace(
+        scenario.manoeuvre, wind=Wind(steady_ned_mps=tuple(WIND), turbulence_sd_mps=3.0)))
+    _, rec = _rec(gusty, AirProbe())
+    assert not rec.metadata["wind_steady"] and rec.metadata["wind_scatter"] > 2.0
+    assert any("not steady" in n for n in rec.notes)
