@@ -9,7 +9,8 @@ Run by hand from the repository root (one process, the fits in turn: ``--jobs 1`
 ``--reconstruction-seeds``: the reconstruction's steady wind alone
 (:func:`reconstruction_winds`: the default suite with its IMU errors, a 100 Hz probe,
 in a 3 / 4 / -0.5 m/s wind flown by the truth; an airspeed, the pressures, a probe off
-the c.g.; and the airspeed in Dryden sd 3 m/s, which must be called not steady).
+the c.g. with and without its position in the log; and the airspeed in Dryden sd 3 m/s,
+which must be called not steady).
 
 Per seed ``k``: the reference scenario in a steady wind of 5 m/s (north 3, east 4), flown
 twice from the same scenario with the same probe (0.1 deg vanes, a 0.5 m/s airspeed, at
@@ -165,7 +166,10 @@ REC_WIND = (3.0, 4.0, -0.5)
 PROBES = {"airspeed 0.5 m/s": AirProbe(),
           "pressures 50 Pa": AirProbe(airspeed_sd_mps=0.0, total_pressure_sd_pa=50.0,
                                       static_pressure_sd_pa=50.0),
-          "airspeed, probe at (0.5, 0.05, -0.02) m": AirProbe(position_m=(0.5, 0.05, -0.02))}
+          "airspeed, probe at (0.5, 0.05, -0.02) m": AirProbe(position_m=(0.5, 0.05, -0.02)),
+          "the same, position not stated": AirProbe(position_m=(0.5, 0.05, -0.02))}
+#: The row whose log is read without its probe position (taken at the c.g.).
+UNSTATED = "the same, position not stated"
 
 
 def reconstruction_winds(seeds: int) -> str:
@@ -184,9 +188,12 @@ def reconstruction_winds(seeds: int) -> str:
                 continue
             errs, sds, scatter, steady = [], [], [], 0
             for seed in range(1, seeds + 1):
-                sim = simulate_suite(s.airframe, s.coefficient_vector, m,
-                                     SensorSuite(air_probe=probe), rng=seed)
-                meta = reconstruct(sim.log).metadata
+                log = simulate_suite(s.airframe, s.coefficient_vector, m,
+                                     SensorSuite(air_probe=probe), rng=seed).log
+                if label == UNSTATED:
+                    log = dataclasses.replace(log, groups={**log.groups, "air": dataclasses.replace(
+                        log["air"], probe_position_m=None)})
+                meta = reconstruct(log).metadata
                 errs.append(np.array(meta["wind_ned_mps"]) - REC_WIND)
                 sds.append(np.array(meta["wind_stderr_mps"]))
                 scatter.append(meta["wind_scatter"])
