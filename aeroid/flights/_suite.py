@@ -220,7 +220,7 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
     wind = None if truth.wind is None else truth.wind[k0:]  # the air the truth flew in
     const, motor = wind_constants(constants(manoeuvre.flown(airframe)), wind), {}
-    extra = {} if manoeuvre.wind is None else {"wind": manoeuvre.wind.describe()}
+    extra: dict[str, Any] = {} if manoeuvre.wind is None else {"wind": manoeuvre.wind.describe()}
     if airframe.thrust_curve is not None:  # the IMU sees the thrust, over the flown mass
         motor = sample_thrust(airframe.thrust_curve, t, airframe.thrust_n,
                               manoeuvre.mass_scale)

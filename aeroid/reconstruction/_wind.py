@@ -121,8 +121,9 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
         v_probe = v_probe + np.cross(omega, np.asarray(r, dtype=float))
     wind, d_vel, d_att, d_air = _wind_samples(v_probe, cols[:, 3:], air)
     var = np.array([[group.noise_sd[c] ** 2 for c in AIR_CHANNELS[:2]]] * len(ta))
-    var = np.column_stack([var, (group.noise_sd["airspeed"] ** 2 if speed is None
-                                 else speed[1][inside] ** 2) * np.ones(len(ta))])
+    sd_speed = (np.full(len(ta), group.noise_sd["airspeed"]) if speed is None or speed[1] is None
+                else speed[1][inside])  # the pressures' propagated sd (checked above)
+    var = np.column_stack([var, sd_speed ** 2])
     s_probe = np.einsum("kij,kj,klj->kil", d_air, var, d_air)
     d_x = np.concatenate([d_vel, d_att], axis=2)  # (k, 3, 6)
     s_states = np.einsum("kij,kjl,kml->kim", d_x, p_states, d_x)
