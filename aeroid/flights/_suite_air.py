@@ -21,10 +21,11 @@ without a static pressure, NaN, the static range, total above static), and a sta
 pressure alone is refused here (in a suite log a barometer's goes in the ``baro`` group).
 
 **The airspeed of the pressures** (:func:`air_group_airspeed`, the reconstruction's
-steady wind): Mach from ``p0 / p`` (:func:`aeroid.flights.mach_from_pitot`) times the
-speed of sound of the airframe's ``[tables] temperature_K``, else the ISA at its
-``[atmosphere] altitude_m`` (the simulator's air; a suite log has no air temperature
-channel), its sd the pressures' propagated by the derivative; the note says which.
+steady wind): :func:`aeroid.flights.pitot_airspeed` of the group's pressures, Mach from
+``p0 / p`` times the speed of sound of the airframe's ``[tables] temperature_K``, else the
+ISA at its ``[atmosphere] altitude_m`` (the simulator's air; a suite log has no air
+temperature channel), its sd the pressures' propagated by the derivative; the note says
+which.
 """
 
 from __future__ import annotations
@@ -34,18 +35,19 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from aeroid.errors import AirframeError, FlightError
+from aeroid.flights._flight import Flight
 from aeroid.flights._noise import GaussianNoise
 from aeroid.flights._pitot import (
     PITOT_CHANNELS,
     STATIC_PRESSURE,
     TOTAL_PRESSURE,
-    mach_from_pitot,
-    pitot_ratio_slope,
     probe_pressures,
     true_air_temperature,
 )
+from aeroid.flights._pitot_airspeed import pitot_airspeed
 from aeroid.flights._suite_air_read import probe_position
 from aeroid.flights._suite_log import SensorGroup
 from aeroid.model import (
@@ -54,8 +56,6 @@ from aeroid.model import (
     as_state,
     constants,
     equations,
-    isa_temperature,
-    speed_of_sound_at,
 )
 
 __all__ = ["AirProbe", "air_group_airspeed", "probe_group", "probe_velocity", "suite_probe"]
@@ -142,37 +142,24 @@ def probe_group(t: np.ndarray, velocity: tuple[np.ndarray, ...], density_kgm3: A
 def air_group_airspeed(group: SensorGroup, airframe: Airframe | None
                        ) -> tuple[np.ndarray, np.ndarray | None, str]:
     """The airspeed [m/s] of an air group's pressures, its sd per sample (None without both
-    pressures' sd) and a note saying how (module docstring).
+    pressures' sd) and a note saying how: :func:`aeroid.flights.pitot_airspeed` of the
+    group's pressures (module docstring; a per-sample atmosphere's altitude is not the
+    group's, so its temperature is the ISA at ``altitude_m``, as the note says).
 
     Raises
     ------
     FlightError
-        No temperature to take (no ``[tables] temperature_K``, no ``altitude_m``).
+        :func:`aeroid.flights.pitot_airspeed`'s: the pressures' checks, no temperature.
     """
-    spec = getattr(airframe, "tables", None)
-    if spec is not None and spec.temperature_k is not None:
-        temperature, source = float(spec.temperature_k), f"[tables] temperature_K = " \
-            f"{spec.temperature_k:g} K"
-    elif airframe is not None and airframe.altitude_m is not None:
-        temperature = float(isa_temperature(airframe.altitude_m))
-        source = f"ISA at [atmosphere] altitude_m = {airframe.altitude_m:g} m"
-    else:
+    if airframe is None:
         raise FlightError(f"{group.source}: the probe's pressures give Mach; its airspeed "
-                          "needs the air temperature: the airframe's [tables] temperature_K "
-                          "or [atmosphere] altitude_m (ISA); none is assumed")
-    total, static = (group.channels[c] for c in PITOT_CHANNELS)
-    a = float(speed_of_sound_at(temperature))
-    mach = mach_from_pitot(total / static)
-    dv_dr = a / pitot_ratio_slope(mach)
-    sd = None
-    if all(c in group.noise_sd for c in PITOT_CHANNELS):
-        sd = np.hypot(dv_dr / static * group.noise_sd[TOTAL_PRESSURE],
-                      dv_dr * total / static**2 * group.noise_sd[STATIC_PRESSURE])
-    note = (f"airspeed from the probe's {TOTAL_PRESSURE} and {STATIC_PRESSURE}: Mach "
-            f"{np.min(mach):.4g}-{np.max(mach):.4g} times the speed of sound {a:.5g} m/s "
-            f"({source})" + ("" if sd is None else
-                             f", its sd {np.min(sd):.3g}-{np.max(sd):.3g} m/s"))
-    return mach * a, sd, note
+                          "needs the airframe's temperature (no airframe)")
+    sd = [group.noise_sd.get(c) for c in PITOT_CHANNELS]
+    given = {} if None in sd else {"total_sd_pa": sd[0], "static_sd_pa": sd[1]}
+    found = pitot_airspeed(Flight(pd.DataFrame({c: group.channels[c] for c in PITOT_CHANNELS}),
+                                  airframe.replace(atmosphere_channel=None),
+                                  {"source": group.source}), **given)
+    return found.airspeed, found.sd, found.note
 
 
 def suite_probe(t: np.ndarray, states: np.ndarray, airframe: Airframe, suite: Any,
