@@ -51,7 +51,7 @@ from aeroid.flights._frames import body_to_ned, wrap_angle
 from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._pitot import true_air_temperature
 from aeroid.flights._scenario import Manoeuvre
-from aeroid.flights._suite_air import AirProbe, suite_probe
+from aeroid.flights._suite_air import AirProbe, check_probe_rate, suite_probe
 from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog, mounted_group
 from aeroid.flights._suite_truth import suite_truth, wind_constants
 from aeroid.flights._thrust_flight import sample_thrust
@@ -123,9 +123,9 @@ class SensorSuite:
         if not self.imu_rate_hz > 0:
             raise AirframeError(f"sensor suite: imu_rate_hz must be positive, got "
                                 f"{self.imu_rate_hz}")
-        for name in ("gnss", "baro", "ins", "fin", "air"):
-            rate = (getattr(self, f"{name}_rate_hz") if name != "air" else
-                    self.air_probe.rate_hz if self.air_probe is not None else 0.0)
+        check_probe_rate(self.air_probe, self.imu_rate_hz)
+        for name in ("gnss", "baro", "ins", "fin"):
+            rate = getattr(self, f"{name}_rate_hz")
             stride = self.imu_rate_hz / rate if rate > 0 else 1.0
             if rate < 0 or abs(stride - round(stride)) > 1e-9:
                 raise AirframeError(f"sensor suite: {name}_rate_hz = {rate:g} must divide "

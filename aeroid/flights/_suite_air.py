@@ -58,7 +58,8 @@ from aeroid.model import (
     equations,
 )
 
-__all__ = ["AirProbe", "air_group_airspeed", "probe_group", "probe_velocity", "suite_probe"]
+__all__ = ["AirProbe", "air_group_airspeed", "check_probe_rate", "probe_group", "probe_velocity",
+           "suite_probe"]
 
 #: The probe's noise options (:class:`aeroid.flights.GaussianNoise`'s names).
 _NOISE = ("alpha_sd_rad", "beta_sd_rad", "airspeed_sd_mps", "total_pressure_sd_pa",
@@ -97,6 +98,17 @@ class AirProbe:
                                  **{k: getattr(self, k) for k in _NOISE})
         except AirframeError as exc:
             raise AirframeError(f"sensor suite: air probe: {exc}") from None
+
+
+def check_probe_rate(probe: AirProbe | None, imu_rate_hz: float) -> None:
+    """Refuse, in one line, a probe whose rate does not divide the IMU's (it samples the
+    truth at every ``imu_rate / rate_hz``-th IMU instant)."""
+    if probe is None:
+        return
+    stride = imu_rate_hz / probe.rate_hz
+    if stride < 1.0 - 1e-9 or abs(stride - round(stride)) > 1e-9:
+        raise AirframeError(f"sensor suite: air probe rate_hz = {probe.rate_hz:g} must divide "
+                            f"imu_rate_hz = {imu_rate_hz:g}")
 
 
 def probe_velocity(states: np.ndarray, const: Any, position_m: Any

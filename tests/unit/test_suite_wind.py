@@ -132,8 +132,9 @@ def test_air_probe_options_refused_in_one_line() -> None:
         with pytest.raises(AirframeError) as info:
             AirProbe(**kwargs)
         assert needle in str(info.value) and "\n" not in str(info.value), str(info.value)
-    with pytest.raises(AirframeError, match="must divide"):
-        SensorSuite(air_probe=AirProbe(rate_hz=300.0))
+    for rate in (300.0, 2000.0):
+        with pytest.raises(AirframeError, match="air probe rate_hz = .* must divide"):
+            SensorSuite(air_probe=AirProbe(rate_hz=rate))
 
 
 def _air_log(folder, columns, rows, extra=""):
