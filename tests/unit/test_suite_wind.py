@@ -202,3 +202,32 @@ def test_a_simulated_air_group_is_written_and_read_back(scenario, tmp_path) -> N
     for c in ("alpha", "beta", "total_pressure", "static_pressure"):
         np.testing.assert_allclose(back.channels[c], group.channels[c], rtol=1e-15)
         assert back.noise_sd[c] == group.noise_sd[c]
+
+
+def test_log_trajectory_probe_in_another_simulators_air() -> None:
+    """A crosswind over a level, non-rolling path in a given atmosphere: closed forms."""
+    from aeroid.flights import log_trajectory, pitot_ratio
+    from aeroid.model import GAMMA, R_AIR, STATE_NAMES
+
+    n, rate = 21, 1000.0
+    t = np.arange(n) / rate
+    states = np.zeros((n, len(STATE_NAMES)))
+    states[:, STATE_NAMES.index("u")] = 500.0
+    wind = np.tile([0.0, 5.0, 0.0], (n, 1))  # from the west: the air moves east
+    atmosphere = {"pressure": np.full(n, 26_500.0), "temperature": np.full(n, 223.15)}
+    probe = AirProbe(rate_hz=rate, alpha_sd_rad=0.0, beta_sd_rad=0.0, airspeed_sd_mps=0.0,
+                     total_pressure_sd_pa=TINY, static_pressure_sd_pa=TINY)
+    s = reference_scenario()
+    sim = log_trajectory(t, states, np.zeros(n), np.zeros((n, 2, 3)), s.airframe,
+                         SensorSuite(air_probe=probe, baro_rate_hz=0.0), rng=0,
+                         atmosphere=atmosphere, wind=wind)
+    air = sim.log["air"].channels
+    speed = np.hypot(500.0, 5.0)
+    np.testing.assert_allclose(air["beta"], np.arcsin(-5.0 / speed), rtol=1e-13)
+    np.testing.assert_allclose(air["alpha"], 0.0, atol=1e-15)
+    np.testing.assert_allclose(air["static_pressure"], 26_500.0, rtol=1e-13)
+    mach = speed / np.sqrt(GAMMA * R_AIR * 223.15)
+    np.testing.assert_allclose(air["total_pressure"], 26_500.0 * pitot_ratio(mach), rtol=1e-13)
+    with pytest.raises(AirframeError, match="wind has shape"):
+        log_trajectory(t, states, np.zeros(n), np.zeros((n, 2, 3)), s.airframe,
+                       SensorSuite(air_probe=probe, baro_rate_hz=0.0), rng=0, wind=wind[1:])
