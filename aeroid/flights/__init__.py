@@ -87,11 +87,11 @@ from aeroid.flights._suite import (
     SuiteSimulation,
     body_to_ned,
     imu_error_names,
-    imu_manoeuvre,
     log_trajectory,
     simulate_suite,
     wrap_angle,
 )
+from aeroid.flights._suite_air import AirProbe, air_group_airspeed
 from aeroid.flights._suite_log import (
     GROUPS,
     SI_UNITS,
@@ -99,8 +99,9 @@ from aeroid.flights._suite_log import (
     SuiteLog,
     mounted_group,
     read_suite_log,
-    write_suite_log,
 )
+from aeroid.flights._suite_truth import imu_manoeuvre
+from aeroid.flights._suite_write import write_suite_log
 from aeroid.flights._thrust_flight import sample_thrust, with_thrust_curve
 from aeroid.flights._turbulence import (
     MIL_SCALE_LENGTH_M,
@@ -142,4 +143,5 @@ __all__ = [
     "unused_note",
     "PITOT_CHANNELS", "PITOT_KEY", "PitotAirspeed", "mach_from_pitot", "pitot_airspeed",
     "pitot_ratio", "pitot_ratio_slope", "probe_pressures", "with_pitot_airspeed",
+    "AirProbe", "air_group_airspeed",
 ]

@@ -1,7 +1,8 @@
-"""Simulate a flight-test sensor suite: an IMU, GNSS, a barometer, an INS, the fin.
+"""Simulate a flight-test sensor suite: an IMU, GNSS, a barometer, an INS, the fin, a probe.
 
 Conventions. The truth is the model's: body axes (u v w, p q r) and 3-2-1 Euler angles
-(phi theta psi) over a flat, non-rotating Earth with no wind. Positions are NED (north,
+(phi theta psi) over a flat, non-rotating Earth in the scenario's wind (:mod:`._suite_truth`;
+the probe: :mod:`._suite_air`). Positions are NED (north,
 east, down) in metres from the airframe's position at t = 0, integrated here from the
 truth (the model has no position states): the NED velocity ``C_nb(phi, theta, psi) [u v
 w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
@@ -37,7 +38,6 @@ saturated samples marked.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -49,9 +49,11 @@ from aeroid.errors import AirframeError, FlightError
 from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS, check_flight_computer
 from aeroid.flights._frames import body_to_ned, wrap_angle
 from aeroid.flights._mounting import Mounting, board_mounting
+from aeroid.flights._pitot import true_air_temperature
 from aeroid.flights._scenario import Manoeuvre
-from aeroid.flights._simulate import simulate_truth
+from aeroid.flights._suite_air import AirProbe, check_probe_rate, suite_probe
 from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog, mounted_group
+from aeroid.flights._suite_truth import suite_truth, wind_constants
 from aeroid.flights._thrust_flight import sample_thrust
 from aeroid.model import (
     OUTPUT_CHANNELS,
@@ -115,11 +117,13 @@ class SensorSuite:
     gyro_range_radps: float | None = None
     gnss_channels: tuple[str, ...] = GNSS_CHANNELS[0]
     baro_board_temperature_k: float | None = None
+    air_probe: AirProbe | None = None  # an air-data probe's group (:mod:`._suite_air`)
 
     def __post_init__(self) -> None:
         if not self.imu_rate_hz > 0:
             raise AirframeError(f"sensor suite: imu_rate_hz must be positive, got "
                                 f"{self.imu_rate_hz}")
+        check_probe_rate(self.air_probe, self.imu_rate_hz)
         for name in ("gnss", "baro", "ins", "fin"):
             rate = getattr(self, f"{name}_rate_hz")
             stride = self.imu_rate_hz / rate if rate > 0 else 1.0
@@ -172,7 +176,7 @@ class SuiteSimulation(NamedTuple):
     truth : dict of str to ndarray, shape (n,)
         At the IMU instants: ``t``, the nine states, ``pn pe pd`` [m], ``vn ve vd`` [m/s],
         ``altitude`` [m], ISA ``pressure`` [Pa] and ``temperature`` [K] of it, ``delta``
-        [rad].
+        [rad]; with a probe the wind and its clean readings (:func:`._suite_air.suite_probe`).
     errors : dict of str to ndarray
         ``accel_bias`` and ``accel_scale`` (2, 3) (triad, axis), ``gyro_bias`` and
         ``gyro_scale`` (3,).
@@ -181,19 +185,6 @@ class SuiteSimulation(NamedTuple):
     log: SuiteLog
     truth: dict[str, np.ndarray]
     errors: dict[str, np.ndarray]
-
-
-def imu_manoeuvre(manoeuvre: Manoeuvre, imu_rate_hz: float) -> Manoeuvre:
-    """Return ``manoeuvre`` sampled at the IMU's rate with the same flight (module docstring)."""
-    if manoeuvre.sample_rate_hz == imu_rate_hz:
-        return manoeuvre
-    changes: dict[str, Any] = {
-        "sample_rate_hz": imu_rate_hz,
-        "truth_substeps": max(1, round(manoeuvre.truth_substeps * manoeuvre.sample_rate_hz
-                                       / imu_rate_hz))}
-    if manoeuvre.evaluation == "latched":
-        changes.update(evaluation="control_rate", control_rate_hz=manoeuvre.sample_rate_hz)
-    return dataclasses.replace(manoeuvre, **changes)
 
 
 def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
@@ -220,27 +211,27 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
         raise AirframeError("sensor suite: the barometer needs the airframe's [atmosphere] "
                             "altitude_m (its altitude at t = 0)")
     coefficients = as_vector(coefficients)
-    sampled = imu_manoeuvre(manoeuvre, suite.imu_rate_hz)
-    truth = simulate_truth(airframe, coefficients, sampled, backend=backend)
+    truth, sampled, imu_sampling = suite_truth(airframe, coefficients, manoeuvre,
+                                               suite.imu_rate_hz, rng, backend)
     ned_velocity = np.einsum("kij,kj->ki", body_to_ned(*truth.states[:, [PHI, THETA, PSI]].T),
                              truth.states[:, :3])
     position = cumulative_trapezoid(ned_velocity, truth.t, axis=0, initial=0.0)
     k0 = int(round(manoeuvre.window_s[0] * suite.imu_rate_hz))
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
-    const, motor, extra = constants(manoeuvre.flown(airframe)), {}, {}
+    wind = None if truth.wind is None else truth.wind[k0:]  # the air the truth flew in
+    const, motor = wind_constants(constants(manoeuvre.flown(airframe)), wind), {}
+    extra: dict[str, Any] = {} if manoeuvre.wind is None else {"wind": manoeuvre.wind.describe()}
     if airframe.thrust_curve is not None:  # the IMU sees the thrust, over the flown mass
         motor = sample_thrust(airframe.thrust_curve, t, airframe.thrust_n,
                               manoeuvre.mass_scale)
         const, extra = const._replace(**motor), {"thrust": airframe.thrust_curve.describe()}
+    air_t = true_air_temperature(airframe, manoeuvre.air, None, t) if suite.air_probe else None
     specific = accelerometers(states, delta, coefficients, const,
                               airframe.accel_positions).reshape(-1, 2, 3)
-    imu_sampling = (f"truth simulated at {suite.imu_rate_hz:g} Hz with "
-                    f"{sampled.truth_substeps} RK4 substeps, relay {sampled.evaluation}"
-                    + (f" at {sampled.control_rate_hz:g} Hz" if sampled.control_rate_hz
-                       else ""))
     sim = log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
                          position=position[k0:], source="simulated suite log",
-                         metadata={"imu_sampling": imu_sampling, **extra})
+                         metadata={"imu_sampling": imu_sampling, **extra}, wind=wind,
+                         air_temperature=air_t)
     sim.truth.update({k: np.broadcast_to(v, t.shape).copy() for k, v in motor.items()})
     return sim
 
@@ -252,7 +243,9 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
                    position: np.ndarray | None = None,
                    atmosphere: dict[str, np.ndarray] | None = None,
                    source: str = "suite log",
-                   metadata: dict[str, Any] | None = None) -> SuiteSimulation:
+                   metadata: dict[str, Any] | None = None,
+                   wind: np.ndarray | None = None,
+                   air_temperature: np.ndarray | None = None) -> SuiteSimulation:
     """Log a given truth trajectory through a sensor suite (module docstring).
 
     The sensor layer alone, shared by :func:`simulate_suite` and any other source of a
@@ -282,6 +275,11 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
         The log's name in messages.
     metadata : dict, optional
         Kept in the log's metadata beside the drawn ``truth`` errors.
+    wind, air_temperature : ndarray, shape (n, 3) and (n,), optional
+        The air the truth flew in, NED [m/s] (default still air), and its temperature [K]
+        (default ``atmosphere``'s, else the ISA at ``altitude_m``): the air probe's
+        (``suite.air_probe``, :mod:`._suite_air`; its static pressure from the airframe's
+        density, or ``atmosphere``'s pressure).
 
     Raises
     ------
@@ -307,6 +305,9 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
                                 f"got {sorted(atmosphere)}")
         atmosphere = {k: np.asarray(v, dtype=float) for k, v in atmosphere.items()}
         shapes.update({k: (v.shape, (n,)) for k, v in atmosphere.items()})
+    if wind is not None:
+        wind = np.asarray(wind, dtype=float)
+        shapes["wind"] = (wind.shape, (n, 3))
     for name, (got, want) in shapes.items():
         if got != want:
             raise AirframeError(f"{source}: {name} has shape {got}, expected {want} "
@@ -381,6 +382,10 @@ def log_trajectory(t: np.ndarray, states: np.ndarray, delta: np.ndarray,
         groups[name] = _group(name, t[::every], noisy,
                               {c: s for c, s in sd.items() if s > 0 and c in noisy},
                               suite)
+    if suite.air_probe is not None:  # drawn last: the other groups of a seed unchanged
+        groups["air"], air_truth = suite_probe(t, states, airframe, suite, rng, wind,
+                                               atmosphere, air_temperature)
+        table.update(air_truth)
     metadata = {"truth": {k: v.tolist() for k, v in errors.items()}, **(metadata or {})}
     if groups["imu"].notes:
         metadata["notes"] = list(groups["imu"].notes)

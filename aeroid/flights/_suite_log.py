@@ -21,7 +21,9 @@ The groups and their channels are :data:`GROUPS` (``imu``: two accelerometer tri
 three gyros, body axes; ``gnss``: NED velocity and position from the origin, flat
 Earth; ``baro``: pressure altitude, or static pressure (Pa, hPa, mbar, psi) and a
 temperature (K, degC; the air's, or ``temperature = "board"``: :mod:`._flight_computer`);
-``ins``: Euler attitude, possibly wrapped; ``fin``: fin deflection). The ``imu`` group may
+``ins``: Euler attitude, possibly wrapped; ``fin``: fin deflection; ``air``: a probe's
+alpha, beta and airspeed, or its total and static pressures, with ``probe_position_m``:
+:mod:`._suite_air`). The ``imu`` group may
 state its mounting (a ``[groups.imu.mounting]`` table: the rotation from the sensor's
 axes to the body's and the triads' positions) and its range (``accel_range`` [m/s^2],
 ``gyro_range`` [rad/s]): :mod:`._mounting`; the mounting is applied on reading, so the
@@ -35,7 +37,6 @@ simulator's sensor errors) is kept as metadata. Every bad input is a one-line
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -50,15 +51,13 @@ from aeroid.flights._columns import UNIT_FACTORS
 from aeroid.flights._flight_computer import BARO_KEYS, read_temperature_source
 from aeroid.flights._mounting import (
     RANGE_KEYS,
-    TRIADS,
-    ZERO_ENTRY,
     Mounting,
     mount,
     read_mounting,
     read_ranges,
-    unmount,
 )
-from aeroid.model import Airframe, load_airframe, read_toml, save_airframe
+from aeroid.flights._suite_air_read import AIR_KEYS, check_air_group, read_probe_position
+from aeroid.model import Airframe, load_airframe, read_toml
 
 #: The sensor groups and their channels (SI units inside aeroid; NED from the origin).
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -66,7 +65,9 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "gnss": ("vn", "ve", "vd", "pn", "pe", "pd"),
     "baro": ("altitude", "pressure", "temperature"),
     "ins": ("phi", "theta", "psi"),
-    "fin": ("delta",), "air": ("alpha", "beta", "airspeed"),  # air: a probe's air data
+    "fin": ("delta",),
+    # air: a probe's air data, or a pitot-static probe's pressures (:mod:`._suite_air`)
+    "air": ("alpha", "beta", "airspeed", "total_pressure", "static_pressure"),
 }
 #: The SI unit of each channel.
 SI_UNITS: dict[str, str] = {
@@ -74,6 +75,7 @@ SI_UNITS: dict[str, str] = {
     "vn": "m/s", "ve": "m/s", "vd": "m/s", "pn": "m", "pe": "m", "pd": "m", "altitude": "m",
     "pressure": "Pa", "temperature": "K", "alpha": "rad", "beta": "rad", "airspeed": "m/s",
     "phi": "rad", "theta": "rad", "psi": "rad", "delta": "rad",
+    "total_pressure": "Pa", "static_pressure": "Pa",
 }
 #: The SI unit of each kind of quantity a suite log carries.
 _SI_OF_KIND = {"acceleration": "m/s^2", "rate": "rad/s", "speed": "m/s", "length": "m",
@@ -129,6 +131,8 @@ class SensorGroup:
         One line each: the mounting applied, the samples saturated per range.
     temperature_of : {"air", "board"}
         What a baro group's ``temperature`` measures (:mod:`._flight_computer`).
+    probe_position_m : (x, y, z), optional
+        An air group's probe position, body axes from the c.g. [m] (None: not stated).
     """
 
     name: str
@@ -143,6 +147,7 @@ class SensorGroup:
     sensor_channels: dict[str, np.ndarray] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     temperature_of: str = "air"
+    probe_position_m: tuple[float, float, float] | None = None
 
     @property
     def n_saturated(self) -> int:
@@ -223,7 +228,7 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
     if not isinstance(table, Mapping):
         raise FlightError(f"{where} must be a table")
     extra = sorted(set(table) - set(_GROUP_KEYS) - set(_IMU_KEYS if name == "imu" else ())
-                   - set(BARO_KEYS if name == "baro" else ()))
+                   - set(BARO_KEYS if name == "baro" else ()) - set(AIR_KEYS * (name == "air")))
     if name != "imu" and set(table) & set(_IMU_KEYS):
         raise FlightError(f"{where}: {', '.join(sorted(set(table) & set(_IMU_KEYS)))} "
                           "only in [groups.imu] (the other groups' values are not in a "
@@ -275,8 +280,11 @@ def _read_group(path: Path, name: str, table: Any) -> SensorGroup:
     mounting = read_mounting(table["mounting"], where) if "mounting" in table else None
     group = mounted_group(name, t + float(offset), channels, noise_sd, float(offset),
                           str(file), mounting, read_ranges(table, where))
+    if name == "air":
+        check_air_group(channels, f"{file}")
     return dataclasses.replace(group, temperature_of=read_temperature_source(
-        table if name == "baro" else {}, channels, where))
+        table if name == "baro" else {}, channels, where), probe_position_m=(
+            read_probe_position(table, where) if name == "air" else None))
 
 
 def mounted_group(name: str, t: np.ndarray, sensor: dict[str, np.ndarray],
@@ -323,78 +331,3 @@ def _numbers(frame: pd.DataFrame, file: Path, column: str) -> np.ndarray:
         raise FlightError(f"{file}: column {column!r}: not a finite number at line {bad[0] + 2} "
                           f"({frame[column].iloc[bad[0]]!r})")
     return values
-
-
-# Writing ------------------------------------------------------------------------------
-def write_suite_log(log: SuiteLog, path: str | Path) -> list[Path]:
-    """Write ``log`` as a log TOML at ``path`` with one CSV per group beside it (SI units).
-
-    The CSVs are ``<stem>-<group>.csv`` with a ``t`` column [s] (logged time: true time
-    minus the group's offset) and one column per channel, 17 significant digits; the
-    airframe (if any) is ``<stem>-airframe.toml``. Returns the files written.
-    """
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise FlightError(f"{path}: folder {path.parent} does not exist")
-    written = []
-    lines = []
-    if log.airframe is not None:
-        airframe_file = path.with_name(f"{path.stem}-airframe.toml")
-        save_airframe(log.airframe, airframe_file)
-        written.append(airframe_file)
-        lines += ["[log]", f"airframe = {json.dumps(airframe_file.name)}", ""]
-    for name, group in log.groups.items():
-        file = path.with_name(f"{path.stem}-{name}.csv")
-        logged = group.sensor_channels or unmount(group.channels, group.mounting)
-        frame = pd.DataFrame({"t": group.t - group.offset_s, **logged})
-        frame.to_csv(file, index=False, float_format="%.17g")
-        written.append(file)
-        lines += [f"[groups.{name}]", f"file = {json.dumps(file.name)}", 'time = ["t", "s"]',
-                  f"offset_s = {float(group.offset_s)!r}"]  # numpy floats repr as np.float64()
-        lines += [f"{key} = {float(value)!r}" for key, value in group.ranges.items()]
-        lines += [f'temperature = "{group.temperature_of}"'] * ("temperature" in logged)
-        lines += ["", f"[groups.{name}.columns]"]
-        lines += [f'{c} = ["{c}", "{SI_UNITS[c]}"]' for c in logged] + [""]
-        if group.mounting is not None:
-            lines += [f"[groups.{name}.mounting]"]
-            lines += [f"{k} = {json.dumps(v)}" for k, v in group.mounting.to_table().items()]
-            lines += [""]
-        # a noise-free simulation's sd of 0 is no statement (the reader takes sd > 0 only)
-        sensor_sd = {c: sd for c, sd in _sensor_sd(group).items() if sd > 0}
-        if sensor_sd:
-            lines += [f"[groups.{name}.noise_sd]"]
-            lines += [f"{c} = {float(sd)!r}" for c, sd in sensor_sd.items()] + [""]
-    truth = log.metadata.get("truth") or {}
-    if truth:
-        lines += ["[truth]"] + [f"{k} = {json.dumps(_plain(v))}" for k, v in truth.items()]
-    path.write_text("\n".join(lines) + "\n")
-    return [path, *written]
-
-
-def _sensor_sd(group: SensorGroup) -> dict[str, float]:
-    """The noise sd of the logged (sensor-axis) channels.
-
-    Unmounted, or mounted by an axis map: the sd of the body channel the sensor axis
-    enters. A general rotation mixes them: one sd per triad, else refused.
-    """
-    if group.mounting is None:
-        return dict(group.noise_sd)
-    out: dict[str, float] = {}
-    c = group.mounting.rotation
-    for body, sd in group.noise_sd.items():
-        for triad in TRIADS:
-            if body in triad:
-                i = triad.index(body)
-                for j in np.flatnonzero(np.abs(c[i]) > ZERO_ENTRY):
-                    if out.setdefault(triad[j], sd) != sd:
-                        raise FlightError(f"{group.source}: cannot write the noise sd of "
-                                          f"{triad[j]}: its body axes differ")
-                break
-        else:
-            out[body] = sd
-    return out
-
-
-def _plain(value: Any) -> Any:
-    """Return numbers and (nested) lists of numbers as Python floats (TOML-writable)."""
-    return np.asarray(value, dtype=float).tolist()

@@ -196,3 +196,12 @@ def run(t: np.ndarray, imu: np.ndarray, imu_sd: np.ndarray, omega_dot: np.ndarra
         ps[k] = 0.5 * (ps[k] + ps[k].T)
     nis = {name: _nis_check(*s) for name, s in sums.items()}
     return Passes(xs, ps, xf, nis, innovations, detail)
+
+
+def _subset(full: Callable[[np.ndarray], np.ndarray], rows: list[int]
+            ) -> Callable[[np.ndarray], np.ndarray]:
+    """Return the model of some rows of ``full`` (moved from :mod:`._reconstruct`)."""
+    def model(x: np.ndarray) -> np.ndarray:
+        return full(x)[rows]
+
+    return model

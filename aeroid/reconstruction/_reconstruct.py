@@ -22,6 +22,7 @@ from aeroid.errors import FlightError
 from aeroid.flights import Flight, SuiteLog, body_to_ned, exogenous, make_flight
 from aeroid.model import EXOGENOUS, Airframe
 from aeroid.reconstruction._aiding import flight_aiding, logged_aiding
+from aeroid.reconstruction._air_samples import flight_air, logged_air
 from aeroid.reconstruction._barometer import (
     ATMOSPHERES,
     baro_altitude,
@@ -30,7 +31,7 @@ from aeroid.reconstruction._barometer import (
     baro_model,
     flight_atmosphere,
 )
-from aeroid.reconstruction._filter import Aiding, run
+from aeroid.reconstruction._filter import Aiding, _subset, run
 from aeroid.reconstruction._gnss import gnss_track_start
 from aeroid.reconstruction._kinematics import (
     ACCEL_BIAS,
@@ -107,7 +108,7 @@ class Reconstruction:
     innovation_tables: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     def to_flight(self, *, atmosphere: str = "airframe", imu: str = "corrected",
-                  aiding: bool = False) -> Flight:
+                  aiding: bool = False, air: str = "auto") -> Flight:
         """Return the reconstruction as a single-rate Flight at the IMU's times.
 
         Channels: the IMU readings (corrected by default), ``u v w phi theta psi``
@@ -137,6 +138,11 @@ class Reconstruction:
             Also pass the log's GNSS velocity and INS attitude samples within the flight's
             times, as logged and at their own times, in ``metadata["aiding"]`` (output-error's
             ``aiding``; :mod:`aeroid.reconstruction._aiding`).
+        air : {"auto", "samples", "interpolate", "wind"}
+            The log's air group's channels at the IMU's times where it samples there
+            (``"auto"``: else the steady wind only; ``"samples"``: else refused), linearly
+            interpolated (``"interpolate"``), or the steady wind only (``"wind"``); the
+            probe's position in ``metadata["air_data_probe"]`` (:mod:`._air_samples`).
         """
         where = self.metadata.get("source", "suite log")
         if atmosphere not in ATMOSPHERES:
@@ -162,7 +168,8 @@ class Reconstruction:
                                                    self.metadata, channels)
         notes = [*self.notes, imu_note, density_note, *([fin_note] if fin_note else [])]
         first_sd = {s: float(tab[f"sd_{s}"].iloc[0]) for s in STATES[:6]}  # u v w, angles
-        meta = flight_aiding(self.metadata, channels["t"], aiding, notes)
+        meta = flight_air(flight_aiding(self.metadata, channels["t"], aiding, notes), channels,
+                          air, notes)
         return make_flight(channels, airframe, {**meta, "notes": notes,
                                                 "initial_state_sd": first_sd})
 
@@ -255,8 +262,9 @@ def reconstruct(log: SuiteLog, *, airframe: Airframe | None = None,
     meta: dict[str, Any] = {"source": source, "reconstruction": "kinematic EKF + RTS smoother"}
     if saturated:
         meta["saturated"] = saturated
-    meta.update(logged_aiding(log))
-    meta.update(steady_wind(log, t, passes.states, passes.covariance, STATES, notes))
+    meta.update({**logged_aiding(log), **logged_air(log)})
+    meta.update(steady_wind(log, t, passes.states, passes.covariance, STATES, notes,
+                            gyro.T, airframe))
     if "baro" in log:
         table["altitude"] = table["alt0"] - table["pd"]
         table["sd_altitude"] = np.sqrt(np.clip(
@@ -329,14 +337,6 @@ def _aidings(log: SuiteLog, t: np.ndarray, notes: list[str], used: dict[str, Any
                           np.array([c in ("phi", "psi") for c in present]),
                           _subset(full, rows), tuple(present)))
     return out
-
-
-def _subset(full: Model, rows: list[int]) -> Model:
-    """Return the model of some rows of ``full``."""
-    def model(x: np.ndarray) -> np.ndarray:
-        return full(x)[rows]
-
-    return model
 
 
 def _prior(log: SuiteLog, t: np.ndarray, imu: np.ndarray, used: dict[str, Any],

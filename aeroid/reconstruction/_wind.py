@@ -21,8 +21,14 @@ their weighted mean, a constant NED wind:
   for a steady wind. Well above it (:data:`STEADY_NIS_LIMIT`) the line says the wind is
   not steady (turbulence, or a probe's calibration or position).
 
-The probe is taken at the c.g. (a suite log states no probe position); the line says so.
-Without an ``air`` group the wind cannot be estimated, and the line says that instead.
+**The probe's position** ``r`` (the air group's ``probe_position_m``): the probe reads
+``v_air + omega x r``, so ``v_air = V (...) - omega x r`` with ``omega`` the corrected
+gyros interpolated to the sample (their noise, 0.002 rad/s at 0.5 m: 1 mm/s, is left out
+of the sd). Not stated: the probe is taken at the c.g., and the line says so. **A probe's
+pressures** instead of the airspeed: the airspeed of Mach ``p0 / p`` times the airframe's
+speed of sound (:func:`aeroid.flights.air_group_airspeed`), its sd per sample from both
+pressures' sd; the line says so. Without an ``air`` group the wind cannot be estimated,
+and the line says that instead.
 """
 
 from __future__ import annotations
@@ -31,7 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.flights import SuiteLog, body_to_ned
+from aeroid.flights import PITOT_CHANNELS, SensorGroup, SuiteLog, air_group_airspeed, body_to_ned
+from aeroid.model import Airframe
 from aeroid.reconstruction._kinematics import ATT, N_STATES, VEL
 
 #: The air group's channels, all three needed (the angles alone leave the wind along the
@@ -67,12 +74,16 @@ def _wind_samples(v_body: np.ndarray, angles: np.ndarray, air: np.ndarray
 
 
 def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np.ndarray,
-                state_names: tuple[str, ...], notes: list[str]) -> dict[str, Any]:
+                state_names: tuple[str, ...], notes: list[str],
+                rates: np.ndarray | None = None, airframe: Airframe | None = None
+                ) -> dict[str, Any]:
     """Return the steady wind's metadata and append its one-line note to ``notes``
     (module docstring).
 
     ``t`` (n,) the IMU times, ``states`` (n, N) the smoothed states named
-    ``state_names``, ``covariance`` (n, N, N). The metadata (empty without air data):
+    ``state_names``, ``covariance`` (n, N, N), ``rates`` (n, 3) the corrected gyros
+    [rad/s] (a probe position needs them), ``airframe`` (a probe's pressures need its
+    temperature). The metadata (empty without air data):
     ``wind_ned_mps``, ``wind_stderr_mps``, ``wind_samples``, ``wind_scatter`` (the mean
     normalized scatter) and ``wind_steady`` (the scatter below :data:`STEADY_NIS_LIMIT`).
     """
@@ -81,7 +92,11 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
                      "are over the ground and the steady wind cannot be estimated")
         return {}
     group = log["air"]
+    speed, speed_note = _airspeed(group, airframe)
     missing = [c for c in AIR_CHANNELS if c not in group.channels or c not in group.noise_sd]
+    if speed is not None:
+        missing = [c for c in ("alpha", "beta") if c in missing] + (
+            ["airspeed (the pressures' sd)"] if speed[1] is None else [])
     if missing:
         notes.append(f"{group.source}: the air group lacks {', '.join(missing)} (or its "
                      "noise_sd): the steady wind needs alpha, beta and airspeed with their sd "
@@ -96,10 +111,20 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
     k = np.clip(np.searchsorted(t, ta), 0, t.size - 1)  # the states' covariance there
     idx = np.array(vel + att)
     p_states = covariance[k][:, idx[:, None], idx[None, :]]  # (k, 6, 6)
-    air = np.column_stack([group.channels[c][inside] for c in AIR_CHANNELS])
-    wind, d_vel, d_att, d_air = _wind_samples(cols[:, :3], cols[:, 3:], air)
-    r_air = np.diag([group.noise_sd[c] ** 2 for c in AIR_CHANNELS])
-    s_probe = np.einsum("kij,jl,kml->kim", d_air, r_air, d_air)
+    values = {**group.channels, **({} if speed is None else {"airspeed": speed[0]})}
+    air = np.column_stack([values[c][inside] for c in AIR_CHANNELS])
+    r = group.probe_position_m
+    v_probe = cols[:, :3]
+    if r is not None:  # v_air at the c.g. = the probe's - omega x r: as v_body + omega x r
+        assert rates is not None, "a probe position needs the gyros"
+        omega = np.column_stack([np.interp(ta, t, rates[:, j]) for j in range(3)])
+        v_probe = v_probe + np.cross(omega, np.asarray(r, dtype=float))
+    wind, d_vel, d_att, d_air = _wind_samples(v_probe, cols[:, 3:], air)
+    var = np.array([[group.noise_sd[c] ** 2 for c in AIR_CHANNELS[:2]]] * len(ta))
+    sd_speed = (np.full(len(ta), group.noise_sd["airspeed"]) if speed is None or speed[1] is None
+                else speed[1][inside])  # the pressures' propagated sd (checked above)
+    var = np.column_stack([var, sd_speed ** 2])
+    s_probe = np.einsum("kij,kj,klj->kil", d_air, var, d_air)
     d_x = np.concatenate([d_vel, d_att], axis=2)  # (k, 3, 6)
     s_states = np.einsum("kij,kjl,kml->kim", d_x, p_states, d_x)
     info = np.linalg.inv(s_probe)
@@ -115,11 +140,23 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
                                                                      strict=True))
     verdict = ("steady" if steady else f"not steady: the samples scatter {scatter:.3g}x "
                "their sd (turbulence, or the probe's calibration or position)")
-    notes.append(f"steady wind from the air data ({len(ta)} samples of {', '.join(AIR_CHANNELS)}, "
-            f"probe taken at the c.g.; states {', '.join(names)} interpolated): {shown} m/s "
-            f"NED; {verdict}")
+    where = ("probe taken at the c.g." if r is None else
+             f"probe at [{', '.join(f'{v:.4g}' for v in r)}] m, omega x r from the gyros")
+    notes.append(f"steady wind from the air data ({len(ta)} samples of {', '.join(AIR_CHANNELS)}"
+                 f"{speed_note}, {where}; states {', '.join(names)} interpolated): {shown} m/s "
+                 f"NED; {verdict}")
     return {"wind_ned_mps": mean.tolist(), "wind_stderr_mps": sd.tolist(),
             "wind_samples": int(len(ta)), "wind_scatter": scatter, "wind_steady": bool(steady)}
+
+
+def _airspeed(group: SensorGroup, airframe: Airframe | None
+              ) -> tuple[tuple[np.ndarray, np.ndarray | None] | None, str]:
+    """The airspeed of a group's pressures and its sd (None without pressures), and the
+    note's words."""
+    if not all(c in group.channels for c in PITOT_CHANNELS):
+        return None, ""
+    speed, sd, note = air_group_airspeed(group, airframe)
+    return (speed, sd), f" ({note})"
 
 
 __all__ = ["AIR_CHANNELS", "STEADY_NIS_LIMIT", "steady_wind"]

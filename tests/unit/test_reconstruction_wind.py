@@ -100,7 +100,7 @@ def test_the_flight_carries_the_wind_to_the_regressions(sim) -> None:
     from aeroid.estimation import resolve_air_data
 
     rec = reconstruct(with_air(sim, air_group(sim, WIND)))
-    flight = rec.to_flight()
+    flight = rec.to_flight(air="wind")  # the wind only: carried air samples win (auto)
     assert flight.metadata["wind_ned_mps"] == rec.metadata["wind_ned_mps"]
     air = resolve_air_data(flight, "auto", "equation-error")
     assert air.source == "reconstruction" and air.wind is not None
