@@ -3,9 +3,10 @@
 References: filter-error's filter run at the reported estimate and intensity, rebuilt
 here from the flight (its innovations' RMS per channel is what the fit check must have
 read); a known-wrong reported point (the right one-step point with Cx moved 10 %), which
-must be refused where the right one passes on the same flight; a coefficient held 10 %
-off (Cx) refused by the verdicts at the reported point; synthetic results for which
-failures are the filter's verdicts'.
+must be refused where the right one passes on the same flight, and a point moved 3 se
+along Cma (which the gust verdict cannot see) refused by the next scoring step; a
+coefficient held 10 % off (Cx) refused by the verdicts at the reported point; synthetic
+results for which failures are the filter's verdicts'.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from aeroid.estimation import EstimationResult
 from aeroid.flights import MIL_SCALE_LENGTH_M, GaussianNoise, Wind, simulate
 from aeroid.model import NAMES
 from baselines import _kalman_information, _kalman_likelihood, _kalman_verdict
+from baselines._kalman_onestep import NEXT_STEP_LIMIT_SE
 
 #: The same filter on the same numbers (a batched run of one row against the fit's centre
 #: row of a batch): rounding only.
@@ -32,6 +34,9 @@ RIGHT_NEXT_STEP_SE = 0.5
 #: 10 % off, which a gust path takes up as a head wind (README: the gust verdict refuses
 #: a Cx held 10 % off 40/40).
 WRONG_FACTOR = 1.1
+#: A pitch-plane move of the reported point, in the right fit's se of Cma: three times
+#: the next-step limit (1 se), well inside what the gust verdict allows.
+OFF_SE = 3.0
 
 
 @pytest.fixture(scope="module")
@@ -104,6 +109,31 @@ def test_a_wrong_reported_estimate_is_refused(turbulent, right, monkeypatch) -> 
     checked = result.info["fit_check"]["residual_rms"]
     np.testing.assert_allclose([checked[c] for c in aeroid.model.OUTPUT_CHANNELS], rms,
                                rtol=SAME_RTOL)
+    assert max(result.info["one_step"]["next_step_se"].values()) > NEXT_STEP_LIMIT_SE
+
+
+def test_a_reported_estimate_off_the_optimum_along_the_pitch_plane_is_refused(
+        turbulent, right, monkeypatch) -> None:
+    """The right one-step point with Cma moved 3 of its se (a pitch-plane error: the gust
+    states take it up, the gust verdict does not see it): refused by the next scoring
+    step, which would move it back by about that much."""
+    right_point = _kalman_likelihood.one_step_point
+    cma = NAMES.index("Cma")
+
+    def off(problem, found):
+        p, length = right_point(problem, found)
+        p = p.copy()
+        i = int(np.flatnonzero(problem.free == cma)[0])
+        p[i] += OFF_SE * right.stderr[cma] / problem.scale[i]
+        return p, length
+
+    monkeypatch.setattr(_kalman_information, "one_step_point", off)
+    result = aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0}).fit(turbulent, rng=1)
+    assert not result.success
+    assert "not at the likelihood's optimum" in result.message, result.message
+    moves = result.info["one_step"]["next_step_se"]
+    assert max(moves.values()) > NEXT_STEP_LIMIT_SE
+    assert result.info["gust_verdict_refusal"] == ""  # the gust verdict passed it
 
 
 def test_a_coefficient_held_wrong_is_refused_at_the_reported_point(turbulent,
