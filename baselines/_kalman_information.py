@@ -179,21 +179,23 @@ def with_gust_stderr(est: Any, flight: Flight, result: EstimationResult, holds: 
     calm_filter = float(result.info.get("gust_sd_mps", 0.0)) < CALM_GUST_SD_MPS
     blocked = _not_built(est, flight)
     if blocked:
-        why = f"with {blocked} the innovations' information is not built"
+        why = ("gust_stderr = filtered" if est.gust_stderr == "filtered" else
+               f"with {blocked} the innovations' information is not built")
         out = _kept_filtered(est, result, why, calm_filter)
-        return dataclasses.replace(out, warnings=(
-            *out.warnings, *_kalman_holds.untested_warning(est.name, holds, why)))
+        return dataclasses.replace(out, warnings=(*out.warnings, *_kalman_holds.untested_warning(
+            est.name, holds, f"with {blocked} filter-error's filter is not built")))
     if not np.all(np.isfinite(result.theta)):  # a refused fit's se are reported too
         return result
+    if est.gust_stderr == "filtered":
+        result = _kept_filtered(est, result, "gust_stderr = filtered", calm_filter)
+        if not _kalman_holds.tested(holds):
+            return result
     problem, noise = gust_problem(flight, result.theta, scale_length_m=est.gust_scale_length_m,
                                   substeps=est.substeps, input_mode=est.input,
                                   delay_s=est.delay_s, holds=holds)
     R = noise_at(problem, noise, float(result.info["gust_sd_mps"]))
-    if est.gust_stderr == "filtered":
-        out = _kept_filtered(est, result, "gust_stderr = filtered", calm_filter)
-        if not _kalman_holds.tested(holds):
-            return out
-        start = point(problem, likelihood_gust_sd(problem, R))
+    if est.gust_stderr == "filtered":  # the holds tested from the filter's estimate
+        out, start = result, point(problem, likelihood_gust_sd(problem, R))
         return _kalman_holds.with_hold_test(est.name, out, problem, start, noise, R, holds,
                                             flight)
     sd = likelihood_gust_sd(problem, R)

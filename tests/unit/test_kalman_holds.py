@@ -80,3 +80,16 @@ def test_where_not_built_the_holds_are_said_untested(turbulent, reference_scenar
     plain = aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0, "max_passes": 2}).fit(
         turbulent, rng=1)
     assert "hold_test" not in plain.info  # nothing held: nothing tested
+
+
+def test_with_the_filtered_se_the_holds_are_tested_too(turbulent, reference_scenario) -> None:
+    """``gust_stderr = filtered`` keeps the filter's estimate and covariance, and still
+    tests a hold (from the filter's estimate): Cma 30 % off refused."""
+    result = aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0, "gust_stderr": "filtered",
+                                           "max_passes": 2}).fit(
+        turbulent, rng=1, holds=_held(reference_scenario, WRONG_FACTOR))
+    assert "theta_filtered" not in result.info  # the filter's own estimate reported
+    assert result.info["intervals"]["source"] == "filtered"
+    assert not result.success
+    assert result.message.startswith("ekf: the data refuse the user's Cma (hold)"), \
+        result.message
