@@ -11,6 +11,12 @@ filter's own; :func:`baselines._fem_holds.hold_test_from`), then freed and refit
 (:func:`baselines._fem_holds.hold_test`). The same limit (``LR_ALPHA`` = 0.01), the same
 ``info['hold_test']`` and the same one-line refusal as filter-error's.
 
+Measured (``benchmarks/bench_gust_filters.py --holds``, ``results/gust_holds_still.md``,
+``gust_holds_steady.md``: Dryden sd 3 m/s alone and with a 5 m/s steady wind, seeds 1-10
+each, the EKF's defaults): right holds of Cma, Cza, Cmq refused 0/50 (LR mean 1.05, at
+most 4.28; limit 6.63), Cma held 0.7x or 1.3x and Cza 0.7x 30/30 (LR at least 19.4), Cmq
+1.3x 1/10 (its se is ~20 % of it there: as filter-error's 9/80).
+
 Not tested (said in one line): where filter-error's filter is not built for the fit
 (``estimate_wind``, IMU-error, aiding, air-data or sensor-position states, saturated
 samples; :func:`baselines._kalman_information.refuse`).

@@ -33,11 +33,13 @@ turbulence).
 ``gust_stderr = one-step`` (the default, ``auto``, where built): the estimate is moved by
 one Fisher-scoring step of that likelihood, ``-M^-1 g`` (Le Cam's one-step estimator:
 from a consistent start one Newton or scoring step is asymptotically efficient, with
-covariance ``M^-1``). Measured:
-coverage 0.961 and 0.967, 20/20 and 20/20 within 3 se, mean error filter-error's to
-0.01 %: it lands where filter-error converges (0.13 se from it on the test's flight).
-It is filter-error's estimate reached from the filter's, at the filter's cost plus ~1 s;
-filter-error alone is cheaper (5 s against 25 s per fit, measured on a loaded machine).
+covariance ``M^-1``). Measured (``benchmarks/results/gust_default_still.md``, Dryden sd
+3 m/s, seeds 1-20): coverage 0.956 (``innovations``: 0.872), 20/20 passed and within 3 se,
+mean error filter-error's to 0.01 % (13.08 against 13.07 %; ``innovations`` 15.80 %): it
+lands where filter-error converges (0.13 se from it on the test's flight); with a 5 m/s
+steady wind as well, 1.000 on seeds 1-10. Cost: 0.1 s of CPU more than ``innovations``
+per fit (median of seeds 1-8, 2.65 s per fit: ``gust_default_cost.md``): hence the
+default. Filter-error alone is cheaper still.
 The reported point is the judged one: its covariance is ``M^-1`` there, and the fit check,
 the gust and steady-wind verdicts and a settle verdict (the next scoring step) read
 filter-error's filter at it (:mod:`baselines._kalman_onestep`). The user's holds and
