@@ -174,6 +174,35 @@ def hold_test(problem: _fem_fit.Problem, fit: _fem_fit.Fit, holds: Any, prior: n
                     f"{LR_ALPHA:g}); {given}", figures)
 
 
+def hold_test_from(problem: _fem_fit.Problem, p: np.ndarray, R: np.ndarray, holds: Any,
+                   prior: np.ndarray, *, update_noise: bool, r_floor: np.ndarray,
+                   max_iterations: int, tol: float, who: str) -> HoldTest | None:
+    """:func:`hold_test` from a held point ``p`` that is not yet the held fit's optimum
+    (the gust filters' estimate: :mod:`baselines._kalman_holds`).
+
+    The held fit is first converged from ``p`` (Fisher scoring, as filter-error's), then
+    tested as filter-error's own; None when nothing is to be tested. A held fit that
+    fails or does not converge leaves the test not done, said in the message.
+    """
+    kinds = tested_constraints(holds)
+    if not kinds:
+        return None
+    what = ", ".join(f"{n} ({kinds[n]})" for n in kinds)
+    figures: dict[str, Any] = {"tested": list(kinds), "kind": kinds, "alpha": LR_ALPHA,
+                               "dof": len(kinds), "done": False}
+    try:
+        fit = _fem_fit.fisher_scoring(problem, p, R, update_noise=update_noise,
+                                      r_floor=r_floor, max_iterations=max_iterations, tol=tol)
+    except FloatingPointError as exc:
+        return HoldTest(True, f"{who}: the likelihood-ratio test of {what} was not done: the "
+                        f"held fit failed ({exc})", figures)
+    if not fit.converged:
+        return HoldTest(True, f"{who}: the likelihood-ratio test of {what} was not done: the "
+                        f"held fit did not converge ({fit.message})", figures)
+    return hold_test(problem, fit, holds, prior, update_noise=update_noise, r_floor=r_floor,
+                     max_iterations=max_iterations, tol=tol, who=who)
+
+
 def _given(holds: Any, name: str, kind: str) -> str:
     if kind == "hold":
         return f"{holds.held[name]:.4g}"

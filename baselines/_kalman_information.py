@@ -7,7 +7,7 @@ that covariance is too small: over 20 flights each in Dryden sd 3 m/s alone and 
 within 3 se on 11/20 and 12/20 flights (``benchmarks/results/gust_stderr_still.md``,
 ``gust_stderr_steady.md``).
 
-``gust_stderr = innovations`` (the default where built): the covariance is the inverse
+``gust_stderr = innovations``: the covariance is the inverse
 of the Fisher information of the innovations of the filter-error method's filter (Maine
 & Iliff, NASA RP-1168, ch. 5; Jategaonkar, *Flight Vehicle System Identification*, ch. 5),
 evaluated at the filter's estimate and at the intensity that maximises that likelihood
@@ -26,15 +26,25 @@ filter-error reports. The coefficients' covariance is the coefficient block of `
 and 0.850, every coefficient within 3 se on 20/20 and 16/20: better, not calibrated. The
 information is the likelihood's curvature at a point that is not the likelihood's
 optimum: the filter's estimate scatters more than the Cramér-Rao bound (mean error 15.8
-against filter-error's 13.1 %), so the result says so in one line.
+against filter-error's 13.1 %), so the result says so in one line and
+``info['intervals']['calibrated']`` is False (as with the filtered covariance in
+turbulence).
 
-``gust_stderr = one-step``: the estimate is moved by one Fisher-scoring step of that
-likelihood, ``-M^-1 g`` (Le Cam's one-step estimator: from a consistent start one Newton
-or scoring step is asymptotically efficient, with covariance ``M^-1``). Measured:
-coverage 0.961 and 0.967, 20/20 and 20/20 within 3 se, mean error filter-error's to
-0.01 %: it lands where filter-error converges (0.13 se from it on the test's flight).
-It is filter-error's estimate reached from the filter's, at the filter's cost plus ~1 s;
-filter-error alone is cheaper (5 s against 25 s per fit, measured on a loaded machine).
+``gust_stderr = one-step`` (the default, ``auto``, where built): the estimate is moved by
+one Fisher-scoring step of that likelihood, ``-M^-1 g`` (Le Cam's one-step estimator:
+from a consistent start one Newton or scoring step is asymptotically efficient, with
+covariance ``M^-1``). Measured (``benchmarks/results/gust_default_still.md``, Dryden sd
+3 m/s, seeds 1-20): coverage 0.956 (``innovations``: 0.872), 20/20 passed and within 3 se,
+mean error filter-error's to 0.01 % (13.08 against 13.07 %; ``innovations`` 15.80 %): it
+lands where filter-error converges (0.13 se from it on the test's flight); with a 5 m/s
+steady wind as well, 1.000 on seeds 1-10. Cost: 0.1 s of CPU more than ``innovations``
+per fit (median of seeds 1-8, 2.65 s per fit: ``gust_default_cost.md``): hence the
+default. Filter-error alone is cheaper still.
+The reported point is the judged one: its covariance is ``M^-1`` there, and the fit check,
+the gust and steady-wind verdicts and a settle verdict (the next scoring step) read
+filter-error's filter at it (:mod:`baselines._kalman_onestep`). The user's holds and
+priors are tested by filter-error's likelihood ratio (:mod:`baselines._kalman_holds`).
+The mathematics: :mod:`baselines._kalman_likelihood`.
 
 Not built (one line each, ``gust_stderr = filtered`` with a warning under ``auto``): with
 ``estimate_wind``, IMU-error, aiding, air-data or sensor-position states, which
@@ -49,159 +59,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Flight, used_samples
 from aeroid.model import NAMES, OUTPUT_CHANNELS
-from baselines import _common, _fem_fit, _fem_setup, _kalman_air
-from baselines._fem_filter import gust_model
-from baselines._kalman_gust import GUST_SD_BOUNDS_MPS
-
-#: The likelihood's intensity to 1 % (its own sd from one record is ~10 %).
-PROFILE_LOG_TOL = 0.01
-
-
-@dataclass(frozen=True)
-class InnovationCovariance:
-    """The innovations' information at an estimate (module docstring).
-
-    Attributes
-    ----------
-    covariance : ndarray, shape (N_COEFFICIENTS, N_COEFFICIENTS)
-        The coefficients' covariance (held coefficients: rows and columns 0).
-    stderr : ndarray, shape (N_COEFFICIENTS,)
-        Its square-root diagonal (held: 0).
-    information : ndarray, shape (n_free + 1, n_free + 1)
-        ``M`` of the scaled parameters (the free coefficients over their scale, then
-        ``log sigma``), the priors' information included.
-    score : ndarray, shape (n_free + 1,)
-        The gradient of the negative log-likelihood (plus the priors') there.
-    gust_sd_mps, gust_sd_stderr_mps : float
-        The intensity at which it was evaluated, and its sd from ``M^-1`` (NaN when held:
-        ``sigma_free`` False).
-    noise_source : str
-        Where the measurement noise came from (``metadata`` or ``innovations``).
-    R : ndarray, shape (m,)
-        The measurement-noise variances used.
-    ok : bool
-        Every differenced filter finite and ``M`` invertible.
-    """
-
-    covariance: np.ndarray
-    stderr: np.ndarray
-    information: np.ndarray
-    score: np.ndarray
-    gust_sd_mps: float
-    gust_sd_stderr_mps: float
-    noise_source: str
-    R: np.ndarray
-    ok: bool
-
-
-def gust_problem(flight: Flight, theta: np.ndarray, *, scale_length_m: float,
-                 substeps: int, input_mode: str, delay_s: float, holds: Any = None
-                 ) -> tuple[_fem_fit.Problem, _fem_setup.Noise]:
-    """Filter-error's likelihood problem for ``flight`` around coefficients ``theta``,
-    built as :class:`baselines.filter_error.FilterErrorEstimator` builds it (its
-    measurement noise, initial state and gust decay; ``holds``: their values and priors)."""
-    zs = _common.measurements(flight)
-    noise = _fem_setup.measurement_noise(flight, zs, "auto", "gust information")
-    x0, P0x = _fem_setup.initial_state(flight, zs, noise.R)
-    decay, _, _ = _fem_setup.gust_decay(flight, scale_length_m)
-    base = np.array(theta, dtype=float) if holds is None else holds.with_held(theta)
-    free, scale, mean, info_prior = _fem_setup.free_parameters(
-        flight.airframe.prior_vector(), holds)
-    problem = _fem_fit.Problem(gust_model(flight, substeps, input_mode, delay_s), zs, x0,
-                               P0x, decay, base, free, scale, False, mean, info_prior)
-    return problem, noise
-
-
-def likelihood_gust_sd(problem: _fem_fit.Problem, R: np.ndarray) -> float:
-    """The intensity [m/s] that maximises the innovations' likelihood at the coefficients
-    ``problem.theta_base`` (bounded Brent over ``log sigma`` in
-    :data:`baselines._kalman_gust.GUST_SD_BOUNDS_MPS`, one filter run per trial)."""
-    free = problem.free
-    p = np.concatenate([problem.theta_base[free] / problem.scale, [0.0]])
-
-    def cost(log_sd: float) -> float:
-        p[-1] = log_sd
-        value = float(_fem_fit.nll(problem.run(p[None], R))[0])
-        return value if math.isfinite(value) else 1e300
-
-    lo, hi = (math.log(b) for b in GUST_SD_BOUNDS_MPS)
-    found = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
-                            options={"xatol": PROFILE_LOG_TOL})
-    return math.exp(float(found.x))
-
-
-def noise_at(problem: _fem_fit.Problem, noise: _fem_setup.Noise, gust_sd_mps: float
-             ) -> np.ndarray:
-    """The measurement-noise variances (m,): ``noise.R`` from the flight's noise metadata,
-    or without it re-estimated once from the innovations at ``problem.theta_base`` and
-    ``gust_sd_mps`` (filter-error's relaxation, one step)."""
-    if not noise.update:
-        return noise.R
-    p = np.concatenate([problem.theta_base[problem.free] / problem.scale,
-                        [math.log(gust_sd_mps)]])
-    # filter-error's own update (same package; written once there)
-    return _fem_fit._innovation_noise(problem.run(p[None], noise.R), noise.R, noise.floor)
-
-
-def innovation_covariance(problem: _fem_fit.Problem, noise: _fem_setup.Noise,
-                          gust_sd_mps: float, R: np.ndarray | None = None, *,
-                          sigma_free: bool = True) -> InnovationCovariance:
-    """The information ``M`` at ``problem.theta_base`` and ``gust_sd_mps``, and its inverse
-    (``R``: the noise variances, default :func:`noise_at`'s). ``sigma_free`` False: the
-    intensity is held (at its search's lower bound: still air, as filter-error's
-    ``at_bound``), its row and column of ``M`` left out of the inverse."""
-    free, nf = problem.free, problem.free.size
-    p = np.concatenate([problem.theta_base[free] / problem.scale, [math.log(gust_sd_mps)]])
-    R = noise_at(problem, noise, gust_sd_mps) if R is None else R
-    center, dnu, dS, ok = _fem_fit.sensitivities(problem, p, R)
-    g, M = _fem_fit.score_information(center.innovation[0], center.S[0], dnu, dS)
-    M[:nf, :nf] += np.diag(problem.prior_info * problem.scale**2)
-    g[:nf] += problem.prior_info * problem.scale * (p[:nf] * problem.scale
-                                                   - problem.prior_mean)
-    cov = np.zeros((len(NAMES), len(NAMES)))
-    used = nf + 1 if sigma_free else nf
-    cov_p = np.full_like(M, np.nan)
-    try:
-        cov_p[:used, :used] = np.linalg.inv(M[:used, :used])
-    except np.linalg.LinAlgError:
-        ok = False
-    diag = np.diag(cov_p)[:used]
-    ok = ok and bool(np.all(np.isfinite(diag)) and np.all(diag > 0))
-    cov[np.ix_(free, free)] = cov_p[:nf, :nf] * np.outer(problem.scale, problem.scale)
-    sd_sigma = gust_sd_mps * math.sqrt(abs(cov_p[nf, nf]))  # delta method: sigma = e^p
-    return InnovationCovariance(cov, np.sqrt(np.abs(np.diag(cov))), M, g, float(gust_sd_mps),
-                                float(sd_sigma), noise.source, R, ok)
-
-
-def one_step(problem: _fem_fit.Problem, found: InnovationCovariance
-             ) -> tuple[np.ndarray, float]:
-    """Le Cam's one-step estimate from ``problem.theta_base``: one Fisher-scoring step
-    ``-M^-1 g`` of the innovations' likelihood (with filter-error's step lengths
-    :data:`baselines._fem_fit.STEP_LENGTHS`, the one that lowers it most); returns the
-    coefficients (N_COEFFICIENTS,) and the step length taken (0: none lowered it, the
-    start returned)."""
-    free = problem.free
-    p = np.concatenate([problem.theta_base[free] / problem.scale,
-                        [math.log(found.gust_sd_mps)]])
-    used = found.score.size if math.isfinite(found.gust_sd_stderr_mps) else p.size - 1
-    step = np.zeros(p.size)  # a held intensity (nan sd) stays
-    step[:used] = -np.linalg.solve(found.information[:used, :used], found.score[:used])
-    rows = np.vstack([p] + [p + a * step for a in _fem_fit.STEP_LENGTHS])
-    cost = _fem_fit.nll(problem.run(rows, found.R)) + problem.prior_cost(rows)
-    best = int(np.argmin(cost))
-    theta, _, _ = problem.unpack(rows[best:best + 1])
-    return theta[0], 0.0 if best == 0 else float(_fem_fit.STEP_LENGTHS[best - 1])
-
+from baselines import _kalman_air, _kalman_holds, _kalman_onestep, _kalman_verdict
+from baselines._kalman_likelihood import (
+    InnovationCovariance,
+    gust_problem,
+    innovation_covariance,
+    likelihood_gust_sd,
+    noise_at,
+    one_step_point,
+    point,
+    scoring_step,
+)
 
 #: The choices of ``gust_stderr`` (:class:`baselines.ekf.ExtendedKalmanEstimator`, ukf).
 GUST_STDERR = ("auto", "filtered", "innovations", "one-step")
@@ -215,12 +91,16 @@ FILTERED_WARNING = ("{who}: the standard errors are the final filtered covarianc
 UNCALIBRATED_WARNING = (
     "{who}: in turbulence these intervals are not calibrated: the information is the "
     "likelihood's, the estimate the filter's, which scatters more (measured in Dryden sd "
-    "3 m/s: 95 % intervals covered {coverage}); gust_stderr = one-step or method "
-    "filter-error give calibrated ones (0.96-0.97 on the same flights)")
+    "3 m/s: 95 % intervals covered {coverage}); gust_stderr = one-step (the default) or "
+    "method filter-error give calibrated ones (0.96-0.97 on the same flights)")
 #: Measured coverage quoted in :data:`UNCALIBRATED_WARNING` (``benchmarks/results/
 #: gust_stderr_still.md``, ``gust_stderr_steady.md``).
 INNOVATIONS_COVERAGE = ("0.87 and 0.85 on 20 flights each without and with a 5 m/s steady "
                         "wind, the filtered covariance's 0.79")
+#: What each choice's intervals covered in Dryden sd 3 m/s (``info['intervals']``;
+#: ``benchmarks/results/gust_stderr_*.md``, README "The gust filters' intervals").
+MEASURED_COVERAGE = {"one-step": "0.96-0.97", "innovations": "0.85-0.87",
+                     "filtered": "0.76-0.82"}
 #: Below this likelihood intensity [m/s] the air is taken as calm: the intensity is held
 #: (at the search's lower bound, 0.1 m/s, where the still-air flights' estimate is: README)
 #: and the warning is not said.
@@ -263,51 +143,120 @@ def refuse(est: Any, flight: Flight) -> None:
                              "gust_stderr = filtered")
 
 
+def _intervals(result: EstimationResult, source: str, calibrated: bool) -> dict:
+    """``info['intervals']``: where the se came from and whether they are calibrated (False:
+    known to undercover in turbulence, measured)."""
+    return {**result.info, "intervals": {"source": source, "calibrated": calibrated,
+                                         "measured_coverage_turbulence": MEASURED_COVERAGE[
+                                             source]}}
+
+
+def _kept_filtered(est: Any, result: EstimationResult, why: str, calm: bool
+                   ) -> EstimationResult:
+    """The filtered covariance kept: not calibrated unless the air is calm, said."""
+    said = () if calm else (FILTERED_WARNING.format(who=est.name, why=why),)
+    return dataclasses.replace(result, info=_intervals(result, "filtered", calm),
+                               warnings=(*result.warnings, *said))
+
+
 def with_gust_stderr(est: Any, flight: Flight, result: EstimationResult, holds: Any = None
                      ) -> EstimationResult:
-    """``result`` (a gust fit of ``est``, EKF or UKF) with ``gust_stderr`` applied.
+    """``result`` (a gust fit of ``est``, EKF or UKF) with ``gust_stderr`` applied and the
+    user's holds and priors tested (:mod:`baselines._kalman_holds`).
 
-    ``innovations`` (and ``auto`` where built): the covariance and ``stderr`` are the
-    inverse of the innovations' information at the filter's estimate and the intensity
-    that maximises the likelihood there (:func:`likelihood_gust_sd`); ``one-step``: also
-    the estimate moved by one Fisher-scoring step (:func:`one_step`). The filter's own
-    estimate and covariance are kept in ``info['theta_filtered']``,
-    ``info['stderr_filtered']``, ``info['covariance_filtered']``; each is said in one line.
-    ``auto`` where not built: the filtered ones, with a warning saying what they covered.
+    ``one-step`` (and ``auto`` where built): the estimate moved by one Fisher-scoring step
+    (:func:`baselines._kalman_likelihood.one_step_point`), its covariance the inverse of
+    the information there, its fit check and verdicts at that point
+    (:mod:`baselines._kalman_onestep`); ``innovations``: the filter's estimate with the
+    information's covariance at it and the intensity that maximises the likelihood there
+    (:func:`baselines._kalman_likelihood.likelihood_gust_sd`), said not calibrated in
+    turbulence. The filter's own estimate and covariance are kept in
+    ``info['theta_filtered']``, ``info['stderr_filtered']``,
+    ``info['covariance_filtered']``; ``info['intervals']`` says where the se came from and
+    whether they are calibrated. ``auto`` where not built, or ``filtered``: the filtered
+    ones, said not calibrated in turbulence.
     """
-    if not est.gusts or est.gust_stderr == "filtered":
+    if not est.gusts:
         return result
+    calm_filter = float(result.info.get("gust_sd_mps", 0.0)) < CALM_GUST_SD_MPS
     blocked = _not_built(est, flight)
     if blocked:
-        return dataclasses.replace(result, warnings=(*result.warnings, FILTERED_WARNING.format(
-            who=est.name, why=f"with {blocked} the innovations' information is not built")))
+        why = ("gust_stderr = filtered" if est.gust_stderr == "filtered" else
+               f"with {blocked} the innovations' information is not built")
+        out = _kept_filtered(est, result, why, calm_filter)
+        return dataclasses.replace(out, warnings=(*out.warnings, *_kalman_holds.untested_warning(
+            est.name, holds, f"with {blocked} filter-error's filter is not built")))
     if not np.all(np.isfinite(result.theta)):  # a refused fit's se are reported too
         return result
+    if est.gust_stderr == "filtered":
+        result = _kept_filtered(est, result, "gust_stderr = filtered", calm_filter)
+        if not _kalman_holds.tested(holds):
+            return result
     problem, noise = gust_problem(flight, result.theta, scale_length_m=est.gust_scale_length_m,
                                   substeps=est.substeps, input_mode=est.input,
                                   delay_s=est.delay_s, holds=holds)
     R = noise_at(problem, noise, float(result.info["gust_sd_mps"]))
+    if est.gust_stderr == "filtered":  # the holds tested from the filter's estimate
+        out, start = result, point(problem, likelihood_gust_sd(problem, R))
+        return _kalman_holds.with_hold_test(est.name, out, problem, start, noise, R, holds,
+                                            flight)
     sd = likelihood_gust_sd(problem, R)
     calm = sd < CALM_GUST_SD_MPS  # at the search's lower bound: held there
     found = innovation_covariance(problem, noise, sd, R=R, sigma_free=not calm)
     if not found.ok:
-        return dataclasses.replace(result, warnings=(*result.warnings, FILTERED_WARNING.format(
-            who=est.name, why="the innovations' information was not invertible at the "
-            "estimate")))
-    theta, said = result.theta, []
-    if est.gust_stderr == "one-step":
-        theta, length = one_step(problem, found)
-        free = found.stderr > 0
-        moved = np.max(np.abs(theta - result.theta)[free] / found.stderr[free])
-        said.append(f"{est.name}: gust_stderr = one-step: the estimate is the filter's moved "
-                    f"by one Fisher-scoring step of the innovations' likelihood (Le Cam's "
-                    f"one-step estimator; step length {length:g}, at most {moved:.2f} se)")
-    elif not calm:
-        said.append(UNCALIBRATED_WARNING.format(who=est.name, coverage=INNOVATIONS_COVERAGE))
-    free = found.stderr > 0
-    ratio = found.stderr[free] / result.stderr[free]
+        out = _kept_filtered(est, result, "the innovations' information was not invertible "
+                             "at the estimate", calm)
+        return _kalman_holds.with_hold_test(est.name, out, problem, point(problem, sd), noise,
+                                            R, holds, flight)
     info = {**result.info, "theta_filtered": result.theta, "stderr_filtered": result.stderr,
-            "covariance_filtered": result.covariance,
+            "covariance_filtered": result.covariance}
+    if est.gust_stderr == "innovations":
+        said = () if calm else (UNCALIBRATED_WARNING.format(
+            who=est.name, coverage=INNOVATIONS_COVERAGE),)
+        out = _reported(est, dataclasses.replace(result, info=info), found, said,
+                        "innovations", calm)
+        return _kalman_holds.with_hold_test(est.name, out, problem, point(problem, sd), noise,
+                                            R, holds, flight)
+    p, length = one_step_point(problem, found)
+    theta, _, sigma = problem.unpack(p[None])
+    at = innovation_covariance(dataclasses.replace(problem, theta_base=theta[0]), noise,
+                               float(sigma[0]), R=R, sigma_free=not calm)
+    if not at.ok:
+        failed = dataclasses.replace(result, theta=theta[0], success=False, info=info,
+                                     message=f"{est.name}: the innovations' information at "
+                                     "the one-step estimate is not invertible: no se")
+        return _reported(est, failed, found, (), "one-step", False)
+    names = (*(NAMES[i] for i in problem.free), "gust_sd_mps")
+    judged = _kalman_onestep.judge(at.runs, scoring_step(at)[1], names, float(sigma[0]),
+                                   -flight.dt / math.log(problem.decay), flight.dt, est.name)
+    moved = np.max(np.abs(theta[0] - result.theta)[problem.free] / at.stderr[problem.free])
+    said = [f"{est.name}: gust_stderr = one-step: the estimate is the filter's moved by one "
+            f"Fisher-scoring step of the innovations' likelihood (Le Cam's one-step "
+            f"estimator; step length {length:g}, at most {moved:.2f} se), judged there (its "
+            "innovations, gust path and next step)"]
+    filter_refused = _kalman_verdict.refused_by_verdict(result)
+    if filter_refused:
+        said.append(f"{est.name}: the filter's own estimate was refused ({result.message}); "
+                    "the one-step estimate reported is judged on its own")
+    success, message = result.success, result.message
+    if result.success or filter_refused:
+        success, message = judged.ok, judged.message
+    info = {**info, **judged.info, "gust_verdict_filtered": result.info.get("gust_verdict"),
+            "one_step": {**judged.info["one_step"], "step_length": length,
+                         "filter_success": result.success, "filter_message": result.message}}
+    out = _reported(est, dataclasses.replace(result, theta=theta[0], success=success,
+                                             message=message, info=info), at, tuple(said),
+                    "one-step", True)
+    return _kalman_holds.with_hold_test(est.name, out, problem, p, noise, R, holds, flight)
+
+
+def _reported(est: Any, result: EstimationResult, found: InnovationCovariance,
+              said: tuple[str, ...], source: str, calibrated: bool) -> EstimationResult:
+    """``result`` with ``found``'s covariance and ``info['gust_information']``, said."""
+    free = found.stderr > 0
+    filtered = result.info["stderr_filtered"]
+    ratio = found.stderr[free] / filtered[free]
+    info = {**_intervals(result, source, calibrated),
             "gust_information": {"information": found.information,
                                  "gust_sd_mps": found.gust_sd_mps,
                                  "gust_sd_stderr_mps": found.gust_sd_stderr_mps,
@@ -316,6 +265,5 @@ def with_gust_stderr(est: Any, flight: Flight, result: EstimationResult, holds: 
               f"(filter-error's likelihood, the gusts integrated out, its intensity there "
               f"{found.gust_sd_mps:.3g} m/s, {found.noise_source} noise), not the final "
               f"filtered covariance: {np.min(ratio):.2f}-{np.max(ratio):.2f} x its sd")
-    return dataclasses.replace(result, theta=theta, stderr=found.stderr,
-                               covariance=found.covariance, info=info,
-                               warnings=(*result.warnings, notice, *said))
+    return dataclasses.replace(result, stderr=found.stderr, covariance=found.covariance,
+                               info=info, warnings=(*result.warnings, notice, *said))

@@ -47,7 +47,8 @@ def settle_verdict(result: EstimationResult, passes: list[_kalman.FilterOutput],
     """``result`` with ``success=False`` when its passes did not settle.
 
     ``index``, ``names``: the constant states judged (positions in the filter's state)
-    and their names. Adds ``info['last_pass_moves_se']`` (per name) in any case.
+    and their names. Adds ``info['last_pass_moves_se']`` (per name) in any case and
+    ``info['settle_refused']`` when it refuses.
     """
     moves = last_moves(passes, index)
     if moves is None or not result.success:
@@ -61,5 +62,15 @@ def settle_verdict(result: EstimationResult, passes: list[_kalman.FilterOutput],
                f"{moves[worst]:.2f} of its standard errors (limit {SETTLE_LIMIT_SE:g}); the "
                "estimate walks along a direction the data hardly determine and its se does "
                "not cover it")
-    return dataclasses.replace(result, success=False, message=message, info=info,
-                               warnings=result.warnings)
+    return dataclasses.replace(result, success=False, message=message,
+                               info={**info, "settle_refused": True}, warnings=result.warnings)
+
+
+def refused_by_verdict(result: EstimationResult) -> bool:
+    """Whether ``result`` failed by a verdict on the filter's estimate: its passes' settling
+    (:func:`settle_verdict`) or its gust verdict (``info['gust_verdict_refusal']``, said as
+    the message), not by a diverged or non-finite filter."""
+    if result.success:
+        return False
+    gust = result.info.get("gust_verdict_refusal")
+    return bool(result.info.get("settle_refused")) or bool(gust and result.message == gust)

@@ -76,11 +76,15 @@ class ExtendedKalmanEstimator(ImuFilterOptions):
         innovations' information (filter-error's likelihood) at the estimate;
         ``one-step``, the same with the estimate moved by one Fisher-scoring step of that
         likelihood (Le Cam's one-step estimator: calibrated intervals in turbulence,
-        measured); ``filtered``, the final filtered covariance (too small in turbulence,
-        measured). ``auto`` (default): ``innovations`` where built (gust states without
-        ``estimate_wind``, IMU-error, aiding, air-data or sensor-position states), else
-        ``filtered``; each with a one-line warning saying what its intervals covered.
-        Without gust states: unused.
+        measured), its fit check and verdicts at the moved estimate
+        (:mod:`baselines._kalman_onestep`); ``filtered``, the final filtered covariance
+        (too small in turbulence, measured). ``auto`` (default): ``one-step`` where built
+        (gust states without ``estimate_wind``, IMU-error, aiding, air-data or
+        sensor-position states; chosen by measurement: coverage and cost side by side,
+        README), else ``filtered``; intervals known to undercover in turbulence are said
+        so in one line and in ``info['intervals']['calibrated']``. Holds and priors are
+        tested by filter-error's likelihood ratio where built
+        (:mod:`baselines._kalman_holds`). Without gust states: unused.
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held

@@ -68,8 +68,10 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
     gust_stderr : {"auto", "filtered", "innovations", "one-step"}
         As the EKF's (:class:`baselines.ekf.ExtendedKalmanEstimator`): with gust states the
         standard errors from the innovations' information at the estimate (filter-error's
-        EKF likelihood, :mod:`baselines._kalman_information`) where built, or with
-        ``one-step`` also one Fisher-scoring step of that likelihood from the estimate.
+        EKF likelihood, :mod:`baselines._kalman_information`) where built, with
+        ``one-step`` (the default, ``auto``, where built) also one Fisher-scoring step of
+        that likelihood from the estimate, judged at the moved estimate; holds and priors
+        tested by filter-error's likelihood ratio (:mod:`baselines._kalman_holds`).
     """
 
     supports_holds: ClassVar[bool] = True  # held states leave the filter: baselines._held

@@ -28,8 +28,10 @@ alone, filter-error's study). Fits (``--fits``, default all):
   turbulent flight, the intensity given or estimated;
 * ``ekf-gustonly-onestep``, ``ukf-gustonly-onestep``: ``ekf-gustonly-est`` with
   ``gust_stderr = one-step`` (one Fisher-scoring step of filter-error's likelihood from the
-  filter's estimate, :mod:`baselines._kalman_information`); ``ekf-gustonly-filtered``: with
-  ``gust_stderr = filtered`` (the filtered covariance, as before ``gust_stderr``);
+  filter's estimate, :mod:`baselines._kalman_information`; the default since it was
+  measured against ``innovations``); ``ekf-gustonly-innov``: with ``gust_stderr =
+  innovations`` (the filter's estimate, the information's se); ``ekf-gustonly-filtered``:
+  with ``gust_stderr = filtered`` (the filtered covariance, as before ``gust_stderr``);
   ``ekf-gust-still-onestep``: ``ekf-gust-still`` with ``one-step``;
 * ``fe``: the filter-error method (defaults) on the same turbulent flight, so the EKF's
   gust states and filter-error are compared on the SAME flights (issue 26's "within 1.5x");
@@ -49,10 +51,15 @@ of one run are correlated: the interval is too narrow by an unknown factor; the 
 "all within 3 se" count is the independent figure), the same two figures with the filter's
 own estimate and filtered covariance (``info['theta_filtered']``,
 ``info['stderr_filtered']``, where ``gust_stderr`` replaced them), and the ratio of the
-mean error to ``fe``'s. With ``--holds NAME=FACTOR ...`` every chosen fit is also run
-with that coefficient held at FACTOR x its truth (a known-wrong model), and each run's
-line shows the gust verdict's figures (:mod:`baselines._gust_verdict`: axial z, roll
-ratio) and what refused it.
+mean error to ``fe``'s, the median wall time and this process's median CPU time per fit
+(the machine is shared: the CPU time carries less of the others' load). With ``--holds
+NAME=FACTOR ...`` every chosen fit is also run
+with that coefficient held at FACTOR x its truth (a known-wrong model; FACTOR 1: a right
+hold), and each run's line shows the gust verdict's figures (:mod:`baselines._gust_verdict`:
+axial z, roll ratio), the likelihood-ratio hold test's ``LR`` and ``p``
+(:mod:`baselines._kalman_holds`) and what refused it; the table counts the fits the
+hold test refused and the range of ``LR``. One-step fits' lines show the next scoring
+step's size in se (their settle verdict, :mod:`baselines._kalman_onestep`).
 """
 
 from __future__ import annotations
@@ -110,6 +117,8 @@ def fits(sd: float, given_sd: float | None = None) -> dict[str, tuple[str, str, 
                                                       "gust_stderr": "one-step"}),
         "ekf-gustonly-filtered": ("ekf", "turbulent", {"estimate_gust_sd": True,
                                                        "gust_stderr": "filtered"}),
+        "ekf-gustonly-innov": ("ekf", "turbulent", {"estimate_gust_sd": True,
+                                                    "gust_stderr": "innovations"}),
         "ukf-gustonly-onestep": ("ukf", "turbulent", {"estimate_gust_sd": True,
                                                       "gust_stderr": "one-step"}),
         "ekf-gust-still-onestep": ("ekf", "still", {"estimate_gust_sd": True,
@@ -181,9 +190,10 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
                 label = name if hold is None else f"{name} {hold} {factor:g}x"
                 hold_arg = None if hold is None else {"hold": {hold: factor * float(
                     truth[NAMES.index(hold)])}}
-                start = time.perf_counter()
+                start, cpu_start = time.perf_counter(), time.process_time()
                 r = _estimator(method, options).fit(flights[air], rng=seed, holds=hold_arg)
                 wall = time.perf_counter() - start
+                cpu = time.process_time() - cpu_start  # this process's: less of the load
                 z = np.abs(r.theta - truth) / r.stderr
                 rel = 100.0 * np.mean(np.abs(r.theta / truth - 1.0))
                 extra = ""
@@ -201,6 +211,16 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
                     extra += " [said: not calibrated]"
                 if "gust_information" in r.info:
                     extra += f" likelihood sd {r.info['gust_information']['gust_sd_mps']:.2f}"
+                moves = r.info.get("one_step", {}).get("next_step_se")
+                if moves:
+                    extra += f" next step {np.nanmax(list(moves.values())):.2f} se"
+                    if not r.info["one_step"]["filter_success"]:
+                        extra += " [the filter's own refused]"
+                test = r.info.get("hold_test", {})
+                if test.get("done"):
+                    extra += f" hold LR {test['lr']:.2f} p {test['p_value']:.2g}"
+                if "intervals" in r.info:
+                    extra += f" calibrated={r.info['intervals']['calibrated']}"
                 if "stderr_filtered" in r.info:
                     extra += (f" z(filtered se) {np.nanmax(z_f):.2f} se/filtered "
                               f"{np.nanmin(r.stderr[free] / sd_f[free]):.2f}-"
@@ -212,9 +232,13 @@ def run(seeds: int, sd: float, chosen: tuple[str, ...], holds: tuple[str, ...] =
                                      "n_cover": int(np.sum(free)),
                                      "zmax": float(np.nanmax(z)),
                                      "within": bool(np.all(z[np.isfinite(z)] < WITHIN_SE)),
-                                     "wall": wall})
+                                     "hold_refused": bool(test.get("done") and test["p_value"]
+                                                          < test["alpha"]),
+                                     "hold_lr": test.get("lr", np.nan),
+                                     "wall": wall, "cpu": cpu})
                 lines.append(f"seed {seed} {label:15s} success={r.success} "
-                             f"mean|err|={rel:.3f}% max z={np.nanmax(z):.2f} {wall:.1f}s{extra}"
+                             f"mean|err|={rel:.3f}% max z={np.nanmax(z):.2f} {wall:.1f}s "
+                             f"cpu {cpu:.1f}s{extra}"
                              + ("" if r.success else f" [{r.message[:110]}]"))
                 print(lines[-1], flush=True)
     return kinds, lines
@@ -232,10 +256,17 @@ def summary(kinds: dict) -> str:
         ci = binomtest(k, n).proportion_ci(0.95)  # exact (Clopper-Pearson)
         return f"{k / n:.3f} ({ci.low:.2f}-{ci.high:.2f})"
 
+    def lr_range(rows: list[dict]) -> str:
+        lr = np.array([row["hold_lr"] for row in rows], dtype=float)
+        lr = lr[np.isfinite(lr)]
+        return "-" if lr.size == 0 else " / ".join(f"{v:.2f}" for v in (
+            lr.min(), np.median(lr), lr.max()))
+
     out = ["| fit | success | mean abs rel error [%] | x ekf-still | x oe-wind | x fe "
            "| max err/se | all within 3 se | coverage 95 % (exact 95 % CI) "
-           "| the filtered se: within 3 se, coverage | wall [s] (median) |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+           "| the filtered se: within 3 se, coverage | refused by the hold test "
+           "| hold LR (min / median / max) | wall [s] (median) | cpu [s] (median) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, rows in kinds.items():
         rel = mean_rel(name)
         out.append(f"| {name} | {sum(row['success'] for row in rows)}/{len(rows)} | "
@@ -245,7 +276,10 @@ def summary(kinds: dict) -> str:
                    f"{sum(row['within'] for row in rows)}/{len(rows)} | "
                    f"{coverage(rows)} | {sum(row['within_filtered'] for row in rows)}/"
                    f"{len(rows)}, {coverage(rows, 'covered_filtered')} | "
-                   f"{np.median([row['wall'] for row in rows]):.1f} |")
+                   f"{sum(row['hold_refused'] for row in rows)}/{len(rows)} | "
+                   f"{lr_range(rows)} | "
+                   f"{np.median([row['wall'] for row in rows]):.1f} | "
+                   f"{np.median([row['cpu'] for row in rows]):.1f} |")
     return "\n".join(out)
 
 

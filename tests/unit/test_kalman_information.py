@@ -19,7 +19,7 @@ import aeroid
 from aeroid.estimation import CoefficientSpec
 from aeroid.flights import GaussianNoise, Wind, simulate
 from aeroid.model import NAMES
-from baselines import _fem_fit, _kalman_information
+from baselines import _fem_fit, _kalman_information, _kalman_likelihood
 from baselines.ekf import ExtendedKalmanEstimator
 from baselines.filter_error import FilterErrorEstimator
 
@@ -88,7 +88,7 @@ def test_at_filter_errors_estimate_it_is_filter_errors_covariance(turbulent, fe_
                                                      rel=SAME_RTOL)
     profile = _kalman_information.likelihood_gust_sd(problem, found.R)
     assert profile == pytest.approx(sd, rel=PROFILE_RTOL)
-    theta, _ = _kalman_information.one_step(problem, found)
+    theta, _ = _kalman_likelihood.one_step(problem, found)
     assert np.max(np.abs(theta - fe_fit.theta) / fe_fit.stderr) < AT_OPTIMUM_SE
 
 
@@ -130,18 +130,19 @@ def test_the_information_is_the_likelihoods_curvature(turbulent, fe_fit) -> None
 
 @pytest.fixture(scope="module")
 def ekf_fits(turbulent):
-    """The EKF told the true intensity: the default ``gust_stderr`` and ``one-step``."""
+    """The EKF told the true intensity: ``innovations`` and ``one-step`` (the default)."""
     return {mode: aeroid.make_estimator("ekf", {"gust_sd_mps": 3.0, "gust_stderr": mode}
                                         ).fit(turbulent, rng=1)
-            for mode in ("auto", "one-step")}
+            for mode in ("innovations", "one-step")}
 
 
 def test_an_ekf_gust_fit_reports_the_informations_se(turbulent, reference_scenario,
                                                      ekf_fits) -> None:
-    """The default: the information's se at the EKF's own estimate and the likelihood's
+    """``innovations``: the information's se at the EKF's own estimate and the likelihood's
     intensity there; the filtered ones kept (2.4x smaller on Cza, Cma here, measured);
-    said once, with the warning that they are not calibrated in turbulence."""
-    result = ekf_fits["auto"]
+    said once, with the warning that they are not calibrated in turbulence (also in
+    ``info['intervals']``)."""
+    result = ekf_fits["innovations"]
     assert result.success, result.message
     problem, noise, _ = _information(turbulent, result.theta, 3.0)
     R = _kalman_information.noise_at(problem, noise, 3.0)
@@ -155,6 +156,7 @@ def test_an_ekf_gust_fit_reports_the_informations_se(turbulent, reference_scenar
     said = [w for w in result.warnings if "innovations' information" in w]
     assert len(said) == 1 and "not the final filtered covariance" in said[0], result.warnings
     assert sum("these intervals are not calibrated" in w for w in result.warnings) == 1
+    assert result.info["intervals"]["calibrated"] is False
     z = np.abs(result.theta - reference_scenario.coefficient_vector) / result.stderr
     assert np.all(z < WITHIN_SE), dict(zip(NAMES, z.round(2), strict=True))
 
