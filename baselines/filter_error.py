@@ -151,8 +151,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
     ``cost`` is the innovations' negative log-likelihood without constants, plus the
     priors'. ``info``: ``gust_sd_mps`` and ``gust_sd_stderr_mps`` (NaN when at its lower
     bound, :data:`baselines._fem_fit.LOG_SIGMA_MIN`: still air), ``gust_time_constant_s``,
-    ``scale_length_m``, ``measurement_noise`` (which source) and ``measurement_noise_var``
-    (m,), ``R`` (n, m): the innovations' variances (the fit check's noise model),
+    ``scale_length_m``, ``gust_model``, ``measurement_noise`` (which source) and
+    ``measurement_noise_var`` (m,), ``R`` (n, m): the innovations' variances (the fit
+    check's noise model),
     ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
     ``parameter_stderr``, and
     ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each
@@ -302,6 +303,7 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
             "fisher": fit.information, "gust_sd_mps": float(phys[i_s]),
             "gust_sd_stderr_mps": float(stderr_phys[i_s]), "gust_sd_at_bound": fit.at_bound,
             "gust_time_constant_s": tau, "scale_length_m": self.scale_length_m,
+            "gust_model": self.gust_model,
             "speed_mps": speed, "measurement_noise": noise.source,
             "measurement_noise_var": fit.R, "R": S_diag, "compiled": problem.model.compiled,
             "iterations": fit.n_iterations,
