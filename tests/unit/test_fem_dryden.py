@@ -24,13 +24,15 @@ from baselines.filter_error import FilterErrorEstimator
 
 STEADY = np.array([3.0, 4.0, 0.5])
 SIGMA = 2.5
-#: The shaping filters (expm, Lyapunov) against the closed-form autocorrelations: the
-#: discretisation is exact, so rounding only (measured below 1e-14 of sd^2).
+#: The shaping filters (expm, Lyapunov) against the closed-form autocorrelations [m^2/s^2]:
+#: the discretisation is exact, so rounding only (measured 4e-14 at sd^2 = 6.25, up to
+#: 1000 compiled prediction steps).
 AUTOCORR_ATOL = 1e-10
 #: Lags [samples] of the transition checked: one step up to ~2 tau on the reference flight.
 LAGS = (1, 10, 100, 1000)
 #: filterpy's EKF and the batched one (as test_filter_error's FILTER_RTOL: the order of
-#: the covariance algebra and filterpy's rounding clip of P).
+#: the covariance algebra and filterpy's rounding clip of P): measured 5.3e-12 of a
+#: channel's range (innovations; S 1.3e-12, the wind 6e-13).
 FILTER_RTOL = 1e-9
 WITHIN_SE = 3.0
 TURBULENCE_SD = 3.0
