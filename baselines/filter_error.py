@@ -12,7 +12,9 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
   ``L / V``, intensity ``sigma``; :mod:`baselines._fem_filter`). The gusts are in NED,
   not body axes: the airframe rolls at ~51 rad/s and a gust fixed in the air turns in body
   axes at that rate, so the filter's gain is time-varying (an EKF, exact CasADi
-  Jacobians; :mod:`baselines._fem_model`).
+  Jacobians; :mod:`baselines._fem_model`). ``gust_model = "dryden"``: the simulator's
+  Dryden shaping filters (transverse second order) as the gust states instead
+  (:mod:`baselines._fem_dryden`).
 - **Parameters**: the free coefficients (held ones and priors through
   :class:`aeroid.estimation.CoefficientSpec`) and ``log sigma``. Measurement noise:
   :mod:`baselines._fem_setup`. A steady wind is a parameter only with ``estimate_wind``
