@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baselines._fem_dryden import DrydenGust, run_dryden_filters
 from baselines._fem_filter import FilterRuns, GustModel, run_filters
 from baselines._fem_model import N_WIND
 from baselines._oe_airdata import calibration_scales
@@ -83,6 +84,10 @@ class Problem:
 
     With air data (``model.calibration``: their calibration parameters, scaled by
     :func:`baselines._oe_airdata.calibration_scales`) those come last in ``p``.
+    gust : DrydenGust, optional
+        The Dryden shaping filters as the gust states (:mod:`baselines._fem_dryden`; then
+        ``model`` is :func:`baselines._fem_dryden.dryden_gust_model`'s); None (default): the
+        first-order gusts of ``decay``.
     """
 
     model: GustModel
@@ -96,6 +101,7 @@ class Problem:
     estimate_wind: bool
     prior_mean: np.ndarray
     prior_info: np.ndarray
+    gust: DrydenGust | None = None
 
     @property
     def n_parameters(self) -> int:
@@ -132,6 +138,10 @@ class Problem:
     def run(self, p: np.ndarray, R: np.ndarray) -> FilterRuns:
         """The filters of the parameter rows ``p`` (r, n_p) with noise variances ``R``."""
         theta, wind, sigma = self.unpack(p)
+        if self.gust is not None:
+            return run_dryden_filters(self.model, self.gust, theta, wind, sigma, self.x0,
+                                      self.P0x, R, self.zs,
+                                      self.calibration(p) if self.n_calibration else None)
         return run_filters(self.model, theta, wind, sigma, self.decay, self.x0, self.P0x, R,
                            self.zs, self.calibration(p) if self.n_calibration else None)
 

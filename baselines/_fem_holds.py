@@ -115,7 +115,7 @@ def freed_problem(problem: _fem_fit.Problem, p: np.ndarray, prior: np.ndarray,
             info[i] = 0.0  # the tested prior removed
     freed = _fem_fit.Problem(problem.model, problem.zs, problem.x0, problem.P0x, problem.decay,
                              problem.theta_base, free, scale, problem.estimate_wind, mean,
-                             info)
+                             info, problem.gust)
     return freed, np.concatenate([start, p[problem.free.size:]])
 
 

@@ -12,7 +12,9 @@ a Kalman filter follows the gusts and the likelihood is that of its innovations.
   ``L / V``, intensity ``sigma``; :mod:`baselines._fem_filter`). The gusts are in NED,
   not body axes: the airframe rolls at ~51 rad/s and a gust fixed in the air turns in body
   axes at that rate, so the filter's gain is time-varying (an EKF, exact CasADi
-  Jacobians; :mod:`baselines._fem_model`).
+  Jacobians; :mod:`baselines._fem_model`). ``gust_model = "dryden"``: the simulator's
+  Dryden shaping filters (transverse second order) as the gust states instead
+  (:mod:`baselines._fem_dryden`).
 - **Parameters**: the free coefficients (held ones and priors through
   :class:`aeroid.estimation.CoefficientSpec`) and ``log sigma``. Measurement noise:
   :mod:`baselines._fem_setup`. A steady wind is a parameter only with ``estimate_wind``
@@ -55,7 +57,15 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult, Estimator, failed_result
 from aeroid.flights import INPUTS, MIL_SCALE_LENGTH_M, Flight
 from aeroid.model import N_STATE, NAMES, OUTPUT_CHANNELS, PHI, PSI, THETA, P
-from baselines import _common, _fem_air, _fem_fit, _fem_holds, _fem_setup, _fem_wind
+from baselines import (
+    _common,
+    _fem_air,
+    _fem_dryden,
+    _fem_fit,
+    _fem_holds,
+    _fem_setup,
+    _fem_wind,
+)
 from baselines._fem_filter import gust_model
 from baselines._fem_model import N_WIND
 from baselines._gust_verdict import AXIAL_LIMIT, gust_verdict
@@ -119,6 +129,11 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
     compile_model : bool
         Compile the model's CasADi functions to C (default True; falls back to CasADi's
         virtual machine, the same numbers; ``info['compiled']`` says which ran).
+    gust_model : {"first-order", "dryden"}
+        The gusts' model: ``first-order`` (default) three NED first-order Gauss-Markov
+        gusts; ``dryden`` the simulator's Dryden shaping filters (transverse second
+        order) in the path axes of the record's mean velocity, scale length
+        ``scale_length_m`` (:mod:`baselines._fem_dryden`), said in one line.
     estimate_wind : bool
         Also estimate a steady wind (north, east, down [m/s]; default False: the gusts
         are zero-mean), the gusts decaying towards it; reported in
@@ -138,8 +153,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
     ``cost`` is the innovations' negative log-likelihood without constants, plus the
     priors'. ``info``: ``gust_sd_mps`` and ``gust_sd_stderr_mps`` (NaN when at its lower
     bound, :data:`baselines._fem_fit.LOG_SIGMA_MIN`: still air), ``gust_time_constant_s``,
-    ``scale_length_m``, ``measurement_noise`` (which source) and ``measurement_noise_var``
-    (m,), ``R`` (n, m): the innovations' variances (the fit check's noise model),
+    ``scale_length_m``, ``gust_model``, ``measurement_noise`` (which source) and
+    ``measurement_noise_var`` (m,), ``R`` (n, m): the innovations' variances (the fit
+    check's noise model),
     ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
     ``parameter_stderr``, and
     ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each
@@ -165,6 +181,7 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
     max_iterations: int = 30
     tol: float = 0.01
     compile_model: bool = True
+    gust_model: Literal["first-order", "dryden"] = "first-order"
 
     def __post_init__(self) -> None:
         if self.input not in INPUTS:
@@ -180,6 +197,9 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
         for key in ("scale_length_m", "gust_sd_start_mps", "tol"):
             if not (math.isfinite(getattr(self, key)) and getattr(self, key) > 0):
                 raise ValueError(f"{key} must be a positive number, got {getattr(self, key)}")
+        if self.gust_model not in ("first-order", "dryden"):
+            raise ValueError("gust_model must be first-order or dryden, got "
+                             f"{self.gust_model!r}")
         self.check_air_options()
 
     def parameter_names(self, free_names: tuple[str, ...], calibration: tuple[str, ...] = ()
@@ -211,10 +231,20 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
         theta_base = prior.copy() if holds is None else holds.with_held(prior)
         free, scale, mean, info_prior = _fem_setup.free_parameters(prior, holds)
         probe = () if air is None else (air.channels, air.calibration, air.probe)
-        model = gust_model(flight, self.substeps, self.input, self.delay_s, self.compile_model,
-                           *probe)
+        gust = None
+        if self.gust_model == "dryden":
+            model = _fem_dryden.dryden_gust_model(flight, self.substeps, self.input,
+                                                  self.delay_s, self.compile_model, *probe)
+            gust = _fem_dryden.dryden_gust(flight.dt, self.scale_length_m, speed,
+                                           _fem_dryden.mean_velocity_ned(flight))
+            _fem_setup.say(f"{self.name}: Dryden gusts (longitudinal first order, transverse "
+                           f"second order) in the path axes of the record's mean velocity, "
+                           f"L {self.scale_length_m:g} m, tau {tau:.3g} s")
+        else:
+            model = gust_model(flight, self.substeps, self.input, self.delay_s,
+                               self.compile_model, *probe)
         problem = _fem_fit.Problem(model, zs, x0, P0x, decay, theta_base, free, scale,
-                                   self.estimate_wind, mean, info_prior)
+                                   self.estimate_wind, mean, info_prior, gust)
         p0 = np.concatenate([theta_base[free] / scale, [math.log(self.gust_sd_start_mps)],
                              np.zeros(len(_fem_wind.wind_names(self))),
                              _fem_air.calibration_start(air)])
@@ -275,6 +305,7 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
             "fisher": fit.information, "gust_sd_mps": float(phys[i_s]),
             "gust_sd_stderr_mps": float(stderr_phys[i_s]), "gust_sd_at_bound": fit.at_bound,
             "gust_time_constant_s": tau, "scale_length_m": self.scale_length_m,
+            "gust_model": self.gust_model,
             "speed_mps": speed, "measurement_noise": noise.source,
             "measurement_noise_var": fit.R, "R": S_diag, "compiled": problem.model.compiled,
             "iterations": fit.n_iterations,

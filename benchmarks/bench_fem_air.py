@@ -23,8 +23,10 @@ vanes' factor and offset estimated), ``fe air, vanes calibrated`` (``air_data_ca
 (``estimate_wind`` without the air data: the README's "no good answer" row; only at
 ``--imu-wind-sd``, default 1 m/s: at 3 m/s it is not identified, README), ``fe IMU``
 (the air data left out), ``ee air`` (equation-error with ``air_data = measured``: the
-yardstick); filter-error with ``estimate_wind`` at ``max_iterations = 100`` as
-``bench_fem_steady_wind.py``.
+yardstick), ``fe air, dryden`` and ``fe air, vanes calibrated, dryden`` (``gust_model =
+dryden``: the simulator's Dryden shaping filters as the gust states, not run by default:
+``--fits ... --results fem_air_dryden.md``); filter-error with ``estimate_wind`` at
+``max_iterations = 100`` as ``bench_fem_steady_wind.py``.
 
 Reported per fit: fit check passed, every coefficient within 3 se, coverage of the 95 %
 intervals (coefficient-runs with |error| <= 1.96 se), the mean over seeds of the mean
@@ -36,7 +38,9 @@ and without the air data: the innovations' information (:func:`baselines._fem_fi
 information`) at the truth (coefficients, calibration 0, the steady wind where estimated)
 with the fit's gust intensity and noise variances, as a mean |relative error| (a Gaussian
 estimate's mean |error| is ``sqrt(2 / pi)`` of its sd), and the same figure from the
-fits' own standard errors (the information at the estimate).
+fits' own standard errors (the information at the estimate); and the floor at the true
+gust sd (the simulator's) instead of the fit's. Per run also the fit's cost (negative
+log-likelihood): between the two gust models on one flight, their likelihoods compared.
 
 ``--timing K``: the cost per fit, filter-error with and without the air data side by
 side, each fitted ``K`` times on seed 1 of Dryden sd 3 (min and median wall time: the
@@ -98,7 +102,13 @@ FITS = {
                                                   max_iterations=WIND_ITERATIONS),
     "fe IMU": lambda: FilterErrorEstimator(),
     "ee air": lambda: EquationErrorEstimator(air_data="measured"),
+    "fe air, dryden": lambda: FilterErrorEstimator(air_data="measured", gust_model="dryden"),
+    "fe air, vanes calibrated, dryden": lambda: FilterErrorEstimator(
+        air_data="measured", air_data_calibration="none", gust_model="dryden"),
 }
+#: The fits run by default (the Dryden gust model's rows: ``--fits``, own results file).
+DEFAULT_FITS = ("fe air", "fe air, vanes calibrated", "fe air + wind",
+                "fe air + wind, vanes calibrated", "fe IMU + wind", "fe IMU", "ee air")
 
 
 def flight(sd: float, seed: int, vane_deg: float):  # noqa: ANN201
@@ -115,19 +125,22 @@ def flight(sd: float, seed: int, vane_deg: float):  # noqa: ANN201
     return record_flight(s.airframe, s.coefficient_vector, m, truth, noise, rng=rng)
 
 
-def floor_sd(est: FilterErrorEstimator, f, result, truth: np.ndarray) -> np.ndarray:  # noqa: ANN001
-    """The coefficients' Cramér-Rao sd at the truth (module docstring), physical units."""
+def floor_sd(est: FilterErrorEstimator, f, result, truth: np.ndarray,  # noqa: ANN001
+             sigma: float | None = None) -> np.ndarray:
+    """The coefficients' Cramér-Rao sd at the truth (module docstring), physical units;
+    ``sigma`` [m/s]: the gust intensity there (default the fit's)."""
     start = est.start(f)
     problem = start.problem
     nf = problem.free.size
     p = np.array(start.p0, dtype=float)
     p[:nf] = truth[problem.free] / problem.scale
-    p[problem.i_sigma] = math.log(result.info["gust_sd_mps"])
+    p[problem.i_sigma] = math.log(result.info["gust_sd_mps"] if sigma is None else sigma)
     if problem.estimate_wind:
         p[problem.i_sigma + 1:problem.i_sigma + 4] = WIND
     # the calibration's truth is 0: its start
     M = _fem_fit.information(problem, p, np.asarray(result.info["measurement_noise_var"]))
-    keep = np.arange(p.size) != (problem.i_sigma if result.info["gust_sd_at_bound"] else -1)
+    keep = np.arange(p.size) != (problem.i_sigma if result.info["gust_sd_at_bound"]
+                                 and sigma is None else -1)
     cov = np.linalg.inv(M[np.ix_(keep, keep)])
     return np.sqrt(np.diag(cov)[:nf]) * np.abs(problem.scale)
 
@@ -150,9 +163,12 @@ def run(sd: float, seeds: int, labels: tuple[str, ...], vane_deg: float, floors:
                    "iterations": r.n_iterations, "evaluations": r.n_evaluations,
                    "sigma": r.info.get("gust_sd_mps", math.nan),
                    "wind": r.info.get("wind_ned_mps"), "wind_se": r.info.get("wind_stderr_mps"),
-                   "relse": np.abs(r.stderr / truth) * 100.0, "floor": None}
+                   "relse": np.abs(r.stderr / truth) * 100.0, "floor": None,
+                   "floor_true_sd": None}
             if floors and label.startswith("fe") and r.info.get("gust_sd_mps") is not None:
                 row["floor"] = floor_sd(est, f, r, truth) / np.abs(truth) * 100.0
+                # the floor at the true gust sd too (the truth of the Dryden model)
+                row["floor_true_sd"] = floor_sd(est, f, r, truth, sd) / np.abs(truth) * 100.0
             rows[label].append(row)
             wind = "" if row["wind"] is None else (
                 f" wind {np.round(row['wind'], 2).tolist()} +- "
@@ -162,9 +178,12 @@ def run(sd: float, seeds: int, labels: tuple[str, ...], vane_deg: float, floors:
             lines.append(
                 f"Dryden sd {sd:g} seed {seed} {label}: success={r.success} mean |err| "
                 f"{err.mean():.3f} % max |err|/se {z.max():.2f} gust sd {row['sigma']:.3g}"
-                f"{wind} {r.wall_time_s:.2f} s {r.n_iterations} it {r.n_evaluations} runs"
+                f"{wind} cost {r.cost:.2f} {r.wall_time_s:.2f} s {r.n_iterations} it "
+                f"{r.n_evaluations} runs"
                 + ("" if row["floor"] is None else
-                   f" CR floor mean |err| {math.sqrt(2 / math.pi) * row['floor'].mean():.3f} %")
+                   f" CR floor mean |err| {math.sqrt(2 / math.pi) * row['floor'].mean():.3f} %"
+                   f" (at sd {sd:g}: "
+                   f"{math.sqrt(2 / math.pi) * row['floor_true_sd'].mean():.3f} %)")
                 + ("" if not cal else " cal " + ", ".join(f"{k} {v:+.3g}"
                                                           for k, v in cal.items()))
                 + ("" if r.success else f" [{r.message[:100]}]"))
@@ -176,10 +195,11 @@ def table(sd: float, rows: dict) -> str:
     """One line per fit (module docstring)."""
     head = ("| air | fit | fit check passed | all within 3 se | coverage 95 % | mean abs rel "
             "error [%] | / still-air EE 1.282 % | median max err/se | mean abs err at the "
-            "fits' se [%] | CR floor at the truth, mean abs err [%] | gust sd [m/s] | north "
+            "fits' se [%] | CR floor at the truth, mean abs err [%] | CR floor at the true gust "
+            "sd [%] | gust sd [m/s] | north "
             "wind abs err/se (max) | median s per fit | median iterations | median filter "
             "runs |")
-    out = [head, "|" + "---|" * 15]
+    out = [head, "|" + "---|" * 16]
     c = math.sqrt(2.0 / math.pi)
     for label, rs in rows.items():
         n = len(rs)
@@ -187,6 +207,8 @@ def table(sd: float, rows: dict) -> str:
         z = np.array([r["z"] for r in rs])
         floors = [r["floor"] for r in rs if r["floor"] is not None]
         floor = f"{c * np.mean(floors):.3f}" if floors else "-"
+        at_sd = [r["floor_true_sd"] for r in rs if r["floor_true_sd"] is not None]
+        floor += f" | {c * np.mean(at_sd):.3f}" if at_sd else " | -"
         north = [abs(r["wind"][0] - WIND[0]) / r["wind_se"][0] for r in rs
                  if r["wind"] is not None]
         sig = [r["sigma"] for r in rs if np.isfinite(r["sigma"])]
@@ -271,7 +293,9 @@ def main() -> None:
     parser.add_argument("--sd", type=float, nargs="+", default=[1.0, 3.0],
                         help="Dryden intensities [m/s] (each in the 5 m/s wind)")
     parser.add_argument("--vane-deg", type=float, default=VANE_SD_DEG)
-    parser.add_argument("--fits", nargs="+", default=list(FITS), choices=list(FITS))
+    parser.add_argument("--fits", nargs="+", default=list(DEFAULT_FITS), choices=list(FITS))
+    parser.add_argument("--results", default=None,
+                        help="results file name in benchmarks/results (default fem_air.md)")
     parser.add_argument("--imu-wind-sd", type=float, nargs="*", default=[1.0],
                         help="the intensities where 'fe IMU + wind' is fitted")
     parser.add_argument("--no-floor", action="store_true", help="skip the Cramér-Rao floors")
@@ -307,16 +331,18 @@ def main() -> None:
         print(text[-1], flush=True)
     if not args.no_write:
         RESULTS.parent.mkdir(exist_ok=True)
-        RESULTS.write_text(
+        out = RESULTS if args.results is None else RESULTS.with_name(args.results)
+        out.write_text(
             f"# Filter-error with air data ({dt.date.today()})\n\n"
             f"`nice -n 10 python benchmarks/bench_fem_air.py --seeds {args.seeds} --sd "
             f"{' '.join(f'{s:g}' for s in args.sd)} --vane-deg {args.vane_deg:g} --fits "
             f"{' '.join(repr(f) for f in args.fits)} --imu-wind-sd "
             f"{' '.join(f'{s:g}' for s in args.imu_wind_sd)}"
-            f"{' --no-floor' if args.no_floor else ''}` (one process, "
+            f"{' --no-floor' if args.no_floor else ''}"
+            f"{'' if args.results is None else ' --results ' + args.results}` (one process, "
             "fits in turn)\n\n" + "\n\n".join(text) + "\n\nPer run:\n\n```\n"
             + "\n".join(lines) + "\n```\n")
-        print(f"wrote {RESULTS}")
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":
