@@ -98,5 +98,5 @@ def judge(runs: Any, next_step_se: np.ndarray, names: tuple[str, ...], gust_sd_m
             "gust_verdict": verdict.figures | steady.figures,
             "gust_verdict_refusal": verdict.message,
             "one_step": {"next_step_se": moves, "next_step_limit_se": NEXT_STEP_LIMIT_SE,
-                         "gust_ned_mps": gust}}
+                         "gust_ned_mps": gust, "state": state, "time_constant_s": tau_s}}
     return Judgement(not message, message, info)

@@ -16,7 +16,10 @@ The EKF with gust states keeps the same (``state``, ``gust_ned_mps``, its coeffi
 sample in ``history["theta"]``: they are states) and predicts the same way, the gusts
 decaying towards zero (:mod:`baselines._kalman_gust`), unless it carries states it does
 not keep per sample (a steady wind, IMU errors, accelerometer positions). The UKF's
-prediction is the mean of its sigma points, not kept either. Those are drawn open-loop,
+prediction is the mean of its sigma points, not kept either. With ``gust_stderr =
+one-step`` (the EKF/UKF's default) the reported estimate is judged by filter-error's
+filter run there, whose states, gusts and time constant ``info["one_step"]`` keeps: that
+filter is drawn. Those are drawn open-loop,
 and :func:`filter_prediction` says why in one line.
 ``tests/unit/test_report_filter.py`` checks these against the filter's own innovations.
 """
@@ -42,7 +45,7 @@ from aeroid.model import (
     with_exogenous,
 )
 
-__all__ = ["filter_one_step", "filter_prediction", "has_filter_states"]
+__all__ = ["filter_one_step", "filter_prediction", "has_filter_states", "one_step_states"]
 
 #: The model's exogenous wind columns.
 _WIND = [EXOGENOUS.index(name) for name in EXOGENOUS if name.startswith("wind_")]
@@ -55,9 +58,26 @@ def has_filter_states(info: Mapping[str, Any], n: int) -> bool:
             and isinstance(info.get("gust_time_constant_s"), float | int))
 
 
+def one_step_states(info: Mapping[str, Any], n: int
+                    ) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """The EKF/UKF's ``gust_stderr = one-step``: the states, gusts and time constant of
+    filter-error's filter run at the reported estimate (``info["one_step"]``, what its fit
+    check judged), or None."""
+    one = info.get("one_step")
+    if not isinstance(one, Mapping) or not isinstance(one.get("time_constant_s"),
+                                                       float | int):
+        return None
+    states, gusts = (np.asarray(one.get(k, ()), dtype=float) for k in ("state",
+                                                                       "gust_ned_mps"))
+    if states.shape != (n, N_STATE) or gusts.shape != (n, len(_WIND)):
+        return None
+    return states, gusts, float(one["time_constant_s"])
+
+
 def filter_one_step(result: Any, flight: Flight, input_mode: str, delay_s: float, *,
                     states: np.ndarray | None = None, wind: np.ndarray | None = None,
-                    theta: np.ndarray | None = None) -> np.ndarray:
+                    theta: np.ndarray | None = None, tau_s: float | None = None
+                    ) -> np.ndarray:
     """The filter's predicted outputs before each update, shape (n, m) (module docstring).
 
     Columns :data:`aeroid.model.OUTPUT_CHANNELS`; row 0 NaN (the start is not kept).
@@ -74,7 +94,8 @@ def filter_one_step(result: Any, flight: Flight, input_mode: str, delay_s: float
     theta = np.broadcast_to(theta, (n, theta.shape[-1]))
     given = info.get("wind_ned_mps")
     steady = np.zeros(len(_WIND)) if given is None else np.asarray(given, dtype=float)
-    decay = math.exp(-flight.dt / float(info["gust_time_constant_s"]))
+    tau = float(info["gust_time_constant_s"] if tau_s is None else tau_s)
+    decay = math.exp(-flight.dt / tau)
     options = info.get("options") if isinstance(info.get("options"), Mapping) else {}
     substeps = int(options.get("substeps", 1))
     record = flight_record(flight, input_mode, delay_s)
@@ -128,6 +149,14 @@ def filter_prediction(result: Any, flight: Flight, input_mode: str, delay_s: flo
     """A gust filter's one-step predicted outputs (n, m) (:func:`filter_one_step`), or None
     and the one line saying why they are not drawn (module docstring)."""
     n = flight.n_samples
+    if result.info.get("gust_model", "first-order") != "first-order":
+        return None, (f"{result.estimator}'s {result.info['gust_model']} gust states are not "
+                      "kept per sample, so its one-step prediction cannot be made again")
+    moved = one_step_states(result.info, n)
+    if moved is not None:  # the EKF/UKF's one-step estimate: filter-error's filter there
+        states, gusts, tau = moved
+        return filter_one_step(result, flight, input_mode, delay_s, states=states,
+                               wind=gusts, tau_s=tau), ""
     if has_filter_states(result.info, n):
         return filter_one_step(result, flight, input_mode, delay_s), ""
     found = _ekf_states(result, n)

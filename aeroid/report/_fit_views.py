@@ -28,7 +28,7 @@ import numpy as np
 from aeroid.estimation import EstimationResult, predict
 from aeroid.flights import Flight
 from aeroid.model import OUTPUT_CHANNELS
-from aeroid.report._filter_steps import filter_prediction, has_filter_states
+from aeroid.report._filter_steps import filter_prediction, has_filter_states, one_step_states
 
 __all__ = ["ChannelView", "FitView", "fit_view", "is_gust_filter", "view_lines"]
 
@@ -86,8 +86,9 @@ def fit_view(result: EstimationResult, flight: Flight, prediction: Any,
         outputs, why = filter_prediction(result, flight, str(attrs["input"]),
                                          float(attrs["delay_s"]))
         if outputs is not None:
-            start = 1 if has_filter_states(result.info, flight.n_samples) else \
-                flight.n_samples // 2  # the EKF's fit check reads the second half
+            whole = (has_filter_states(result.info, flight.n_samples)
+                     or one_step_states(result.info, flight.n_samples) is not None)
+            start = 1 if whole else flight.n_samples // 2  # the EKF's own: the 2nd half
             return _filter_view(result, flight, prediction, outputs, levels, label, start)
     still = None if air == "still" else predict(result, flight, air="still")
     channels: dict[str, ChannelView] = {}

@@ -62,14 +62,23 @@ def fem(gusty):
 
 @pytest.fixture(scope="module")
 def ekf(gusty):
+    """The EKF's default (``gust_stderr = one-step``): its reported estimate is judged by
+    filter-error's filter run there, over the whole record; that filter is drawn."""
     return _fit_with_innovations("ekf", {"gust_sd_mps": 3.0}, gusty)
+
+
+@pytest.fixture(scope="module")
+def ekf_own(gusty):
+    """The EKF's own estimate and innovations (the second half, what its fit check reads)."""
+    return _fit_with_innovations("ekf", {"gust_sd_mps": 3.0, "gust_stderr": "innovations"},
+                                 gusty)
 
 
 def _levels(result):
     return {c: float(result.info["fit_check"]["noise_sd"][c]) for c in OUTPUT_CHANNELS}
 
 
-@pytest.mark.parametrize("which", ["fem", "ekf"])
+@pytest.mark.parametrize("which", ["fem", "ekf", "ekf_own"])
 def test_the_one_step_predictions_are_the_filter_s(which, request, gusty) -> None:
     result, innovations = request.getfixturevalue(which)
     assert result.success, result.message
@@ -93,7 +102,7 @@ def test_the_one_step_predictions_are_the_filter_s(which, request, gusty) -> Non
         np.testing.assert_array_equal(drawn.second, frame[name].to_numpy())
     assert max(c.second_ratio for c in view.channels.values()) > OPEN_LOOP_MIN
     # the ratio is the captured innovations' over the samples the fit check read
-    reference = innovations["q"][1:] if which == "fem" else innovations["q"]
+    reference = innovations["q"] if which == "ekf_own" else innovations["q"][1:]
     expected = float(np.sqrt(np.mean(reference ** 2))) / _levels(result)["q"]
     assert view.channels["q"].ratio == pytest.approx(expected, rel=1e-9)
 
@@ -107,8 +116,8 @@ def test_the_filter_report_says_what_it_draws(fem, gusty, tmp_path) -> None:
     assert (tmp_path / "fem" / "wind.png").is_file()
 
 
-def test_filters_that_keep_too_little_are_drawn_open_loop(ekf, gusty) -> None:
-    result, _ = ekf
+def test_filters_that_keep_too_little_are_drawn_open_loop(ekf_own, fem, gusty) -> None:
+    result, _ = ekf_own
     frame = predict(result, gusty)
     cases = {
         "sigma points": dataclasses.replace(result, estimator="ukf"),
@@ -117,6 +126,8 @@ def test_filters_that_keep_too_little_are_drawn_open_loop(ekf, gusty) -> None:
         "a steady wind": dataclasses.replace(result, info={**result.info,
                                                            "wind_ned_mps": [1.0, 0.0, 0.0]}),
     }
+    cases["dryden gust states"] = dataclasses.replace(
+        fem[0], info={**fem[0].info, "gust_model": "dryden"})
     for words, case in cases.items():
         outputs, why = filter_prediction(case, gusty, frame.attrs["input"],
                                          frame.attrs["delay_s"])
@@ -145,3 +156,17 @@ def test_filter_error_s_steady_wind_is_where_its_gusts_decay_to(reference_scenar
         theirs = innovations[name][1:]
         ours = flight[name][1:] - outputs[1:, j]
         assert np.max(np.abs(ours - theirs)) < INNOVATION_RTOL * np.sqrt(np.mean(theirs ** 2))
+
+
+def test_a_one_step_fit_is_drawn_from_the_filter_that_judged_it(ekf, gusty) -> None:
+    """The one-step estimate's filter (filter-error's, run at the reported estimate) is
+    the same for the EKF and the UKF: a UKF result drawn from it, not open-loop."""
+    result, innovations = ekf
+    as_ukf = dataclasses.replace(result, estimator="ukf")
+    frame = predict(as_ukf, gusty)
+    outputs, why = filter_prediction(as_ukf, gusty, frame.attrs["input"],
+                                     frame.attrs["delay_s"])
+    assert outputs is not None and why == ""
+    ours = gusty["q"][1:] - outputs[1:, OUTPUT_CHANNELS.index("q")]
+    theirs = innovations["q"][1:]
+    assert np.max(np.abs(ours - theirs)) < INNOVATION_RTOL * np.sqrt(np.mean(theirs ** 2))
