@@ -5,15 +5,19 @@ the air's velocity over the ground) are parameters of the output-error model aft
 free positions (:func:`aeroid.model.symbolic_record` with ``wind_free``): the loads see
 the air-relative velocity, and the sensitivities to the wind are exact (CasADi AD
 through the same record). They start at zero (still air), have no prior, and are scaled
-by :data:`WIND_SCALE_MPS`.
+by :data:`WIND_SCALE_MPS`. The default ``"auto"`` estimates it unless the log says still
+air (:mod:`baselines._wind_auto`; :func:`blocked` names what the method cannot combine
+with a wind: still air is assumed there, said in one line).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+
+from aeroid.flights import Flight, Windows
 
 #: Names of the wind parameters in ``info['parameter_names']``.
 WIND_NAMES = ("wind_n", "wind_e", "wind_d")
@@ -29,18 +33,23 @@ class WindOption:
 
     Attributes
     ----------
-    estimate_wind : bool
-        Also estimate a steady wind (north, east, down [m/s]; default False: still air),
-        reported in ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a
-        one-line notice (:mod:`baselines._oe_wind`).
+    estimate_wind : bool or "auto"
+        Also estimate a steady wind (north, east, down [m/s]), reported in
+        ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a one-line notice
+        (:mod:`baselines._oe_wind`). Default ``"auto"``: estimated unless the log says
+        still air (its metadata declares it, as the simulators' flights do, or its alpha,
+        beta and airspeed say so: :func:`aeroid.estimation.log_air`), said in one line
+        with why (``info['estimate_wind']``); where output-error cannot estimate a wind
+        (coefficient tables, aiding, ``attitude_prior = flight``) still air is assumed
+        there, said in one line. ``false``: still air.
     """
 
-    estimate_wind: bool = False
+    estimate_wind: bool | Literal["auto"] = "auto"
 
 
 def wind_names(est: Any) -> list[str]:
     """Return the names of the wind parameters ``est`` estimates (none without the option)."""
-    return list(WIND_NAMES) if est.estimate_wind else []
+    return list(WIND_NAMES) if est.estimate_wind is True else []  # "auto": resolved in run
 
 
 def wind_scales(est: Any) -> list[float]:
@@ -54,7 +63,7 @@ def wind_report(est: Any, position_free: tuple[int, ...], phys: np.ndarray,
 
     ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (north, east, down).
     """
-    if not est.estimate_wind:
+    if est.estimate_wind is not True:
         return []
     first = est.parameter_names(position_free).index(WIND_NAMES[0])
     wind = phys[first:first + len(WIND_NAMES)]
@@ -64,3 +73,18 @@ def wind_report(est: Any, position_free: tuple[int, ...], phys: np.ndarray,
     info.update(wind_ned_mps=wind.tolist(), wind_stderr_mps=sd.tolist())
     return [f"estimate_wind: a steady wind was estimated with the coefficients (the loads "
             f"see the air-relative velocity): {shown} m/s"]
+
+
+def blocked(est: Any, data: Flight | Windows) -> str:
+    """Why output-error cannot estimate a wind with ``est``'s options on ``data`` ("" when
+    it can): the combinations it refuses with ``estimate_wind = true``."""
+    if getattr(data.airframe, "tables", None) is not None:
+        return ("output-error does not estimate a wind with coefficient tables ([tables]: "
+                "Mach needs the airspeed)")
+    if getattr(est, "aiding", "none") != "none":
+        return (f"output-error does not estimate a wind with aiding = {est.aiding} (the "
+                "aiding outputs integrate the coefficients in still air)")
+    if getattr(est, "attitude_prior", "none") == "flight":
+        return ("output-error does not estimate a wind with attitude_prior = flight (the "
+                "heading then matters and is not freed)")
+    return ""

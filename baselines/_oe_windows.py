@@ -34,7 +34,7 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _held, _oe_wind
+from baselines import _held, _oe_wind, _wind_auto
 from baselines._gauss_newton import (
     Fit,
     Problem,
@@ -69,6 +69,9 @@ class OutputErrorWindows:
                     ) -> EstimationResult:
         """Fit several windows with shared coefficients (module docstring; ``holds``:
         :mod:`baselines._held`, the coefficients lead the stacked vector as one flight's)."""
+        if _wind_auto.is_auto(self):  # estimate_wind = auto resolved on the windows, said
+            return _wind_auto.run_auto(self, windows, _oe_wind.blocked(self, windows),
+                                       lambda est: est.run_windows(windows, rng, holds))
         return run_windows(self, windows, rng, holds)
 
 

@@ -50,7 +50,7 @@ from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS, check_
 from aeroid.flights._frames import body_to_ned, wrap_angle
 from aeroid.flights._mounting import Mounting, board_mounting
 from aeroid.flights._scenario import Manoeuvre
-from aeroid.flights._simulate import simulate_truth
+from aeroid.flights._simulate import simulate_truth, wind_metadata
 from aeroid.flights._suite_log import GROUPS, SensorGroup, SuiteLog, mounted_group
 from aeroid.flights._thrust_flight import sample_thrust
 from aeroid.model import (
@@ -240,7 +240,8 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
                        else ""))
     sim = log_trajectory(t, states, delta, specific, airframe, suite, rng=rng,
                          position=position[k0:], source="simulated suite log",
-                         metadata={"imu_sampling": imu_sampling, **extra})
+                         metadata={"imu_sampling": imu_sampling, **extra,
+                                   **wind_metadata(manoeuvre.wind)})  # the air declared
     sim.truth.update({k: np.broadcast_to(v, t.shape).copy() for k, v in motor.items()})
     return sim
 
