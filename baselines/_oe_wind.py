@@ -12,12 +12,14 @@ with a wind: still air is assumed there, said in one line).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
 from aeroid.flights import Flight, Windows
+from baselines._wind_auto import choose, is_auto
 
 #: Names of the wind parameters in ``info['parameter_names']``.
 WIND_NAMES = ("wind_n", "wind_e", "wind_d")
@@ -52,9 +54,26 @@ def wind_names(est: Any) -> list[str]:
     return list(WIND_NAMES) if est.estimate_wind is True else []  # "auto": resolved in run
 
 
-def wind_scales(est: Any) -> list[float]:
-    """Return the scales of the wind parameters ``est`` estimates [m/s]."""
-    return [WIND_SCALE_MPS] * len(wind_names(est))
+def wind_scales(est: Any, data: Flight | Windows | None = None) -> list[float]:
+    """Return the scales of the wind parameters ``est`` estimates [m/s] (on ``data``:
+    ``auto`` resolved there, :func:`wind_free`)."""
+    free = est.estimate_wind is True if data is None else wind_free(est, data)
+    return [WIND_SCALE_MPS] * (len(WIND_NAMES) if free else 0)
+
+
+def resolved(est: Any, data: Flight | Windows) -> Any:
+    """``est`` with ``estimate_wind = auto`` resolved on ``data`` as its fit resolves it
+    (:func:`baselines._wind_auto.choose`; the fit says it in one line, this does not):
+    for a problem built outside a fit (``est.problem(flight)``)."""
+    if not is_auto(est):
+        return est
+    return dataclasses.replace(est, estimate_wind=choose(est.name, data,
+                                                         blocked(est, data)).used)
+
+
+def wind_free(est: Any, data: Flight | Windows) -> bool:
+    """Whether ``est``'s fit of ``data`` estimates the wind (``auto`` resolved there)."""
+    return resolved(est, data).estimate_wind is True
 
 
 def wind_report(est: Any, position_free: tuple[int, ...], phys: np.ndarray,

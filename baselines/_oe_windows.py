@@ -152,6 +152,7 @@ def windows_problem(est: Any, windows: Windows) -> tuple[Problem, WindowsModel]:
     floors averaged over their samples: each is ``R_FLOOR_REL`` of its window's mean
     square (+1e-300), so the average is that fraction of the stack's mean square.
     """
+    est = _oe_wind.resolved(est, windows)  # estimate_wind = auto: once, on all windows
     position_free = est.position_free(windows.flights[0])
     parts = [est.problem(flight, position_free) for flight in windows]
     models: list[RecordModel] = [prob.model for prob in parts]  # type: ignore[misc]

@@ -271,7 +271,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
         scale.append([pos_sd[c] if pos_sd[c] > 0 else max(abs(pos[c]), 0.1)
-                      for c in position_free] + _oe_wind.wind_scales(self))
+                      for c in position_free] + _oe_wind.wind_scales(self, flight))
         if self.estimate_delay:
             scale.append([flight.dt])
         z = _common.measurements(flight)
@@ -285,7 +285,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
                             imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight),
-                            wind_free=self.estimate_wind)
+                            wind_free=_oe_wind.wind_free(self, flight))
         has_prior = bool(np.any(weight > 0))
         return airdata_problem(self, flight, aided_problem(self.aiding, flight, Problem(
             z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,

@@ -4,19 +4,23 @@ A log says still air when
 
 1. its metadata declares it (``metadata["wind"]``: ``"still"``, or a ``[wind]`` table
    with no steady component and no turbulence: :func:`aeroid.flights.declared_wind`;
-   the simulators write the air they flew, still air included), and its logged air
-   data, if any, do not say otherwise (the air-data verdict,
+   the simulators write the air they flew, still air included), and its air data, where
+   they see all three components, do not say otherwise (the air-data verdict,
    :func:`aeroid.estimation.air_data_verdict`, calling it a steady wind or turbulence
    overrules the declaration: the line says so); or
-2. it declares nothing, and its air data see all three components (``alpha``, ``beta``
-   and ``airspeed`` logged) and the verdict calls them still air (a steady wind within
-   3 standard errors of zero, gusts below the probe noise's limit).
+2. it declares nothing, and its air data see all three components and the verdict calls
+   them still air (a steady wind within 3 standard errors of zero, gusts below the probe
+   noise's limit).
 
-Anything else is not still air: a declared wind (steady or turbulent), the verdict's
-"steady wind" or "turbulence", and a log that says nothing (no declaration, no air
-data; or vanes without an airspeed, which cannot see the wind along the path, the
-component that scales the dynamic pressure and with it every coefficient). Several
-windows are still air only when every window is.
+The verdict is read only where it sees all three components (:data:`ALL_COMPONENTS`:
+``alpha``, ``beta`` and ``airspeed`` logged): the angles alone do not see the wind along
+the path, the component that scales the dynamic pressure and with it every coefficient,
+and its standard error there is not the wind's (measured, ``benchmarks/bench_wind_auto.py``:
+2 of 50 still-air logs with 0.1 deg vanes and no airspeed called "steady wind" on that
+component, 0.005 m/s at 3.2-3.5 se; 0 of 50 with the airspeed). Anything else is not
+still air: a declared wind (steady or turbulent), the verdict's "steady wind" or
+"turbulence", and a log that says nothing (no declaration, and no airspeed beside its
+angles). Several windows are still air only when every window is.
 """
 
 from __future__ import annotations
@@ -77,7 +81,9 @@ def log_air(flight: Flight | Windows, owner: str = "") -> LogAir:
         return LogAir(False, f"window {name!r}: {first.reason}", first.declared, first.verdict)
     where = str(flight.metadata.get("source", "flight"))
     wind = declared_wind(flight.metadata, where)
-    verdict = air_data_verdict(flight, owner or "log") if has_air_data(flight) else None
+    seen = all(c in flight.channels for c in ALL_COMPONENTS)
+    verdict = air_data_verdict(flight, owner or "log") if seen and has_air_data(flight) \
+        else None
     kind = None if verdict is None else verdict.kind
     steady = "" if verdict is None else ", ".join(
         f"{a} {w:+.2f}" for a, w in zip("NED", verdict.steady_ned_mps, strict=True))
@@ -89,15 +95,15 @@ def log_air(flight: Flight | Windows, owner: str = "") -> LogAir:
             return LogAir(False, f"its metadata declares still air but its air data say "
                           f"{kind} (steady part {steady} m/s)", declared, kind)
         return LogAir(True, "its metadata declares still air", declared, kind)
-    if kind == "still air" and all(c in flight.channels for c in ALL_COMPONENTS):
+    if kind == "still air":
         return LogAir(True, "its air data (alpha, beta, airspeed) say still air", None, kind)
     if kind is not None:
-        seen = "" if kind != "still air" else (" from the angles alone (the wind along the "
-                                               "path unseen: no airspeed)")
-        return LogAir(False, f"the log does not declare its air and its air data say "
-                      f"{kind}{seen}", None, kind)
-    return LogAir(False, "the log does not say the air was still (no metadata wind, no air "
-                  "data)")
+        return LogAir(False, f"the log does not declare its air and its air data say {kind}",
+                      None, kind)
+    missing = ("no metadata wind, no air data" if not has_air_data(flight) else
+               "no metadata wind; its air data lack an airspeed, so the wind along the path "
+               "is unseen")
+    return LogAir(False, f"the log does not say the air was still ({missing})")
 
 
 __all__ = ["ALL_COMPONENTS", "LogAir", "log_air"]
