@@ -74,8 +74,9 @@ def main(argv: list[str] | None = None) -> int:
                 k: v for k, v in flight.metadata.items() if k != "wind"})
             said = log_air(stripped)
             bare += said.still
-            kinds[said.verdict] = kinds.get(said.verdict, 0) + 1
-        shown = ", ".join(f"{k} {v}" for k, v in sorted(kinds.items(), key=str))
+            kind = said.verdict or "not read (no airspeed)"
+            kinds[kind] = kinds.get(kind, 0) + 1
+        shown = ", ".join(f"{k} {v}" for k, v in sorted(kinds.items()))
         rows.append(f"| {name} | {declared}/{args.seeds} | {bare}/{args.seeds} | {shown} |")
     elapsed = time.perf_counter() - start
     head = ["| log | called still air, as simulated (declared) | called still air, "
