@@ -103,12 +103,15 @@ def test_the_air_data_say_still_air_only_with_all_three_components(reference_sce
     # declared still, the declaration stands with vanes alone (the verdict does not see
     # the along-path wind nor its se: bench_wind_auto.py)
     assert log_air(dataclasses.replace(vanes, metadata={"wind": "still"})).still
-    # a windy probe log declared still: the air data overrule the declaration
-    told_still = dataclasses.replace(_flight(reference_scenario, Wind(steady_ned_mps=WIND),
-                                             **PROBE), metadata={"wind": "still"})
-    said = log_air(told_still)
+    # a windy probe log declared still: the declaration taken (a probe's calibration looks
+    # the same from the log), the disagreement said; undeclared, it is a steady wind
+    windy_probe = _flight(reference_scenario, Wind(steady_ned_mps=WIND), **PROBE)
+    said = log_air(dataclasses.replace(windy_probe, metadata={"wind": "still"}))
+    assert said.still and said.verdict == "steady wind"
+    assert "declares still air (its air data say steady wind" in said.reason
+    said = log_air(_undeclared(windy_probe))
     assert not said.still and said.verdict == "steady wind"
-    assert "declares still air but its air data say steady wind" in said.reason
+    assert said.reason == "the log does not declare its air and its air data say steady wind"
     both = Windows((probe, windy), ("calm", "gusty"))
     said = log_air(both)
     assert not said.still and said.reason.startswith("window 'gusty': its metadata declares")
