@@ -146,7 +146,7 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
         """The shared start, with the wind states (``estimate_wind``) and the IMU-error
         states (``imu_errors``) appended."""
         setup = super().setup(flight)
-        if self.estimate_wind:
+        if _kalman_wind.carries_wind(self, flight):  # auto: resolved as the fit does
             setup = _kalman_wind.wind_setup(setup, self.wind_sd_mps)
         if self.gusts:  # the given intensity, or the search's start (replaced per trial)
             setup = _kalman_gust.gust_setup(setup, self.gust_sd_mps or 1.0,

@@ -31,7 +31,7 @@ from aeroid.flights import Flight, Windows, model_constants
 from aeroid.model import EXOGENOUS, N_COEFFICIENTS, N_STATE, Constants, Record, symbolic
 from aeroid.model import with_wind_symbols as add_wind
 from baselines import _common, _kalman
-from baselines._wind_auto import check_wind_option
+from baselines._wind_auto import check_wind_option, choose, is_auto
 
 #: Names of the wind states (output-error's names of its wind parameters).
 WIND_NAMES = ("wind_n", "wind_e", "wind_d")
@@ -178,5 +178,15 @@ def blocked(est: Any, data: Flight | Windows) -> str:
     return ""
 
 
-__all__ = ["WIND_NAMES", "WIND_SD_MPS", "blocked", "carried", "check_wind_option",
-           "refuse_with", "wind_model", "wind_report", "wind_setup"]
+def carries_wind(est: Any, flight: Flight) -> bool:
+    """Whether ``est``'s filter of ``flight`` carries the wind states: ``estimate_wind``,
+    with ``auto`` resolved there as the fit resolves it (:func:`baselines._wind_auto.
+    choose`; the fit says it in one line, this does not): for a set-up built outside a
+    fit (``est.setup(flight)``)."""
+    if is_auto(est):
+        return choose(est.name, flight, blocked(est, flight)).used
+    return est.estimate_wind is True
+
+
+__all__ = ["WIND_NAMES", "WIND_SD_MPS", "blocked", "carried", "carries_wind",
+           "check_wind_option", "refuse_with", "wind_model", "wind_report", "wind_setup"]
