@@ -198,3 +198,15 @@ def test_the_option_takes_true_false_and_auto_only(method) -> None:
     assert aeroid.make_estimator(method).estimate_wind == "auto"
     with pytest.raises(EstimatorError, match="estimate_wind"):
         aeroid.make_estimator(method, {"estimate_wind": "maybe"})
+
+
+def test_the_suite_simulator_declares_its_air_and_the_reconstruction_keeps_it() -> None:
+    from suite_flights import suite_flight
+
+    from aeroid.reconstruction import reconstruct
+
+    sim, _ = suite_flight(seed=1)
+    assert sim.log.metadata["wind"] == Wind().describe()  # it flies still air, and says so
+    flight = reconstruct(sim.log).to_flight()
+    assert flight.metadata["wind"] == Wind().describe()
+    assert log_air(flight).still
