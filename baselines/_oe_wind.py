@@ -36,14 +36,14 @@ class WindOption:
     Attributes
     ----------
     estimate_wind : bool or "auto"
-        Also estimate a steady wind (north, east, down [m/s]), reported in
+        Also estimate a steady wind (north, east, down [m/s]); default ``"auto"``: unless
+        the log says still air (its metadata declares it, as the simulators' flights do,
+        or its alpha, beta and airspeed say so: :func:`aeroid.estimation.log_air`), said
+        in one line with why (``info['estimate_wind']``). Where output-error cannot
+        estimate a wind (coefficient tables, aiding, ``attitude_prior = flight``) ``auto``
+        assumes still air there, said in one line; ``false``: still air. Reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` with a one-line notice
-        (:mod:`baselines._oe_wind`). Default ``"auto"``: estimated unless the log says
-        still air (its metadata declares it, as the simulators' flights do, or its alpha,
-        beta and airspeed say so: :func:`aeroid.estimation.log_air`), said in one line
-        with why (``info['estimate_wind']``); where output-error cannot estimate a wind
-        (coefficient tables, aiding, ``attitude_prior = flight``) still air is assumed
-        there, said in one line. ``false``: still air.
+        (:mod:`baselines._oe_wind`).
     """
 
     estimate_wind: bool | Literal["auto"] = "auto"
