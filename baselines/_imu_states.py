@@ -70,13 +70,14 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
         as output-error's ``aiding``) as three more measurements at their own samples, with
         the log's stated sd (:mod:`baselines._kalman_aiding`); default ``"none"``.
         ``"gnss-velocity+ins-attitude"``: also the INS's phi theta psi, on the circle.
-    estimate_wind : bool
-        Also carry a steady wind (north, east, down [m/s]) as three constant states
-        (default False: still air), started at 0 with ``wind_sd_mps`` as sd (later
-        passes where the last ended, with the coefficients); on noisy flights the
-        carried passes walk along the along-path component and are refused (the default
-        smoothed passes do not, nor with an airspeed: ``benchmarks/results/kalman_air.md``);
-        reported in
+    estimate_wind : bool or "auto"
+        Also carry a steady wind (north, east, down [m/s]) as three constant states,
+        started at 0 with ``wind_sd_mps`` as sd (later passes where the last ended, with
+        the coefficients); default auto: unless the log says still air, said in one line
+        (:mod:`baselines._wind_auto`; still air assumed where the filters cannot carry it:
+        :func:`baselines._kalman_wind.blocked`). On noisy flights the carried passes walk
+        along the along-path component and are refused (the default smoothed passes do
+        not, nor with an airspeed: ``benchmarks/results/kalman_air.md``); reported in
         ``info['wind_ned_mps']`` and ``info['wind_stderr_mps']`` (the final filtered sd)
         with a one-line notice (:mod:`baselines._kalman_wind`).
     wind_sd_mps : float
@@ -105,7 +106,7 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
     imu_gyro_bias_sd_radps: float = 0.005
     imu_scale_sd: float = 0.005
     aiding: Literal["none", "gnss-velocity", "gnss-velocity+ins-attitude"] = "none"
-    estimate_wind: bool = False
+    estimate_wind: bool | Literal["auto"] = "auto"
     wind_sd_mps: float = _kalman_wind.WIND_SD_MPS
     gust_sd_mps: float = 0.0
     estimate_gust_sd: bool = False
@@ -119,8 +120,7 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
                              f"{self.imu_errors!r}")
         if self.aiding not in AIDING:
             raise ValueError(f"aiding must be one of {', '.join(AIDING)}, got {self.aiding!r}")
-        if not isinstance(self.estimate_wind, bool):
-            raise ValueError(f"estimate_wind must be true or false, got {self.estimate_wind!r}")
+        _kalman_wind.check_wind_option(self)  # true, false or auto (baselines._wind_auto)
         if not isinstance(self.estimate_gust_sd, bool):
             raise ValueError(f"estimate_gust_sd must be true or false, got "
                              f"{self.estimate_gust_sd!r}")
@@ -146,7 +146,7 @@ class ImuFilterOptions(_kalman_air.AirFilterOptions, _common.AugmentedFilterOpti
         """The shared start, with the wind states (``estimate_wind``) and the IMU-error
         states (``imu_errors``) appended."""
         setup = super().setup(flight)
-        if self.estimate_wind:
+        if _kalman_wind.carries_wind(self, flight):  # auto: resolved as the fit does
             setup = _kalman_wind.wind_setup(setup, self.wind_sd_mps)
         if self.gusts:  # the given intensity, or the search's start (replaced per trial)
             setup = _kalman_gust.gust_setup(setup, self.gust_sd_mps or 1.0,

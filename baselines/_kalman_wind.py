@@ -11,6 +11,10 @@ air-relative velocity: the wind enters the model's constants or, with per-sample
 each sample's exogenous row through :func:`aeroid.model.with_wind_symbols` (output-error's
 own symbols, the rotation written once in :mod:`aeroid.model`); the Jacobians are exact
 (CasADi AD), the UKF's sigma points go through the same CasADi functions mapped over them.
+
+The default ``estimate_wind = "auto"`` carries the wind unless the log says still air
+(:mod:`baselines._wind_auto`); :func:`blocked` names where the filters do not carry it
+(still air is then assumed there, said in one line).
 """
 
 from __future__ import annotations
@@ -23,10 +27,11 @@ import numpy as np
 
 import aeroid
 from aeroid.errors import EstimatorError
-from aeroid.flights import Flight, model_constants
+from aeroid.flights import Flight, Windows, model_constants
 from aeroid.model import EXOGENOUS, N_COEFFICIENTS, N_STATE, Constants, Record, symbolic
 from aeroid.model import with_wind_symbols as add_wind
 from baselines import _common, _kalman
+from baselines._wind_auto import check_wind_option, choose, is_auto
 
 #: Names of the wind states (output-error's names of its wind parameters).
 WIND_NAMES = ("wind_n", "wind_e", "wind_d")
@@ -130,7 +135,7 @@ def wind_model(flight: Flight, substeps: int, record: Record,
 
 def refuse_with(est: Any, what: str) -> None:
     """Raise the one-line error for ``estimate_wind`` combined with ``what`` (not done)."""
-    if getattr(est, "estimate_wind", False):
+    if getattr(est, "estimate_wind", False) is True:  # "auto": resolved before (blocked)
         raise EstimatorError(f"{est.name}: estimate_wind with {what} is not available (a "
                              "steady wind is estimated on one flight without GNSS aiding); "
                              "set estimate_wind = false")
@@ -152,3 +157,36 @@ def wind_report(out: _kalman.FilterOutput, first: int) -> tuple[dict[str, Any], 
                   "measured at output-error's accuracy, and an airspeed channel (air_data) "
                   "pins it (benchmarks/results/wind_filters.md, kalman_air.md)")
 
+
+def blocked(est: Any, data: Flight | Windows) -> str:
+    """Why the EKF/UKF with ``est``'s options do not carry a wind on ``data`` ("" when they
+    do): the combinations refused with ``estimate_wind = true``, and gust states (they
+    carry the moving air: with the steady wind's states as well the passes walk along the
+    along-path wind, measured: README "Gust states in the EKF and UKF")."""
+    if isinstance(data, Windows):
+        return f"{est.name} does not carry a wind over several windows"
+    if getattr(data.airframe, "tables", None) is not None:
+        return f"{est.name} does not carry a wind with coefficient tables ([tables])"
+    if getattr(est, "aiding", "none") != "none":
+        return f"{est.name} does not carry a wind with aiding = {est.aiding}"
+    if getattr(est, "gusts", False):
+        return (f"{est.name}'s gust states carry the moving air (with the steady wind's "
+                "states too its passes walk along the along-path wind, measured)")
+    if getattr(est, "passes", "auto") == "carried" and "airspeed" not in data.channels:
+        return (f"{est.name}'s carried passes walk along the along-path wind without an "
+                "airspeed channel (measured; passes = auto smooths them)")
+    return ""
+
+
+def carries_wind(est: Any, flight: Flight) -> bool:
+    """Whether ``est``'s filter of ``flight`` carries the wind states: ``estimate_wind``,
+    with ``auto`` resolved there as the fit resolves it (:func:`baselines._wind_auto.
+    choose`; the fit says it in one line, this does not): for a set-up built outside a
+    fit (``est.setup(flight)``)."""
+    if is_auto(est):
+        return choose(est.name, flight, blocked(est, flight)).used
+    return est.estimate_wind is True
+
+
+__all__ = ["WIND_NAMES", "WIND_SD_MPS", "blocked", "carried", "carries_wind",
+           "check_wind_option", "refuse_with", "wind_model", "wind_report", "wind_setup"]

@@ -81,7 +81,7 @@ def check_attitude_option(est: Any) -> None:
     if est.attitude_prior not in ATTITUDE_PRIORS:
         raise ValueError(f"attitude_prior must be one of {', '.join(ATTITUDE_PRIORS)}, got "
                          f"{est.attitude_prior!r}")
-    if est.attitude_prior == "flight" and getattr(est, "estimate_wind", False):
+    if est.attitude_prior == "flight" and getattr(est, "estimate_wind", False) is True:
         raise ValueError("attitude_prior = flight with estimate_wind is not built (the "
                          "heading then matters and is not freed)")
 

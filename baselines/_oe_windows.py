@@ -34,7 +34,7 @@ from aeroid.errors import EstimatorError
 from aeroid.estimation import EstimationResult
 from aeroid.flights import Windows, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _held, _oe_wind
+from baselines import _held, _oe_wind, _wind_auto
 from baselines._gauss_newton import (
     Fit,
     Problem,
@@ -69,6 +69,9 @@ class OutputErrorWindows:
                     ) -> EstimationResult:
         """Fit several windows with shared coefficients (module docstring; ``holds``:
         :mod:`baselines._held`, the coefficients lead the stacked vector as one flight's)."""
+        if _wind_auto.is_auto(self):  # estimate_wind = auto resolved on the windows, said
+            return _wind_auto.run_auto(self, windows, _oe_wind.blocked(self, windows),
+                                       lambda est: est.run_windows(windows, rng, holds))
         return run_windows(self, windows, rng, holds)
 
 
@@ -149,6 +152,7 @@ def windows_problem(est: Any, windows: Windows) -> tuple[Problem, WindowsModel]:
     floors averaged over their samples: each is ``R_FLOOR_REL`` of its window's mean
     square (+1e-300), so the average is that fraction of the stack's mean square.
     """
+    est = _oe_wind.resolved(est, windows)  # estimate_wind = auto: once, on all windows
     position_free = est.position_free(windows.flights[0])
     parts = [est.problem(flight, position_free) for flight in windows]
     models: list[RecordModel] = [prob.model for prob in parts]  # type: ignore[misc]

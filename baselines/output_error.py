@@ -29,7 +29,7 @@ import aeroid
 from aeroid.estimation import NOT_AN_OPTION, EstimationResult, Estimator
 from aeroid.flights import Flight, imu_error_names
 from aeroid.model import OUTPUT_CHANNELS
-from baselines import _common, _held, _oe_airdata, _oe_attitude, _oe_wind, _tables_fit
+from baselines import _common, _held, _oe_airdata, _oe_attitude, _oe_wind, _tables_fit, _wind_auto
 from baselines._gauss_newton import Fit, Problem, gauss_newton, posterior_information, sandwich
 from baselines._oe_aiding import aided_problem, aiding_info, aiding_names, aiding_x0
 from baselines._oe_aiding_report import aiding_warnings
@@ -228,6 +228,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
     def __post_init__(self) -> None:
         check_options(self)  # one ValueError per bad option: baselines/_oe_options.py
         _oe_airdata.check_air_data_options(self)
+        _wind_auto.check_wind_option(self)
 
     def warm_started(self, result: EstimationResult) -> OutputErrorEstimator | None:
         """This method started from ``result``'s parameters (consider re-fits: _oe_warm)."""
@@ -272,7 +273,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
         scale = [np.where(prior != 0.0, prior, 1.0)]
         scale.append(np.ones(len(self.x0_free())))
         scale.append([pos_sd[c] if pos_sd[c] > 0 else max(abs(pos[c]), 0.1)
-                      for c in position_free] + _oe_wind.wind_scales(self))
+                      for c in position_free] + _oe_wind.wind_scales(self, flight))
         if self.estimate_delay:
             scale.append([flight.dt])
         z = _common.measurements(flight)
@@ -286,7 +287,7 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
                             compiled=self.compile_model, x0=x0, scale=scale,
                             delay_s=self.delay_s, estimate_delay=self.estimate_delay,
                             imu_errors=self.imu_errors, tables=_tables_fit.flight_tables(flight),
-                            wind_free=self.estimate_wind)
+                            wind_free=_oe_wind.wind_free(self, flight))
         has_prior = bool(np.any(weight > 0))
         return airdata_problem(self, flight, aided_problem(self.aiding, flight, Problem(
             z=z, model=model, r_floor=R_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300,
@@ -299,6 +300,9 @@ class OutputErrorEstimator(OutputErrorWindows, _tables_fit.FitsTables, Estimator
 
     def run(self, flight: Flight, rng: np.random.Generator, holds: Any = None) -> EstimationResult:
         """Fit the flight; random draws only for extra starts and the PSO warm start."""
+        if _wind_auto.is_auto(self):  # estimate_wind = auto resolved on the log, said
+            return _wind_auto.run_auto(self, flight, _oe_wind.blocked(self, flight),
+                                       lambda est: est.run(flight, rng, holds))
         if flight.n_samples > MAX_SAMPLES:
             raise aeroid.EstimatorError(
                 f"output-error: {flight.n_samples} samples; it fits at most {MAX_SAMPLES} "

@@ -35,6 +35,7 @@ from baselines._imu_states import ImuFilterOptions
 from baselines._kalman_tables import refuse_windows, run_table_passes
 from baselines._kalman_ukf_smoother import run_ipls
 from baselines._tables_fit import flight_tables
+from baselines._wind_auto import is_auto, run_auto
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -105,6 +106,9 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
             ) -> EstimationResult:
         """Filter the flight forward in ``max_passes`` passes at most (no random draws:
         ``rng`` is unused; ``holds``: :func:`baselines._held.held_pass`)."""
+        if is_auto(self):  # estimate_wind = auto resolved on the log, said
+            return run_auto(self, flight, _kalman_wind.blocked(self, flight),
+                            lambda est: est.run(flight, rng, holds))
         if self.passes_used() == "smoothed" and self.estimate_gust_sd:  # trials share no pass
             raise EstimatorError(f"{self.name}: passes = smoothed with estimate_gust_sd is not "
                                  "available; give gust_sd_mps or set passes = carried")
@@ -152,6 +156,9 @@ class UnscentedKalmanEstimator(ImuFilterOptions):
         _kalman_windows`; no random draws)."""
         from baselines._kalman_windows import run_windows
 
+        if is_auto(self):  # estimate_wind = auto: not over several windows, said
+            return run_auto(self, windows, _kalman_wind.blocked(self, windows),
+                            lambda est: est.run_windows(windows, rng, holds))
         refuse_windows(self, windows)  # [tables]: not built for the filters
         _kalman_wind.refuse_with(self, "several windows")
         _kalman_gust.refuse_with(self, "several windows")

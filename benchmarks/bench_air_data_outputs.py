@@ -55,7 +55,7 @@ from baselines.output_error import OutputErrorEstimator
 RESULTS = Path(__file__).parent / "results" / "air_data_outputs.md"
 CALIBRATION = {"alpha_factor": 0.02, "beta_factor": 0.02, "alpha_offset_rad": 0.002,
                "beta_offset_rad": -0.001}
-FITS = {"off": {}, "wind": {"estimate_wind": True},
+FITS = {"off": {"estimate_wind": False}, "wind": {"estimate_wind": True},
         "wind + air data": {"estimate_wind": True, "air_data": "measured"}}
 
 

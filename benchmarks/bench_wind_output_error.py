@@ -69,8 +69,10 @@ RESULTS = Path(__file__).parent / "results" / "wind_output_error.md"
 RESULTS_FILTERS = Path(__file__).parent / "results" / "wind_filters.md"
 WITHIN_SE = 3.0
 #: The fits: label -> (flight, options). ``+ airspeed`` only with ``--airspeed``.
-FITS = {"still / off": ("still", {}), "still / on": ("still", {"estimate_wind": True}),
-        "wind / off": ("wind", {}), "wind / on": ("wind", {"estimate_wind": True})}
+FITS = {"still / off": ("still", {"estimate_wind": False}),  # off: said, not the default
+        "still / on": ("still", {"estimate_wind": True}),
+        "wind / off": ("wind", {"estimate_wind": False}),
+        "wind / on": ("wind", {"estimate_wind": True})}
 AIRSPEED_FITS = {
     "still / on + airspeed": ("still", {"estimate_wind": True, "air_data": "measured"}),
     "wind / on + airspeed": ("wind", {"estimate_wind": True, "air_data": "measured"})}

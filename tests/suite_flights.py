@@ -12,7 +12,14 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.flights import Flight, SensorSuite, make_flight, reference_scenario, simulate_suite
+from aeroid.flights import (
+    DECLARED_WIND_KEY,
+    Flight,
+    SensorSuite,
+    make_flight,
+    reference_scenario,
+    simulate_suite,
+)
 from aeroid.model import OUTPUT_CHANNELS
 
 #: The state channels a suite flight takes from the truth.
@@ -28,7 +35,14 @@ def clean_suite_flight(seed: int = 3) -> tuple[Any, Flight]:
     imu = sim.log["imu"]
     channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
                 **{c: sim.truth[c] for c in TRUE_STATES}, "delta": sim.truth["delta"]}
-    return sim, make_flight(channels, scenario.airframe, {})
+    return sim, make_flight(channels, scenario.airframe, declared_air(sim))
+
+
+def declared_air(sim: Any) -> dict[str, Any]:
+    """The air the suite simulator flew (its log's ``metadata["wind"]``: still air), as
+    the flight's metadata: estimate_wind = auto then assumes still air, as these tests
+    mean (:func:`aeroid.flights.declared_wind`)."""
+    return {DECLARED_WIND_KEY: sim.log.metadata[DECLARED_WIND_KEY]}
 
 
 def truth_errors(sim: Any) -> dict[str, float]:
@@ -64,7 +78,7 @@ def suite_flight(seed: int = 1, **suite: Any) -> tuple[Any, Flight]:
     imu = sim.log["imu"]
     channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
                 **{c: sim.truth[c] for c in TRUE_STATES}, "delta": sim.truth["delta"]}
-    return sim, make_flight(channels, scenario.airframe, {})
+    return sim, make_flight(channels, scenario.airframe, declared_air(sim))
 
 
 def ins_aiding(sim: Any, flight: Flight, shift_s: float = 0.0, sd: float | None = None

@@ -136,6 +136,7 @@ from aeroid.estimation._signals import (
     switch_free_samples,
     switch_free_windows,
 )
+from aeroid.estimation._still_air import LogAir, log_air
 from aeroid.estimation._table_holds import (
     TableHolds,
     fit_tables,
@@ -259,4 +260,6 @@ __all__ = [
     "switch_test",
     "autocorrelation_test",
     "WhitenessTest",
+    "LogAir",
+    "log_air",
 ]

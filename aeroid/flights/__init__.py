@@ -26,6 +26,13 @@ from aeroid.flights._channels import (
     STATE_CHANNELS,
     UNITS,
 )
+from aeroid.flights._declared_air import (
+    DECLARED_WIND_KEY,
+    declared_wind,
+    describe_wind,
+    is_still,
+    wind_metadata,
+)
 from aeroid.flights._files import read_column_map, read_flight, write_flight
 from aeroid.flights._flight import Flight, make_flight
 from aeroid.flights._mounting import (
@@ -144,4 +151,5 @@ __all__ = [
     "PITOT_CHANNELS", "PITOT_KEY", "PitotAirspeed", "mach_from_pitot", "pitot_airspeed",
     "pitot_ratio", "pitot_ratio_slope", "probe_pressures", "with_pitot_airspeed",
     "AirProbe", "air_group_airspeed",
+    "DECLARED_WIND_KEY", "declared_wind", "describe_wind", "is_still", "wind_metadata",
 ]

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from aeroid.errors import AirframeError, FlightError
+from aeroid.flights._declared_air import declared_wind
 from aeroid.flights._noise import noise_from_dict
 from aeroid.model import NAMES, Airframe, fileform
 
@@ -151,6 +152,10 @@ def sidecar_metadata(metadata: Any, source: str) -> dict[str, Any]:
                                 f"got {rows!r}")
         for row in rows:
             fileform.numbers(row, 3, f"{where} true_accel_positions_m")
+    try:  # "still" or a [wind] table: the air the log declares (_declared_air)
+        declared_wind(metadata, source)
+    except FlightError as exc:
+        raise AirframeError(str(exc)) from None
     if "manoeuvre" in metadata:
         table = fileform.check_table(metadata["manoeuvre"], f"{where} manoeuvre")
         for key, value in table.items():

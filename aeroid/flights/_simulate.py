@@ -23,8 +23,9 @@ crosses: the model's loads see the air-relative velocity; the states stay over t
 ground. Its Dryden gusts are drawn from the simulation's generator before the sensor
 noise, on the sample grid, and enter the truth integration as per-sample wind
 (exogenous columns, linear within each interval); the recorded ``alpha`` and ``beta``
-are then the air-relative angles (what a vane measures), and ``metadata["wind"]`` holds
-the ``[wind]`` table. Turbulence needs the latched relay (the closed relay loop with
+are then the air-relative angles (what a vane measures). ``metadata["wind"]`` holds
+the ``[wind]`` table flown, all zeros in still air (:mod:`aeroid.flights._declared_air`:
+the log says what air it was). Turbulence needs the latched relay (the closed relay loop with
 switch instants inside the truth takes constants only: refused in one line).
 """
 
@@ -35,6 +36,7 @@ import numpy as np
 from aeroid.errors import AirframeError
 from aeroid.flights._air import flown_tables
 from aeroid.flights._air_temperature import AIR_TEMPERATURE
+from aeroid.flights._declared_air import wind_metadata
 from aeroid.flights._flight import STATE_CHANNELS, Flight, air_angles, make_flight
 from aeroid.flights._noise import ACCEL_CHANNELS, NoiseModel, NoNoise
 from aeroid.flights._pitot import probe_pressures, true_air_temperature
@@ -373,8 +375,7 @@ def record_flight(
                                                strict=True))
         metadata["true_tables"] = {**tables.to_table(),
                                    "speed_of_sound_mps": tables.speed_of_sound_mps}
-    if manoeuvre.wind is not None:
-        metadata["wind"] = manoeuvre.wind.describe()
+    metadata.update(wind_metadata(manoeuvre.wind))  # the air flown, still air included
     if manoeuvre.air is not None:
         metadata["air"] = manoeuvre.air.describe()
     if manoeuvre.mass_scale != 1.0:

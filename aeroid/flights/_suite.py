@@ -2,8 +2,8 @@
 
 Conventions. The truth is the model's: body axes (u v w, p q r) and 3-2-1 Euler angles
 (phi theta psi) over a flat, non-rotating Earth in the scenario's wind (:mod:`._suite_truth`;
-the probe: :mod:`._suite_air`). Positions are NED (north,
-east, down) in metres from the airframe's position at t = 0, integrated here from the
+the probe: :mod:`._suite_air`). Positions are NED (north, east, down) in metres from the
+airframe's position at t = 0, integrated here from the
 truth (the model has no position states): the NED velocity ``C_nb(phi, theta, psi) [u v
 w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
 The barometer reads pressure altitude ``h0 - down`` with ``h0`` the airframe's
@@ -46,6 +46,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from aeroid.errors import AirframeError, FlightError
+from aeroid.flights._declared_air import wind_metadata
 from aeroid.flights._flight_computer import BARO_CHANNELS, GNSS_CHANNELS, check_flight_computer
 from aeroid.flights._frames import body_to_ned, wrap_angle
 from aeroid.flights._mounting import Mounting, board_mounting
@@ -220,11 +221,11 @@ def simulate_suite(airframe: Airframe, coefficients: Any, manoeuvre: Manoeuvre,
     t, states, delta = truth.t[k0:], truth.states[k0:], truth.delta[k0:]
     wind = None if truth.wind is None else truth.wind[k0:]  # the air the truth flew in
     const, motor = wind_constants(constants(manoeuvre.flown(airframe)), wind), {}
-    extra: dict[str, Any] = {} if manoeuvre.wind is None else {"wind": manoeuvre.wind.describe()}
+    extra: dict[str, Any] = wind_metadata(manoeuvre.wind)  # the air it flew, declared
     if airframe.thrust_curve is not None:  # the IMU sees the thrust, over the flown mass
         motor = sample_thrust(airframe.thrust_curve, t, airframe.thrust_n,
                               manoeuvre.mass_scale)
-        const, extra = const._replace(**motor), {"thrust": airframe.thrust_curve.describe()}
+        const, extra["thrust"] = const._replace(**motor), airframe.thrust_curve.describe()
     air_t = true_air_temperature(airframe, manoeuvre.air, None, t) if suite.air_probe else None
     specific = accelerometers(states, delta, coefficients, const,
                               airframe.accel_positions).reshape(-1, 2, 3)

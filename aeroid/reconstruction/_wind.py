@@ -37,7 +37,14 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.flights import PITOT_CHANNELS, SensorGroup, SuiteLog, air_group_airspeed, body_to_ned
+from aeroid.flights import (
+    DECLARED_WIND_KEY,
+    PITOT_CHANNELS,
+    SensorGroup,
+    SuiteLog,
+    air_group_airspeed,
+    body_to_ned,
+)
 from aeroid.model import Airframe
 from aeroid.reconstruction._kinematics import ATT, N_STATES, VEL
 
@@ -85,12 +92,15 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
     [rad/s] (a probe position needs them), ``airframe`` (a probe's pressures need its
     temperature). The metadata (empty without air data):
     ``wind_ned_mps``, ``wind_stderr_mps``, ``wind_samples``, ``wind_scatter`` (the mean
-    normalized scatter) and ``wind_steady`` (the scatter below :data:`STEADY_NIS_LIMIT`).
+    normalized scatter) and ``wind_steady`` (the scatter below :data:`STEADY_NIS_LIMIT`);
+    with the air the log declares (``metadata["wind"]``, the suite simulator's: kept for the
+    flight, :mod:`aeroid.flights._declared_air`).
     """
+    declared = {k: v for k, v in log.metadata.items() if k == DECLARED_WIND_KEY}
     if "air" not in log:
         notes.append("no air data in the log (an air group with alpha, beta, airspeed): u v w "
                      "are over the ground and the steady wind cannot be estimated")
-        return {}
+        return declared
     group = log["air"]
     speed, speed_note = _airspeed(group, airframe)
     missing = [c for c in AIR_CHANNELS if c not in group.channels or c not in group.noise_sd]
@@ -101,7 +111,7 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
         notes.append(f"{group.source}: the air group lacks {', '.join(missing)} (or its "
                      "noise_sd): the steady wind needs alpha, beta and airspeed with their sd "
                      "(the angles alone leave the wind along the path open); not estimated")
-        return {}
+        return declared
     inside = (group.t >= t[0]) & (group.t <= t[-1])
     ta = group.t[inside]
     vel, att = list(range(N_STATES))[VEL], list(range(N_STATES))[ATT]
@@ -145,7 +155,7 @@ def steady_wind(log: SuiteLog, t: np.ndarray, states: np.ndarray, covariance: np
     notes.append(f"steady wind from the air data ({len(ta)} samples of {', '.join(AIR_CHANNELS)}"
                  f"{speed_note}, {where}; states {', '.join(names)} interpolated): {shown} m/s "
                  f"NED; {verdict}")
-    return {"wind_ned_mps": mean.tolist(), "wind_stderr_mps": sd.tolist(),
+    return {**declared, "wind_ned_mps": mean.tolist(), "wind_stderr_mps": sd.tolist(),
             "wind_samples": int(len(ta)), "wind_scatter": scatter, "wind_steady": bool(steady)}
 
 

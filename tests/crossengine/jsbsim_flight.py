@@ -202,7 +202,8 @@ def make_flight(config: FlightConfig | None = None, *, noise: NoiseModel | None 
         aeroid's channels only (t, ax1..az2, p, q, r, delta, u, v, w, alpha, beta, phi,
         theta, psi; in moving air (``FlightConfig.moving_air``) alpha and beta are air-relative);
         its airframe's ``[atmosphere]`` is the window's mean density and its metadata
-        holds ``true_coefficients``, ``true_accel_positions_m`` and ``source``.
+        holds ``true_coefficients``, ``true_accel_positions_m`` and ``source``, and in
+        still air ``wind = "still"`` (:func:`aeroid.flights.declared_wind`).
     truth : Truth
     """
     config = FlightConfig() if config is None else config
@@ -240,6 +241,8 @@ def make_flight(config: FlightConfig | None = None, *, noise: NoiseModel | None 
                 "engine": {"name": "JSBSim", "planet": config.planet,
                            "integrator": config.integrator,
                            "frame_rate_hz": config.frame_rate_hz}}
+    if not config.moving_air:  # the air flown, said as aeroid's simulator says it
+        metadata["wind"] = "still"  # (in moving air nothing: a log that does not say)
     return aeroid_make_flight(channels, airframe, metadata), truth
 
 

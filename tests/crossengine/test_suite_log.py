@@ -74,7 +74,8 @@ def jsbsim_suite_log(seed, suite=None):
                          data["delta"].to_numpy(),
                          data[list(ACCEL_CHANNELS)].to_numpy().reshape(-1, 2, 3), airframe,
                          suite or SensorSuite(), rng=seed, source="jsbsim suite log",
-                         atmosphere={c: data[c].to_numpy() for c in ("pressure", "temperature")})
+                         atmosphere={c: data[c].to_numpy() for c in ("pressure", "temperature")},
+                         metadata={"wind": "still"})  # JSBSim's climb in still air, declared
     return sim, data
 
 

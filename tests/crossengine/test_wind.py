@@ -140,9 +140,28 @@ def test_the_logged_angles_are_the_air_relative_ones(config):
 
 def test_still_air_output_error_is_refused_in_the_wind(windy):
     flight, _ = windy
-    result = _fit("output-error", flight, {"input": "events"})
+    result = _fit("output-error", flight, {"input": "events", "estimate_wind": False})
     assert not result.success
     assert "does not fit the data" in result.message
+
+
+def test_auto_estimates_the_wind_of_a_log_that_does_not_say_still_air(windy):
+    """The default (``estimate_wind = auto``) on a JSBSim log whose metadata says nothing
+    of its air (vanes, no airspeed): the wind estimated, and said; every coefficient and
+    wind component within 3 se (as ``estimate_wind = true``, measured)."""
+    flight, truth = windy
+    assert "wind" not in flight.metadata
+    result = _fit("output-error", flight, {"input": "events"})
+    assert result.success, result.message
+    assert result.info["estimate_wind"]["used"] is True
+    assert result.warnings[0].startswith("output-error: estimate_wind: on (auto): the log "
+                                         "does not say the air was still (no metadata "
+                                         "wind; its air data lack an airspeed")
+    z = np.abs(result.theta - truth.coefficients) / result.stderr
+    assert np.all(z <= SE_BOUND), z
+    wind = np.asarray(result.info["wind_ned_mps"])
+    wind_se = np.asarray(result.info["wind_stderr_mps"])
+    assert np.all(np.abs(wind - np.array(WIND_NED_MPS)) <= SE_BOUND * wind_se), (wind, wind_se)
 
 
 def test_output_error_estimates_the_steady_wind(windy):

@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from suite_flights import declared_air
 
 from aeroid.flights import SensorSuite, make_flight, reference_scenario, simulate_suite
 from aeroid.model import OUTPUT_CHANNELS
@@ -106,7 +107,7 @@ def test_noise_free_suite_with_a_fin_skew_converges_with_the_delay_and_is_refuse
     channels = {"t": imu.t, **{c: imu.channels[c] for c in OUTPUT_CHANNELS},
                 **{c: sim.truth[c] for c in ("u", "v", "w", "phi", "theta", "psi")},
                 "delta": logged}
-    flight = make_flight(channels, scenario.airframe, {})
+    flight = make_flight(channels, scenario.airframe, declared_air(sim))  # still air
     options = {"imu_errors": "bias+scale"}
     fit = OutputErrorEstimator(**options, estimate_delay=True).fit(flight, rng=0)
     assert fit.success, fit.message

@@ -82,8 +82,10 @@ def test_the_wind_parameters_are_the_models_wind(reference_scenario, varying) ->
 
 
 def test_still_air_output_error_is_refused_on_a_windy_flight(windy_flight) -> None:
-    """The verdict on a known-wrong model: 5 m/s of wind fitted as still air."""
-    result = aeroid.make_estimator("output-error").fit(windy_flight, rng=0)
+    """The verdict on a known-wrong model: 5 m/s of wind fitted as still air (said: the
+    default, auto, estimates the wind on this flight, whose metadata declares it)."""
+    result = aeroid.make_estimator("output-error", {"estimate_wind": False}).fit(
+        windy_flight, rng=0)
     assert not result.success
     assert "does not fit" in result.message or "white" in result.message
     assert "wind_ned_mps" not in result.info
@@ -115,7 +117,7 @@ def test_the_option_is_named_in_the_methods_options(capsys) -> None:
 
     assert main(["methods", "--options", "output-error"]) == 0
     text = capsys.readouterr().out
-    assert "  estimate_wind : bool = false\n      Also estimate a steady wind" in text
+    assert "  estimate_wind : bool or {auto} = auto\n      Also estimate a steady wind" in text
 
 
 def test_output_error_is_still_refused_in_turbulence(reference_scenario) -> None:

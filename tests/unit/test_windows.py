@@ -301,8 +301,8 @@ def _delayed_flight(scenario, tau):
     channels = {"t": t, "delta": delta}
     channels.update({name: outputs[:, j] for j, name in enumerate(model.output_names)})
     channels.update({name: states[:, j] for j, name in enumerate(aeroid.model.STATE_NAMES)})
-    return make_flight(channels, scenario.airframe,
-                       {"true_coefficients": aeroid.model.as_dict(theta)})
+    return make_flight(channels, scenario.airframe,  # the model's outputs in still air
+                       {"true_coefficients": aeroid.model.as_dict(theta), "wind": "still"})
 
 
 def test_each_window_gets_its_own_fin_delay():

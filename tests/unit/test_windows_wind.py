@@ -67,8 +67,10 @@ def test_one_window_with_the_wind_is_the_single_flight_fit(reference_scenario):
 
 
 def test_still_air_windows_fit_of_two_winds_is_refused(two_winds):
-    """The verdict on a known-wrong model over windows: the winds fitted as still air."""
-    assert not aeroid.make_estimator("output-error").fit(two_winds, rng=0).success
+    """The verdict on a known-wrong model over windows: the winds fitted as still air (the
+    default, auto, estimates them: the windows' metadata declare their winds)."""
+    still = aeroid.make_estimator("output-error", {"estimate_wind": False})
+    assert not still.fit(two_winds, rng=0).success
 
 
 def test_wind_with_tables_over_windows_is_refused_in_one_line(two_winds):
