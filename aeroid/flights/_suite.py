@@ -1,17 +1,16 @@
 """Simulate a flight-test sensor suite: an IMU, GNSS, a barometer, an INS, the fin, a probe.
 
-Conventions. The truth is the model's: body axes (u v w, p q r) and 3-2-1 Euler angles
-(phi theta psi) over a flat, non-rotating Earth in the scenario's wind (:mod:`._suite_truth`;
-the probe: :mod:`._suite_air`). Positions are NED (north, east, down) in metres from the
-airframe's position at t = 0, integrated here from the
-truth (the model has no position states): the NED velocity ``C_nb(phi, theta, psi) [u v
-w]`` by the trapezoid rule at the IMU's step (1 ms: an error of order 1e-4 m over 6 s).
-The barometer reads pressure altitude ``h0 - down`` with ``h0`` the airframe's
-``[atmosphere] altitude_m`` (or, ``baro_channels``, the ISA pressure and temperature of
-it; ``baro_board_temperature_k``: a flight computer's own temperature, constant, instead
-of the air's); the model's dynamics hold the density of ``h0`` constant, so an ISA density
-of the logged altitude differs from the truth's by the climb. ``gnss_channels``: NED
-velocity and position, or position only.
+Conventions. The truth is the model's: body axes (u v w, p q r) and 3-2-1 Euler angles (phi
+theta psi) over a flat, non-rotating Earth in the scenario's wind (:mod:`._suite_truth`; the
+probe: :mod:`._suite_air`). Positions are NED (north, east, down) in metres from the
+airframe's position at t = 0, integrated here from the truth (the model has no position
+states): the NED velocity ``C_nb(phi, theta, psi) [u v w]`` by the trapezoid rule at the
+IMU's step (1 ms: an error of order 1e-4 m over 6 s). The barometer reads pressure altitude
+``h0 - down`` with ``h0`` the airframe's ``[atmosphere] altitude_m`` (or, ``baro_channels``,
+the ISA pressure and temperature of it; ``baro_board_temperature_k``: a flight computer's
+own temperature, constant, instead of the air's); the model's dynamics hold the density of
+``h0`` constant, so an ISA density of the logged altitude differs from the truth's by the
+climb. ``gnss_channels``: NED velocity and position, or position only.
 
 Sampling. Each group samples the truth at its own rate, every ``imu_rate / rate``-th IMU
 instant (so the rates must divide the IMU rate; a group's ``offset_s`` shifts its logged
