@@ -30,7 +30,6 @@ parameters) leaves them out and the result says it ignores them.
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -59,7 +58,7 @@ OE_CHOICES: tuple[str, ...] = ("inertial", "auto", "measured")
 FACTOR_SCALE = 0.01
 OFFSET_SCALE_RAD = 1e-3
 #: The metadata key of the probe and its position.
-PROBE_KEY = "air_data_probe"
+PROBE_KEY = aeroid.flights.AIR_DATA_PROBE_KEY
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -138,28 +137,9 @@ def calibration_scales(names: list[str]) -> np.ndarray:
 
 
 def probe_position(flight: Flight) -> tuple[np.ndarray, str]:
-    """The probe's position [m] (body axes, from the c.g.) and how it was found.
-
-    Raises
-    ------
-    FlightError
-        ``metadata["air_data_probe"]`` that is not ``{"position_m": [x, y, z]}``.
-    """
-    where = flight.metadata.get("source", "flight")
-    probe = flight.metadata.get(PROBE_KEY)
-    if probe is None:
-        return np.zeros(3), "probe at the c.g. (no metadata air_data_probe.position_m: assumed)"
-    try:
-        if not isinstance(probe, Mapping):
-            raise TypeError("not a table")
-        r = np.asarray(probe["position_m"], dtype=float).reshape(-1)
-        if r.size != 3 or not np.all(np.isfinite(r)):
-            raise ValueError(f"{r.size} values")
-    except (KeyError, TypeError, ValueError) as exc:
-        raise aeroid.FlightError(f"{where}: metadata air_data_probe must be {{\"position_m\": "
-                                 f"[x, y, z]}} (finite numbers, body axes from the c.g. [m]): "
-                                 f"{exc}") from None
-    return r, f"probe at [{', '.join(f'{v:.4g}' for v in r)}] m (metadata)"
+    """The probe's position [m] and how it was found
+    (:func:`aeroid.flights.air_data_probe_position`, written once for every method)."""
+    return aeroid.flights.air_data_probe_position(flight)
 
 
 def _probe_outputs(x: Any, const: Any, r: Any, cal: Any, channels: tuple[str, ...],

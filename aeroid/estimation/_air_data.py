@@ -46,7 +46,7 @@ from aeroid.estimation._air_reconstruction import (
 )
 from aeroid.estimation._air_smoother import SmoothedWind, dryden_note, smooth_air_wind
 from aeroid.estimation._signals import smooth
-from aeroid.flights import PITOT_KEY, Flight
+from aeroid.flights import PITOT_KEY, Flight, air_data_probe_position
 from aeroid.model import equations
 
 __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData", "air_data_wind",
@@ -131,13 +131,18 @@ def air_data_wind(flight: Flight, window_s: float = 0.0) -> np.ndarray:
     ``V`` the logged ``airspeed`` (an air-data probe's) or, without one, ``|u, v, w|``;
     the wind is the inertial velocity minus it, rotated to NED by the
     transpose of the model's :func:`aeroid.model.equations.ned_to_body`; smoothed over
-    ``window_s`` [s] in NED axes (:func:`wind_window`; 0: not smoothed).
+    ``window_s`` [s] in NED axes (:func:`wind_window`; 0: not smoothed). A probe off the
+    c.g. (:func:`aeroid.flights.air_data_probe_position`, the flight's metadata) reads the
+    rotation's ``omega x r`` too (``omega`` the logged p, q, r): it is removed first.
     """
     u, v, w, phi, theta, psi = (flight[c] for c in ("u", "v", "w", "phi", "theta", "psi"))
     speed = flight["airspeed"] if has_airspeed(flight) else np.sqrt(u * u + v * v + w * w)
     alpha, beta = flight["alpha"], flight["beta"]
     air = speed[:, None] * np.stack([np.cos(alpha) * np.cos(beta), np.sin(beta),
                                      np.sin(alpha) * np.cos(beta)], axis=1)
+    r, _ = air_data_probe_position(flight)
+    if np.any(r):  # the probe's air velocity less the rotation's at the probe
+        air = air - np.cross(np.stack([flight[c] for c in ("p", "q", "r")], axis=1), r)
     body = np.stack([u, v, w], axis=1) - air
     # columns of the direction-cosine matrix: the NED unit vectors in body axes
     dcm = np.stack([np.stack(equations.ned_to_body(phi, theta, psi, *e), axis=1)
@@ -204,6 +209,7 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
         smoothed = (f"the wind they imply smoothed over {window} samples in NED axes"
                     if window > 1 else "not smoothed")
     speed = float(np.mean(np.sqrt(sum(flight[c] ** 2 for c in ("u", "v", "w")))))
+    probe = air_data_probe_position(flight)[1]
     angles = (f"the logged alpha, beta ({rms:.3g} deg RMS from the inertial ones"
               if has_air_angles(flight) else "alpha, beta from u, v, w (none logged apart "
               "from them")
@@ -213,15 +219,15 @@ def resolve_air_data(flight: Flight, choice: str, owner: str,
         origin = ("the probe's pressures (Mach, by the pitot formulas)" if PITOT_KEY
                   in flight.metadata else "the logged airspeed channel")
         return AirData("measured", wind,
-                       f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
-                       f"from {origin} ({off:.3g} m/s RMS from |u, v, w|)",
+                       f"{owner}: aerodynamic angles from {angles}; {smoothed}; {probe}), "
+                       f"airspeed from {origin} ({off:.3g} m/s RMS from |u, v, w|)",
                        smoothed=kalman)
     warning = (f"{owner}: airspeed taken as |u, v, w| (no airspeed channel): a wind along "
                f"the path of 1 m/s biases every coefficient by about {200.0 / speed:.2g} %, "
                "which the logged angles cannot see and the standard errors leave out")
     return AirData("measured", wind,
-                   f"{owner}: aerodynamic angles from {angles}; {smoothed}), airspeed "
-                   "|u, v, w| (no airspeed channel)", warning, kalman)
+                   f"{owner}: aerodynamic angles from {angles}; {smoothed}; {probe}), "
+                   "airspeed |u, v, w| (no airspeed channel)", warning, kalman)
 
 
 def _body_sd(kalman: SmoothedWind) -> str:

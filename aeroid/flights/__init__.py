@@ -62,6 +62,7 @@ from aeroid.flights._pitot import (
     probe_pressures,
 )
 from aeroid.flights._pitot_airspeed import PitotAirspeed, pitot_airspeed, with_pitot_airspeed
+from aeroid.flights._probe_position import AIR_DATA_PROBE_KEY, air_data_probe_position
 from aeroid.flights._record import (
     INPUTS,
     exogenous,
@@ -150,6 +151,6 @@ __all__ = [
     "unused_note",
     "PITOT_CHANNELS", "PITOT_KEY", "PitotAirspeed", "mach_from_pitot", "pitot_airspeed",
     "pitot_ratio", "pitot_ratio_slope", "probe_pressures", "with_pitot_airspeed",
-    "AirProbe", "air_group_airspeed",
+    "AirProbe", "air_group_airspeed", "AIR_DATA_PROBE_KEY", "air_data_probe_position",
     "DECLARED_WIND_KEY", "declared_wind", "describe_wind", "is_still", "wind_metadata",
 ]

@@ -163,6 +163,28 @@ def test_equation_error_takes_the_airspeed_channel(clean_windy, reference_scenar
     assert np.max(np.abs(r0.theta / truth - 1.0)) > 5 * EE_RTOL  # the along-path bias
 
 
+def test_equation_error_takes_the_probe_position(clean_windy, reference_scenario) -> None:
+    # a probe 0.8 m ahead and off the axes reads omega x r too (~2.5 m/s of it at ~51
+    # rad/s roll): given in the metadata, equation-error removes it (the wind the air data
+    # imply is the simulator's, the truth to EE_RTOL); not given, the probe is taken at
+    # the c.g. and said so, and its wind is the rotation's flow
+    position = (0.8, 0.05, -0.03)
+    truth = reference_scenario.coefficient_vector
+    f = with_probe(clean_windy, WIND, position=position, vane_sd=0.0, airspeed_sd=0.0)
+    told = dataclasses.replace(f, metadata={**f.metadata,
+                                            "air_data_probe": {"position_m": list(position)}})
+    implied = aeroid.estimation.air_data_wind(told)
+    np.testing.assert_allclose(implied, np.broadcast_to(WIND, implied.shape), atol=1e-9)
+    right = EquationErrorEstimator(air_data="measured").fit(told)
+    assert right.success, right.message
+    assert np.max(np.abs(right.theta / truth - 1.0)) < EE_RTOL
+    assert "probe at [0.8, 0.05, -0.03] m (metadata)" in right.info["air_data_note"]
+    untold = aeroid.estimation.air_data_wind(f)
+    assert np.max(np.abs(untold - WIND)) > 1.0  # the rotation's flow taken for wind
+    assert "probe at the c.g." in EquationErrorEstimator(air_data="measured").fit(
+        f).info["air_data_note"]
+
+
 def test_refusals_are_one_line(clean_windy, clean_flight) -> None:
     f = with_probe(clean_windy, WIND, vane_sd=0.0, airspeed_sd=0.0)
     cases = [
