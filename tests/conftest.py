@@ -11,7 +11,10 @@ The flights are session-scoped (simulated once per test run): treat them as read
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -65,8 +68,64 @@ def reference_csv_path() -> Path:
     return DATA_DIR / "reference-flight-clean.csv"
 
 
+#: Why ``-n auto`` ran no workers (:func:`pytest_xdist_auto_num_workers`), for the header.
+_IN_PROCESS_REASON = pytest.StashKey[str]()
+
+
+@pytest.hookimpl(optionalhook=True)  # a pytest-xdist hook: no error without it
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int | None:
+    """``-n auto`` (pyproject's ``addopts``): one pytest-xdist worker per CPU this process
+    may run on; none (the tests run in the pytest process itself, as with ``-n 0``) on a
+    one-CPU machine or with ``-s``, whose prints xdist's workers would swallow (the header
+    says so). ``PYTEST_XDIST_AUTO_NUM_WORKERS`` set: xdist's own rule reads it."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return None
+    if config.getoption("capture") == "no":
+        config.stash[_IN_PROCESS_REASON] = "-s"
+        return 0
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # no sched_getaffinity (macOS, Windows)
+        cpus = os.cpu_count() or 1
+    if cpus == 1:
+        config.stash[_IN_PROCESS_REASON] = "one CPU"
+        return 0
+    return cpus
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    """Say in one line when ``-n auto`` was turned into ``-n 0``."""
+    reason = config.stash.get(_IN_PROCESS_REASON, None)
+    if reason is None:
+        return None
+    return f"aeroid: -n auto with {reason}: the tests run in this process (-n 0)"
+
+
+@contextlib.contextmanager
+def _one_worker_at_a_time(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """Hold a lock shared by the pytest-xdist workers of this run (nothing without xdist).
+
+    The workers' temporary directories share a parent made for the run; the lock file lives
+    there. Where ``fcntl`` is missing (Windows) there is no lock: each worker compiles.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        fcntl = None
+    if os.environ.get("PYTEST_XDIST_WORKER") is None or fcntl is None:
+        yield
+        return
+    lock = tmp_path_factory.getbasetemp().parent / "aeroid-compile.lock"
+    with open(lock, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 @pytest.fixture(scope="session", autouse=True)
-def compiled_kernels() -> None:
+def compiled_kernels(tmp_path_factory: pytest.TempPathFactory) -> None:
     """Compile the numba kernels once before any test (as on a warm install).
 
     On a fresh checkout or after an edit of the equations the first command compiles them
@@ -74,8 +133,16 @@ def compiled_kernels() -> None:
     ``test_cli_compile_notice.py``); without this, the CLI tests that assert a single line of
     output passed or failed by the order the tests ran in (a fresh clone running only
     ``tests/integration`` failed 16 of them). The compilation happens once per test run
-    either way; here it happens first.
+    either way; here it happens first. Under pytest-xdist one worker compiles while the
+    others wait, then find the kernels in numba's disk cache (no two workers writing the
+    same cache files at once, no compilation repeated per worker).
     """
+    with _one_worker_at_a_time(tmp_path_factory):
+        _compile_kernels()
+
+
+def _compile_kernels() -> None:
+    """Compile the kernels :func:`compiled_kernels` needs, unless numba's cache has them."""
     import aeroid
     from aeroid.flights import model_constants
     from aeroid.model import HAVE_NUMBA, kernels_cached, propagate

@@ -67,6 +67,13 @@ LAW_EVALUATIONS = ("continuous", "latched", "control_rate")
 MAX_DELAY_S = 1.0
 
 
+def _clipped(value: Any, limit: int = 80) -> str:
+    """Return ``repr(value)``, cut to ``limit`` characters: a message keeps its reason
+    after a long value (cutting the whole message cut the reason after a long path)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def profile(value: Any, where: str) -> Profile:
     """Return a law parameter from its file form: a number or ``[[t_s, value], ...]``.
 
@@ -81,17 +88,17 @@ def profile(value: Any, where: str) -> Profile:
     shape = f"{where} must be a number or a list of [time_s, value] pairs"
     if isinstance(value, str | bytes | Mapping) or not isinstance(value, list | tuple) \
             or not value:
-        raise AirframeError(f"{shape}, got {value!r}"[:200])
+        raise AirframeError(f"{shape}, got {_clipped(value)}")
     pairs = []
     for pair in value:
         if (isinstance(pair, str | bytes | Mapping) or not isinstance(pair, list | tuple)
                 or len(pair) != 2 or not all(is_number(x) and math.isfinite(x) for x in pair)):
-            raise AirframeError(f"{shape}; {pair!r} is not two finite numbers"[:200])
+            raise AirframeError(f"{shape}; {_clipped(pair)} is not two finite numbers")
         pairs.append((float(pair[0]), float(pair[1])))
     times = [p[0] for p in pairs]
     if any(b <= a for a, b in zip(times, times[1:], strict=False)):
         raise AirframeError(f"{where}: the times of the pairs must increase strictly, "
-                            f"got {times}"[:200])
+                            f"got {_clipped(times)}")
     return tuple(pairs)
 
 
@@ -159,7 +166,7 @@ class FinLaw:
         if self.evaluation not in LAW_EVALUATIONS:
             raise AirframeError(f"fin law: evaluation must be one of "
                                 f"{', '.join(map(repr, LAW_EVALUATIONS))}, "
-                                f"got {self.evaluation!r}"[:200])
+                                f"got {_clipped(self.evaluation)}")
         if (self.evaluation == "control_rate") != (self.control_rate_hz is not None):
             raise AirframeError("fin law: control_rate_Hz goes with evaluation = "
                                 "\"control_rate\" and nothing else")

@@ -86,6 +86,18 @@ def test_fin_law_mistakes_are_one_line(tmp_path, table, message):
     assert text.startswith(f"{path}: ") and message in text
 
 
+def test_a_long_path_keeps_the_reason(tmp_path):
+    """The message names the whole path and still says what is wrong: the value is cut,
+    not the message (cut at 200 characters, the reason went with a path of ~110)."""
+    folder = tmp_path / ("d" * 150)
+    folder.mkdir()
+    long_value = [[0.0, 1.0, 2.0, *range(100)]]
+    path = _airframe_file(folder, LAW_TABLE | {"command_phase_deg": long_value})
+    text = _error(load_airframe, path)
+    assert text.startswith(f"{path}: [fin_law] command_phase_deg must be")
+    assert text.endswith("... is not two finite numbers") and len(text) < len(path) + 200
+
+
 def test_fin_law_not_a_table():
     data = reference_airframe().to_dict() | {"fin_law": 3.0}
     assert _error(Airframe.from_dict, data) == "airframe: [fin_law] must be a table, got 3.0"
