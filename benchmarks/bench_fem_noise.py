@@ -4,6 +4,7 @@ guarded relaxation (``baselines/_fem_fit.py``, ``_noise_step``).
 Run by hand from the repository root (one process, the fits in turn)::
 
     nice -n 10 python benchmarks/bench_fem_noise.py --seeds 1-10,2024 --turbulent-seeds 1-3
+    nice -n 10 python benchmarks/bench_fem_noise.py --seeds '' --wrong-seeds 1-5
 
 Flights: ``examples/make_flight_log.py``'s recipe (the reference scenario, 1 s at 500 Hz,
 Gaussian IMU noise 0.05 m/s^2 and 0.005 rad/s, still air, no noise metadata, the example
@@ -14,6 +15,9 @@ auto``: the innovations, no metadata) twice: ``old``, the relaxation always take
 (the code before), and ``new``. Printed per fit: passed, the fitted gust sd [m/s], the
 likelihood's cost, the largest |error| / se over the coefficients, the estimated noise sd
 of the tail triad's ay2, az2 [m/s^2] (the truth: 0.05) and the message of a refusal.
+``--wrong-seeds``: the still-air flights fitted (new only) with a known-wrong model: Cma
+held 30 % off, ``input = midpoint`` (the log's deflection holds between samples), the
+tail triad's 0.01 m lateral and vertical offsets taken as zero; each should be refused.
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ from aeroid.flights import (  # noqa: E402
     make_noise,
     simulate,
 )
-from aeroid.model import OUTPUT_CHANNELS  # noqa: E402
+from aeroid.model import NAMES, OUTPUT_CHANNELS  # noqa: E402
 from baselines import _fem_fit  # noqa: E402
 
 #: The example airframe's [prior] (examples/make_flight_log.py).
@@ -71,9 +75,10 @@ def _old_relaxation() -> Iterator[None]:
         _fem_fit._noise_step = real
 
 
-def _fit(flight: Flight, truth: np.ndarray, label: str) -> bool:
+def _fit(flight: Flight, truth: np.ndarray, label: str, holds: dict | None = None,
+         **options: str) -> bool:
     t0 = time.perf_counter()
-    r = get_estimator("filter-error")().fit(flight, rng=0)
+    r = get_estimator("filter-error")(**options).fit(flight, rng=0, holds=holds)
     z = np.nanmax(np.abs((r.theta - truth) / r.stderr))
     sd = np.sqrt(r.info["measurement_noise_var"][TAIL])
     print(f"{label}: {'passed' if r.success else 'REFUSED'}, gust sd "
@@ -88,14 +93,31 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="1-10,2024")
     parser.add_argument("--turbulent-seeds", default="")
+    parser.add_argument("--wrong-seeds", default="")
     args = parser.parse_args()
     scenario = load_scenario(None)
     truth = scenario.coefficient_vector
+    refused = 0
+    for seed in _seeds(args.wrong_seeds):
+        sim = simulate(scenario.airframe, truth, scenario.manoeuvre, GaussianNoise(), rng=seed)
+        flight = Flight(sim.data, sim.airframe.replace(prior=PRIOR), {})
+        x_tail = flight.airframe.accel2_position_m[0]
+        on_axis = Flight(flight.data, flight.airframe.replace(
+            accel2_position_m=(x_tail, 0.0, 0.0)), {})
+        cma = 0.7 * float(truth[NAMES.index("Cma")])
+        refused += not _fit(flight, truth, f"seed {seed} Cma held 30 % off",
+                            {"hold": {"Cma": cma}})
+        refused += not _fit(flight, truth, f"seed {seed} input midpoint", input="midpoint")
+        refused += not _fit(on_axis, truth, f"seed {seed} tail triad on the axis")
+    if args.wrong_seeds:
+        print(f"wrong models refused {refused}/{3 * len(_seeds(args.wrong_seeds))}")
     kinds = [("still", scenario.manoeuvre, _seeds(args.seeds))]
     if args.turbulent_seeds:
         kinds.append(("Dryden 3 m/s", dataclasses.replace(
             scenario.manoeuvre, wind=Wind(turbulence_sd_mps=3.0)), _seeds(args.turbulent_seeds)))
     for kind, manoeuvre, seeds in kinds:
+        if not seeds:
+            continue
         passed = {"old": 0, "new": 0}
         for seed in seeds:
             noise = GaussianNoise() if kind == "still" else make_noise("gaussian")
