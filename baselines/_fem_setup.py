@@ -6,8 +6,9 @@ signal-proportional model such as the paper's eq. 43 by its per-channel, homosce
 form); ``innovations`` starts from the data's smoother residuals
 (:func:`aeroid.estimation.estimate_noise_sd`) and re-estimates the variances from the
 innovations after every iteration (``R_c = mean(nu_c^2 - (H P^- H^T)_cc)``, FVSysID's
-relaxation); ``auto`` is ``metadata`` when the flight has a noise model with noise,
-else ``innovations``, and says which in one line.
+relaxation, taken only as far as it lowers the likelihood's cost:
+:func:`baselines._fem_fit._noise_step`); ``auto`` is ``metadata`` when the flight has a
+noise model with noise, else ``innovations``, and says which in one line.
 """
 
 from __future__ import annotations

@@ -154,8 +154,10 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
     priors'. ``info``: ``gust_sd_mps`` and ``gust_sd_stderr_mps`` (NaN when at its lower
     bound, :data:`baselines._fem_fit.LOG_SIGMA_MIN`: still air), ``gust_time_constant_s``,
     ``scale_length_m``, ``gust_model``, ``measurement_noise`` (which source) and
-    ``measurement_noise_var`` (m,), ``R`` (n, m): the innovations' variances (the fit
-    check's noise model),
+    ``measurement_noise_var`` (m,), ``measurement_noise_fractions`` (per iteration with the
+    noise estimated from the innovations: how far towards the relaxed variances it went, 1
+    in full, 0 refused because it raised the cost; :func:`baselines._fem_fit._noise_step`),
+    ``R`` (n, m): the innovations' variances (the fit check's noise model),
     ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
     ``parameter_stderr``, and
     ``wind_filtered_ned_mps`` (n, N_WIND): the filtered wind (steady and gusts) at each
@@ -308,6 +310,7 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
             "gust_model": self.gust_model,
             "speed_mps": speed, "measurement_noise": noise.source,
             "measurement_noise_var": fit.R, "R": S_diag, "compiled": problem.model.compiled,
+            "measurement_noise_fractions": np.array(fit.noise_fractions),
             "iterations": fit.n_iterations,
             "wind_filtered_ned_mps": runs.x[0][:, -N_WIND:],
             "state_filtered": runs.x[0][:, :N_STATE],
