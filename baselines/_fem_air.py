@@ -30,17 +30,20 @@ inertial angles is reported as still air, wind or turbulence
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from aeroid import estimation
 from aeroid.errors import FlightError
 from aeroid.flights import Flight
-from baselines._kalman_air import NOISE_CHOICES, UNITS, VAR_FLOOR_REL, _metadata_variances
+from baselines._kalman_air import (
+    UNITS,
+    VAR_FLOOR_REL,
+    AirOutputOptions,
+    _metadata_variances,
+)
 from baselines._oe_airdata import (
-    CALIBRATIONS,
-    OE_CHOICES,
     air_channels,
     calibration_names,
     calibration_scales,
@@ -49,7 +52,7 @@ from baselines._oe_airdata import (
 
 
 @dataclass(frozen=True, kw_only=True)
-class FemAirOption:
+class FemAirOption(AirOutputOptions):
     """Filter-error's air-data options (a base of :class:`baselines.filter_error.
     FilterErrorEstimator`).
 
@@ -70,24 +73,6 @@ class FemAirOption:
         held.
     """
 
-    air_data: Literal["inertial", "auto", "measured"] = "inertial"
-    air_data_calibration: Literal["none", "offset", "factor", "factor+offset"] = \
-        "factor+offset"
-    air_data_noise: Literal["data", "metadata"] = "data"
-
-    @property
-    def uses_air_data(self) -> bool:  # Estimator's flag: fit() warns when False
-        """Whether the fit may use the flight's air data (``air_data`` not inertial)."""
-        return self.air_data != "inertial"
-
-    def check_air_options(self) -> None:
-        """Raise ValueError (one line) for an air-data option out of its range."""
-        for name, choices in (("air_data", OE_CHOICES),
-                              ("air_data_calibration", CALIBRATIONS),
-                              ("air_data_noise", NOISE_CHOICES)):
-            if getattr(self, name) not in choices:
-                raise ValueError(f"{name} must be one of {', '.join(choices)}, got "
-                                 f"{getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,34 @@ VAR_FLOOR_REL = 1e-8
 
 
 @dataclass(frozen=True, kw_only=True)
-class AirFilterOptions:
+class AirOutputOptions:
+    """The air-data options of every filter that takes air data as measured outputs
+    (filter-error's as they are, :class:`baselines._fem_air.FemAirOption`; the EKF/UKF's
+    add their calibration states' initial sd, :class:`AirFilterOptions`): ``air_data``,
+    ``air_data_calibration``, ``air_data_noise`` (their meaning: those classes)."""
+
+    air_data: Literal["inertial", "auto", "measured"] = "inertial"
+    air_data_calibration: Literal["none", "offset", "factor", "factor+offset"] = \
+        "factor+offset"
+    air_data_noise: Literal["data", "metadata"] = "data"
+
+    @property
+    def uses_air_data(self) -> bool:  # Estimator's flag: fit() warns when False
+        """Whether the fit may use the flight's air data (``air_data`` not inertial)."""
+        return self.air_data != "inertial"
+
+    def check_air_options(self) -> None:
+        """Raise ValueError (one line) for an air-data option out of its range."""
+        for name, choices in (("air_data", OE_CHOICES),
+                              ("air_data_calibration", CALIBRATIONS),
+                              ("air_data_noise", NOISE_CHOICES)):
+            if getattr(self, name) not in choices:
+                raise ValueError(f"{name} must be one of {', '.join(choices)}, got "
+                                 f"{getattr(self, name)!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class AirFilterOptions(AirOutputOptions):
     """The EKF/UKF's air-data options (a base of :class:`baselines._imu_states.
     ImuFilterOptions`).
 
@@ -91,26 +118,12 @@ class AirFilterOptions:
         innovations (default), or the log's ``metadata["air_data_probe"]["noise_sd"]``.
     """
 
-    air_data: Literal["inertial", "auto", "measured"] = "inertial"
-    air_data_calibration: Literal["none", "offset", "factor", "factor+offset"] = \
-        "factor+offset"
     air_data_factor_sd: float = FACTOR_SD
     air_data_offset_sd_rad: float = OFFSET_SD_RAD
-    air_data_noise: Literal["data", "metadata"] = "data"
-
-    @property
-    def uses_air_data(self) -> bool:  # Estimator's flag: fit() warns when False
-        """Whether the fit may use the flight's air data (``air_data`` not inertial)."""
-        return self.air_data != "inertial"
 
     def check_air_options(self) -> None:
         """Raise ValueError (one line) for an air-data option out of its range."""
-        for name, choices in (("air_data", OE_CHOICES),
-                              ("air_data_calibration", CALIBRATIONS),
-                              ("air_data_noise", NOISE_CHOICES)):
-            if getattr(self, name) not in choices:
-                raise ValueError(f"{name} must be one of {', '.join(choices)}, got "
-                                 f"{getattr(self, name)!r}")
+        super().check_air_options()
         for name in ("air_data_factor_sd", "air_data_offset_sd_rad"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")

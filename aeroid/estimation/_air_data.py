@@ -35,6 +35,7 @@ Every other method takes the angles from ``u, v, w`` and says so
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,6 +51,7 @@ from aeroid.flights import PITOT_KEY, Flight, air_data_probe_position
 from aeroid.model import equations
 
 __all__ = ["AIR_DATA_CHOICES", "ANGLE_TOLERANCE_RAD", "WIND_WINDOW_S", "AirData", "air_data_wind",
+           "check_air_options",
            "has_air_angles", "has_air_data", "has_airspeed", "ignored_air_data_warning",
            "resolve_air_data"]
 
@@ -121,6 +123,18 @@ def wind_window(flight: Flight, window_s: float) -> int:
     window = 2 * int(round(0.5 * window_s / flight.dt)) + 1
     window = min(window, n if n % 2 else n - 1)
     return window if window > WIND_POLYORDER + 1 else 1
+
+
+def check_air_options(est: Any) -> None:
+    """Raise ValueError (one line) on a bad ``air_data`` or ``air_data_window_s`` of a
+    method that smooths the air data's wind (equation-error's kin: the PSO methods)."""
+    if est.air_data not in AIR_DATA_CHOICES:
+        raise ValueError(f"air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
+                         f"got {est.air_data!r}")
+    if est.air_data_window_s is not None and not (
+            np.isfinite(est.air_data_window_s) and est.air_data_window_s >= 0):
+        raise ValueError(f"air_data_window_s must be >= 0 [s] or None (the Kalman smoother), "
+                         f"got {est.air_data_window_s}")
 
 
 def air_data_wind(flight: Flight, window_s: float = 0.0) -> np.ndarray:

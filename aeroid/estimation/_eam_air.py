@@ -19,24 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from aeroid.estimation._air_data import AIR_DATA_CHOICES
+from aeroid.estimation._air_data import check_air_options
 from aeroid.estimation._objectives import OutputErrorCost
 from aeroid.estimation._predict_air import with_wind_series
 from aeroid.flights import Flight
 from aeroid.model import ForwardModel
 
 __all__ = ["WindOutputErrorCost", "check_air_options"]
-
-
-def check_air_options(est: Any) -> None:
-    """Raise ValueError (one line) on a bad ``air_data`` or ``air_data_window_s``."""
-    if est.air_data not in AIR_DATA_CHOICES:
-        raise ValueError(f"air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
-                         f"got {est.air_data!r}")
-    if est.air_data_window_s is not None and not (
-            np.isfinite(est.air_data_window_s) and est.air_data_window_s >= 0):
-        raise ValueError(f"air_data_window_s must be >= 0 [s] or None (the Kalman smoother), "
-                         f"got {est.air_data_window_s}")
 
 
 class WindOutputErrorCost(OutputErrorCost):

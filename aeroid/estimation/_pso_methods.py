@@ -21,7 +21,7 @@ from typing import Any, Literal
 import numpy as np
 
 from aeroid.estimation import _pso as pso
-from aeroid.estimation._air_data import AIR_DATA_CHOICES
+from aeroid.estimation._air_data import check_air_options
 from aeroid.estimation._estimator import Estimator
 from aeroid.estimation._holds import CoefficientSpec
 from aeroid.estimation._holds_fit import free_cost
@@ -147,13 +147,7 @@ def check_step_one_options(est: Any) -> None:
         value = getattr(est, name)
         if value < low or value % 2 == 0:
             raise ValueError(f"{name} must be an odd integer >= {low}, got {value}")
-    if est.air_data not in AIR_DATA_CHOICES:
-        raise ValueError(f"air_data must be one of {', '.join(AIR_DATA_CHOICES)}, "
-                         f"got {est.air_data!r}")
-    if est.air_data_window_s is not None and not (
-            np.isfinite(est.air_data_window_s) and est.air_data_window_s >= 0):
-        raise ValueError(f"air_data_window_s must be >= 0 [s] or None (the Kalman smoother), "
-                         f"got {est.air_data_window_s}")
+    check_air_options(est)
 
 
 def step_one(est: Any, flight: Flight) -> Reconstruction:
