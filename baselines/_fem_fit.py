@@ -273,7 +273,7 @@ def _innovation_noise(runs: FilterRuns, R: np.ndarray, floor: np.ndarray,
 
 
 def _noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
-                R: np.ndarray, floor: np.ndarray, which: np.ndarray
+                R: np.ndarray, floor: np.ndarray, which: np.ndarray | bool
                 ) -> tuple[np.ndarray, float, int]:
     """The noise variances after an iteration at ``p`` (``runs``, ``cost``: its filter and
     ``L`` with ``R``), channel by channel in turn: its relaxed variance, or a fraction of
@@ -294,6 +294,14 @@ def _noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
                 R, cost, taken = trial, trial_cost, max(taken, fraction)
                 break
     return R, taken, tried
+
+
+def noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
+               R: np.ndarray, floor: np.ndarray, which: np.ndarray | bool
+               ) -> tuple[np.ndarray, float, int]:
+    """The guarded noise update of :func:`_noise_step` (its public name, for the gust
+    filters' likelihood, :func:`baselines._kalman_likelihood.noise_at`)."""
+    return _noise_step(problem, p, runs, cost, R, floor, which)
 
 
 def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,

@@ -260,7 +260,8 @@ def _reported(est: Any, result: EstimationResult, found: InnovationCovariance,
             "gust_information": {"information": found.information,
                                  "gust_sd_mps": found.gust_sd_mps,
                                  "gust_sd_stderr_mps": found.gust_sd_stderr_mps,
-                                 "noise": found.noise_source}}
+                                 "noise": found.noise_source,
+                                 "measurement_noise_var": found.R}}
     notice = (f"{est.name}: standard errors from the innovations' information at the estimate "
               f"(filter-error's likelihood, the gusts integrated out, its intensity there "
               f"{found.gust_sd_mps:.3g} m/s, {found.noise_source} noise), not the final "
