@@ -22,10 +22,11 @@ held 30 % off, ``input = midpoint`` (the log's deflection holds between samples)
 tail triad's 0.01 m lateral and vertical offsets taken as zero; each should be refused.
 
 ``--methods``: which fits, of ``fem`` (filter-error, the default), ``ekf-sd3`` (the EKF with
-gust states, ``gust_sd_mps = 3``) and ``ekf-est`` (``estimate_gust_sd = true``); the EKF's
-default ``gust_stderr = one-step`` re-estimates the noise once from filter-error's filter
-at its estimate (``baselines/_kalman_likelihood.py``, ``noise_at``): ``old`` takes that
-relaxation in full, ``new`` the guarded step. Its rows print the intensity and the noise
+gust states, ``gust_sd_mps = 3``), ``ekf-est`` (``estimate_gust_sd = true``) and the same
+for the UKF (``ukf-sd3``, ``ukf-est``); the filters' default ``gust_stderr = one-step``
+re-estimates the noise once from filter-error's filter at its estimate
+(``baselines/_kalman_likelihood.py``, ``noise_at``): ``old`` takes that relaxation in full,
+``new`` the guarded step. Its rows print the intensity and the noise
 sd of ay2, az2 of filter-error's likelihood at the reported point
 (``info['gust_information']``). ``--wrong-seeds`` fits every method given.
 """
@@ -89,7 +90,9 @@ def _old_relaxation() -> Iterator[None]:
 #: The fits ``--methods`` names: (estimator, its options).
 METHODS = {"fem": ("filter-error", {}),
            "ekf-sd3": ("ekf", {"gust_sd_mps": 3.0}),
-           "ekf-est": ("ekf", {"estimate_gust_sd": True})}
+           "ekf-est": ("ekf", {"estimate_gust_sd": True}),
+           "ukf-sd3": ("ukf", {"gust_sd_mps": 3.0}),
+           "ukf-est": ("ukf", {"estimate_gust_sd": True})}
 
 
 def _fit(flight: Flight, truth: np.ndarray, label: str, holds: dict | None = None,
