@@ -34,7 +34,7 @@ sd 3e-4 against the noise's 0.05, gusts 3.4 m/s in still air, cost -14 138 again
 -14 733 from the truth; the first relaxation raised ``L`` by 435). So the relaxed
 variances are a proposal, taken channel by channel, in full or a fraction of the way in
 log variance (:data:`NOISE_FRACTIONS`), only where that lowers ``L`` at the new
-parameters (:func:`_noise_step`; measured on make_flight_log.py's recipe, seeds 1-10 and
+parameters (:func:`noise_step`; measured on make_flight_log.py's recipe, seeds 1-10 and
 2024: still-air false alarms 10/11 -> 0/11; ``benchmarks/bench_fem_noise.py``).
 """
 
@@ -259,7 +259,7 @@ class Fit:
     history_p: list[np.ndarray] = field(default_factory=list)
     history_cost: list[float] = field(default_factory=list)
     #: Per iteration with the noise update: the fraction of the way to the relaxed
-    #: variances taken (1: in full; 0: refused, it raised the cost; :func:`_noise_step`).
+    #: variances taken (1: in full; 0: refused, it raised the cost; :func:`noise_step`).
     noise_fractions: list[float] = field(default_factory=list)
 
 
@@ -272,9 +272,9 @@ def _innovation_noise(runs: FilterRuns, R: np.ndarray, floor: np.ndarray,
     return np.where(which, new, R)
 
 
-def _noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
-                R: np.ndarray, floor: np.ndarray, which: np.ndarray | bool
-                ) -> tuple[np.ndarray, float, int]:
+def noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
+               R: np.ndarray, floor: np.ndarray, which: np.ndarray | bool
+               ) -> tuple[np.ndarray, float, int]:
     """The noise variances after an iteration at ``p`` (``runs``, ``cost``: its filter and
     ``L`` with ``R``), channel by channel in turn: its relaxed variance, or a fraction of
     the way to it, the first that lowers ``L`` (module docstring); its variance kept when
@@ -294,14 +294,6 @@ def _noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
                 R, cost, taken = trial, trial_cost, max(taken, fraction)
                 break
     return R, taken, tried
-
-
-def noise_step(problem: Problem, p: np.ndarray, runs: FilterRuns, cost: float,
-               R: np.ndarray, floor: np.ndarray, which: np.ndarray | bool
-               ) -> tuple[np.ndarray, float, int]:
-    """The guarded noise update of :func:`_noise_step` (its public name, for the gust
-    filters' likelihood, :func:`baselines._kalman_likelihood.noise_at`)."""
-    return _noise_step(problem, p, runs, cost, R, floor, which)
 
 
 def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
@@ -380,7 +372,7 @@ def fisher_scoring(problem: Problem, p0: np.ndarray, R: np.ndarray, *,
             best_runs = FilterRuns(trial_runs.innovation[best:best + 1],
                                    trial_runs.S[best:best + 1], trial_runs.ok[best:best + 1],
                                    trial_runs.x[best:best + 1])
-            new_R, fraction, tried = _noise_step(
+            new_R, fraction, tried = noise_step(
                 problem, p, best_runs, float(trial_cost[best]), R, r_floor,
                 np.asarray(update_noise, dtype=bool))
             n_eval += tried

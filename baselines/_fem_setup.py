@@ -7,7 +7,7 @@ form); ``innovations`` starts from the data's smoother residuals
 (:func:`aeroid.estimation.estimate_noise_sd`) and re-estimates the variances from the
 innovations after every iteration (``R_c = mean(nu_c^2 - (H P^- H^T)_cc)``, FVSysID's
 relaxation, taken only as far as it lowers the likelihood's cost:
-:func:`baselines._fem_fit._noise_step`); ``auto`` is ``metadata`` when the flight has a
+:func:`baselines._fem_fit.noise_step`); ``auto`` is ``metadata`` when the flight has a
 noise model with noise, else ``innovations``, and says which in one line.
 """
 

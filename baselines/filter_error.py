@@ -156,7 +156,7 @@ class FilterErrorEstimator(_fem_wind.FemWindOption, _fem_air.FemAirOption, Estim
     ``scale_length_m``, ``gust_model``, ``measurement_noise`` (which source) and
     ``measurement_noise_var`` (m,), ``measurement_noise_fractions`` (per iteration with the
     noise estimated from the innovations: how far towards the relaxed variances it went, 1
-    in full, 0 refused because it raised the cost; :func:`baselines._fem_fit._noise_step`),
+    in full, 0 refused because it raised the cost; :func:`baselines._fem_fit.noise_step`),
     ``R`` (n, m): the innovations' variances (the fit check's noise model),
     ``fisher`` (the scaled parameters' information), ``parameter_names``, ``parameters``,
     ``parameter_stderr``, and

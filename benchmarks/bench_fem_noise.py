@@ -1,5 +1,5 @@
 """Filter-error's measurement noise from the innovations: false alarms before and after the
-guarded relaxation (``baselines/_fem_fit.py``, ``_noise_step``).
+guarded relaxation (``baselines/_fem_fit.py``, ``noise_step``).
 
 Run by hand from the repository root (one process, the fits in turn)::
 
@@ -75,16 +75,16 @@ def _seeds(text: str) -> list[int]:
 @contextmanager
 def _old_relaxation() -> Iterator[None]:
     """The relaxation taken in full whatever it does to the cost (the code before)."""
-    real = _fem_fit._noise_step
+    real = _fem_fit.noise_step
 
     def always(problem, p, runs, cost, R, floor, which):  # noqa: ANN001, ANN202
         return _fem_fit._innovation_noise(runs, R, floor, which), 1.0, 0
 
-    _fem_fit._noise_step = always
+    _fem_fit.noise_step = always
     try:
         yield
     finally:
-        _fem_fit._noise_step = real
+        _fem_fit.noise_step = real
 
 
 #: The fits ``--methods`` names: (estimator, its options).
