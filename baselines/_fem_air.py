@@ -35,19 +35,10 @@ from typing import Any
 import numpy as np
 
 from aeroid import estimation
-from aeroid.errors import FlightError
 from aeroid.flights import Flight
-from baselines._kalman_air import (
-    UNITS,
-    VAR_FLOOR_REL,
-    AirOutputOptions,
-    _metadata_variances,
-)
+from baselines._kalman_air import UNITS, AirOutputOptions, measured_air
 from baselines._oe_airdata import (
-    air_channels,
-    calibration_names,
     calibration_scales,
-    probe_position,
 )
 
 
@@ -102,27 +93,8 @@ def air_plan(est: Any, flight: Flight) -> FemAirPlan | None:
         ``air_data = "measured"`` on a flight without air data; a bad probe position or
         noise table.
     """
-    if est.air_data == "inertial":
-        return None
-    channels = air_channels(flight)
-    if not channels:
-        if est.air_data == "measured":
-            where = flight.metadata.get("source", "flight")
-            raise FlightError(f"{est.name}: air_data = 'measured' but {where} has no airspeed "
-                              "channel and no logged alpha and beta apart from the inertial "
-                              "atan(w/u), asin(v/V)")
-        return None
-    calibration = tuple(calibration_names(est, channels))
-    probe, probe_where = probe_position(flight)
-    z = np.column_stack([np.asarray(flight[c], dtype=float) for c in channels])
-    floor = VAR_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
-    held = est.air_data_noise == "metadata"
-    if held:
-        var = _metadata_variances(flight, channels, est.name)
-    else:
-        var = estimation.estimate_noise_sd(z, statistic="rms") ** 2
-    return FemAirPlan(channels, calibration, probe, probe_where, z, np.maximum(var, floor),
-                      held, floor)
+    parts = measured_air(est, flight)
+    return None if parts is None else FemAirPlan(**parts)
 
 
 def calibration_start(plan: FemAirPlan | None) -> np.ndarray:

@@ -160,33 +160,44 @@ def air_plan(est: Any, flight: Flight) -> AirPlan | None:
     EstimatorError
         Air data with ``imu_errors`` or GNSS ``aiding`` (not built).
     """
-    if est.air_data == "inertial":
-        return None
-    channels = air_channels(flight)
-    where = flight.metadata.get("source", "flight")
-    if not channels:
-        if est.air_data == "measured":
-            raise FlightError(f"{est.name}: air_data = 'measured' but {where} has no airspeed "
-                              "channel and no logged alpha and beta apart from the inertial "
-                              "atan(w/u), asin(v/V)")
+    parts = measured_air(est, flight)
+    if parts is None:
         return None
     for on, what in ((est.imu_errors != "none", f"imu_errors = {est.imu_errors}"),
                      (est.aiding != "none", f"aiding = {est.aiding}")):
         if on:
             raise EstimatorError(f"{est.name}: air_data = {est.air_data} with {what} is not "
                                  "built; set air_data = inertial")
-    calibration = tuple(calibration_names(est, channels))
+    cal_sd = np.array([est.air_data_factor_sd if c.endswith("_factor")
+                       else est.air_data_offset_sd_rad for c in parts["calibration"]])
+    return AirPlan(**parts, cal_sd=cal_sd)
+
+
+def measured_air(est: Any, flight: Flight) -> dict[str, Any] | None:
+    """What every filter taking air data as measurements reads from ``flight`` for
+    ``est``'s options (:class:`AirOutputOptions`): ``channels``, ``calibration``,
+    ``probe``, ``probe_where``, ``z`` (n, k), ``var`` (k,) the initial noise variances
+    (the log's with ``air_data_noise = metadata``, else the data's), ``held``, ``floor``;
+    None without air data (``air_data = "measured"`` then refused in one line)."""
+    if est.air_data == "inertial":
+        return None
+    channels = air_channels(flight)
+    if not channels:
+        if est.air_data == "measured":
+            where = flight.metadata.get("source", "flight")
+            raise FlightError(f"{est.name}: air_data = 'measured' but {where} has no airspeed "
+                              "channel and no logged alpha and beta apart from the inertial "
+                              "atan(w/u), asin(v/V)")
+        return None
     probe, probe_where = probe_position(flight)
     z = np.column_stack([np.asarray(flight[c], dtype=float) for c in channels])
     floor = VAR_FLOOR_REL * np.mean(z * z, axis=0) + 1e-300
-    if est.air_data_noise == "metadata":
-        var = _metadata_variances(flight, channels, est.name)
-    else:
-        var = estimation.estimate_noise_sd(z, statistic="rms") ** 2
-    cal_sd = np.array([est.air_data_factor_sd if c.endswith("_factor")
-                       else est.air_data_offset_sd_rad for c in calibration])
-    return AirPlan(channels, calibration, probe, probe_where, z, np.maximum(var, floor),
-                   est.air_data_noise == "metadata", cal_sd, floor)
+    held = est.air_data_noise == "metadata"
+    var = (_metadata_variances(flight, channels, est.name) if held
+           else estimation.estimate_noise_sd(z, statistic="rms") ** 2)
+    return {"channels": channels, "calibration": tuple(calibration_names(est, channels)),
+            "probe": probe, "probe_where": probe_where, "z": z,
+            "var": np.maximum(var, floor), "held": held, "floor": floor}
 
 
 def _metadata_variances(flight: Flight, channels: tuple[str, ...], who: str) -> np.ndarray:
